@@ -1,0 +1,123 @@
+"""Planar range-bearing sensor (L24 Sec. 3.2, corrected; L23), as vectorised pure functions.
+
+The measurement from UAV ``i`` at ``q_i = (x_i, y_i)`` of the target at ``q_t = (x_t, y_t)`` is
+``z = [ρ, β] + v`` with ``ρ = ‖q_t − q_i‖``, ``β = atan2(y_t − y_i, x_t − x_i)`` and
+``v ~ N(0, diag(σr², σβ²))`` (L24 Sec. 3.2; its printed ``h`` writes ``x_i − x_i``, see SPEC "Known typos").
+
+Two equivalent (to first order) ways to use it in a filter:
+
+* polar update: :func:`polar_model` gives ``h`` and ``H = ∂h/∂q_t`` with ``R = diag(σr², σβ²)``
+  (:func:`polar_covariance`);
+* converted-position update: :func:`to_position` turns ``z`` into a position, whose covariance is
+  :func:`position_covariance`, L24 Sec. 4 / L23 ``R_i`` in its line-of-sight form.
+
+All functions broadcast over leading batch axes; positions are ``(..., 2)`` arrays.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: L24 Sec. 4 sensor noise: (σ_range [m], σ_bearing [rad]).
+L24_SIGMA: tuple[float, float] = (0.08, 0.02)
+#: L23 sensor noise: (σ_range [m], σ_bearing [rad]).
+L23_SIGMA: tuple[float, float] = (0.4, 0.1)
+
+#: Default floor on the range used in Jacobians and covariances [m].
+MIN_RANGE = 1e-3
+
+
+def wrap_angle(a: np.ndarray | float) -> np.ndarray:
+    """Wrap angles to ``(−π, π]`` (use it on bearing innovations)."""
+    a = np.asarray(a, dtype=float)
+    w = np.mod(a + np.pi, 2.0 * np.pi) - np.pi  # in [−π, π)
+    return np.where(w <= -np.pi, w + 2.0 * np.pi, w)
+
+
+def _range_bearing(
+    target_pos: np.ndarray, sensor_pos: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    d = np.asarray(target_pos, dtype=float)[..., :2] - np.asarray(sensor_pos, dtype=float)[..., :2]
+    dx, dy = d[..., 0], d[..., 1]
+    return dx, dy, np.hypot(dx, dy)
+
+
+def measure(
+    target_pos: np.ndarray,
+    sensor_pos: np.ndarray,
+    sigma_range: float | np.ndarray,
+    sigma_bearing: float | np.ndarray,
+    rng: np.random.Generator,
+) -> np.ndarray:
+    """Noisy ``[range, bearing]`` (..., 2) of the target from the sensor (L24 Sec. 3.2).
+
+    Noise is additive Gaussian, drawn from ``rng`` only; the bearing is wrapped to ``(−π, π]``. The range is
+    not clipped, so at ranges comparable to ``sigma_range`` it can come out negative (as the model says).
+    """
+    dx, dy, rho = _range_bearing(target_pos, sensor_pos)
+    beta = np.arctan2(dy, dx)
+    noise = rng.standard_normal(rho.shape + (2,))
+    z_rho = rho + np.asarray(sigma_range, dtype=float) * noise[..., 0]
+    z_beta = wrap_angle(beta + np.asarray(sigma_bearing, dtype=float) * noise[..., 1])
+    return np.stack(np.broadcast_arrays(z_rho, z_beta), axis=-1)
+
+
+def polar_model(
+    target_pos: np.ndarray, sensor_pos: np.ndarray, min_range: float = MIN_RANGE
+) -> tuple[np.ndarray, np.ndarray]:
+    """Predicted ``h = [ρ, β]`` (..., 2) and ``H = ∂h/∂(x_t, y_t)`` (..., 2, 2) (L24 Sec. 3.2).
+
+    ``H = [[dx/ρ, dy/ρ], [−dy/ρ², dx/ρ²]]`` with ``ρ`` floored at ``min_range`` so ``H`` stays finite when the
+    target estimate sits on the sensor.
+    """
+    dx, dy, rho = _range_bearing(target_pos, sensor_pos)
+    h = np.stack([rho, np.arctan2(dy, dx)], axis=-1)
+    r = np.maximum(rho, min_range)
+    r2 = r * r
+    H = np.empty(rho.shape + (2, 2))
+    H[..., 0, 0] = dx / r
+    H[..., 0, 1] = dy / r
+    H[..., 1, 0] = -dy / r2
+    H[..., 1, 1] = dx / r2
+    return h, H
+
+
+def polar_covariance(sigma_range: float, sigma_bearing: float) -> np.ndarray:
+    """Measurement noise covariance ``diag(σr², σβ²)`` for the polar update."""
+    return np.diag([float(sigma_range) ** 2, float(sigma_bearing) ** 2])
+
+
+def to_position(z: np.ndarray, sensor_pos: np.ndarray) -> np.ndarray:
+    """Target position (..., 2) implied by ``z = [ρ, β]``: ``q_i + ρ·(cos β, sin β)``."""
+    z = np.asarray(z, dtype=float)
+    rho, beta = z[..., 0], z[..., 1]
+    offset = np.stack([rho * np.cos(beta), rho * np.sin(beta)], axis=-1)
+    return np.asarray(sensor_pos, dtype=float)[..., :2] + offset
+
+
+def position_covariance(
+    rng_dist: np.ndarray | float,
+    bearing: np.ndarray | float,
+    sigma_range: float | np.ndarray,
+    sigma_bearing: float | np.ndarray,
+    min_range: float = MIN_RANGE,
+) -> np.ndarray:
+    """Covariance (..., 2, 2) of the position :func:`to_position` implies (L24 Sec. 4, L23 ``R_i``).
+
+    ``R = Λ diag(σr², ρ²σβ²) Λᵀ`` with ``Λ = [[cos β, −sin β], [sin β, cos β]]``: variance ``σr²`` along the
+    line of sight ``(cos β, sin β)`` and ``ρ²σβ²`` across it (first-order propagation of the polar noise).
+    The papers print ``Λᵀ D Λ``, which puts the range noise across the line of sight; the line-of-sight form
+    is the intended one (SPEC "Known typos"). ``ρ`` is floored at ``min_range`` so ``R`` stays positive
+    definite at ``ρ = 0``.
+    """
+    rho = np.maximum(np.abs(np.asarray(rng_dist, dtype=float)), min_range)
+    beta = np.asarray(bearing, dtype=float)
+    rho, beta = np.broadcast_arrays(rho, beta)
+    c, s = np.cos(beta), np.sin(beta)
+    var_r = np.asarray(sigma_range, dtype=float) ** 2 + np.zeros_like(rho)
+    var_t = rho**2 * np.asarray(sigma_bearing, dtype=float) ** 2
+    R = np.empty(rho.shape + (2, 2))
+    R[..., 0, 0] = var_r * c * c + var_t * s * s
+    R[..., 1, 1] = var_r * s * s + var_t * c * c
+    R[..., 0, 1] = R[..., 1, 0] = (var_r - var_t) * c * s
+    return R

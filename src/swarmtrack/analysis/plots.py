@@ -1,0 +1,383 @@
+"""Figures of one run (L24 Figs. 2-7) and of flocking-protocol comparisons (L23 Fig. 1).
+
+Every ``plot_*`` function takes a :class:`~swarmtrack.sim.recorder.Recording`, writes one PNG and returns its
+:class:`~pathlib.Path`. Figures are built on :class:`matplotlib.figure.Figure` with an Agg canvas, so nothing
+here touches pyplot's global state or needs a display.
+
+To keep files readable, at most :data:`MAX_LINES` agents (or agent pairs) are drawn per panel; the title says
+so when lines were left out. For pairs, the min-max envelope over *all* pairs is still shaded in grey.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+
+from swarmtrack.sim.recorder import Recording
+
+__all__ = [
+    "MAX_LINES",
+    "DPI",
+    "TARGET_COLOR",
+    "agent_color",
+    "target_distances",
+    "pair_indices",
+    "inter_agent_distances",
+    "plot_band",
+    "plot_estimates",
+    "plot_trajectories",
+    "plot_target_distances",
+    "plot_inter_agent_distances",
+    "plot_errors",
+    "plot_flocking_comparison",
+    "save_run_figures",
+]
+
+MAX_LINES = 10
+"""Most agents / pairs drawn as individual lines in one panel."""
+DPI = 120
+TARGET_COLOR = "tab:green"
+# tab10 without its green (reserved for the true target), then navy: 10 distinct colours. Black is kept
+# for reference lines (d, r_comm, phase markers).
+_AGENT_COLORS = (
+    "tab:blue", "tab:orange", "tab:red", "tab:purple", "tab:brown",
+    "tab:pink", "tab:gray", "tab:olive", "tab:cyan", "navy",
+)
+_PHASE_SHADE = "0.93"
+_PHASE_LINE = "0.45"
+
+
+# --------------------------------------------------------------------------------------------- helpers
+def agent_color(i: int) -> str:
+    """Colour of agent ``i`` (0-based); green is never used (the true target's colour)."""
+    return _AGENT_COLORS[i % len(_AGENT_COLORS)]
+
+
+def target_distances(rec: Recording) -> np.ndarray:
+    """(K, N) distance ``||q_i - q_t||`` between each UAV and the true target."""
+    return np.linalg.norm(rec.uav[:, :, :2] - rec.target[:, None, :2], axis=-1)
+
+
+def pair_indices(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """0-based index arrays ``(i, j)``, ``i < j``, of all agent pairs in order 1-2, 1-3, ..., 2-3, ..."""
+    return np.triu_indices(n, k=1)
+
+
+def inter_agent_distances(rec: Recording) -> tuple[np.ndarray, list[str]]:
+    """(K, P) distance of every agent pair (vectorised over time) and the 1-based labels ``"i-j"``."""
+    i, j = pair_indices(rec.n_agents)
+    pos = rec.uav[:, :, :2]
+    dist = np.linalg.norm(pos[:, i, :] - pos[:, j, :], axis=-1)
+    labels = [f"{a + 1}-{b + 1}" for a, b in zip(i.tolist(), j.tolist(), strict=True)]
+    return dist, labels
+
+
+def _new_figure(figsize: tuple[float, float]) -> Figure:
+    fig = Figure(figsize=figsize, dpi=DPI, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _save(fig: Figure, path: str | Path) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=DPI, format="png")
+    fig.clear()  # Figure objects are not registered with pyplot: clearing + dropping the reference closes it
+    return path
+
+
+def _context(rec: Recording) -> str:
+    """``"scenario: x, model: CT"`` from ``rec.meta`` (empty if neither is present)."""
+    meta = rec.meta or {}
+    parts = []
+    if meta.get("scenario"):
+        parts.append(f"scenario: {meta['scenario']}")
+    if meta.get("model"):
+        parts.append(f"model: {str(meta['model']).upper()}")
+    return ", ".join(parts)
+
+
+def _title(
+    rec: Recording, what: str, shown: int | None = None, total: int | None = None, unit: str = ""
+) -> str:
+    title = what
+    ctx = _context(rec)
+    if ctx:
+        title += f" ({ctx})"
+    if shown is not None and total is not None and shown < total:
+        title += f"\nshowing the first {shown} of {total} {unit}"
+    return title
+
+
+def _phase_segments(rec: Recording) -> list[tuple[float, float, str]]:
+    """``(t_start, t_end, name)`` of each run of equal consecutive ``phase`` values."""
+    t = np.asarray(rec.t, dtype=float)
+    phase = np.asarray(rec.phase)
+    if t.size == 0:
+        return []
+    starts = np.concatenate(([0], np.flatnonzero(np.diff(phase) != 0) + 1))
+    ends = np.concatenate((starts[1:], [t.size]))
+    segments = []
+    for s, e in zip(starts.tolist(), ends.tolist(), strict=True):
+        k = int(phase[s])
+        name = rec.phase_names[k] if 0 <= k < len(rec.phase_names) else f"phase {k}"
+        t_end = float(t[e]) if e < t.size else float(t[-1])
+        segments.append((float(t[s]), t_end, name))
+    return segments
+
+
+def _mark_phases(ax: Axes, rec: Recording) -> None:
+    """Shade every other phase, draw a vertical line at each phase change and write the phase names."""
+    segments = _phase_segments(rec)
+    for n, (t0, t1, name) in enumerate(segments):
+        if n % 2 == 1:
+            ax.axvspan(t0, t1, color=_PHASE_SHADE, zorder=0, lw=0)
+        if n > 0:
+            ax.axvline(t0, color=_PHASE_LINE, lw=0.8, ls="-", zorder=1)
+        ax.text(
+            t0, 0.98, f" {name}", transform=ax.get_xaxis_transform(), rotation=90, va="top", ha="left",
+            fontsize=7, color="0.3", zorder=5, clip_on=True,
+        )
+    cs = float(rec.chase_start)
+    t = np.asarray(rec.t, dtype=float)
+    if t.size and t[0] < cs <= t[-1]:
+        # only when the chase start is not already a phase boundary
+        dt = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+        if all(abs(cs - t0) > dt for t0, _, _ in segments):
+            ax.axvline(cs, color=_PHASE_LINE, lw=0.8, ls=":", zorder=1)
+            ax.text(cs, 0.02, " chase", transform=ax.get_xaxis_transform(), rotation=90, va="bottom",
+                    ha="left", fontsize=7, color="0.3", zorder=5)
+
+
+def _mark_phases_on_path(ax: Axes, rec: Recording) -> None:
+    """On a y-vs-x plot: a black marker and the phase name where the target enters each phase."""
+    phase = np.asarray(rec.phase)
+    if phase.size == 0:
+        return
+    starts = np.concatenate(([0], np.flatnonzero(np.diff(phase) != 0) + 1))
+    for s in starts.tolist():
+        k = int(phase[s])
+        name = rec.phase_names[k] if 0 <= k < len(rec.phase_names) else f"phase {k}"
+        x, y = rec.target[s, 0], rec.target[s, 1]
+        ax.plot([x], [y], marker="o", ms=4, color="black", zorder=6, ls="none")
+        ax.annotate(name, (x, y), xytext=(4, 4), textcoords="offset points", fontsize=7, color="0.2")
+
+
+def _time_axis(ax: Axes, rec: Recording) -> None:
+    ax.set_xlabel("t [s]")
+    if len(rec.t):
+        ax.set_xlim(float(rec.t[0]), float(rec.t[-1]))
+    ax.grid(True, lw=0.4, alpha=0.5)
+
+
+def _legend(ax: Axes, n_entries: int, outside: bool = False) -> None:
+    """Outside on the right (kept in the figure by the constrained layout) when asked or for many entries,
+    else inside where it hides least."""
+    if outside or n_entries > 6:
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
+    else:
+        ax.legend(fontsize=7, loc="best", framealpha=0.8)
+
+
+def plot_band(ax: Axes, t, mean, std, label: str, color=None, alpha: float = 0.25) -> Line2D:
+    """Draw ``mean`` as a line and ``mean +- std`` as a shaded band on ``ax``; return the line."""
+    t = np.asarray(t, dtype=float)
+    mean = np.asarray(mean, dtype=float)
+    std = np.asarray(std, dtype=float)
+    (line,) = ax.plot(t, mean, label=label, color=color, lw=1.3)
+    ax.fill_between(t, mean - std, mean + std, color=line.get_color(), alpha=alpha, lw=0)
+    return line
+
+
+# --------------------------------------------------------------------------------------------- figures
+def plot_estimates(rec: Recording, path: str | Path) -> Path:
+    """L24 Figs. 2-4: x-velocity, y-velocity and trajectory; true target in green, each UAV's estimate."""
+    n = rec.n_agents
+    shown = min(n, MAX_LINES)
+    fig = _new_figure((15.0, 4.8))
+    axes = fig.subplots(1, 3)
+    t = rec.t
+    for ax, col, comp in ((axes[0], 2, "x"), (axes[1], 3, "y")):
+        ax.plot(t, rec.target[:, col], color=TARGET_COLOR, lw=2.0, label="true target", zorder=4)
+        for i in range(shown):
+            ax.plot(t, rec.estimate[:, i, col], color=agent_color(i), lw=0.9, alpha=0.85,
+                    label=f"UAV {i + 1} estimate", zorder=3)
+        _mark_phases(ax, rec)
+        _time_axis(ax, rec)
+        ax.set_ylabel(f"$v_{comp}$ [m/s]")
+        ax.set_title(f"target {comp}-velocity")
+    ax = axes[2]
+    ax.plot(rec.target[:, 0], rec.target[:, 1], color=TARGET_COLOR, lw=2.0, label="true target", zorder=4)
+    for i in range(shown):
+        ax.plot(rec.estimate[:, i, 0], rec.estimate[:, i, 1], color=agent_color(i), lw=0.9, alpha=0.85,
+                label=f"UAV {i + 1} estimate", zorder=3)
+    _mark_phases_on_path(ax, rec)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_title("target trajectory")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.grid(True, lw=0.4, alpha=0.5)
+    _legend(ax, shown + 1)
+    fig.suptitle(_title(rec, "Estimated and true target state", shown, n, "UAVs"))
+    return _save(fig, path)
+
+
+def plot_trajectories(rec: Recording, path: str | Path, agent: int | None = 0) -> Path:
+    """L24 Fig. 5: the target's and one agent's (``agent``, 0-based) actual trajectory.
+
+    ``agent=None`` draws all agents (the first :data:`MAX_LINES`).
+    """
+    n = rec.n_agents
+    if agent is None:
+        agents = list(range(min(n, MAX_LINES)))
+        what = "Target and agent trajectories"
+    else:
+        if not 0 <= agent < n:
+            raise ValueError(f"agent {agent} out of range for {n} agents")
+        agents = [agent]
+        what = f"Target and agent {agent + 1} trajectories"
+    fig = _new_figure((7.5, 6.5))
+    ax = fig.subplots()
+    ax.plot(rec.target[:, 0], rec.target[:, 1], color=TARGET_COLOR, lw=2.0, label="target", zorder=4)
+    for i in agents:
+        c = agent_color(i)
+        ax.plot(rec.uav[:, i, 0], rec.uav[:, i, 1], color=c, lw=1.0, label=f"agent {i + 1}", zorder=3)
+        if len(rec.t):
+            ax.plot(rec.uav[0, i, 0], rec.uav[0, i, 1], marker="o", color=c, ms=5, ls="none", zorder=5)
+            ax.plot(rec.uav[-1, i, 0], rec.uav[-1, i, 1], marker="s", color=c, ms=5, ls="none", zorder=5)
+    if len(rec.t):
+        ax.plot(rec.target[0, 0], rec.target[0, 1], marker="o", color=TARGET_COLOR, ms=6, ls="none", zorder=5)
+        ax.plot(rec.target[-1, 0], rec.target[-1, 1], marker="s", color=TARGET_COLOR, ms=6, ls="none",
+                zorder=5)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.grid(True, lw=0.4, alpha=0.5)
+    _legend(ax, len(agents) + 1)
+    shown = len(agents) if agent is None else None
+    title = _title(rec, what, shown, n, "agents") + "\n(o start, \u25a1 end)"
+    ax.set_title(title, fontsize=10)
+    return _save(fig, path)
+
+
+def plot_target_distances(rec: Recording, path: str | Path) -> Path:
+    """L24 Fig. 6: ``||q_i - q_t||`` per UAV vs time."""
+    n = rec.n_agents
+    shown = min(n, MAX_LINES)
+    dist = target_distances(rec)
+    fig = _new_figure((9.0, 4.8))
+    ax = fig.subplots()
+    for i in range(shown):
+        ax.plot(rec.t, dist[:, i], color=agent_color(i), lw=1.0, label=f"UAV {i + 1}")
+    _mark_phases(ax, rec)
+    _time_axis(ax, rec)
+    ax.set_ylabel(r"$\|q_i - q_t\|$ [m]")
+    ax.set_ylim(bottom=0.0)
+    _legend(ax, shown, outside=True)
+    ax.set_title(_title(rec, "Relative distance between target and UAVs", shown, n, "UAVs"), fontsize=10)
+    return _save(fig, path)
+
+
+def _draw_pair_distances(ax: Axes, rec: Recording, legend: bool = True) -> tuple[int, int]:
+    """Pair distances, the desired spacing ``d`` and ``r_comm`` on ``ax``; return (pairs shown, total)."""
+    dist, labels = inter_agent_distances(rec)
+    total = dist.shape[1]
+    shown = min(total, MAX_LINES)
+    if total > shown:
+        ax.fill_between(rec.t, dist.min(axis=1), dist.max(axis=1), color="0.8", lw=0, zorder=1,
+                        label=f"all {total} pairs (min-max)")
+    for p in range(shown):
+        ax.plot(rec.t, dist[:, p], color=agent_color(p), lw=1.0, label=labels[p], zorder=3)
+    ax.axhline(rec.d, color="black", lw=1.0, ls="-", label=f"d = {rec.d:g} m", zorder=2)
+    ax.axhline(rec.r_comm, color="black", lw=1.0, ls="--", label=f"$r_{{comm}}$ = {rec.r_comm:g} m", zorder=2)
+    if total == 0:
+        ax.text(0.5, 0.5, "fewer than 2 agents: no pairs", transform=ax.transAxes, ha="center", va="center")
+    _time_axis(ax, rec)
+    ax.set_ylabel("inter-agent distance [m]")
+    ax.set_ylim(bottom=0.0)
+    if legend:
+        _legend(ax, shown + 2, outside=True)
+    return shown, total
+
+
+def plot_inter_agent_distances(rec: Recording, path: str | Path) -> Path:
+    """L24 Fig. 7 / L23 Fig. 1: each agent pair's distance vs time; ``d`` solid, ``r_comm`` dashed."""
+    fig = _new_figure((9.0, 4.8))
+    ax = fig.subplots()
+    shown, total = _draw_pair_distances(ax, rec)
+    _mark_phases(ax, rec)
+    ax.set_title(_title(rec, "Inter-agent distances and communication range", shown, total, "pairs"),
+                 fontsize=10)
+    return _save(fig, path)
+
+
+def plot_errors(rec: Recording, path: str | Path) -> Path:
+    """Estimation error norms per UAV vs time: ``||q_hat_i - q_t||`` [m] and ``||p_hat_i - p_t||`` [m/s]."""
+    n = rec.n_agents
+    shown = min(n, MAX_LINES)
+    err = rec.estimate - rec.target[:, None, :]
+    pos_err = np.linalg.norm(err[:, :, :2], axis=-1)
+    vel_err = np.linalg.norm(err[:, :, 2:4], axis=-1)
+    fig = _new_figure((9.0, 6.5))
+    axes = fig.subplots(2, 1, sharex=True)
+    panels = ((axes[0], pos_err, "position error [m]"), (axes[1], vel_err, "velocity error [m/s]"))
+    for ax, e, ylabel in panels:
+        for i in range(shown):
+            ax.plot(rec.t, e[:, i], color=agent_color(i), lw=0.9, label=f"UAV {i + 1}")
+        _mark_phases(ax, rec)
+        _time_axis(ax, rec)
+        ax.set_ylabel(ylabel)
+        ax.set_ylim(bottom=0.0)
+    axes[0].set_xlabel("")
+    _legend(axes[0], shown, outside=True)
+    fig.suptitle(_title(rec, "Target estimation error", shown, n, "UAVs"))
+    return _save(fig, path)
+
+
+def plot_flocking_comparison(results: Mapping[str, Recording], path: str | Path) -> Path:
+    """L23 Fig. 1: inter-agent distances, one panel per variant (e.g. standard / integral / tailored)."""
+    if not results:
+        raise ValueError("plot_flocking_comparison needs at least one recording")
+    names = list(results)
+    fig = _new_figure((5.0 * len(names), 4.5))
+    axes = fig.subplots(1, len(names), sharey=True, squeeze=False)[0]
+    notes = []
+    for ax, name in zip(axes, names, strict=True):
+        rec = results[name]
+        shown, total = _draw_pair_distances(ax, rec, legend=ax is axes[-1])
+        ax.set_title(str(name))
+        if shown < total:
+            notes.append(f"{name}: first {shown} of {total} pairs")
+    for ax in axes[1:]:
+        ax.set_ylabel("")
+    first = results[names[0]]
+    title = "Inter-agent distances"
+    ctx = _context(first)
+    if ctx:
+        title += f" ({ctx})"
+    if notes:
+        title += "\n" + "; ".join(notes)
+    fig.suptitle(title)
+    return _save(fig, path)
+
+
+RUN_FIGURES = (
+    ("estimates.png", plot_estimates),
+    ("trajectories.png", plot_trajectories),
+    ("target_distances.png", plot_target_distances),
+    ("inter_agent_distances.png", plot_inter_agent_distances),
+    ("errors.png", plot_errors),
+)
+
+
+def save_run_figures(rec: Recording, out_dir: str | Path) -> list[Path]:
+    """Write every single-run figure into ``out_dir`` (created if needed); return their paths."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    return [fn(rec, out_dir / name) for name, fn in RUN_FIGURES]

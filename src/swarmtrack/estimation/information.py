@@ -84,8 +84,10 @@ def symmetrize(M: np.ndarray) -> np.ndarray:
 
 
 def initial_information(model: MotionModel, n_filters: int, information: float = 1e-6):
-    """Near-zero initial information (no prior, L24 Sec. 3.1): ``Y = εI``, ``y = Y x0``."""
-    Y = np.broadcast_to(information * np.eye(model.dim), (n_filters, model.dim, model.dim)).copy()
+    """Near-zero initial information (no prior, L24 Sec. 3.1): ``Y = εI`` on ``[x, y, vx, vy]``, a weak
+    prior on the model's hidden states (:meth:`MotionModel.initial_information_diagonal`), ``y = Y x0``."""
+    Y = np.broadcast_to(np.diag(model.initial_information_diagonal(information)),
+                        (n_filters, model.dim, model.dim)).copy()
     y = Y @ model.initial_state()
     return Y, y
 

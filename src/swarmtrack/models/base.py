@@ -40,9 +40,24 @@ class MotionModel:
     def jacobian(self, x: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
         raise NotImplementedError
 
+    #: Prior standard deviation of the states after ``[x, y, vx, vy]`` (turn rate, attitude, thrust...).
+    #: The kinematic states start with near-zero information as in L24 Sec. 3.1; a hidden state with no
+    #: information at all lets the first, poorly conditioned updates throw it into a spurious mode (a CT
+    #: turn rate aliased to ~2π/T, an FS pitch past 90°), from which a filter with few measurements does
+    #: not recover. The values are ours; the papers do not give them.
+    hidden_prior_std: tuple[float, ...] = ()
+
     def initial_state(self) -> np.ndarray:
         """Mean used with the near-zero initial information (no prior knowledge of the target)."""
         return np.zeros(self.dim)
+
+    def initial_information_diagonal(self, information: float) -> np.ndarray:
+        """Diagonal of the initial information: ``information`` for the kinematic states and
+        ``1/σ²`` (:attr:`hidden_prior_std`) for the hidden ones."""
+        diag = np.full(self.dim, float(information))
+        if self.hidden_prior_std:
+            diag[4:] = 1.0 / np.square(self.hidden_prior_std)
+        return diag
 
 
 @dataclass(frozen=True)

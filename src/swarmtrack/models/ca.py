@@ -19,6 +19,7 @@ class ConstantAcceleration(LinearMotionModel):
     name: str = "ca"
     state_names: tuple[str, ...] = ("x", "y", "vx", "vy", "ax", "ay")
     linear: bool = True
+    hidden_prior_std: tuple[float, ...] = (3.0, 3.0)  # acceleration, m/s²
 
     @property
     def F(self) -> np.ndarray:

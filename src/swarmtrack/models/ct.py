@@ -63,6 +63,7 @@ class ConstantTurn(MotionModel):
     name: str = "ct"
     state_names: tuple[str, ...] = ("x", "y", "vx", "vy", "omega")
     linear: bool = False
+    hidden_prior_std: tuple[float, ...] = (0.5,)  # turn rate, rad/s
 
     def f(self, x: np.ndarray) -> np.ndarray:
         x = np.asarray(x, dtype=float)

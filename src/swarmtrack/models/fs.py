@@ -57,6 +57,8 @@ class FullStateQuadrotor(MotionModel):
         "T",
     )
     linear: bool = False
+    # vz, roll, pitch (rad), their rates (rad/s), moments (N m), thrust (N, about the hover m·g)
+    hidden_prior_std: tuple[float, ...] = (0.5, 0.3, 0.3, 1.0, 1.0, 0.1, 0.1, 3.0)
     mass: float = 1.5
     Ixx: float = 0.029
     Iyy: float = 0.029

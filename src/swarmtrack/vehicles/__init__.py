@@ -1,0 +1,29 @@
+"""True vehicle dynamics the world integrates (batched over vehicles): quadrotor, double integrator,
+and the velocity profiles the target flies (L24 Sec. 2 and Sec. 4; SPEC.md Capability 1).
+
+This package depends on nothing else in swarmtrack (in particular not on ``swarmtrack.sim`` or
+``swarmtrack.estimation``).
+"""
+
+from . import double_integrator, profile, quadrotor
+from .profile import Phase, VelocityProfile, l23_profile, l24_profile
+from .quadrotor import (
+    QuadrotorParams,
+    achieved_acceleration,
+    hover_state,
+    velocity_tracking_accel,
+)
+
+__all__ = [
+    "Phase",
+    "QuadrotorParams",
+    "VelocityProfile",
+    "achieved_acceleration",
+    "double_integrator",
+    "hover_state",
+    "l23_profile",
+    "l24_profile",
+    "profile",
+    "quadrotor",
+    "velocity_tracking_accel",
+]

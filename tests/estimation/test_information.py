@@ -13,7 +13,13 @@ from swarmtrack.estimation.information import (
 from swarmtrack.estimation.kalman import ekf_predict, ekf_update
 from swarmtrack.models import make_model
 from swarmtrack.network.topology import adjacency
-from swarmtrack.sensors.range_bearing import measure, polar_model, position_covariance, to_position, wrap_angle
+from swarmtrack.sensors.range_bearing import (
+    measure,
+    polar_model,
+    position_covariance,
+    to_position,
+    wrap_angle,
+)
 from swarmtrack.sim.agent import OnboardEstimators
 
 SIG = (0.08, 0.02)

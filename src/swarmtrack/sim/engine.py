@@ -74,8 +74,10 @@ def simulate(scenario: Scenario, progress: Callable[[float], None] | None = None
         # estimation step: measure, broadcast, fuse (L24 Sec. 3)
         nav = world.navigation()
         links = channel.links(world.uav_truth[:, :2])
-        own = estimators.predict_and_measure(nav[:, :2], world.measure_target())
-        estimators.fuse(own, links, t)
+        z, pose = world.measure_target()
+        with np.errstate(over="ignore", invalid="ignore"):  # a diverging filter is reported by fuse()
+            own = estimators.predict_and_measure(pose, z)
+            estimators.fuse(own, links, t)
         x, P = estimators.estimates()
         rec_phase[k] = world.phase_index()
         rec_target[k] = world.target_truth

@@ -60,6 +60,10 @@ class World:
         else:
             self.uavs = np.concatenate([start, np.zeros_like(start)], axis=1)
         self._sensor = scenario.sensor
+        # ring buffer of past (target, UAV) positions, for measurements that arrive `latency` late
+        lag = int(round(scenario.sensor.latency * scenario.rates.physics))
+        self._history = np.repeat(np.concatenate([self.target[:, :2], self.uavs[:, :2]])[None], lag + 1, axis=0)
+        self._tick = 0
         self._nav_std = np.array([scenario.swarm.nav_position_std] * 2 + [scenario.swarm.nav_velocity_std] * 2)
 
     # --- truth, for the engine's recorder and the metrics only -------------------------------------------
@@ -84,10 +88,16 @@ class World:
             nav += self.rng.standard_normal(nav.shape) * self._nav_std
         return nav
 
-    def measure_target(self) -> np.ndarray:
-        """Each UAV's range-bearing measurement of the target (N, 2) (L24 Sec. 3.2, corrected h)."""
-        return measure(self.target[0, :2], self.uavs[:, :2], self._sensor.sigma_range,
-                       self._sensor.sigma_bearing, self.rng)
+    def measure_target(self) -> tuple[np.ndarray, np.ndarray]:
+        """Each UAV's range-bearing measurement of the target (N, 2) (L24 Sec. 3.2, corrected h) and the
+        navigation position stamped on it (N, 2), both ``sensor.latency`` seconds old. An onboard filter that
+        takes the packet as current sees the target where it was (the SITL pipeline delay)."""
+        then = self._history[(self._tick + 1) % len(self._history)]
+        z = measure(then[0], then[1:], self._sensor.sigma_range, self._sensor.sigma_bearing, self.rng)
+        pose = then[1:].copy()
+        if self._nav_std[0] > 0:
+            pose += self.rng.standard_normal(pose.shape) * self._nav_std[0]
+        return z, pose
 
     # --- physics -----------------------------------------------------------------------------------------
     def step(self, uav_accel_cmd: np.ndarray, dt: float) -> None:
@@ -106,3 +116,7 @@ class World:
             self.target = quadrotor.step(self.target, a_target.reshape(1, 2), self.params, dt, wind)
             self.uavs = double_integrator.step(self.uavs, uav_accel_cmd, dt)
         self.t += dt
+        self._tick += 1
+        slot = self._history[self._tick % len(self._history)]
+        slot[0] = self.target[0, :2]
+        slot[1:] = self.uavs[:, :2]

@@ -1,0 +1,23 @@
+import json
+
+from swarmtrack.analysis.reproduce import reproduce
+
+
+def test_l23_reproduction_reports_every_claim_and_resumes(tmp_path):
+    report = reproduce("l23", tmp_path, runs=1, workers=1, quiet=True)
+    saved = json.loads((tmp_path / "reproduction.json").read_text())
+    assert saved["claims"] == report["claims"]
+    ids = {c["id"] for c in saved["claims"]}
+    assert ids == {"l23-fusion-halves-spread", "l23-standard-offset-removed", "l23-tailored-smoother"}
+    for claim in saved["claims"]:
+        assert set(claim) == {"id", "text", "paper", "project", "holds"}
+        assert isinstance(claim["holds"], bool)
+    flock = {c["id"]: c for c in saved["claims"]}["l23-standard-offset-removed"]["project"]
+    assert flock["standard"] > 0.1 > flock["tailored"]
+    md = (tmp_path / "reproduction.md").read_text()
+    assert "no-fusion" in md and "0.2647" in md  # the paper's number beside ours
+    cached = sorted((tmp_path / "runs").glob("*.json"))
+    assert len(cached) == 5
+    stamps = [p.stat().st_mtime_ns for p in cached]
+    reproduce("l23", tmp_path, runs=1, workers=1, quiet=True)  # finished runs are reused, not rerun
+    assert [p.stat().st_mtime_ns for p in cached] == stamps

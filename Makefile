@@ -22,7 +22,8 @@ test: $(STAMP)
 	$(VENV)/bin/python -m pytest
 
 bench: $(STAMP)
-	$(VENV)/bin/python benchmarks/bench_core.py
+	$(VENV)/bin/python benchmarks/bench_filters.py
+	$(VENV)/bin/python benchmarks/bench_sim.py
 
 clean:
 	rm -rf $(VENV) runs

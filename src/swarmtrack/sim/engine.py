@@ -17,7 +17,7 @@ from swarmtrack.network.topology import adjacency
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sim.agent import OnboardEstimators, OnboardFlocking
 from swarmtrack.sim.recorder import Recording
-from swarmtrack.sim.world import World
+from swarmtrack.sim.world import World, build_profile
 
 
 def flocking_gains(scenario: Scenario) -> FlockingGains:
@@ -42,9 +42,9 @@ def simulate(scenario: Scenario, progress: Callable[[float], None] | None = None
 
     rng = np.random.default_rng(scenario.seed)
     world_rng, net_rng = rng.spawn(2)
-    world = World(scenario, world_rng)
     n = scenario.swarm.n_uavs
-    duration = scenario.duration or world.profile.total_duration
+    duration = scenario.duration or build_profile(scenario.target).total_duration
+    world = World(scenario, world_rng, dt_phys, duration)
     steps = int(round(duration / dt_est))
 
     net = scenario.network
@@ -92,7 +92,7 @@ def simulate(scenario: Scenario, progress: Callable[[float], None] | None = None
                     nav = world.navigation()
                 beacons = adjacency("proximity", n, positions=world.uav_truth[:, :2], r_comm=net.r_comm)
                 u = flock.command(nav, beacons, target_for_control, world.t, dt_ctrl)
-            world.step(u, dt_phys)
+            world.step(u)
         if progress is not None and (k % report_every == 0 or k == steps - 1):
             progress((k + 1) / steps)
 

@@ -46,25 +46,42 @@ class World:
     """Truth. Target: an Iris-like quadrotor whose autopilot flies the velocity profile. UAVs: quadrotors
     (attitude loop, tilt and thrust limits) or ideal double integrators, commanded in acceleration."""
 
-    def __init__(self, scenario: Scenario, rng: np.random.Generator):
+    def __init__(self, scenario: Scenario, rng: np.random.Generator, dt: float, duration: float):
         self.scenario = scenario
         self.rng = rng
+        self.dt = dt
         self.profile = build_profile(scenario.target)
         self.params = quadrotor.QuadrotorParams()
         self.t = 0.0
-        self.target = quadrotor.hover_state(np.asarray([scenario.target.start], dtype=float))
         start = spawn_positions(scenario, rng)
         self.uav_quadrotor = scenario.swarm.vehicle == "quadrotor"
-        if self.uav_quadrotor:
-            self.uavs = quadrotor.hover_state(start)
+        target = quadrotor.hover_state(np.asarray([scenario.target.start], dtype=float))
+        if self.uav_quadrotor:  # one array, target in row 0, so one batched step integrates everything
+            self._vehicles = np.asarray(quadrotor.hover_state(np.concatenate([target[:, :2], start])), order="F")
         else:
-            self.uavs = np.concatenate([start, np.zeros_like(start)], axis=1)
+            self._target = target
+            self._uavs = np.concatenate([start, np.zeros_like(start)], axis=1)
         self._sensor = scenario.sensor
+        self._nav_std = np.array([scenario.swarm.nav_position_std] * 2 + [scenario.swarm.nav_velocity_std] * 2)
+        # the target autopilot's velocity profile and the wind, sampled once for every physics tick
+        ticks = int(np.ceil(duration / dt)) + 2
+        grid = np.arange(ticks) * dt
+        self._v_cmd = self.profile.velocity(grid)
+        self._a_ff = self.profile.acceleration(grid)
+        self._wind = rng.standard_normal((ticks, 2)) * scenario.target.wind_std
+        self._accel = np.zeros((scenario.swarm.n_uavs + 1, 2))
         # ring buffer of past (target, UAV) positions, for measurements that arrive `latency` late
-        lag = int(round(scenario.sensor.latency * scenario.rates.physics))
+        lag = int(round(scenario.sensor.latency / dt))
         self._history = np.repeat(np.concatenate([self.target[:, :2], self.uavs[:, :2]])[None], lag + 1, axis=0)
         self._tick = 0
-        self._nav_std = np.array([scenario.swarm.nav_position_std] * 2 + [scenario.swarm.nav_velocity_std] * 2)
+
+    @property
+    def target(self) -> np.ndarray:
+        return self._vehicles[:1] if self.uav_quadrotor else self._target
+
+    @property
+    def uavs(self) -> np.ndarray:
+        return self._vehicles[1:] if self.uav_quadrotor else self._uavs
 
     # --- truth, for the engine's recorder and the metrics only -------------------------------------------
     @property
@@ -100,22 +117,20 @@ class World:
         return z, pose
 
     # --- physics -----------------------------------------------------------------------------------------
-    def step(self, uav_accel_cmd: np.ndarray, dt: float) -> None:
+    def step(self, uav_accel_cmd: np.ndarray) -> None:
         """Advance the truth by one physics step with the UAVs' commanded accelerations (N, 2)."""
-        spec = self.scenario.target
-        v_cmd = self.profile.velocity(self.t)
-        a_ff = self.profile.acceleration(self.t)
-        a_target = quadrotor.velocity_tracking_accel(v_cmd, self.target[:, 2:4], a_ff, spec.velocity_gain)
-        wind = self.rng.standard_normal((1, 2)) * spec.wind_std if spec.wind_std > 0 else None
+        k = self._tick
+        a_target = quadrotor.velocity_tracking_accel(self._v_cmd[k], self.target[0, 2:4], self._a_ff[k],
+                                                     self.scenario.target.velocity_gain)
         if self.uav_quadrotor:
-            both = quadrotor.step(np.concatenate([self.target, self.uavs]),
-                                  np.concatenate([a_target.reshape(1, 2), uav_accel_cmd]), self.params, dt,
-                                  None if wind is None else np.concatenate([wind, np.zeros_like(uav_accel_cmd)]))
-            self.target, self.uavs = both[:1], both[1:]
+            accel = self._accel
+            accel[0] = a_target + self._wind[k]  # gusts: a random acceleration the autopilot must reject
+            accel[1:] = uav_accel_cmd
+            self._vehicles = quadrotor.step(self._vehicles, accel, self.params, self.dt)
         else:
-            self.target = quadrotor.step(self.target, a_target.reshape(1, 2), self.params, dt, wind)
-            self.uavs = double_integrator.step(self.uavs, uav_accel_cmd, dt)
-        self.t += dt
+            self._target = quadrotor.step(self._target, (a_target + self._wind[k])[None], self.params, self.dt)
+            self._uavs = double_integrator.step(self._uavs, uav_accel_cmd, self.dt)
+        self.t += self.dt
         self._tick += 1
         slot = self._history[self._tick % len(self._history)]
         slot[0] = self.target[0, :2]

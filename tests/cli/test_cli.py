@@ -20,7 +20,8 @@ def test_run_writes_resolved_scenario_metrics_timeseries_and_figures(tmp_path):
     with open(out / "timeseries.csv") as fh:
         rows = list(csv.DictReader(fh))
     assert len(rows) == 3 * 120
-    assert {"t", "agent", "x_true", "y_true", "vx_true", "vy_true", "x_est", "y_est", "vx_est", "vy_est"} <= set(rows[0])
+    expected = {"t", "agent", "x_true", "y_true", "vx_true", "vy_true", "x_est", "y_est", "vx_est", "vy_est"}
+    assert expected <= set(rows[0])
     assert "seed: 4" in (out / "scenario.yaml").read_text()
 
 

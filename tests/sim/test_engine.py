@@ -76,3 +76,10 @@ def test_latency_delays_the_estimate_by_the_target_motion():
 def test_divergence_stops_the_run_naming_uav_and_time():
     with pytest.raises(FilterDivergence, match=r"UAV \d"):
         simulate(load_scenario("l24-cv", ["duration=3", "estimator.q=[1.7e308, 1.7e308, 1.7e308, 1.7e308]"]))
+
+
+def test_compiled_cv_kernels_give_the_same_run_as_numpy():
+    common = ["duration=6", "estimator.model=cv", "network.topology=line"]
+    ref = simulate(load_scenario("l24-cv", [*common, "estimator.kernel=numpy"]))
+    fast = simulate(load_scenario("l24-cv", [*common, "estimator.kernel=compiled"]))
+    np.testing.assert_allclose(fast.estimate, ref.estimate, rtol=0, atol=1e-7)

@@ -39,12 +39,17 @@ class OnboardEstimators:
     """One information-form EKF per UAV (L24 Sec. 3) or a single fusion centre (``centralized``)."""
 
     def __init__(self, model: MotionModel, update: RangeBearingUpdate, n_uavs: int, *, share: str = "information",
-                 centralized: bool = False, initial_info: float = 1e-6, fake_vz_sigma: float | None = None):
+                 centralized: bool = False, initial_info: float = 1e-6, fake_vz_sigma: float | None = None,
+                 compiled: bool = False):
         self.model, self.update_rule, self.share, self.centralized = model, update, share, centralized
         self.n = n_uavs
         n_filters = 1 if centralized else n_uavs
         Y, y = initial_information(model, n_filters, initial_info)
         self.x, self.P = recover(Y, y)
+        # the compiled CV kernels (estimation.kernels) compute the same cycle as the numpy reference
+        self.compiled = compiled and model.name == "cv" and update.mode == "position" and not centralized
+        if self.compiled:
+            self._Y, self._y, self._q = Y, y, np.ascontiguousarray(np.diag(model.Q))
         self._x_pred = self.x
         self._Y_pred, self._y_pred = Y, y
         self._vz = None
@@ -53,6 +58,15 @@ class OnboardEstimators:
 
     def predict_and_measure(self, nav_pos: np.ndarray, z: np.ndarray) -> Broadcast:
         """Predict (L24 Sec. 3.1) and compute this UAV's own contribution (L24 eq. 6) for broadcast."""
+        if self.compiled:
+            from swarmtrack.estimation import kernels
+
+            self._x_pred = kernels.cv_predicted_position(self.x, self.model.dt)
+            u = self.update_rule
+            I, i = kernels.cv_position_contributions(self._x_pred, np.ascontiguousarray(nav_pos),
+                                                     np.ascontiguousarray(z), u.sigma_range, u.sigma_bearing,
+                                                     u.min_range)
+            return Broadcast(I, i, z, nav_pos)
         self._Y_pred, self._y_pred, self._x_pred = predict(self.model, self.x, self.P)
         x_pos = self._x_pred[:, :2]
         if self.centralized:  # the fusion centre linearises everything at its own prediction
@@ -75,6 +89,13 @@ class OnboardEstimators:
             w = heard.astype(float)
             I = np.einsum("ij,ijab->iab", w, Ipair)
             i = np.einsum("ij,ija->ia", w, ipair)
+        if self.compiled:
+            from swarmtrack.estimation import kernels
+
+            flags = kernels.cv_cycle(self._Y, self._y, self.x, self.P, self.model.dt, self._q,
+                                     np.ascontiguousarray(I), np.ascontiguousarray(i))
+            kernels.check_flags(flags, t)
+            return
         Y, y = add_position_information(self._Y_pred, self._y_pred, I, i)
         if self._vz is not None:  # L24's fake vz = 0 measurement, local to every filter
             k, w_vz = self._vz

@@ -55,7 +55,8 @@ def simulate(scenario: Scenario, progress: Callable[[float], None] | None = None
     estimators = OnboardEstimators(
         model, RangeBearingUpdate(scenario.sensor.sigma_range, scenario.sensor.sigma_bearing, scenario.sensor.update),
         n, share=est.share, centralized=est.kind == "centralized", initial_info=est.initial_information,
-        fake_vz_sigma=est.fake_vz_sigma)
+        fake_vz_sigma=est.fake_vz_sigma,
+        compiled=est.kernel == "compiled" or (est.kernel == "auto" and n >= 64))
     chase_after = scenario.flocking.chase_after_steps * dt_est
     flock = OnboardFlocking(flocking_gains(scenario), scenario.flocking.variant, n, chase_after)
     follow_truth = scenario.flocking.follow == "truth"

@@ -1,0 +1,141 @@
+"""Throughput of one information-filter cycle for a bank of N = 1000 agents, on one core.
+
+A cycle is recover → predict → own position-mode range-bearing contribution → add (the reference,
+``swarmtrack.estimation.information``) or its compiled CV fast path (``swarmtrack.estimation.kernels``:
+predicted position → contribution kernel → ``cv_cycle``, which carries ``x, P`` so it needs no separate
+recover). Figures are agent-updates per second (N × cycles / wall time, ``time.perf_counter``, each case
+timed for ≥ 1 s after a warm-up that also absorbs numba compilation).
+
+Run: ``.venv/bin/python benchmarks/bench_filters.py`` (about 10-20 s).
+"""
+
+from __future__ import annotations
+
+import os
+
+# One core: numba serial kernels, no threaded BLAS. Other environment settings are left as they are.
+os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("MKL_NUM_THREADS", "1")
+
+import time  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from swarmtrack.estimation.information import (  # noqa: E402
+    RangeBearingUpdate,
+    add_position_information,
+    initial_information,
+    predict,
+    recover,
+)
+from swarmtrack.estimation.kernels import (  # noqa: E402
+    cv_cycle,
+    cv_position_contributions,
+    cv_predicted_position,
+    cv_recover,
+)
+from swarmtrack.models import make_model  # noqa: E402
+
+N = 1000
+DT = 0.05
+SIG = (0.08, 0.02)
+MIN_RANGE = 0.05
+MIN_SECONDS = 1.0
+
+NUMPY_REFERENCE_POINT = 1.3e6  # the issue's figure for the batched numpy reference (CV)
+CV_GOAL = 5.0e6  # the issue's goal for CV
+CV_PRACTICAL_LIMIT = 16e6  # the issue's hand-specialised compiled CV kernel
+
+
+def _measurements(rng):
+    """A static target per agent seen by its own sensor 1-10 m away (the same z every cycle)."""
+    target = rng.uniform(-20.0, 20.0, (N, 2))
+    r = rng.uniform(1.0, 10.0, N)
+    ang = rng.uniform(-np.pi, np.pi, N)
+    sensors = target - np.column_stack([r * np.cos(ang), r * np.sin(ang)])
+    z = np.column_stack([r + SIG[0] * rng.standard_normal(N), ang + SIG[1] * rng.standard_normal(N)])
+    return sensors, z
+
+
+def _rate(step, min_seconds=MIN_SECONDS):
+    """Agent-updates per second of ``step`` (one cycle of N agents), timed for at least ``min_seconds``."""
+    for _ in range(3):  # warm-up (and numba compilation)
+        step()
+    reps = 0
+    t0 = time.perf_counter()
+    elapsed = 0.0
+    while elapsed < min_seconds:
+        for _ in range(10):
+            step()
+        reps += 10
+        elapsed = time.perf_counter() - t0
+    return N * reps / elapsed, reps, elapsed
+
+
+def numpy_reference(model_name, sensors, z):
+    model = make_model(model_name, DT)
+    upd = RangeBearingUpdate(*SIG, mode="position", min_range=MIN_RANGE)
+    state = list(initial_information(model, N))
+
+    def step():
+        x, P = recover(*state)
+        Yp, yp, xp = predict(model, x, P)
+        I, i = upd.contributions(xp[:, :2], sensors, z)
+        state[:] = add_position_information(Yp, yp, I, i)
+
+    return step, state
+
+
+def numba_cv(sensors, z, with_contributions=True):
+    model = make_model("cv", DT)
+    q = np.ascontiguousarray(np.diag(model.Q))
+    Y, y = initial_information(model, N)
+    x, P, flags = cv_recover(Y, y)
+    assert not flags.any()
+    I0, i0 = cv_position_contributions(cv_predicted_position(x, DT), sensors, z, *SIG, MIN_RANGE)
+
+    def step():
+        if with_contributions:
+            I, i = cv_position_contributions(cv_predicted_position(x, DT), sensors, z, *SIG, MIN_RANGE)
+        else:
+            I, i = I0, i0
+        if cv_cycle(Y, y, x, P, DT, q, I, i).any():
+            raise RuntimeError("CV kernel flagged a divergence")
+
+    return step, (Y, y, x, P)
+
+
+def main():
+    rng = np.random.default_rng(0)
+    sensors, z = _measurements(rng)
+    cases = [
+        ("numpy reference, CV (4 states)", numpy_reference("cv", sensors, z)[0], NUMPY_REFERENCE_POINT, None),
+        ("numpy reference, FS (12 states)", numpy_reference("fs", sensors, z)[0], None, None),
+        ("numba CV kernel, full cycle", numba_cv(sensors, z)[0], CV_GOAL, CV_PRACTICAL_LIMIT),
+        ("numba CV kernel, cv_cycle only", numba_cv(sensors, z, with_contributions=False)[0], None, None),
+    ]
+    print(f"Information-filter cycle, N = {N} agents, one core "
+          f"(NUMBA_NUM_THREADS={os.environ['NUMBA_NUM_THREADS']}), position-mode range-bearing update")
+    header = f"{'case':<34} {'agent-updates/s':>16} {'µs/cycle':>10} {'cycles':>7}   reference point"
+    print(header)
+    print("-" * (len(header) + 24))
+    results = {}
+    for name, step, ref, limit in cases:
+        rate, reps, elapsed = _rate(step)
+        results[name] = rate
+        note = ""
+        if ref is not None and limit is None:
+            note = f"issue: ~{ref / 1e6:.1f} M/s"
+        elif ref is not None:
+            verdict = "MET" if rate >= ref else "NOT MET"
+            note = f"goal ≥ {ref / 1e6:.0f} M/s ({verdict}); practical limit ~{limit / 1e6:.0f} M/s"
+        print(f"{name:<34} {rate / 1e6:>14.2f} M {1e6 * elapsed / reps:>10.1f} {reps:>7d}   {note}")
+    base = results["numpy reference, CV (4 states)"]
+    fast = results["numba CV kernel, full cycle"]
+    print(f"\nspeed-up of the numba CV full cycle over the numpy CV reference: {fast / base:.1f}x")
+
+
+if __name__ == "__main__":
+    main()

@@ -63,9 +63,21 @@ def pair_distances(rec: Recording) -> np.ndarray:
 
 
 def spacing_offset(rec: Recording, last: float = 10.0) -> float:
-    """Steady-state inter-agent distance offset: mean over pairs of ``|mean distance over the last s − d|``."""
-    dist = pair_distances(rec)[rec.t >= rec.t[-1] - last]
-    return float(np.mean(np.abs(dist.mean(axis=0) - rec.d)))
+    """Steady-state inter-agent distance offset: mean, over the pairs that are neighbours at the end (mean
+    distance over the last ``last`` seconds below r_comm), of ``|mean distance − d|``.
+
+    Flocking regulates neighbours only (a_ij = 0 beyond r_comm), so a chain whose outer pair lies beyond r_comm
+    is a valid α-lattice, not an offset; :func:`open_pairs` counts such pairs.
+    """
+    mean = pair_distances(rec)[rec.t >= rec.t[-1] - last].mean(axis=0)
+    near = mean < rec.r_comm
+    return float(np.mean(np.abs(mean[near] - rec.d))) if near.any() else float("nan")
+
+
+def open_pairs(rec: Recording, last: float = 10.0) -> int:
+    """Pairs that end beyond r_comm (not neighbours): a chain instead of a closed formation."""
+    mean = pair_distances(rec)[rec.t >= rec.t[-1] - last].mean(axis=0)
+    return int(np.sum(mean >= rec.r_comm))
 
 
 def spacing_overshoot(rec: Recording) -> float:
@@ -88,6 +100,7 @@ def summary(rec: Recording) -> dict:
         "inter_agent_distance": {
             "min": float(pd.min()) if pd.size else float("nan"),
             "offset": spacing_offset(rec) if pd.size else float("nan"),
+            "open_pairs": open_pairs(rec) if pd.size else 0,
             "overshoot": spacing_overshoot(rec) if pd.size else float("nan"),
         },
     }

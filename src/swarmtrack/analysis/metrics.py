@@ -43,6 +43,12 @@ def spread_table(rec: Recording) -> dict[str, float]:
     return dict(zip(COMPONENTS, err.std(axis=0).mean(axis=0).tolist(), strict=True))
 
 
+def reported_std(rec: Recording) -> dict[str, float]:
+    """The filters' own standard deviation ``sqrt(P_ii)``, mean over time and UAVs (compare with the spread)."""
+    sd = np.sqrt(np.diagonal(rec.covariance[_window(rec)], axis1=-2, axis2=-1)).mean(axis=(0, 1))
+    return dict(zip(COMPONENTS, sd.tolist(), strict=True))
+
+
 def nees(rec: Recording) -> float:
     """Mean normalised estimation error squared of [x, y, vx, vy] (4 for a consistent filter)."""
     err = errors(rec)[_window(rec)]
@@ -95,6 +101,7 @@ def summary(rec: Recording) -> dict:
     return {
         "rmse": rmse_table(rec),
         "spread": spread_table(rec),
+        "reported_std": reported_std(rec),
         "nees": nees(rec),
         "target_distance": {"mean": float(td.mean()), "max": float(td.max())},
         "inter_agent_distance": {

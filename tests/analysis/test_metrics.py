@@ -1,0 +1,50 @@
+import numpy as np
+
+from swarmtrack.analysis import metrics
+from swarmtrack.sim.recorder import Recording
+
+
+def _rec(K=2000, N=3, err_std=(0.1, 0.2, 0.3, 0.4), seed=0, spacing=4.0, d=4.0):
+    rng = np.random.default_rng(seed)
+    t = np.arange(K) * 0.05
+    target = np.zeros((K, 4))
+    target[:, 0] = 0.5 * t
+    target[:, 2] = 0.5
+    cov = np.broadcast_to(np.diag(np.square(err_std)), (K, N, 4, 4)).copy()
+    est = target[:, None, :] + rng.standard_normal((K, N, 4)) * np.asarray(err_std)
+    ang = 2 * np.pi * np.arange(N) / N
+    r = spacing / (2 * np.sin(np.pi / N))
+    uav = np.zeros((K, N, 4))
+    uav[:, :, 0] = target[:, None, 0] + r * np.cos(ang)
+    uav[:, :, 1] = r * np.sin(ang)
+    return Recording(t=t, phase=(t > 50).astype(int), phase_names=["a", "b"], target=target, uav=uav, estimate=est,
+                     covariance=cov, d=d, r_comm=4.8, chase_start=1.0)
+
+
+def test_rmse_per_phase_recovers_the_error_std():
+    table = metrics.rmse_table(_rec())
+    assert set(table) == {"a", "b", "total"}
+    for k, c in enumerate(metrics.COMPONENTS):
+        assert abs(table["total"][c] - (0.1, 0.2, 0.3, 0.4)[k]) < 0.02
+
+
+def test_consistent_errors_give_nees_of_the_dimension():
+    assert abs(metrics.nees(_rec()) - 4.0) < 0.2
+    assert metrics.nees(_rec(err_std=(0.2, 0.4, 0.6, 0.8))) > 3.5  # covariance follows err_std: still consistent
+
+
+def test_spacing_offset_measures_distance_from_d_and_ignores_non_neighbours():
+    assert metrics.spacing_offset(_rec(spacing=4.0)) < 1e-9
+    assert abs(metrics.spacing_offset(_rec(spacing=3.5)) - 0.5) < 1e-9
+    rec = _rec(N=3)
+    rec.uav[:, 2, :2] = rec.uav[:, 1, :2] + (rec.uav[:, 1, :2] - rec.uav[:, 0, :2])  # chain 1-2-3, outer pair at 8 m
+    assert metrics.open_pairs(rec) == 1
+    assert metrics.spacing_offset(rec) < 1e-9
+
+
+def test_overshoot_counts_only_after_the_first_crossing():
+    rec = _rec(N=2, K=400)
+    gap = np.concatenate([np.linspace(1.0, 5.0, 200), np.full(200, 4.0)])  # crosses d at 4 m, peaks at 5 m
+    rec.uav[:, 1, 0] = rec.uav[:, 0, 0] + gap
+    rec.uav[:, 1, 1] = rec.uav[:, 0, 1]
+    assert abs(metrics.spacing_overshoot(rec) - 1.0) < 0.03

@@ -70,8 +70,6 @@ def run_cmd(scenario: str, out: Path | None, seed: int | None, overrides: tuple[
 
     try:
         scn = load_scenario(scenario, list(overrides), seed)
-        if seed is not None and seed < 0:
-            raise ScenarioError("--seed must be a non-negative integer")
         rec = simulate(scn)
     except (ScenarioError, FilterDivergence) as exc:
         raise UsageFailure(str(exc)) from None

@@ -68,11 +68,18 @@ def run_cmd(scenario: str, out: Path | None, seed: int | None, overrides: tuple[
     from swarmtrack.estimation.information import FilterDivergence
     from swarmtrack.sim.engine import simulate
 
+    from rich.progress import Progress
+
     try:
         scn = load_scenario(scenario, list(overrides), seed)
-        rec = simulate(scn)
+        with Progress(transient=True, disable=not sys.stderr.isatty()) as bar:
+            task = bar.add_task(f"simulating {scn.name}", total=1.0)
+            rec = simulate(scn, progress=lambda done: bar.update(task, completed=done))
     except (ScenarioError, FilterDivergence) as exc:
         raise UsageFailure(str(exc)) from None
+    except KeyboardInterrupt:
+        click.echo("interrupted; nothing was written", err=True)
+        sys.exit(130)
     out = out or Path("runs") / scn.name
     metrics = summary(rec)
     with staged_output(out) as tmp:

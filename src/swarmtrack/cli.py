@@ -63,12 +63,12 @@ def scenarios_cmd() -> None:
 @click.option("--no-plots", is_flag=True, help="skip the PNG figures")
 def run_cmd(scenario: str, out: Path | None, seed: int | None, overrides: tuple[str, ...], no_plots: bool) -> None:
     """Run one closed-loop simulation of SCENARIO (a built-in name or a YAML file)."""
+    from rich.progress import Progress
+
     from swarmtrack.analysis.metrics import summary
     from swarmtrack.analysis.report import format_rmse_table
     from swarmtrack.estimation.information import FilterDivergence
     from swarmtrack.sim.engine import simulate
-
-    from rich.progress import Progress
 
     try:
         scn = load_scenario(scenario, list(overrides), seed)

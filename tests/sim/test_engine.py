@@ -78,8 +78,24 @@ def test_divergence_stops_the_run_naming_uav_and_time():
         simulate(load_scenario("l24-cv", ["duration=3", "estimator.q=[1.7e308, 1.7e308, 1.7e308, 1.7e308]"]))
 
 
-def test_compiled_cv_kernels_give_the_same_run_as_numpy():
-    common = ["duration=6", "estimator.model=cv", "network.topology=line"]
-    ref = simulate(load_scenario("l24-cv", [*common, "estimator.kernel=numpy"]))
-    fast = simulate(load_scenario("l24-cv", [*common, "estimator.kernel=compiled"]))
+@pytest.mark.parametrize("name, extra", [
+    ("l24-cv", []),  # compiled physics, flocking and CV filter
+    ("l24-fs", []),  # compiled physics and flocking; the FS filter stays numpy
+    ("l24-cv", ["network.topology=proximity", "swarm.vehicle=double_integrator", "flocking.variant=integral"]),
+    ("l24-ct", ["flocking.follow=truth", "rates.control=50", "flocking.variant=standard"]),  # control ≠ estimation
+])
+def test_compiled_cv_kernels_give_the_same_run_as_numpy(name, extra):
+    common = ["duration=8", *extra]
+    ref = simulate(load_scenario(name, [*common, "kernels=numpy"]))
+    fast = simulate(load_scenario(name, [*common, "kernels=compiled"]))
+    np.testing.assert_allclose(fast.uav, ref.uav, rtol=0, atol=1e-7)
+    np.testing.assert_allclose(fast.target, ref.target, rtol=0, atol=1e-7)
     np.testing.assert_allclose(fast.estimate, ref.estimate, rtol=0, atol=1e-7)
+    np.testing.assert_allclose(fast.covariance, ref.covariance, rtol=1e-7, atol=1e-12)
+    assert not np.array_equal(fast.uav[-1], fast.uav[0])  # the swarm did move (chasing starts at 1 s)
+
+
+def test_compiled_kernels_are_deterministic():
+    a = simulate(load_scenario("l24-cv", ["duration=4", "kernels=compiled"]))
+    b = simulate(load_scenario("l24-cv", ["duration=4", "kernels=compiled"]))
+    assert np.array_equal(a.estimate, b.estimate) and np.array_equal(a.uav, b.uav)

@@ -144,3 +144,12 @@ def test_target_flying_l24_profile_tracks_velocity_on_linear_and_sinusoidal_phas
     # the circular phase starts with a velocity jump the controller smooths; it converges afterwards
     late = (phase == 2) & (t > 102.8 + 10.0)
     assert np.sqrt(np.mean(np.sum(err[late] ** 2, axis=1))) < 0.15
+
+
+def test_unequal_inertias_limit_each_axis_by_its_own_moment():
+    params = quadrotor.QuadrotorParams(Ixx=0.02, Iyy=0.04, max_moment=0.2)
+    state = quadrotor.hover_state(np.zeros((3, 2)))
+    new = quadrotor.step(state, np.full((3, 2), 20.0), params, 0.01)
+    rates = new[:, 6:8]  # one step from hover: |rate| = dt·max_moment/I on each saturated axis
+    np.testing.assert_allclose(np.abs(rates[:, 0]), 0.01 * 0.2 / 0.02)
+    np.testing.assert_allclose(np.abs(rates[:, 1]), 0.01 * 0.2 / 0.04)

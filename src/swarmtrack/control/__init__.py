@@ -1,4 +1,8 @@
-"""Swarm control laws (flocking, L24 Sec. 2 / L23 Sec. 2)."""
+"""Swarm control laws (flocking, L24 Sec. 2 / L23 Sec. 2).
+
+:mod:`swarmtrack.control.kernels` is the compiled (numba) fast path of :func:`flocking_control`; it is not
+imported here, so using the reference does not pay for importing numba.
+"""
 
 from swarmtrack.control.flocking import (
     VARIANTS,

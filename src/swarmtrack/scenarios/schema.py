@@ -89,8 +89,6 @@ class EstimatorSpec(_Strict):
     q: list[float] | None = Field(None, description="diagonal of Q; default: the paper's (L24 Sec. 4)")
     initial_information: float = Field(1e-6, gt=0, description="εI, the near-zero initial information")
     fake_vz_sigma: float = Field(0.05, gt=0, description="FS model: std of the fake vz = 0 measurement, m/s")
-    kernel: Literal["auto", "numpy", "compiled"] = Field(
-        "auto", description="compiled: numba CV kernels (same numbers); auto: compiled for CV swarms of 64+ UAVs")
 
     @field_validator("q")
     @classmethod
@@ -136,6 +134,9 @@ class Scenario(_Strict):
     network: NetworkSpec = Field(default_factory=NetworkSpec)
     estimator: EstimatorSpec = Field(default_factory=EstimatorSpec)
     flocking: FlockingSpec = Field(default_factory=FlockingSpec)
+    kernels: Literal["auto", "numpy", "compiled"] = Field("auto", description=(
+        "compiled numba fast paths (physics, flocking, CV position-update filter) that give the same numbers "
+        "as the numpy reference; auto = compiled"))
 
     @model_validator(mode="after")
     def _cross_checks(self):

@@ -44,7 +44,9 @@ def simulate(scenario: Scenario, progress: Callable[[float], None] | None = None
     world_rng, net_rng = rng.spawn(2)
     n = scenario.swarm.n_uavs
     duration = scenario.duration or build_profile(scenario.target).total_duration
-    world = World(scenario, world_rng, dt_phys, duration)
+    # one decision for every compiled fast path (numba kernels, same numbers as the numpy reference)
+    compiled = scenario.kernels != "numpy"
+    world = World(scenario, world_rng, dt_phys, duration, compiled=compiled)
     steps = int(round(duration / dt_est))
 
     net = scenario.network
@@ -55,11 +57,13 @@ def simulate(scenario: Scenario, progress: Callable[[float], None] | None = None
     estimators = OnboardEstimators(
         model, RangeBearingUpdate(scenario.sensor.sigma_range, scenario.sensor.sigma_bearing, scenario.sensor.update),
         n, share=est.share, centralized=est.kind == "centralized", initial_info=est.initial_information,
-        fake_vz_sigma=est.fake_vz_sigma,
-        compiled=est.kernel == "compiled" or (est.kernel == "auto" and n >= 64))
+        fake_vz_sigma=est.fake_vz_sigma, compiled=compiled)
     chase_after = scenario.flocking.chase_after_steps * dt_est
-    flock = OnboardFlocking(flocking_gains(scenario), scenario.flocking.variant, n, chase_after)
+    flock = OnboardFlocking(flocking_gains(scenario), scenario.flocking.variant, n, chase_after, compiled=compiled)
     follow_truth = scenario.flocking.follow == "truth"
+    # the beacons' proximity graph equals the channel's links at an estimation step when those are the
+    # lossless proximity topology (same positions, same r_comm): computed once and shared
+    beacons_are_links = net.topology == "proximity" and net.loss_probability == 0.0
 
     rec_t = np.arange(steps) * dt_est
     rec_phase = np.empty(steps, dtype=np.int64)
@@ -85,15 +89,23 @@ def simulate(scenario: Scenario, progress: Callable[[float], None] | None = None
         rec_uav[k] = world.uav_truth
         rec_est[k] = x[:, :4]
         rec_cov[k] = P[:, :4, :4]
-        target_for_control = np.broadcast_to(world.target_truth, (n, 4)) if follow_truth else x[:, :4]
+        # (a copy: the compiled world advances its state in place)
+        target_for_control = np.broadcast_to(world.target_truth.copy(), (n, 4)) if follow_truth else x[:, :4]
         # control and physics until the next estimation step
-        for tick in range(ticks_est):
-            if (k * ticks_est + tick) % ticks_ctrl == 0:
+        tick = 0
+        while tick < ticks_est:
+            phase = (k * ticks_est + tick) % ticks_ctrl
+            if phase == 0:
                 if tick:
                     nav = world.navigation()
-                beacons = adjacency("proximity", n, positions=world.uav_truth[:, :2], r_comm=net.r_comm)
+                if tick == 0 and beacons_are_links:
+                    beacons = links
+                else:
+                    beacons = adjacency("proximity", n, positions=world.uav_truth[:, :2], r_comm=net.r_comm)
                 u = flock.command(nav, beacons, target_for_control, world.t, dt_ctrl)
-            world.step(u)
+            run = min(ticks_est - tick, ticks_ctrl - phase)  # physics ticks until the next control step
+            world.advance(u, run)
+            tick += run
         if progress is not None and (k % report_every == 0 or k == steps - 1):
             progress((k + 1) / steps)
 

@@ -46,8 +46,10 @@ class World:
     """Truth. Target: an Iris-like quadrotor whose autopilot flies the velocity profile. UAVs: quadrotors
     (attitude loop, tilt and thrust limits) or ideal double integrators, commanded in acceleration."""
 
-    def __init__(self, scenario: Scenario, rng: np.random.Generator, dt: float, duration: float):
+    def __init__(self, scenario: Scenario, rng: np.random.Generator, dt: float, duration: float, *,
+                 compiled: bool = False):
         self.scenario = scenario
+        self.compiled = compiled  # advance() through vehicles.kernels (same numbers as step())
         self.rng = rng
         self.dt = dt
         self.profile = build_profile(scenario.target)
@@ -74,6 +76,12 @@ class World:
         lag = int(round(scenario.sensor.latency / dt))
         self._history = np.repeat(np.concatenate([self.target[:, :2], self.uavs[:, :2]])[None], lag + 1, axis=0)
         self._tick = 0
+        if compiled:
+            from swarmtrack.vehicles import kernels
+
+            self._kernel = kernels.advance
+            self._kernel_consts = kernels.params_tuple(self.params)
+            self._no_points = np.empty((0, 4))
 
     @property
     def target(self) -> np.ndarray:
@@ -117,6 +125,27 @@ class World:
         return z, pose
 
     # --- physics -----------------------------------------------------------------------------------------
+    def advance(self, uav_accel_cmd: np.ndarray, ticks: int) -> None:
+        """Advance the truth by ``ticks`` physics steps with the UAVs' commanded accelerations (N, 2) held.
+
+        The same as ``ticks`` calls of :meth:`step` (the reference); with ``compiled`` one call of the numba
+        kernel :func:`swarmtrack.vehicles.kernels.advance`, which gives the same numbers to a few ulps and
+        updates the state arrays in place (so views such as :attr:`target_truth` follow: copy what must stay).
+        """
+        if not self.compiled:
+            for _ in range(ticks):
+                self.step(uav_accel_cmd)
+            return
+        if self.uav_quadrotor:
+            quads, points = self._vehicles, self._no_points
+        else:
+            quads, points = self._target, self._uavs
+        self._kernel(quads, points, uav_accel_cmd, self._v_cmd, self._a_ff, self._wind, self._tick, ticks,
+                     self.scenario.target.velocity_gain, self.dt, self._kernel_consts, self._history)
+        for _ in range(ticks):  # the same float sum as step() makes
+            self.t += self.dt
+        self._tick += ticks
+
     def step(self, uav_accel_cmd: np.ndarray) -> None:
         """Advance the truth by one physics step with the UAVs' commanded accelerations (N, 2)."""
         k = self._tick

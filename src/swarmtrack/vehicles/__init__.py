@@ -2,7 +2,8 @@
 and the velocity profiles the target flies (L24 Sec. 2 and Sec. 4; SPEC.md Capability 1).
 
 This package depends on nothing else in swarmtrack (in particular not on ``swarmtrack.sim`` or
-``swarmtrack.estimation``).
+``swarmtrack.estimation``). :mod:`swarmtrack.vehicles.kernels` is the compiled (numba) fast path of the
+physics; it is not imported here, so using the reference does not pay for importing numba.
 """
 
 from . import double_integrator, profile, quadrotor

@@ -76,7 +76,7 @@ class QuadrotorParams:
         if self.Ixx == self.Iyy:  # a Python float is ~2x faster than a (2,) array in tiny ufuncs
             alpha_max = self.max_moment / self.Ixx
         else:
-            alpha_max = np.array([self.max_moment / self.Ixx, self.max_moment / self.Iyy])
+            alpha_max = np.array([[self.max_moment / self.Ixx], [self.max_moment / self.Iyy]])  # (axis, 1)
             alpha_max.setflags(write=False)
         a_max = self.g * math.tan(self.max_tilt)
         derived = {

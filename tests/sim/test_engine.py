@@ -99,3 +99,18 @@ def test_compiled_kernels_are_deterministic():
     a = simulate(load_scenario("l24-cv", ["duration=4", "kernels=compiled"]))
     b = simulate(load_scenario("l24-cv", ["duration=4", "kernels=compiled"]))
     assert np.array_equal(a.estimate, b.estimate) and np.array_equal(a.uav, b.uav)
+
+
+@pytest.mark.parametrize("model", ["cv", "ca", "ct", "fs"])
+@pytest.mark.parametrize("options", [
+    ["network.topology=none"],
+    ["network.topology=full", "estimator.share=measurements", "sensor.update=polar"],
+    ["network.topology=proximity", "network.loss_probability=0.3"],
+    ["estimator.kind=centralized", "swarm.vehicle=double_integrator", "kernels=numpy"],
+    ["network.topology=edges", "network.edges=[[1, 3]]", "swarm.n_uavs=4", "flocking.variant=standard"],
+])
+def test_every_model_runs_with_every_option_and_tracks(model, options):
+    rec = simulate(load_scenario("l24-cv", [f"estimator.model={model}", "duration=12", "sensor.latency=0",
+                                            *options]))
+    assert np.isfinite(rec.estimate).all()
+    assert rmse_table(rec)["total"]["x"] < 0.5

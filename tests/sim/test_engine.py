@@ -114,3 +114,18 @@ def test_every_model_runs_with_every_option_and_tracks(model, options):
                                             *options]))
     assert np.isfinite(rec.estimate).all()
     assert rmse_table(rec)["total"]["x"] < 0.5
+
+
+@pytest.mark.parametrize("share", ["information", "measurements"])
+def test_a_uav_out_of_sensor_range_learns_only_through_its_links(share):
+    # hovering target at the origin; UAVs hold at 1, 5 and 9 m; only UAV 1 is within sensor range
+    common = ["duration=6", "sensor.latency=0", "sensor.max_range=2", f"estimator.share={share}",
+              "target.profile=hover", "target.wind_std=0", "flocking.chase_after_steps=100000",
+              "swarm.initial_positions=[[1, 0], [5, 0], [9, 0]]", "estimator.model=cv"]
+    line = simulate(load_scenario("l24-cv", [*common, "network.topology=line"]))
+    full = simulate(load_scenario("l24-cv", [*common, "network.topology=full"]))
+    err = lambda rec: np.linalg.norm(rec.estimate[-1, :, :2] - rec.target[-1, :2], axis=1)  # noqa: E731
+    var = np.trace(line.covariance[-1, :, :2, :2], axis1=1, axis2=2)
+    assert err(line)[0] < 0.05 and err(line)[1] < 0.05  # UAV 2 hears UAV 1
+    assert var[2] > 1e5  # UAV 3 hears only UAV 2, who saw nothing: prediction only
+    assert err(full).max() < 0.05  # with a link to UAV 1, UAV 3 converges too

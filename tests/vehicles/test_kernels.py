@@ -85,8 +85,8 @@ def test_world_advance_equals_world_steps(vehicle):
     assert fast.t == ref.t and fast._tick == ref._tick == 1500
     np.testing.assert_allclose(fast._history, ref._history, rtol=TOL, atol=TOL)
     # the delayed measurements read the same ring buffer slot
-    z_ref, pose_ref = ref.measure_target()
-    z_fast, pose_fast = fast.measure_target()
+    z_ref, pose_ref, _ = ref.measure_target()
+    z_fast, pose_fast, _ = fast.measure_target()
     np.testing.assert_allclose(z_fast, z_ref, rtol=TOL, atol=TOL)
     np.testing.assert_allclose(pose_fast, pose_ref, rtol=TOL, atol=TOL)
 

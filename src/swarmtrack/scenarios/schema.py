@@ -69,6 +69,7 @@ class SensorSpec(_Strict):
     sigma_bearing: float = Field(0.02, gt=0, description="rad (L24: 0.02, L23: 0.1)")
     update: Literal["position", "polar"] = Field(
         "position", description="position: converted measurement with the paper's R_i; polar: EKF on [ρ, β]")
+    max_range: float | None = Field(None, gt=0, description="m; a UAV farther from the target measures nothing")
     latency: float = Field(0.0, ge=0, le=5.0, description=(
         "s, age of a measurement when the filter uses it as current (sensing and middleware delay; "
         "rounded to the physics step)"))

@@ -33,6 +33,15 @@ class Broadcast:
     info_vector: np.ndarray  # (N, 2)
     z: np.ndarray  # (N, 2) [range, bearing]
     sensor_pos: np.ndarray  # (N, 2)
+    seen: np.ndarray  # (N,) False: no measurement this step, zero information
+
+
+def _masked(b: Broadcast) -> Broadcast:
+    """Zero the information of UAVs that saw nothing (their measurement rows are NaN)."""
+    if not b.seen.all():
+        b.info_matrix[~b.seen] = 0.0
+        b.info_vector[~b.seen] = 0.0
+    return b
 
 
 class OnboardEstimators:
@@ -56,8 +65,10 @@ class OnboardEstimators:
         if fake_vz_sigma is not None and hasattr(model, "VZ_INDEX"):
             self._vz = (model.VZ_INDEX, 1.0 / fake_vz_sigma**2)
 
-    def predict_and_measure(self, nav_pos: np.ndarray, z: np.ndarray) -> Broadcast:
-        """Predict (L24 Sec. 3.1) and compute this UAV's own contribution (L24 eq. 6) for broadcast."""
+    def predict_and_measure(self, nav_pos: np.ndarray, z: np.ndarray, seen: np.ndarray | None = None) -> Broadcast:
+        """Predict (L24 Sec. 3.1) and compute this UAV's own contribution (L24 eq. 6) for broadcast; a UAV that
+        did not see the target (``seen`` False) contributes zero information."""
+        seen = np.ones(len(z), dtype=bool) if seen is None else seen
         if self.compiled:
             from swarmtrack.estimation import kernels
 
@@ -66,13 +77,13 @@ class OnboardEstimators:
             I, i = kernels.cv_position_contributions(self._x_pred, np.ascontiguousarray(nav_pos),
                                                      np.ascontiguousarray(z), u.sigma_range, u.sigma_bearing,
                                                      u.min_range)
-            return Broadcast(I, i, z, nav_pos)
+            return _masked(Broadcast(I, i, z, nav_pos, seen))
         self._Y_pred, self._y_pred, self._x_pred = predict(self.model, self.x, self.P)
         x_pos = self._x_pred[:, :2]
         if self.centralized:  # the fusion centre linearises everything at its own prediction
             x_pos = np.broadcast_to(x_pos, nav_pos.shape)
         I, i = self.update_rule.contributions(x_pos, nav_pos, z)
-        return Broadcast(I, i, z, nav_pos)
+        return _masked(Broadcast(I, i, z, nav_pos, seen))
 
     def fuse(self, own: Broadcast, links: np.ndarray, t: float) -> None:
         """Update (L24 eq. 7): own information plus what the links delivered."""
@@ -83,12 +94,12 @@ class OnboardEstimators:
             I = own.info_matrix + Channel.sum_received(links, own.info_matrix)
             i = own.info_vector + Channel.sum_received(links, own.info_vector)
         else:  # raw measurements: each UAV linearises every received measurement at its own prediction
-            heard = links | np.eye(self.n, dtype=bool)
+            heard = (links | np.eye(self.n, dtype=bool)) & own.seen[None, :]
             Ipair, ipair = self.update_rule.contributions(
                 self._x_pred[:, None, :2], own.sensor_pos[None, :, :], own.z[None, :, :])
             w = heard.astype(float)
-            I = np.einsum("ij,ijab->iab", w, Ipair)
-            i = np.einsum("ij,ija->ia", w, ipair)
+            I = np.einsum("ij,ijab->iab", w, np.where(heard[..., None, None], Ipair, 0.0))
+            i = np.einsum("ij,ija->ia", w, np.where(heard[..., None], ipair, 0.0))
         if self.compiled:
             from swarmtrack.estimation import kernels
 

@@ -113,16 +113,21 @@ class World:
             nav += self.rng.standard_normal(nav.shape) * self._nav_std
         return nav
 
-    def measure_target(self) -> tuple[np.ndarray, np.ndarray]:
-        """Each UAV's range-bearing measurement of the target (N, 2) (L24 Sec. 3.2, corrected h) and the
-        navigation position stamped on it (N, 2), both ``sensor.latency`` seconds old. An onboard filter that
-        takes the packet as current sees the target where it was (the SITL pipeline delay)."""
+    def measure_target(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Each UAV's range-bearing measurement of the target (N, 2) (L24 Sec. 3.2, corrected h), the
+        navigation position stamped on it (N, 2), both ``sensor.latency`` seconds old, and whether the UAV saw
+        the target at all (N,) (within ``sensor.max_range``; rows of unseen targets are NaN). An onboard filter
+        that takes the packet as current sees the target where it was (the SITL pipeline delay)."""
         then = self._history[(self._tick + 1) % len(self._history)]
         z = measure(then[0], then[1:], self._sensor.sigma_range, self._sensor.sigma_bearing, self.rng)
         pose = then[1:].copy()
         if self._nav_std[0] > 0:
             pose += self.rng.standard_normal(pose.shape) * self._nav_std[0]
-        return z, pose
+        seen = np.ones(len(z), dtype=bool)
+        if self._sensor.max_range is not None:
+            seen = np.hypot(*(then[0] - then[1:]).T) <= self._sensor.max_range
+            z[~seen] = np.nan
+        return z, pose, seen
 
     # --- physics -----------------------------------------------------------------------------------------
     def advance(self, uav_accel_cmd: np.ndarray, ticks: int) -> None:

@@ -97,9 +97,8 @@ class OnboardEstimators:
             heard = (links | np.eye(self.n, dtype=bool)) & own.seen[None, :]
             Ipair, ipair = self.update_rule.contributions(
                 self._x_pred[:, None, :2], own.sensor_pos[None, :, :], own.z[None, :, :])
-            w = heard.astype(float)
-            I = np.einsum("ij,ijab->iab", w, np.where(heard[..., None, None], Ipair, 0.0))
-            i = np.einsum("ij,ija->ia", w, np.where(heard[..., None], ipair, 0.0))
+            I = np.where(heard[..., None, None], Ipair, 0.0).sum(axis=1)  # where: unseen rows are NaN
+            i = np.where(heard[..., None], ipair, 0.0).sum(axis=1)
         if self.compiled:
             from swarmtrack.estimation import kernels
 

@@ -54,7 +54,6 @@ class World:
         self.dt = dt
         self.profile = build_profile(scenario.target)
         self.params = quadrotor.QuadrotorParams()
-        self.t = 0.0
         start = spawn_positions(scenario, rng)
         self.uav_quadrotor = scenario.swarm.vehicle == "quadrotor"
         target = quadrotor.hover_state(np.asarray([scenario.target.start], dtype=float))
@@ -82,6 +81,11 @@ class World:
             self._kernel = kernels.advance
             self._kernel_consts = kernels.params_tuple(self.params)
             self._no_points = np.empty((0, 4))
+
+    @property
+    def t(self) -> float:
+        """Simulated time, s."""
+        return self._tick * self.dt
 
     @property
     def target(self) -> np.ndarray:
@@ -147,8 +151,6 @@ class World:
             quads, points = self._target, self._uavs
         self._kernel(quads, points, uav_accel_cmd, self._v_cmd, self._a_ff, self._wind, self._tick, ticks,
                      self.scenario.target.velocity_gain, self.dt, self._kernel_consts, self._history)
-        for _ in range(ticks):  # the same float sum as step() makes
-            self.t += self.dt
         self._tick += ticks
 
     def step(self, uav_accel_cmd: np.ndarray) -> None:
@@ -164,7 +166,6 @@ class World:
         else:
             self._target = quadrotor.step(self._target, (a_target + self._wind[k])[None], self.params, self.dt)
             self._uavs = double_integrator.step(self._uavs, uav_accel_cmd, self.dt)
-        self.t += self.dt
         self._tick += 1
         slot = self._history[self._tick % len(self._history)]
         slot[0] = self.target[0, :2]

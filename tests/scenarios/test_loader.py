@@ -49,3 +49,11 @@ def test_yaml_file_with_unknown_key(tmp_path):
     f.write_text("name: x\nswarm: {n_uavs: 3, colour: red}\n")
     with pytest.raises(ScenarioError, match="swarm.colour"):
         load_scenario(str(f))
+
+
+def test_unknown_flocking_gain_and_bad_gain_value_are_named():
+    with pytest.raises(ScenarioError, match="flocking.gains: unknown gain"):
+        load_scenario("l24-cv", ["flocking.gains.K_zz=1"])
+    with pytest.raises(ScenarioError, match="flocking.gains: eps must be in"):
+        load_scenario("l24-cv", ["flocking.gains.eps=2"])
+    assert load_scenario("l24-cv", ["flocking.gains.K_int=0.3"]).flocking.gains == {"K_int": 0.3}

@@ -148,6 +148,9 @@ class FlockingGains:
             raise ValueError("h must be in (0, 1)")
         if self.d <= 0.0 or self.r_comm <= 0.0 or self.D_dt <= 0.0:
             raise ValueError("d, r_comm and D_dt must be positive")
+        negative = [k for k in ("K_d", "K_v", "K_dt", "K_vt", "K_int", "K_vint") if not getattr(self, k) >= 0.0]
+        if negative:  # the papers' gains are positive (L24 Sec. 2); zero switches a term off
+            raise ValueError(f"{', '.join(negative)} must be non-negative")
 
 
 @dataclass(frozen=True)

@@ -108,6 +108,20 @@ class FlockingSpec(_Strict):
     follow: Literal["estimate", "truth"] = Field("estimate", description="what the target term follows")
     gains: dict[str, float] = Field(default_factory=dict, description="overrides of FlockingGains fields")
 
+    @field_validator("gains")
+    @classmethod
+    def _known_gains(cls, v):
+        import dataclasses
+
+        from swarmtrack.control.flocking import FlockingGains
+
+        known = {f.name for f in dataclasses.fields(FlockingGains)} - {"d", "r_comm"}
+        unknown = sorted(set(v) - known)
+        if unknown:
+            raise ValueError(f"unknown gain(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
+        FlockingGains(**v)  # its own range checks (ε, h in (0, 1), positive lengths) raise a readable ValueError
+        return v
+
 
 class RatesSpec(_Strict):
     physics: float = Field(100.0, gt=0, description="Hz")

@@ -53,3 +53,15 @@ def test_bad_input_exits_2_with_one_message_and_writes_nothing(tmp_path):
 def test_scenarios_lists_builtins():
     res = CliRunner().invoke(main, ["scenarios"])
     assert res.exit_code == 0 and "l24-fs" in res.output and "l23-flocking-tailored" in res.output
+
+
+def test_impossible_spawn_box_is_a_clear_error(tmp_path):
+    res = CliRunner().invoke(main, ["run", "l24-cv", "--out", str(tmp_path / "o"), "--no-plots",
+                                    "--set", "swarm.spawn_half_width=0.1"])
+    assert res.exit_code == 2 and "swarm.spawn_half_width" in res.output and "Traceback" not in res.output
+
+
+def test_a_run_that_never_chases_still_reports(tmp_path):
+    res = CliRunner().invoke(main, ["run", "l24-cv", "--out", str(tmp_path / "o"), "--no-plots",
+                                    "--set", "duration=3", "--set", "flocking.chase_after_steps=1000000"])
+    assert res.exit_code == 0, res.output

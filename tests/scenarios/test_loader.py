@@ -57,3 +57,8 @@ def test_unknown_flocking_gain_and_bad_gain_value_are_named():
     with pytest.raises(ScenarioError, match="flocking.gains: eps must be in"):
         load_scenario("l24-cv", ["flocking.gains.eps=2"])
     assert load_scenario("l24-cv", ["flocking.gains.K_int=0.3"]).flocking.gains == {"K_int": 0.3}
+
+
+def test_runs_too_large_to_record_are_refused_before_running():
+    with pytest.raises(ScenarioError, match="too large to record"):
+        load_scenario("l24-cv", ["duration=1e9"])

@@ -15,7 +15,9 @@ COMPONENTS = ("x", "y", "vx", "vy")
 
 
 def _window(rec: Recording) -> np.ndarray:
-    return rec.t >= rec.chase_start - 1e-9
+    """Steps after the chase starts (all steps if it never does)."""
+    keep = rec.t >= rec.chase_start - 1e-9
+    return keep if keep.any() else np.ones_like(keep)
 
 
 def errors(rec: Recording) -> np.ndarray:

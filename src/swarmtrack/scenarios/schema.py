@@ -153,9 +153,27 @@ class Scenario(_Strict):
         "compiled numba fast paths (physics, flocking, CV position-update filter) that give the same numbers "
         "as the numpy reference; auto = compiled"))
 
+    def run_duration(self) -> float:
+        """Simulated time, s: ``duration`` or the length of the target's profile."""
+        if self.duration is not None:
+            return self.duration
+        from swarmtrack.vehicles.profile import l23_profile, l24_profile
+
+        t = self.target
+        if t.profile == "l24":
+            return l24_profile().total_duration
+        if t.profile == "l23":
+            return l23_profile().total_duration
+        return t.hover_duration if t.profile == "hover" else sum(p.duration for p in t.phases)
+
     @model_validator(mode="after")
     def _cross_checks(self):
         n = self.swarm.n_uavs
+        steps = self.run_duration() * self.rates.estimation
+        record_gb = steps * n * 24 * 8 / 1e9  # estimate, UAV truth and the 4 x 4 covariance per UAV per step
+        if record_gb > 8.0:
+            raise ValueError(f"duration x swarm.n_uavs is too large to record: {steps:.0f} estimation steps x {n} "
+                             f"UAVs needs {record_gb:.0f} GB (limit 8 GB)")
         for e in self.network.edges:
             for v in e:
                 if not 1 <= v <= n:

@@ -17,7 +17,7 @@ from swarmtrack.network.topology import adjacency
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sim.agent import OnboardEstimators, OnboardFlocking
 from swarmtrack.sim.recorder import Recording
-from swarmtrack.sim.world import World, build_profile
+from swarmtrack.sim.world import World
 
 
 def flocking_gains(scenario: Scenario) -> FlockingGains:
@@ -37,7 +37,7 @@ def simulate(scenario: Scenario, progress: Callable[[float], None] | None = None
     rng = np.random.default_rng(scenario.seed)
     world_rng, net_rng = rng.spawn(2)
     n = scenario.swarm.n_uavs
-    duration = scenario.duration or build_profile(scenario.target).total_duration
+    duration = scenario.run_duration()
     # one decision for every compiled fast path (numba kernels, same numbers as the numpy reference)
     compiled = scenario.kernels != "numpy"
     world = World(scenario, world_rng, dt_phys, duration, compiled=compiled)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from swarmtrack.scenarios.loader import ScenarioError
 from swarmtrack.scenarios.schema import Scenario, TargetSpec
 from swarmtrack.sensors.range_bearing import measure
 from swarmtrack.vehicles import double_integrator, quadrotor
@@ -39,6 +40,10 @@ def spawn_positions(scenario: Scenario, rng: np.random.Generator) -> np.ndarray:
         if not close.any():
             break
         pos[close] = center + rng.uniform(-sw.spawn_half_width, sw.spawn_half_width, size=(close.sum(), 2))
+    else:
+        raise ScenarioError(f"swarm: cannot place {sw.n_uavs} UAVs {sw.min_separation} m apart in a spawn box of "
+                            f"half-width {sw.spawn_half_width} m; enlarge swarm.spawn_half_width or lower "
+                            "swarm.min_separation")
     return pos
 
 

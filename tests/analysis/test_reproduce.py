@@ -22,3 +22,17 @@ def test_l23_reproduction_reports_every_claim_and_resumes(tmp_path):
     stamps = [p.stat().st_mtime_ns for p in cached]
     reproduce("l23", tmp_path, runs=1, workers=1, quiet=True, figures=False)  # finished runs are reused, not rerun
     assert [p.stat().st_mtime_ns for p in cached] == stamps
+
+
+def test_l24_claims_that_the_project_reproduces_hold_on_one_seed():
+    from swarmtrack.analysis.metrics import rmse_table
+    from swarmtrack.scenarios import load_scenario
+    from swarmtrack.sim.engine import simulate
+
+    rmse = {m: rmse_table(simulate(load_scenario(f"l24-{m}", seed=3))) for m in ("cv", "ct", "fs")}
+
+    def vel(m, phase):
+        return (rmse[m][phase]["vx"] + rmse[m][phase]["vy"]) / 2
+
+    assert vel("ct", "circular") <= 0.5 * vel("cv", "circular")  # L24 Sec. 4: "about four times smaller"
+    assert vel("cv", "linear") < min(vel("ct", "linear"), vel("fs", "linear"))  # CV best on the linear phase

@@ -1,0 +1,1 @@
+"""Estimators: information-form EKF (reference, numpy), compiled CV kernels, covariance-form EKF."""

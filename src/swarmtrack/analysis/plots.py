@@ -356,11 +356,8 @@ def plot_flocking_comparison(results: Mapping[str, Recording], path: str | Path)
             notes.append(f"{name}: first {shown} of {total} pairs")
     for ax in axes[1:]:
         ax.set_ylabel("")
-    first = results[names[0]]
-    title = "Inter-agent distances"
-    ctx = _context(first)
-    if ctx:
-        title += f" ({ctx})"
+    model = (results[names[0]].meta or {}).get("model")  # the panels differ by scenario: name only the model
+    title = "Inter-agent distances by protocol" + (f" (estimator model: {str(model).upper()})" if model else "")
     if notes:
         title += "\n" + "; ".join(notes)
     fig.suptitle(title)

@@ -96,15 +96,12 @@ def test_many_agents(tmp_path):
     assert_png(plots.plot_flocking_comparison({"standard": rec}, tmp_path / "flocking.png"))
 
 
-def test_distances_vectorised(rec):
-    dist, labels = plots.inter_agent_distances(rec)
-    assert labels == ["1-2", "1-3", "2-3"]
-    assert dist.shape == (rec.t.size, 3)
+def test_pair_labels_follow_the_metrics_pair_order(rec):
+    from swarmtrack.analysis.metrics import pair_distances
+
+    assert plots.pair_labels(3) == ["1-2", "1-3", "2-3"]
     expected = np.linalg.norm(rec.uav[:, 0, :2] - rec.uav[:, 2, :2], axis=-1)
-    np.testing.assert_allclose(dist[:, 1], expected)
-    td = plots.target_distances(rec)
-    assert td.shape == (rec.t.size, rec.n_agents)
-    np.testing.assert_allclose(td[:, 0], np.linalg.norm(rec.uav[:, 0, :2] - rec.target[:, :2], axis=-1))
+    np.testing.assert_allclose(pair_distances(rec)[:, 1], expected)  # column "1-3"
 
 
 def test_plot_band(tmp_path):

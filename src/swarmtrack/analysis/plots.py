@@ -19,6 +19,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
+from swarmtrack.analysis import metrics
 from swarmtrack.sim.recorder import Recording
 
 __all__ = [
@@ -26,9 +27,7 @@ __all__ = [
     "DPI",
     "TARGET_COLOR",
     "agent_color",
-    "target_distances",
-    "pair_indices",
-    "inter_agent_distances",
+    "pair_labels",
     "plot_band",
     "plot_estimates",
     "plot_trajectories",
@@ -59,23 +58,10 @@ def agent_color(i: int) -> str:
     return _AGENT_COLORS[i % len(_AGENT_COLORS)]
 
 
-def target_distances(rec: Recording) -> np.ndarray:
-    """(K, N) distance ``||q_i - q_t||`` between each UAV and the true target."""
-    return np.linalg.norm(rec.uav[:, :, :2] - rec.target[:, None, :2], axis=-1)
-
-
-def pair_indices(n: int) -> tuple[np.ndarray, np.ndarray]:
-    """0-based index arrays ``(i, j)``, ``i < j``, of all agent pairs in order 1-2, 1-3, ..., 2-3, ..."""
-    return np.triu_indices(n, k=1)
-
-
-def inter_agent_distances(rec: Recording) -> tuple[np.ndarray, list[str]]:
-    """(K, P) distance of every agent pair (vectorised over time) and the 1-based labels ``"i-j"``."""
-    i, j = pair_indices(rec.n_agents)
-    pos = rec.uav[:, :, :2]
-    dist = np.linalg.norm(pos[:, i, :] - pos[:, j, :], axis=-1)
-    labels = [f"{a + 1}-{b + 1}" for a, b in zip(i.tolist(), j.tolist(), strict=True)]
-    return dist, labels
+def pair_labels(n: int) -> list[str]:
+    """1-based labels ``"i-j"`` of the pairs in the order of :func:`~swarmtrack.analysis.metrics.pair_distances`."""
+    i, j = np.triu_indices(n, k=1)
+    return [f"{a + 1}-{b + 1}" for a, b in zip(i.tolist(), j.tolist(), strict=True)]
 
 
 def _new_figure(figsize: tuple[float, float]) -> Figure:
@@ -270,7 +256,7 @@ def plot_target_distances(rec: Recording, path: str | Path) -> Path:
     """L24 Fig. 6: ``||q_i - q_t||`` per UAV vs time."""
     n = rec.n_agents
     shown = min(n, MAX_LINES)
-    dist = target_distances(rec)
+    dist = metrics.target_distances(rec)
     fig = _new_figure((9.0, 4.8))
     ax = fig.subplots()
     for i in range(shown):
@@ -286,7 +272,7 @@ def plot_target_distances(rec: Recording, path: str | Path) -> Path:
 
 def _draw_pair_distances(ax: Axes, rec: Recording, legend: bool = True) -> tuple[int, int]:
     """Pair distances, the desired spacing ``d`` and ``r_comm`` on ``ax``; return (pairs shown, total)."""
-    dist, labels = inter_agent_distances(rec)
+    dist, labels = metrics.pair_distances(rec), pair_labels(rec.n_agents)
     total = dist.shape[1]
     shown = min(total, MAX_LINES)
     if total > shown:
@@ -321,7 +307,7 @@ def plot_errors(rec: Recording, path: str | Path) -> Path:
     """Estimation error norms per UAV vs time: ``||q_hat_i - q_t||`` [m] and ``||p_hat_i - p_t||`` [m/s]."""
     n = rec.n_agents
     shown = min(n, MAX_LINES)
-    err = rec.estimate - rec.target[:, None, :]
+    err = metrics.errors(rec)
     pos_err = np.linalg.norm(err[:, :, :2], axis=-1)
     vel_err = np.linalg.norm(err[:, :, 2:4], axis=-1)
     fig = _new_figure((9.0, 6.5))

@@ -101,15 +101,14 @@ def analyse_l24(by_scenario: dict[str, list[dict]]) -> tuple[list[Claim], str, d
                     for ph in L24_RMSE[m]}
     mean = {m: {ph: {c: table[m][ph][c][0] for c in COMPONENTS} for ph in table[m]} for m in models}
 
+    P = {m: {ph: dict(zip(COMPONENTS, row, strict=True)) for ph, row in L24_RMSE[m].items()} for m in models}
+
     def vel(src, m, ph):
-        return (src[m][ph]["vx"] + src[m][ph]["vy"]) / 2 if isinstance(src[m][ph], dict) else \
-            (src[m][ph][2] + src[m][ph][3]) / 2
+        return (src[m][ph]["vx"] + src[m][ph]["vy"]) / 2
 
     def pos(src, m, ph):
-        return (src[m][ph]["x"] + src[m][ph]["y"]) / 2 if isinstance(src[m][ph], dict) else \
-            (src[m][ph][0] + src[m][ph][1]) / 2
+        return (src[m][ph]["x"] + src[m][ph]["y"]) / 2
 
-    P = L24_RMSE
     claims = []
     lin = {m: vel(mean, m, "linear") for m in models}
     claims.append(Claim("l24-cv-best-linear-velocity", "CV has the lowest linear-phase velocity RMSE",
@@ -119,7 +118,7 @@ def analyse_l24(by_scenario: dict[str, list[dict]]) -> tuple[list[Claim], str, d
                         vel(P, "ct", "circular") / vel(P, "cv", "circular"), ratio, ratio <= 0.5))
     sin_y = {m: mean[m]["sinusoidal"]["y"] for m in models}
     claims.append(Claim("l24-fs-best-sinusoidal-y", "FS has the lowest sinusoidal-phase y RMSE",
-                        {m: P[m]["sinusoidal"][1] for m in models}, sin_y, min(sin_y, key=sin_y.get) == "fs"))
+                        {m: P[m]["sinusoidal"]["y"] for m in models}, sin_y, min(sin_y, key=sin_y.get) == "fs"))
     tot = {m: pos(mean, m, "total") for m in models}
     claims.append(Claim("l24-fs-best-total-position", "FS has the lowest total position RMSE",
                         {m: pos(P, m, "total") for m in models}, tot, min(tot, key=tot.get) == "fs"))
@@ -132,8 +131,8 @@ def analyse_l24(by_scenario: dict[str, list[dict]]) -> tuple[list[Claim], str, d
     rows = []
     for m in models:
         for ph in P[m]:
-            cells = [f"{100 * P[m][ph][k]:.2f} / {100 * table[m][ph][c][0]:.2f} ± {100 * table[m][ph][c][1]:.2f}"
-                     for k, c in enumerate(COMPONENTS)]
+            cells = [f"{100 * P[m][ph][c]:.2f} / {100 * table[m][ph][c][0]:.2f} ± {100 * table[m][ph][c][1]:.2f}"
+                     for c in COMPONENTS]
             rows.append([m.upper(), ph] + cells)
     md = markdown_table(["model", "phase"] + [f"{c} paper / project (cm, cm/s)" for c in COMPONENTS], rows)
     return claims, md, {"rmse": table}

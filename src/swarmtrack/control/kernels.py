@@ -27,17 +27,13 @@ import math
 import numba
 import numpy as np
 
-from swarmtrack.control.flocking import VARIANTS, FlockingGains, FlockingState
+from swarmtrack.control.flocking import VARIANTS, FlockingGains, FlockingState, _sigma_from_sq
 
 #: ``variant`` argument of :func:`flocking_kernel`: index in :data:`~swarmtrack.control.flocking.VARIANTS`.
 STANDARD, INTEGRAL, TAILORED = (VARIANTS.index(v) for v in ("standard", "integral", "tailored"))
 
 # A pair whose squared distance exceeds r_comm² by this factor has ‖q_ij‖σ/‖r_comm‖σ > 1, hence a_ij = 0.
 _CUTOFF_MARGIN = 1.0 + 1e-9
-
-
-def _sigma_from_sq(sq: float, eps: float) -> float:
-    return sq / (math.sqrt(1.0 + eps * sq) + 1.0)
 
 
 def gain_vector(gains: FlockingGains) -> np.ndarray:
@@ -201,9 +197,11 @@ def flocking_control_compiled(
     variant: str = "tailored",
     dt: float = 0.05,
     active: np.ndarray | None = None,
+    gain_vec: np.ndarray | None = None,
 ) -> tuple[np.ndarray, FlockingState]:
     """Same arguments, results and equations as :func:`swarmtrack.control.flocking.flocking_control`, through
-    :func:`flocking_kernel`."""
+    :func:`flocking_kernel`; ``gain_vec``, :func:`gain_vector` of ``gains`` computed once by a caller that
+    calls every step."""
     code = variant_code(variant)
     g = FlockingGains() if gains is None else gains
     q = np.asarray(q, dtype=float)
@@ -217,8 +215,8 @@ def flocking_control_compiled(
     act = np.ones(n, dtype=bool) if active is None else np.ascontiguousarray(active, dtype=bool)
     u, e, v = flocking_kernel(qp, qp_t, np.ascontiguousarray(neighbours, dtype=bool),
                               np.ascontiguousarray(state.e_int_integral, dtype=float),
-                              np.ascontiguousarray(state.v_int_integral, dtype=float), act, gain_vector(g), code,
-                              float(dt))
+                              np.ascontiguousarray(state.v_int_integral, dtype=float), act,
+                              gain_vector(g) if gain_vec is None else gain_vec, code, float(dt))
     return u, FlockingState(e, v)
 
 

@@ -135,25 +135,16 @@ class OnboardFlocking:
         if compiled:
             from swarmtrack.control import kernels
 
-            self._kernel = kernels.flocking_kernel
-            self._gain_vector = kernels.gain_vector(gains)
-            self._variant_code = kernels.variant_code(variant)
-            self._active = (np.zeros(n_uavs, dtype=bool), np.ones(n_uavs, dtype=bool))
+            self._control = kernels.flocking_control_compiled
+            self._extra = {"gain_vec": kernels.gain_vector(gains)}
+        else:
+            self._control, self._extra = flocking_control, {}
 
     def command(self, nav: np.ndarray, beacon_links: np.ndarray, target_est: np.ndarray, t: float,
                 dt: float) -> np.ndarray:
         """Acceleration command (N, 2). ``nav`` rows are broadcast as beacons: UAV i uses row j only if
         ``beacon_links[i, j]``; ``target_est`` (N, 4) is each UAV's own estimate of the target."""
-        chasing = t >= self.chase_after
-        if self.compiled:
-            u, e, v = self._kernel(np.ascontiguousarray(nav, dtype=float),
-                                   np.ascontiguousarray(target_est[:, :4], dtype=float),
-                                   np.ascontiguousarray(beacon_links, dtype=bool), self.state.e_int_integral,
-                                   self.state.v_int_integral, self._active[1 if chasing else 0], self._gain_vector,
-                                   self._variant_code, float(dt))
-            self.state = FlockingState(e, v)
-            return u
-        active = np.full(nav.shape[0], chasing)
-        u, self.state = flocking_control(nav[:, :2], nav[:, 2:4], target_est[:, :2], target_est[:, 2:4],
-                                         beacon_links, self.state, self.gains, self.variant, dt, active=active)
+        active = np.full(nav.shape[0], t >= self.chase_after)
+        u, self.state = self._control(nav[:, :2], nav[:, 2:4], target_est[:, :2], target_est[:, 2:4], beacon_links,
+                                      self.state, self.gains, self.variant, dt, active=active, **self._extra)
         return u

@@ -62,7 +62,10 @@ def scenarios_cmd() -> None:
               help="override a scenario key, e.g. --set network.topology=full (repeatable)")
 @click.option("--no-plots", is_flag=True, help="skip the PNG figures")
 def run_cmd(scenario: str, out: Path | None, seed: int | None, overrides: tuple[str, ...], no_plots: bool) -> None:
-    """Run one closed-loop simulation of SCENARIO (a built-in name or a YAML file)."""
+    """Run one closed-loop simulation of SCENARIO (a built-in name or a YAML file).
+
+    Writes scenario.yaml (resolved), metrics.json, recording/ (Parquet; load it with
+    swarmtrack.sim.recorder.Recording.load) and, unless --no-plots, PNG figures."""
     from rich.progress import Progress
 
     from swarmtrack.analysis.metrics import summary
@@ -72,27 +75,28 @@ def run_cmd(scenario: str, out: Path | None, seed: int | None, overrides: tuple[
 
     try:
         scn = load_scenario(scenario, list(overrides), seed)
-        with Progress(transient=True, disable=not sys.stderr.isatty()) as bar:
-            task = bar.add_task(f"simulating {scn.name}", total=1.0)
-            rec = simulate(scn, progress=lambda done: bar.update(task, completed=done))
+        out = out or Path("runs") / scn.name
+        with staged_output(out) as tmp:
+            with Progress(transient=True, disable=not sys.stderr.isatty()) as bar:
+                task = bar.add_task(f"simulating {scn.name}", total=1.0)
+                rec = simulate(scn, progress=lambda done: bar.update(task, completed=done),
+                               record_to=tmp / "recording")
+            metrics = summary(rec)
+            (tmp / "scenario.yaml").write_text(yaml.safe_dump(scn.model_dump(mode="json"), sort_keys=False))
+            (tmp / "metrics.json").write_text(json.dumps(metrics, indent=2))
+            if not no_plots:
+                from swarmtrack.analysis.plots import save_run_figures
+
+                save_run_figures(rec, tmp)
     except (ScenarioError, FilterDivergence) as exc:
         raise UsageFailure(str(exc)) from None
     except KeyboardInterrupt:
         click.echo("interrupted; nothing was written", err=True)
         sys.exit(130)
-    out = out or Path("runs") / scn.name
-    metrics = summary(rec)
-    with staged_output(out) as tmp:
-        (tmp / "scenario.yaml").write_text(yaml.safe_dump(scn.model_dump(mode="json"), sort_keys=False))
-        (tmp / "metrics.json").write_text(json.dumps(metrics, indent=2))
-        rec.write_timeseries(tmp / "timeseries.csv")
-        if not no_plots:
-            from swarmtrack.analysis.plots import save_run_figures
-
-            save_run_figures(rec, tmp)
     click.echo(format_rmse_table(metrics["rmse"], f"{scn.name}: RMSE (mean over UAVs), cm and cm/s"))
+    offset = metrics["inter_agent_distance"]["offset"]
     click.echo(f"NEES {metrics['nees']:.2f} (4 if consistent) | spacing offset "
-               f"{metrics['inter_agent_distance']['offset']:.3f} m | written to {out}")
+               f"{'n/a' if offset is None else f'{offset:.3f} m'} | written to {out}")
 
 
 @main.command("reproduce")

@@ -4,7 +4,7 @@ from swarmtrack.analysis import metrics
 from swarmtrack.sim.recorder import Recording
 
 
-def _rec(K=2000, N=3, err_std=(0.1, 0.2, 0.3, 0.4), seed=0, spacing=4.0, d=4.0):
+def _rec(K=2000, N=3, err_std=(0.1, 0.2, 0.3, 0.4), seed=0, spacing=4.0, d=4.0, edit_uav=None):
     rng = np.random.default_rng(seed)
     t = np.arange(K) * 0.05
     target = np.zeros((K, 4))
@@ -17,8 +17,10 @@ def _rec(K=2000, N=3, err_std=(0.1, 0.2, 0.3, 0.4), seed=0, spacing=4.0, d=4.0):
     uav = np.zeros((K, N, 4))
     uav[:, :, 0] = target[:, None, 0] + r * np.cos(ang)
     uav[:, :, 1] = r * np.sin(ang)
-    return Recording(t=t, phase=(t > 50).astype(int), phase_names=["a", "b"], target=target, uav=uav, estimate=est,
-                     covariance=cov, d=d, r_comm=4.8, chase_start=1.0)
+    if edit_uav is not None:
+        edit_uav(uav)
+    return Recording.from_arrays(t=t, phase=(t > 50).astype(int), phase_names=["a", "b"], target=target, uav=uav,
+                                 estimate=est, covariance=cov, d=d, r_comm=4.8, chase_start=1.0)
 
 
 def test_rmse_per_phase_recovers_the_error_std():
@@ -36,15 +38,20 @@ def test_consistent_errors_give_nees_of_the_dimension():
 def test_spacing_offset_measures_distance_from_d_and_ignores_non_neighbours():
     assert metrics.spacing_offset(_rec(spacing=4.0)) < 1e-9
     assert abs(metrics.spacing_offset(_rec(spacing=3.5)) - 0.5) < 1e-9
-    rec = _rec(N=3)
-    rec.uav[:, 2, :2] = rec.uav[:, 1, :2] + (rec.uav[:, 1, :2] - rec.uav[:, 0, :2])  # chain 1-2-3, outer pair at 8 m
+    def chain(uav):  # chain 1-2-3, outer pair at 8 m
+        uav[:, 2, :2] = uav[:, 1, :2] + (uav[:, 1, :2] - uav[:, 0, :2])
+
+    rec = _rec(N=3, edit_uav=chain)
     assert metrics.open_pairs(rec) == 1
     assert metrics.spacing_offset(rec) < 1e-9
 
 
 def test_overshoot_counts_only_after_the_first_crossing():
-    rec = _rec(N=2, K=400)
     gap = np.concatenate([np.linspace(1.0, 5.0, 200), np.full(200, 4.0)])  # crosses d at 4 m, peaks at 5 m
-    rec.uav[:, 1, 0] = rec.uav[:, 0, 0] + gap
-    rec.uav[:, 1, 1] = rec.uav[:, 0, 1]
+
+    def approach(uav):
+        uav[:, 1, 0] = uav[:, 0, 0] + gap
+        uav[:, 1, 1] = uav[:, 0, 1]
+
+    rec = _rec(N=2, K=400, edit_uav=approach)
     assert abs(metrics.spacing_overshoot(rec) - 1.0) < 0.03

@@ -32,7 +32,7 @@ def make_recording(n_agents: int = 3, k: int = 200, seed: int = 0, meta: dict | 
     phase = np.zeros(k, dtype=int)
     phase[t >= 10.0] = 1
     phase[t >= 25.0] = 2
-    return Recording(
+    return Recording.from_arrays(
         t=t, phase=phase, phase_names=["approach", "sinusoid", "circle"], target=target, uav=uav,
         estimate=estimate, covariance=covariance, d=4.0, r_comm=15.0, chase_start=5.0,
         meta=meta if meta is not None else {"scenario": "synthetic", "model": "ct"},

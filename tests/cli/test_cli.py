@@ -1,9 +1,11 @@
-import csv
 import json
 
+import pyarrow.parquet as pq
 from click.testing import CliRunner
 
+from swarmtrack.analysis.metrics import summary
 from swarmtrack.cli import main
+from swarmtrack.sim.recorder import Recording
 
 SHORT = ["--set", "duration=6", "--set", "target.profile=l23"]
 
@@ -13,15 +15,15 @@ def test_run_writes_resolved_scenario_metrics_timeseries_and_figures(tmp_path):
     res = CliRunner().invoke(main, ["run", "l24-cv", "--out", str(out), "--seed", "4", *SHORT])
     assert res.exit_code == 0, res.output
     assert "RMSE" in res.output
-    assert {p.name for p in out.iterdir()} >= {"scenario.yaml", "metrics.json", "timeseries.csv", "estimates.png",
+    assert {p.name for p in out.iterdir()} >= {"scenario.yaml", "metrics.json", "recording", "estimates.png",
                                                 "inter_agent_distances.png"}
     metrics = json.loads((out / "metrics.json").read_text())
     assert set(metrics["rmse"]["total"]) == {"x", "y", "vx", "vy"}
-    with open(out / "timeseries.csv") as fh:
-        rows = list(csv.DictReader(fh))
-    assert len(rows) == 3 * 120
-    expected = {"t", "agent", "x_true", "y_true", "vx_true", "vy_true", "x_est", "y_est", "vx_est", "vy_est"}
-    assert expected <= set(rows[0])
+    rec = Recording.load(out / "recording")
+    assert rec.estimate.shape == (120, 3, 4) and rec.uav.shape == (120, 3, 4) and rec.target.shape == (120, 4)
+    assert summary(rec) == metrics  # the metrics are those of the recording on disk
+    rows = pq.read_table(out / "recording" / "uavs.parquet")
+    assert rows.num_rows == 3 * 120 and {"step", "uav", "estimate", "covariance"} <= set(rows.column_names)
     assert "seed: 4" in (out / "scenario.yaml").read_text()
 
 
@@ -29,7 +31,8 @@ def test_same_seed_same_numbers_bit_for_bit(tmp_path):
     a, b = tmp_path / "a", tmp_path / "b"
     for out in (a, b):
         assert CliRunner().invoke(main, ["run", "l24-ct", "--out", str(out), "--no-plots", *SHORT]).exit_code == 0
-    assert (a / "timeseries.csv").read_bytes() == (b / "timeseries.csv").read_bytes()
+    for name in ("uavs.parquet", "objects.parquet", "meta.json"):
+        assert (a / "recording" / name).read_bytes() == (b / "recording" / name).read_bytes()
 
 
 def test_bad_input_exits_2_with_one_message_and_writes_nothing(tmp_path):
@@ -63,5 +66,5 @@ def test_impossible_spawn_box_is_a_clear_error(tmp_path):
 
 def test_a_run_that_never_chases_still_reports(tmp_path):
     res = CliRunner().invoke(main, ["run", "l24-cv", "--out", str(tmp_path / "o"), "--no-plots",
-                                    "--set", "duration=3", "--set", "flocking.chase_after_steps=1000000"])
+                                    "--set", "duration=3", "--set", "controller.chase_after_steps=1000000"])
     assert res.exit_code == 0, res.output

@@ -10,9 +10,12 @@ from swarmtrack.estimation.information import (
     predict,
     recover,
 )
+from swarmtrack.estimation.information import InformationEstimator as OnboardEstimators
 from swarmtrack.estimation.kalman import ekf_predict, ekf_update
 from swarmtrack.models import make_model
+from swarmtrack.network.messages import Inbox
 from swarmtrack.network.topology import adjacency
+from swarmtrack.sensors.detections import Detections
 from swarmtrack.sensors.range_bearing import (
     measure,
     polar_model,
@@ -20,7 +23,6 @@ from swarmtrack.sensors.range_bearing import (
     to_position,
     wrap_angle,
 )
-from swarmtrack.sim.agent import OnboardEstimators
 
 SIG = (0.08, 0.02)
 
@@ -81,8 +83,10 @@ def test_information_filter_equals_covariance_ekf(mode, model_name):
 
 
 def _step_bank(bank, nav_pos, z, links, t):
-    own = bank.predict_and_measure(nav_pos, z)
-    bank.fuse(own, links, t)
+    n = len(z)
+    own = Detections(np.arange(n), z, nav_pos, np.zeros(n, dtype=int), n)
+    outbox = bank.share(t, nav_pos, own)
+    bank.fuse(t, own, Inbox(links, outbox))
     return bank.estimates()
 
 

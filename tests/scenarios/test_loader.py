@@ -52,11 +52,11 @@ def test_yaml_file_with_unknown_key(tmp_path):
 
 
 def test_unknown_flocking_gain_and_bad_gain_value_are_named():
-    with pytest.raises(ScenarioError, match="flocking.gains: unknown gain"):
-        load_scenario("l24-cv", ["flocking.gains.K_zz=1"])
-    with pytest.raises(ScenarioError, match="flocking.gains: eps must be in"):
-        load_scenario("l24-cv", ["flocking.gains.eps=2"])
-    assert load_scenario("l24-cv", ["flocking.gains.K_int=0.3"]).flocking.gains == {"K_int": 0.3}
+    with pytest.raises(ScenarioError, match="controller.gains: unknown gain"):
+        load_scenario("l24-cv", ["controller.gains.K_zz=1"])
+    with pytest.raises(ScenarioError, match="controller.gains: eps must be in"):
+        load_scenario("l24-cv", ["controller.gains.eps=2"])
+    assert load_scenario("l24-cv", ["controller.gains.K_int=0.3"]).controller.gains == {"K_int": 0.3}
 
 
 def test_runs_too_large_to_record_are_refused_before_running():

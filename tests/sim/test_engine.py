@@ -81,8 +81,8 @@ def test_divergence_stops_the_run_naming_uav_and_time():
 @pytest.mark.parametrize("name, extra", [
     ("l24-cv", []),  # compiled physics, flocking and CV filter
     ("l24-fs", []),  # compiled physics and flocking; the FS filter stays numpy
-    ("l24-cv", ["network.topology=proximity", "swarm.vehicle=double_integrator", "flocking.variant=integral"]),
-    ("l24-ct", ["flocking.follow=truth", "rates.control=50", "flocking.variant=standard"]),  # control ≠ estimation
+    ("l24-cv", ["network.topology=proximity", "swarm.vehicle=double_integrator", "controller.variant=integral"]),
+    ("l24-ct", ["controller.follow=truth", "rates.control=50", "controller.variant=standard"]),  # control ≠ estimation
 ])
 def test_compiled_cv_kernels_give_the_same_run_as_numpy(name, extra):
     common = ["duration=8", *extra]
@@ -107,7 +107,7 @@ def test_compiled_kernels_are_deterministic():
     ["network.topology=full", "estimator.share=measurements", "sensor.update=polar"],
     ["network.topology=proximity", "network.loss_probability=0.3"],
     ["estimator.kind=centralized", "swarm.vehicle=double_integrator", "kernels=numpy"],
-    ["network.topology=edges", "network.edges=[[1, 3]]", "swarm.n_uavs=4", "flocking.variant=standard"],
+    ["network.topology=edges", "network.edges=[[1, 3]]", "swarm.n_uavs=4", "controller.variant=standard"],
 ])
 def test_every_model_runs_with_every_option_and_tracks(model, options):
     rec = simulate(load_scenario("l24-cv", [f"estimator.model={model}", "duration=12", "sensor.latency=0",
@@ -120,12 +120,17 @@ def test_every_model_runs_with_every_option_and_tracks(model, options):
 def test_a_uav_out_of_sensor_range_learns_only_through_its_links(share):
     # hovering target at the origin; UAVs hold at 1, 5 and 9 m; only UAV 1 is within sensor range
     common = ["duration=6", "sensor.latency=0", "sensor.max_range=2", f"estimator.share={share}",
-              "target.profile=hover", "target.wind_std=0", "flocking.chase_after_steps=100000",
+              "target.profile=hover", "target.wind_std=0", "controller.chase_after_steps=100000",
               "swarm.initial_positions=[[1, 0], [5, 0], [9, 0]]", "estimator.model=cv"]
     line = simulate(load_scenario("l24-cv", [*common, "network.topology=line"]))
     full = simulate(load_scenario("l24-cv", [*common, "network.topology=full"]))
-    err = lambda rec: np.linalg.norm(rec.estimate[-1, :, :2] - rec.target[-1, :2], axis=1)  # noqa: E731
+
+    def err(rec):  # mean error over the last 2 s (one step's error is a few cm: sensor and navigation noise)
+        return np.linalg.norm(rec.estimate[-40:, :, :2] - rec.target[-40:, None, :2], axis=-1).mean(axis=0)
+
     var = np.trace(line.covariance[-1, :, :2, :2], axis1=1, axis2=2)
-    assert err(line)[0] < 0.05 and err(line)[1] < 0.05  # UAV 2 hears UAV 1
+    assert err(line)[0] < 0.08 and err(line)[1] < 0.08  # UAV 2 hears UAV 1
+    assert var[0] < 0.01 and var[1] < 0.01
     assert var[2] > 1e5  # UAV 3 hears only UAV 2, who saw nothing: prediction only
-    assert err(full).max() < 0.05  # with a link to UAV 1, UAV 3 converges too
+    assert err(full).max() < 0.08  # with a link to UAV 1, UAV 3 converges too
+    assert np.trace(full.covariance[-1, 2, :2, :2]) < 0.01

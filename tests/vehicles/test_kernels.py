@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from swarmtrack.scenarios import load_scenario
-from swarmtrack.sim.world import World
+from swarmtrack.sim.build import build
 from swarmtrack.vehicles import QuadrotorParams, double_integrator, kernels, quadrotor, velocity_tracking_accel
 
 DT = 0.01
@@ -28,75 +28,94 @@ def _random_quads(rng, m):
 ])
 @pytest.mark.parametrize("vehicle", ["quadrotor", "double_integrator"])
 def test_advance_equals_reference_steps(params, vehicle):
+    # one driven quadrotor (a target flying a profile) and n commanded vehicles of the given kind, plus one
+    # driven double integrator (a decoy) when the commanded ones are double integrators
     rng = np.random.default_rng(3)
     n, ticks, lag = 7, 300, 4
-    quads = _random_quads(rng, 1 + n if vehicle == "quadrotor" else 1)
-    points = np.ascontiguousarray(rng.normal(0, 3, (n, 4))) if vehicle == "double_integrator" else np.empty((0, 4))
-    v_cmd, a_ff, wind = (rng.normal(0, s, (ticks + 5, 2)) for s in (2.0, 0.5, 0.3))
-    gain = 1.5
-    history = np.zeros((lag, 1 + n, 2))
+    quad = vehicle == "quadrotor"
+    quads = _random_quads(rng, 1 + n if quad else 1)
+    points = np.ascontiguousarray(rng.normal(0, 3, (0 if quad else n + 1, 4)))
+    drivers = 1 if quad else 2
+    v_cmd, a_ff, wind = (rng.normal(0, s, (ticks + 5, drivers, 2)) for s in (2.0, 0.5, 0.3))
+    gains = np.array([1.5, 0.8][:drivers])
+    quad_driver = np.array([0] + [-1] * (n if quad else 0))
+    point_driver = np.array([] if quad else [-1] * n + [1], dtype=np.int64)
+    quad_obj = np.arange(len(quads))
+    point_obj = len(quads) + np.arange(len(points))
+    history = np.zeros((lag, len(quads) + len(points), 2))
     consts = kernels.params_tuple(params)
     ref_q, ref_p = quads.copy(order="F"), points.copy()
     ref_hist = history.copy()
     tick = 0
     while tick < ticks:
         cmd = rng.normal(0, 8, (n, 2))  # up to well beyond g·tan(max_tilt): the tilt clip
+        quad_cmd = np.zeros((len(quads), 2))
+        point_cmd = np.zeros((len(points), 2))
+        if quad:
+            quad_cmd[1:] = cmd
+        else:
+            point_cmd[:n] = cmd
         run = int(rng.integers(1, 6))
-        kernels.advance(quads, points, cmd, v_cmd, a_ff, wind, tick, run, gain, DT, consts, history)
+        kernels.advance(quads, points, quad_cmd, point_cmd, quad_driver, point_driver, v_cmd, a_ff, wind, gains,
+                        tick, run, DT, consts, history, quad_obj, point_obj)
         for k in range(tick, tick + run):
-            a = velocity_tracking_accel(v_cmd[k], ref_q[0, 2:4], a_ff[k], gain) + wind[k]
-            accel = np.concatenate([a[None], cmd]) if vehicle == "quadrotor" else a[None]
+            a = velocity_tracking_accel(v_cmd[k, 0], ref_q[0, 2:4], a_ff[k, 0], gains[0]) + wind[k, 0]
+            accel = np.concatenate([a[None], cmd]) if quad else a[None]
             ref_q = quadrotor.step(ref_q, accel, params, DT)
-            if vehicle == "double_integrator":
-                ref_p = double_integrator.step(ref_p, cmd, DT)
+            if not quad:
+                a = velocity_tracking_accel(v_cmd[k, 1], ref_p[n, 2:4], a_ff[k, 1], gains[1]) + wind[k, 1]
+                ref_p = double_integrator.step(ref_p, np.concatenate([cmd, a[None]]), DT)
             slot = ref_hist[(k + 1) % lag]
-            slot[0] = ref_q[0, :2]
-            slot[1:] = ref_q[1:, :2] if vehicle == "quadrotor" else ref_p[:, :2]
+            slot[:len(quads)] = ref_q[:, :2]
+            slot[len(quads):] = ref_p[:, :2]
         tick += run
         np.testing.assert_allclose(quads, ref_q, rtol=TOL, atol=TOL)
         np.testing.assert_allclose(points, ref_p, rtol=TOL, atol=TOL)
         np.testing.assert_allclose(history, ref_hist, rtol=TOL, atol=TOL)
-    if vehicle == "quadrotor":
+    if quad:
         assert np.abs(quads[1:, 4:6]).max() > 0.3  # the UAVs did reach large tilts
 
 
 def test_advance_refuses_ticks_beyond_the_sampled_profile():
     quads, hist = np.zeros((1, 8), order="F"), np.zeros((1, 1, 2))
-    profile = np.zeros((10, 2))
+    profile = np.zeros((10, 1, 2))
+    none = np.zeros(0, dtype=np.int64)
     with pytest.raises(IndexError):
-        kernels.advance(quads, np.empty((0, 4)), np.zeros((0, 2)), profile, profile, profile, 8, 3, 1.0, DT,
-                        kernels.params_tuple(QuadrotorParams()), hist)
+        kernels.advance(quads, np.empty((0, 4)), np.zeros((1, 2)), np.zeros((0, 2)), np.zeros(1, dtype=np.int64),
+                        none, profile, profile, profile, np.ones(1), 8, 3, DT, kernels.params_tuple(QuadrotorParams()),
+                        hist, np.zeros(1, dtype=np.int64), none)
+
+
+def _world(overrides, kernels_kind):
+    return build(load_scenario("l24-cv", [*overrides, f"kernels={kernels_kind}"])).world
 
 
 @pytest.mark.parametrize("vehicle", ["quadrotor", "double_integrator"])
 def test_world_advance_equals_world_steps(vehicle):
-    scn = load_scenario("l24-cv", [f"swarm.vehicle={vehicle}", "sensor.latency=0.15", "swarm.n_uavs=5",
-                                   "target.wind_std=0.5"])
-    ref = World(scn, np.random.default_rng(1), DT, 20.0)
-    fast = World(scn, np.random.default_rng(1), DT, 20.0, compiled=True)
+    common = [f"swarm.vehicle={vehicle}", "sensor.latency=0.15", "swarm.n_uavs=5", "target.wind_std=0.5",
+              "decoys.members=[{profile: l23, start: [3, 3]}]", "decoys.vehicle=double_integrator"]
+    ref, fast = _world(common, "numpy"), _world(common, "compiled")
     rng = np.random.default_rng(2)
     for _ in range(300):
         cmd = rng.normal(0, 3, (5, 2))
         for _ in range(5):
-            ref.step(cmd)
-        fast.advance(cmd, 5)
-        np.testing.assert_allclose(fast.uavs, ref.uavs, rtol=TOL, atol=TOL)
-        np.testing.assert_allclose(fast.target, ref.target, rtol=TOL, atol=TOL)
+            ref.advance({"uavs": cmd}, 1)
+        fast.advance({"uavs": cmd}, 5)
+        np.testing.assert_allclose(fast.truth(), ref.truth(), rtol=TOL, atol=TOL)
     assert fast.t == ref.t and fast._tick == ref._tick == 1500
     np.testing.assert_allclose(fast._history, ref._history, rtol=TOL, atol=TOL)
     # the delayed measurements read the same ring buffer slot
-    z_ref, pose_ref, _ = ref.measure_target()
-    z_fast, pose_fast, _ = fast.measure_target()
-    np.testing.assert_allclose(z_fast, z_ref, rtol=TOL, atol=TOL)
-    np.testing.assert_allclose(pose_fast, pose_ref, rtol=TOL, atol=TOL)
+    det_ref, src_ref = ref.sense()
+    det_fast, src_fast = fast.sense()
+    np.testing.assert_allclose(det_fast.z, det_ref.z, rtol=TOL, atol=TOL)
+    np.testing.assert_allclose(det_fast.sensor_pos, det_ref.sensor_pos, rtol=TOL, atol=TOL)
+    assert np.array_equal(src_ref, src_fast) and len(det_ref) == 5 * 2  # every UAV sees the target and the decoy
 
 
 def test_numpy_world_advance_is_the_reference_loop():
-    scn = load_scenario("l24-cv", ["swarm.n_uavs=2"])
-    a = World(scn, np.random.default_rng(0), DT, 5.0)
-    b = World(scn, np.random.default_rng(0), DT, 5.0)
+    a, b = _world(["swarm.n_uavs=2"], "numpy"), _world(["swarm.n_uavs=2"], "numpy")
     cmd = np.array([[1.0, -0.5], [0.2, 0.3]])
-    a.advance(cmd, 7)
+    a.advance({"uavs": cmd}, 7)
     for _ in range(7):
-        b.step(cmd)
-    assert np.array_equal(a.uavs, b.uavs) and np.array_equal(a.target, b.target) and a.t == b.t
+        b.advance({"uavs": cmd}, 1)
+    assert np.array_equal(a.truth(), b.truth()) and a.t == b.t

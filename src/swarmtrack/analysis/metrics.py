@@ -3,113 +3,231 @@
 Conventions (L24 Tables 1-3, L23 Table 1): a statistic is computed per UAV and then averaged over the UAVs.
 Steps before the chase starts (the first 20 filter iterations, when the filter starts from no information)
 are left out of the RMSE and spread, so that the numbers describe tracking, not initialisation.
+
+Every metric streams over the recording's chunks (:meth:`Recording.chunks`) with accumulators of O(N) per
+quantity (O(pairs) for the spacing metrics), never steps × N, so it works on recordings larger than memory.
+Inter-agent spacing is measured over every pair for swarms of up to :data:`ALL_PAIRS_UP_TO` UAVs; for larger
+swarms over the neighbour pairs (closer than r_comm) of each step, from a KD-tree (see :func:`spacing`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from swarmtrack.sim.recorder import Recording
+from swarmtrack.sim.recorder import Chunk, Recording
 
 COMPONENTS = ("x", "y", "vx", "vy")
+#: Up to this many UAVs the spacing metrics follow every pair (P = N(N−1)/2 accumulators).
+ALL_PAIRS_UP_TO = 64
 
 
-def _window(rec: Recording) -> np.ndarray:
-    """Steps after the chase starts (all steps if it never does)."""
-    keep = rec.t >= rec.chase_start - 1e-9
-    return keep if keep.any() else np.ones_like(keep)
+def _window(rec: Recording, t: np.ndarray) -> np.ndarray:
+    """Steps after the chase starts (all steps if it never does, judged on the whole run)."""
+    if rec.t_last < rec.chase_start - 1e-9:
+        return np.ones(len(t), dtype=bool)
+    return t >= rec.chase_start - 1e-9
+
+
+def _errors(rec: Recording, c: Chunk) -> np.ndarray:
+    """(k, N, 4) estimate minus truth of the tracked target's [x, y, vx, vy]."""
+    return c.probes["estimate"][..., :4] - c.truth[:, rec.tracked, None, :]
 
 
 def errors(rec: Recording) -> np.ndarray:
-    """(K, N, 4) estimate minus truth of [x, y, vx, vy]."""
+    """(K, N, 4) estimate minus truth of [x, y, vx, vy] (whole run in memory: for plots of small runs)."""
     return rec.estimate - rec.target[:, None, :]
+
+
+class _Moments:
+    """Running count, mean and M2 per element (Chan et al.'s pairwise combination: exact and stable)."""
+
+    def __init__(self):
+        self.n, self.mean, self.m2 = 0, 0.0, 0.0
+
+    def add(self, x: np.ndarray) -> None:
+        """Add samples along axis 0."""
+        k = len(x)
+        if not k:
+            return
+        mean = x.mean(axis=0)
+        m2 = ((x - mean) ** 2).sum(axis=0)
+        n = self.n + k
+        delta = mean - self.mean
+        self.mean = self.mean + delta * (k / n)
+        self.m2 = self.m2 + m2 + delta**2 * (self.n * k / n)
+        self.n = n
+
+    @property
+    def std(self):
+        return np.sqrt(self.m2 / self.n)
 
 
 def rmse_table(rec: Recording) -> dict[str, dict[str, float]]:
     """RMSE per phase and in total, per component, mean over UAVs (L24 Tables 1-3), in metres and m/s."""
-    err = errors(rec)
-    keep = _window(rec)
+    names = rec.phase_names
+    sq = np.zeros((len(names) + 1, rec.n_agents, 4))
+    count = np.zeros(len(names) + 1)
+    for c in rec.chunks():
+        keep = _window(rec, c.t)
+        e2 = _errors(rec, c)[keep] ** 2
+        phase = c.phase[keep, rec.tracked]
+        for p in np.unique(phase):
+            sel = phase == p
+            sq[p] += e2[sel].sum(axis=0)
+            count[p] += sel.sum()
+        sq[-1] += e2.sum(axis=0)
+        count[-1] += len(e2)
     table = {}
-    groups = [(name, keep & (rec.phase == p)) for p, name in enumerate(rec.phase_names)] + [("total", keep)]
-    for name, mask in groups:
-        if not mask.any():
-            continue
-        per_uav = np.sqrt(np.mean(err[mask] ** 2, axis=0))  # (N, 4)
-        table[name] = dict(zip(COMPONENTS, per_uav.mean(axis=0).tolist(), strict=True))
+    for p, name in enumerate([*names, "total"]):
+        if count[p]:
+            per_uav = np.sqrt(sq[p] / count[p])  # (N, 4)
+            table[name] = dict(zip(COMPONENTS, per_uav.mean(axis=0).tolist(), strict=True))
     return table
 
 
 def spread_table(rec: Recording) -> dict[str, float]:
     """Standard deviation over time of each UAV's estimation error, mean over UAVs (L23 Table 1)."""
-    err = errors(rec)[_window(rec)]
-    return dict(zip(COMPONENTS, err.std(axis=0).mean(axis=0).tolist(), strict=True))
+    mom = _Moments()
+    for c in rec.chunks():
+        mom.add(_errors(rec, c)[_window(rec, c.t)])
+    return dict(zip(COMPONENTS, mom.std.mean(axis=0).tolist(), strict=True))
 
 
 def reported_std(rec: Recording) -> dict[str, float]:
     """The filters' own standard deviation ``sqrt(P_ii)``, mean over time and UAVs (compare with the spread)."""
-    sd = np.sqrt(np.diagonal(rec.covariance[_window(rec)], axis1=-2, axis2=-1)).mean(axis=(0, 1))
-    return dict(zip(COMPONENTS, sd.tolist(), strict=True))
+    total, n = 0.0, 0
+    for c in rec.chunks():
+        cov = c.probes["covariance"][_window(rec, c.t)]
+        total = total + np.sqrt(np.diagonal(cov[..., :4, :4], axis1=-2, axis2=-1)).sum(axis=(0, 1))
+        n += cov.shape[0] * cov.shape[1]
+    return dict(zip(COMPONENTS, (total / n).tolist(), strict=True))
 
 
 def nees(rec: Recording) -> float:
     """Mean normalised estimation error squared of [x, y, vx, vy] (4 for a consistent filter)."""
-    err = errors(rec)[_window(rec)]
-    cov = rec.covariance[_window(rec)]
-    sol = np.linalg.solve(cov, err[..., None])[..., 0]
-    return float(np.mean(np.einsum("...a,...a->...", err, sol)))
+    total, n = 0.0, 0
+    for c in rec.chunks():
+        keep = _window(rec, c.t)
+        err = _errors(rec, c)[keep]
+        cov = c.probes["covariance"][keep][..., :4, :4]
+        sol = np.linalg.solve(cov, err[..., None])[..., 0]
+        total += float(np.sum(err * sol))
+        n += err.shape[0] * err.shape[1]
+    return total / n
 
 
 def target_distances(rec: Recording) -> np.ndarray:
-    """(K, N) true distance of every UAV to the target."""
+    """(K, N) true distance of every UAV to the tracked target (whole run in memory: for plots)."""
     return np.linalg.norm(rec.uav[:, :, :2] - rec.target[:, None, :2], axis=-1)
 
 
 def pair_distances(rec: Recording) -> np.ndarray:
-    """(K, P) true distance of every UAV pair (i < j)."""
+    """(K, P) true distance of every UAV pair (i < j) (whole run in memory: for plots of small swarms)."""
     i, j = np.triu_indices(rec.n_agents, 1)
     return np.linalg.norm(rec.uav[:, i, :2] - rec.uav[:, j, :2], axis=-1)
 
 
-def spacing_offset(rec: Recording, last: float = 10.0) -> float:
-    """Steady-state inter-agent distance offset: mean, over the pairs that are neighbours at the end (mean
-    distance over the last ``last`` seconds below r_comm), of ``|mean distance − d|``.
+def _pairs_of(q: np.ndarray) -> np.ndarray:
+    """(k, P) distances of every pair i < j, positions (k, N, 2)."""
+    i, j = np.triu_indices(q.shape[1], 1)
+    return np.linalg.norm(q[:, i] - q[:, j], axis=-1)
 
-    Flocking regulates neighbours only (a_ij = 0 beyond r_comm), so a chain whose outer pair lies beyond r_comm
-    is a valid α-lattice, not an offset; :func:`open_pairs` counts such pairs.
+
+def spacing(rec: Recording, last: float = 10.0) -> dict:
+    """Inter-agent spacing (L23 Fig. 1, L24 Fig. 7), streamed.
+
+    ``min``: smallest distance of any pair at any step. ``offset``: steady-state distance offset, the mean over
+    the pairs that are neighbours at the end (mean distance over the last ``last`` seconds below r_comm) of
+    ``|mean distance − d|``; flocking regulates neighbours only (a_ij = 0 beyond r_comm), so a chain whose outer
+    pair lies beyond r_comm is a valid α-lattice, not an offset: ``open_pairs`` counts such pairs.
+    ``overshoot``: largest ``|distance − d|`` of any pair after that pair's distance first crosses d.
+
+    Above :data:`ALL_PAIRS_UP_TO` UAVs: ``min`` from each step's nearest neighbours, ``offset`` the mean over
+    the last ``last`` seconds of the mean ``|distance − d|`` over each step's neighbour pairs, and no
+    ``open_pairs``/``overshoot`` (None): they follow pairs through time, which a large swarm's changing
+    neighbourhoods do not define.
     """
-    mean = pair_distances(rec)[rec.t >= rec.t[-1] - last].mean(axis=0)
+    n = rec.n_agents
+    if n < 2:
+        return {"min": None, "offset": None, "open_pairs": 0, "overshoot": None}
+    if n > ALL_PAIRS_UP_TO:
+        return _neighbour_spacing(rec, last)
+    tail_from = rec.t_last - last
+    d_min, tail_sum, tail_n = np.inf, 0.0, 0
+    sign = crossed = None
+    over = np.zeros(n * (n - 1) // 2)
+    for c in rec.chunks():
+        dist = _pairs_of(c.truth[:, rec.uav_slice, :2])
+        d_min = min(d_min, float(dist.min()))
+        tail = c.t >= tail_from
+        tail_sum = tail_sum + dist[tail].sum(axis=0)
+        tail_n += int(tail.sum())
+        dev = dist[_window(rec, c.t)] - rec.d
+        for row in dev:  # a pair counts after its first sign change (the crossing of d)
+            s = np.sign(row)
+            if sign is None:
+                sign, crossed = s, np.zeros(len(s), dtype=bool)
+                continue
+            crossed |= s != sign
+            sign = s
+            over = np.where(crossed, np.maximum(over, np.abs(row)), over)
+    mean = tail_sum / tail_n
     near = mean < rec.r_comm
-    return float(np.mean(np.abs(mean[near] - rec.d))) if near.any() else float("nan")
+    return {"min": d_min, "offset": float(np.mean(np.abs(mean[near] - rec.d))) if near.any() else float("nan"),
+            "open_pairs": int(np.sum(~near)), "overshoot": float(over.max())}
+
+
+def _neighbour_spacing(rec: Recording, last: float) -> dict:
+    from scipy.spatial import cKDTree
+
+    tail_from = rec.t_last - last
+    d_min, offsets = np.inf, []
+    for c in rec.chunks():
+        for t, q in zip(c.t, c.truth[:, rec.uav_slice, :2], strict=True):
+            tree = cKDTree(q)
+            d_min = min(d_min, float(tree.query(q, k=2)[0][:, 1].min()))
+            if t >= tail_from:
+                pairs = tree.query_pairs(rec.r_comm, output_type="ndarray")
+                if len(pairs):
+                    dist = np.linalg.norm(q[pairs[:, 0]] - q[pairs[:, 1]], axis=1)
+                    offsets.append(float(np.mean(np.abs(dist[dist < rec.r_comm] - rec.d))))
+    return {"min": d_min, "offset": float(np.mean(offsets)) if offsets else float("nan"), "open_pairs": None,
+            "overshoot": None}
+
+
+def spacing_offset(rec: Recording, last: float = 10.0) -> float:
+    """Steady-state inter-agent distance offset (see :func:`spacing`)."""
+    return spacing(rec, last)["offset"]
 
 
 def open_pairs(rec: Recording, last: float = 10.0) -> int:
     """Pairs that end beyond r_comm (not neighbours): a chain instead of a closed formation."""
-    mean = pair_distances(rec)[rec.t >= rec.t[-1] - last].mean(axis=0)
-    return int(np.sum(mean >= rec.r_comm))
+    return spacing(rec, last)["open_pairs"]
 
 
 def spacing_overshoot(rec: Recording) -> float:
     """Largest ``|distance − d|`` of any pair after that pair's distance first crosses d (L23 Fig. 1)."""
-    dev = pair_distances(rec)[_window(rec)] - rec.d
-    crossed = np.cumsum(np.diff(np.sign(dev), axis=0) != 0, axis=0) > 0
-    after = np.where(crossed, np.abs(dev[1:]), 0.0)
-    return float(after.max()) if after.size else 0.0
+    return spacing(rec)["overshoot"]
+
+
+def _target_distance(rec: Recording) -> dict:
+    total, n, far = 0.0, 0, 0.0
+    for c in rec.chunks():
+        keep = _window(rec, c.t)
+        dist = np.linalg.norm(c.truth[keep][:, rec.uav_slice, :2] - c.truth[keep][:, rec.tracked, None, :2], axis=-1)
+        total += float(dist.sum())
+        n += dist.size
+        far = max(far, float(dist.max())) if dist.size else far
+    return {"mean": total / n, "max": far}
 
 
 def summary(rec: Recording) -> dict:
     """All scalar metrics of one run, JSON-ready."""
-    td = target_distances(rec)[_window(rec)]
-    pd = pair_distances(rec)
     return {
         "rmse": rmse_table(rec),
         "spread": spread_table(rec),
         "reported_std": reported_std(rec),
         "nees": nees(rec),
-        "target_distance": {"mean": float(td.mean()), "max": float(td.max())},
-        "inter_agent_distance": {
-            "min": float(pd.min()) if pd.size else float("nan"),
-            "offset": spacing_offset(rec) if pd.size else float("nan"),
-            "open_pairs": open_pairs(rec) if pd.size else 0,
-            "overshoot": spacing_overshoot(rec) if pd.size else float("nan"),
-        },
+        "target_distance": _target_distance(rec),
+        "inter_agent_distance": spacing(rec),
     }

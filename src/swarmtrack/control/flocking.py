@@ -294,3 +294,44 @@ def flocking_control(
         new_v[act] += dt * ep[act]
     new_state = replace(state, e_int_integral=new_e, v_int_integral=new_v)
     return _clip_norm(u, g.accel_limit), new_state
+
+
+class FlockingController:
+    """Onboard flocking (L24 Sec. 2): each UAV beacons its own navigation state and follows its own estimate of
+    the target, holding position until ``chase_after`` seconds (the first filter iterations, L24 Sec. 4).
+
+    ``compiled``: the numba kernel :func:`swarmtrack.control.kernels.flocking_control_compiled` instead of the numpy
+    reference :func:`flocking_control` (same numbers to rounding).
+    """
+
+    probes = ()
+
+    def __init__(self, gains: FlockingGains, variant: str, n_uavs: int, chase_after: float, *,
+                 compiled: bool = False):
+        self.gains, self.variant, self.chase_after = gains, variant, chase_after
+        self.state = FlockingState.zeros(n_uavs)
+        if compiled:
+            from swarmtrack.control import kernels
+
+            self._control = kernels.flocking_control_compiled
+            self._extra = {"gain_vec": kernels.gain_vector(gains)}
+        else:
+            self._control, self._extra = flocking_control, {}
+
+    def broadcast(self, t: float, nav: np.ndarray) -> dict:
+        """Beacon: own position and velocity (what ``a_ij`` and the velocity consensus need)."""
+        return {"nav": nav}
+
+    def command(self, t: float, nav: np.ndarray, view, inbox, dt: float) -> np.ndarray:
+        """Acceleration command (N, 2): UAV i uses beacon j only where its inbox has a link from j."""
+        # row j of the beacons is UAV j's own navigation state (row i: this UAV's own); the pair terms read
+        # row j only where the link i <- j delivered it
+        beacons = inbox.payloads["nav"]
+        active = np.full(nav.shape[0], t >= self.chase_after)
+        target = view.state
+        u, self.state = self._control(beacons[:, :2], beacons[:, 2:4], target[:, :2], target[:, 2:4], inbox.links,
+                                      self.state, self.gains, self.variant, dt, active=active, **self._extra)
+        return u
+
+    def sample(self) -> dict[str, np.ndarray]:
+        return {}

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from swarmtrack.estimation.base import Probe, TargetView
 from swarmtrack.models.base import MotionModel
 from swarmtrack.sensors.range_bearing import polar_model, position_covariance, to_position, wrap_angle
 
@@ -135,3 +136,113 @@ def check_information(Y: np.ndarray, y: np.ndarray, t: float) -> None:
             bad = np.linalg.eigvalsh(Y)[..., 0] <= 0.0
             raise FilterDivergence(np.flatnonzero(bad), t, "information matrix is not positive definite") from None
     raise FilterDivergence(np.flatnonzero(bad), t, "non-finite information")
+
+
+class InformationEstimator:
+    """One information-form EKF per UAV (L24 Sec. 3) or, with ``centralized``, a single fusion centre over every
+    UAV's measurement (the baseline). Follows the object its sensor labels ``label``.
+
+    ``share: information``: each UAV broadcasts its own contribution ``I_i, i_i`` (L24 eq. 6) and adds what its
+    links deliver (eq. 7). ``share: measurements``: each UAV broadcasts its raw measurement and the position it
+    was taken from, and linearises every received one at its own prediction. ``compiled``: the numba CV kernels
+    (:mod:`swarmtrack.estimation.kernels`, same numbers as the numpy reference) for the CV model with the
+    position update.
+    """
+
+    def __init__(self, model: MotionModel, update: RangeBearingUpdate, n_uavs: int, *, label: int = 0,
+                 share: str = "information", centralized: bool = False, initial_info: float = 1e-6,
+                 fake_vz_sigma: float | None = None, compiled: bool = False):
+        self.model, self.update_rule, self.share_mode, self.centralized = model, update, share, centralized
+        self.n, self.label = n_uavs, label
+        n_filters = 1 if centralized else n_uavs
+        Y, y = initial_information(model, n_filters, initial_info)
+        self.x, self.P = recover(Y, y)
+        self.compiled = compiled and model.name == "cv" and update.mode == "position" and not centralized
+        if self.compiled:
+            self._Y, self._y, self._q = Y, y, np.ascontiguousarray(np.diag(model.Q))
+        self._x_pred = self.x
+        self._Y_pred, self._y_pred = Y, y
+        self._vz = None
+        if fake_vz_sigma is not None and hasattr(model, "VZ_INDEX"):
+            self._vz = (model.VZ_INDEX, 1.0 / fake_vz_sigma**2)
+        self._own = None
+        self.probes = (Probe("estimate", (model.dim,)), Probe("covariance", (model.dim, model.dim)))
+
+    def share(self, t: float, nav: np.ndarray, own) -> dict:
+        """Predict (L24 Sec. 3.1) and compute this UAV's own contribution (L24 eq. 6) for broadcast; a UAV that
+        did not detect its target contributes zero information."""
+        z, pos, seen = own.of_label(self.label)
+        if self.compiled:
+            from swarmtrack.estimation import kernels
+
+            self._x_pred = kernels.cv_predicted_position(self.x, self.model.dt)
+            u = self.update_rule
+            I, i = kernels.cv_position_contributions(self._x_pred, pos, z, u.sigma_range, u.sigma_bearing,
+                                                     u.min_range)
+        else:
+            self._Y_pred, self._y_pred, self._x_pred = predict(self.model, self.x, self.P)
+            x_pos = self._x_pred[:, :2]
+            if self.centralized:  # the fusion centre linearises everything at its own prediction
+                x_pos = np.broadcast_to(x_pos, pos.shape)
+            I, i = self.update_rule.contributions(x_pos, pos, z)
+        I[~seen] = 0.0  # unseen rows are NaN
+        i[~seen] = 0.0
+        self._own = {"info_matrix": I, "info_vector": i, "z": z, "sensor_pos": pos, "seen": seen}
+        return self._own if self.share_mode == "information" or self.centralized else {
+            "z": z, "sensor_pos": pos, "seen": seen}
+
+    def fuse(self, t: float, own, inbox) -> None:
+        """Update (L24 eq. 7): own information plus what the links delivered."""
+        mine = self._own
+        if self.centralized:  # the baseline's centre receives every measurement
+            I = mine["info_matrix"].sum(axis=0, keepdims=True)
+            i = mine["info_vector"].sum(axis=0, keepdims=True)
+        elif self.share_mode == "information":
+            I = mine["info_matrix"] + inbox.sum("info_matrix")
+            i = mine["info_vector"] + inbox.sum("info_vector")
+        else:
+            I, i = self._received_measurements(inbox)
+        if self.compiled:
+            from swarmtrack.estimation import kernels
+
+            flags = kernels.cv_cycle(self._Y, self._y, self.x, self.P, self.model.dt, self._q,
+                                     np.ascontiguousarray(I), np.ascontiguousarray(i))
+            kernels.check_flags(flags, t)
+            return
+        Y, y = add_position_information(self._Y_pred, self._y_pred, I, i)
+        if self._vz is not None:  # L24's fake vz = 0 measurement, local to every filter
+            k, w_vz = self._vz
+            Y[:, k, k] += w_vz
+        check_information(Y, y, t)
+        self.x, self.P = recover(Y, y)
+
+    def _received_measurements(self, inbox):
+        """Raw measurements: each UAV linearises its own and every delivered measurement at its own prediction
+        and sums their information (per link, then per receiver)."""
+        got = inbox.payloads
+        recv, send = inbox.edges()
+        recv = np.concatenate([np.arange(self.n), recv])  # own measurement first
+        send = np.concatenate([np.arange(self.n), send])
+        keep = got["seen"][send]
+        recv, send = recv[keep], send[keep]
+        Ipair, ipair = self.update_rule.contributions(self._x_pred[recv, :2], got["sensor_pos"][send],
+                                                      got["z"][send])
+        I = np.zeros((self.n, 2, 2))
+        i = np.zeros((self.n, 2))
+        np.add.at(I, recv, Ipair)
+        np.add.at(i, recv, ipair)
+        return I, i
+
+    def estimates(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every UAV's current estimate (N, n) and covariance (N, n, n)."""
+        if self.centralized:
+            return (np.broadcast_to(self.x, (self.n, self.model.dim)),
+                    np.broadcast_to(self.P, (self.n, self.model.dim, self.model.dim)))
+        return self.x, self.P
+
+    def view(self) -> TargetView:
+        return TargetView(self.estimates()[0][:, :4])
+
+    def sample(self) -> dict[str, np.ndarray]:
+        x, P = self.estimates()
+        return {"estimate": x, "covariance": P}

@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, SerializeAsAny, ValidationInfo, field_validator, model_validator
 
 
 class _Strict(BaseModel):
@@ -29,20 +29,54 @@ class PhaseSpec(_Strict):
     phi: Vec2 = Field((0.0, 0.0), description="sinusoid phase, rad")
 
 
-class TargetSpec(_Strict):
+class MemberSpec(_Strict):
+    """One driven vehicle (a target or a decoy): where it starts and the velocity profile its autopilot flies."""
+
     profile: Literal["l24", "l23", "hover", "custom"] = Field(
         "l24", description="l24: linear, sinusoidal, circular (SPEC durations 40, 62.8, 50.3 s); l23: sinusoidal")
     phases: list[PhaseSpec] = Field(default_factory=list, description="with profile: custom")
     hover_duration: float = Field(60.0, gt=0, description="s, with profile: hover")
     start: Vec2 = Field((0.0, 0.0), description="initial position, m")
-    velocity_gain: float = Field(1.5, gt=0, description="target autopilot velocity-loop gain, 1/s (chosen)")
-    wind_std: float = Field(0.05, ge=0, description="random acceleration disturbance std, m/s² (chosen)")
 
     @model_validator(mode="after")
     def _phases_for_custom(self):
         if self.profile == "custom" and not self.phases:
-            raise ValueError("target.phases must list at least one phase when target.profile is 'custom'")
+            raise ValueError("phases must list at least one phase when profile is 'custom'")
         return self
+
+    def profile_duration(self) -> float:
+        """Length of this member's velocity profile, s."""
+        if self.profile == "l24":
+            from swarmtrack.vehicles.profile import l24_profile
+
+            return l24_profile().total_duration
+        if self.profile == "l23":
+            from swarmtrack.vehicles.profile import l23_profile
+
+            return l23_profile().total_duration
+        return self.hover_duration if self.profile == "hover" else sum(p.duration for p in self.phases)
+
+
+class GroupSpec(_Strict):
+    """A named group of driven vehicles (``targets``, ``decoys``): one vehicle kind, any number of members, each
+    flying its own velocity profile through the same autopilot (feed-forward + P velocity loop) and wind."""
+
+    vehicle: Literal["quadrotor", "double_integrator"] = Field(
+        "quadrotor", description="quadrotor: Iris-like, attitude loop and tilt limits (L24); double_integrator")
+    velocity_gain: float = Field(1.5, gt=0, description="autopilot velocity-loop gain, 1/s (chosen)")
+    wind_std: float = Field(0.05, ge=0, description="random acceleration disturbance std, m/s² (chosen)")
+    members: list[MemberSpec] = Field(default_factory=list)
+
+
+#: Keys of the one-target shorthand ``target:`` that belong to the group rather than to its member.
+_GROUP_KEYS = ("vehicle", "velocity_gain", "wind_std")
+
+
+def _one_target(target: dict) -> dict:
+    """``target: {...}`` (one quadrotor target, capability 1's files) as the group ``targets``."""
+    group = {k: target[k] for k in _GROUP_KEYS if k in target}
+    group["members"] = [{k: v for k, v in target.items() if k not in _GROUP_KEYS}]
+    return group
 
 
 class SwarmSpec(_Strict):
@@ -83,29 +117,64 @@ class NetworkSpec(_Strict):
 
 
 class EstimatorSpec(_Strict):
-    kind: Literal["information", "centralized"] = "information"
+    """Base of every estimator's settings; ``kind`` picks the implementation (see :data:`ESTIMATOR_KINDS`)."""
+
+    kind: str
+
+
+class ControllerSpec(_Strict):
+    """Base of every controller's settings; ``kind`` picks the implementation (see :data:`CONTROLLER_KINDS`)."""
+
+    kind: str
+
+
+class FilterSpec(EstimatorSpec):
+    """An EKF over one target motion model, following the target ``target`` (1-based member of ``targets``,
+    recognised onboard by the label its sensor reports)."""
+
     share: Literal["information", "measurements"] = Field(
         "information", description="information: neighbours send I_j, i_j (L24 eq. 6); measurements: z_j and pose")
     model: Literal["cv", "ca", "ct", "fs"] = "ct"
     q: list[float] | None = Field(None, description="diagonal of Q; default: the paper's (L24 Sec. 4)")
     initial_information: float = Field(1e-6, gt=0, description="εI, the near-zero initial information")
     fake_vz_sigma: float = Field(0.05, gt=0, description="FS model: std of the fake vz = 0 measurement, m/s")
+    target: int = Field(1, ge=1, description="which member of the targets group the filter follows (1-based)")
 
     @field_validator("q")
     @classmethod
-    def _q_positive(cls, v):
+    def _q_positive(cls, v, info: ValidationInfo):
         if v is not None:
             for k, x in enumerate(v):
                 if not (math.isfinite(x) and x > 0):
                     raise ValueError(f"Q must be positive definite: diagonal entry {k} is {x}")
+            if "model" in info.data:
+                from swarmtrack.models import make_model
+
+                dim = make_model(info.data["model"], 0.05).dim
+                if len(v) != dim:
+                    raise ValueError(f"has {len(v)} entries; model {info.data['model']!r} has {dim} states")
         return v
 
 
-class FlockingSpec(_Strict):
+class InformationSpec(FilterSpec):
+    """Decentralized information-form EKF, one per UAV, fused over the topology's links (L24 Sec. 3)."""
+
+    kind: Literal["information"] = "information"
+
+
+class CentralizedSpec(FilterSpec):
+    """One fusion centre over every UAV's measurement (the baseline; ``share`` does not apply)."""
+
+    kind: Literal["centralized"] = "centralized"
+
+
+class FlockingSpec(ControllerSpec):
+    kind: Literal["flocking"] = "flocking"
     variant: Literal["standard", "integral", "tailored"] = "tailored"
     d: float = Field(4.0, gt=0, description="desired inter-agent distance, m")
     chase_after_steps: int = Field(20, ge=0, description="estimation steps before the UAVs start chasing (L24)")
-    follow: Literal["estimate", "truth"] = Field("estimate", description="what the target term follows")
+    follow: Literal["estimate", "truth"] = Field(
+        "estimate", description="what the target term follows; truth wires an oracle (not onboard) to the controller")
     gains: dict[str, float] = Field(default_factory=dict, description="overrides of FlockingGains fields")
 
     @field_validator("gains")
@@ -121,6 +190,26 @@ class FlockingSpec(_Strict):
             raise ValueError(f"unknown gain(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
         FlockingGains(**v)  # its own range checks (ε, h in (0, 1), positive lengths) raise a readable ValueError
         return v
+
+
+#: ``kind`` → settings class of every estimator and controller the scenario can pick; the simulator's builders
+#: are registered beside them (:func:`swarmtrack.sim.build.register`), so a new capability adds an entry here,
+#: not a branch in the engine.
+ESTIMATOR_KINDS: dict[str, type[EstimatorSpec]] = {"information": InformationSpec, "centralized": CentralizedSpec}
+CONTROLLER_KINDS: dict[str, type[ControllerSpec]] = {"flocking": FlockingSpec}
+
+
+def _by_kind(value, kinds: dict, default: str, base: type):
+    """Validate a ``kind``-tagged section with the settings class its kind names (a tagged union whose members
+    come from a registry, so a registered kind needs no change to this schema)."""
+    if isinstance(value, base):
+        return value
+    if not isinstance(value, dict):
+        raise ValueError("must be a mapping of keys to values")
+    kind = value.get("kind", default)
+    if kind not in kinds:
+        raise ValueError(f"unknown kind {kind!r}; known: {', '.join(sorted(kinds))}")
+    return kinds[kind].model_validate(value)
 
 
 class RatesSpec(_Strict):
@@ -141,30 +230,52 @@ class Scenario(_Strict):
     name: str = "custom"
     description: str = ""
     seed: int = Field(0, ge=0)
-    duration: float | None = Field(None, gt=0, description="s; default: the target profile's length")
+    duration: float | None = Field(None, gt=0, description="s; default: the longest driven member's profile")
     rates: RatesSpec = Field(default_factory=RatesSpec)
-    target: TargetSpec = Field(default_factory=TargetSpec)
+    targets: GroupSpec = Field(default_factory=lambda: GroupSpec(members=[MemberSpec()]), description=(
+        "the objects the swarm tracks; ``target: {...}`` is the shorthand for one quadrotor target"))
+    decoys: GroupSpec = Field(default_factory=GroupSpec, description="objects a sensor may confuse with targets")
     swarm: SwarmSpec = Field(default_factory=SwarmSpec)
     sensor: SensorSpec = Field(default_factory=SensorSpec)
     network: NetworkSpec = Field(default_factory=NetworkSpec)
-    estimator: EstimatorSpec = Field(default_factory=EstimatorSpec)
-    flocking: FlockingSpec = Field(default_factory=FlockingSpec)
+    estimator: SerializeAsAny[EstimatorSpec] = Field(default_factory=InformationSpec)
+    controller: SerializeAsAny[ControllerSpec] = Field(default_factory=FlockingSpec)
     kernels: Literal["auto", "numpy", "compiled"] = Field("auto", description=(
         "compiled numba fast paths (physics, flocking, CV position-update filter) that give the same numbers "
         "as the numpy reference; auto = compiled"))
 
+    @model_validator(mode="before")
+    @classmethod
+    def _shorthands(cls, data):
+        """``target:`` (one target) and ``flocking:`` (the controller of capability 1's first files)."""
+        if not isinstance(data, dict):
+            return data
+        data = dict(data)
+        for old, new, convert in (("target", "targets", _one_target),
+                                  ("flocking", "controller", lambda f: {"kind": "flocking", **f})):
+            if old in data:
+                if new in data:
+                    raise ValueError(f"give either {old!r} or {new!r}, not both")
+                section = data.pop(old)
+                data[new] = convert(section) if isinstance(section, dict) else section
+        return data
+
+    @field_validator("estimator", mode="before")
+    @classmethod
+    def _estimator_kind(cls, v):
+        return _by_kind(v, ESTIMATOR_KINDS, "information", EstimatorSpec)
+
+    @field_validator("controller", mode="before")
+    @classmethod
+    def _controller_kind(cls, v):
+        return _by_kind(v, CONTROLLER_KINDS, "flocking", ControllerSpec)
+
     def run_duration(self) -> float:
-        """Simulated time, s: ``duration`` or the length of the target's profile."""
+        """Simulated time, s: ``duration`` or the length of the longest driven member's profile."""
         if self.duration is not None:
             return self.duration
-        from swarmtrack.vehicles.profile import l23_profile, l24_profile
-
-        t = self.target
-        if t.profile == "l24":
-            return l24_profile().total_duration
-        if t.profile == "l23":
-            return l23_profile().total_duration
-        return t.hover_duration if t.profile == "hover" else sum(p.duration for p in t.phases)
+        members = self.targets.members + self.decoys.members
+        return max((m.profile_duration() for m in members), default=60.0)
 
     @model_validator(mode="after")
     def _cross_checks(self):
@@ -178,11 +289,7 @@ class Scenario(_Strict):
             for v in e:
                 if not 1 <= v <= n:
                     raise ValueError(f"network.edges names UAV {v}, but the swarm has UAVs 1..{n}")
-        if self.estimator.q is not None:
-            from swarmtrack.models import make_model
-
-            dim = make_model(self.estimator.model, 0.05).dim
-            if len(self.estimator.q) != dim:
-                raise ValueError(f"estimator.q has {len(self.estimator.q)} entries; model "
-                                 f"{self.estimator.model!r} has {dim} states")
+        tracked = getattr(self.estimator, "target", None)
+        if tracked is not None and tracked > len(self.targets.members):
+            raise ValueError(f"estimator.target is {tracked}, but targets has {len(self.targets.members)} member(s)")
         return self

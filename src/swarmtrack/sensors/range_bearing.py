@@ -121,3 +121,35 @@ def position_covariance(
     R[..., 1, 1] = var_r * s * s + var_t * c * c
     R[..., 0, 1] = R[..., 1, 0] = (var_r - var_t) * c * s
     return R
+
+
+def sense(
+    objects: np.ndarray,
+    uavs: np.ndarray,
+    stamped: np.ndarray,
+    sigma_range: float,
+    sigma_bearing: float,
+    rng: np.random.Generator,
+    max_range: float | None = None,
+):
+    """One range-bearing sensing step of every UAV towards every labelled object (truth side; L24 Sec. 3.2).
+
+    ``objects`` (M, 2) and ``uavs`` (N, 2) are true positions, ``stamped`` (N, 2) the navigation positions the
+    UAVs stamp on their measurements. The sensor is a cooperative one (a marker it can read), so each detection
+    carries its object's index as its label. Noise for every (UAV, object) pair is drawn from ``rng`` whether
+    or not the pair is in range, so the draws do not depend on the geometry. Returns the
+    :class:`~swarmtrack.sensors.detections.Detections` (UAV-major order) and, for the world only, the index of
+    the object each came from.
+    """
+    from swarmtrack.sensors.detections import Detections
+
+    n, m = len(uavs), len(objects)
+    z = measure(objects[None, :, :], uavs[:, None, :], sigma_range, sigma_bearing, rng)  # (N, M, 2)
+    owner, source = np.divmod(np.arange(n * m), m) if m else (np.zeros(0, int), np.zeros(0, int))
+    z = z.reshape(n * m, 2)
+    grid = m
+    if max_range is not None:
+        inside = np.hypot(*(objects[source] - uavs[owner]).T) <= max_range
+        owner, source, z = owner[inside], source[inside], z[inside]
+        grid = None
+    return Detections(owner, z, stamped[owner], source.copy(), n, grid), source

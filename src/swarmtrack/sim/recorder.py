@@ -1,61 +1,248 @@
-"""What a run leaves behind: a :class:`Recording` of truth and onboard estimates at every estimation step.
+"""What a run leaves behind: a :class:`Recording`, written by a :class:`Recorder` while the run goes.
 
-Analysis (metrics, plots, reproductions) reads recordings, never live simulator objects.
+Two tables, sampled at every estimation step: ``objects`` (one row per step and world object: the truth
+``[x, y, vx, vy]`` and the profile phase of every group's members, UAVs included) and ``uavs`` (one row per step
+and UAV: the probes the onboard components declare, e.g. the estimator's full ``estimate`` and ``covariance``).
+The recorder keeps them in memory (``path=None``, small runs and tests) or streams them to Parquet files in
+chunks of steps (one row group per chunk), so memory does not grow with duration × swarm size. Analysis
+(metrics, plots, reproductions) reads recordings through :meth:`Recording.chunks`, never live simulator objects.
 """
 
 from __future__ import annotations
 
-import csv
-from dataclasses import dataclass, field
+import json
+from collections.abc import Iterator
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-TIMESERIES_COLUMNS = (
-    "t", "phase", "agent",
-    "x_true", "y_true", "vx_true", "vy_true",
-    "x_est", "y_est", "vx_est", "vy_est",
-    "x_uav", "y_uav", "vx_uav", "vy_uav",
-)
+#: Version of the on-disk layout (``meta.json`` and the two Parquet files).
+FORMAT = 1
+#: Rows per chunk (a Parquet row group), about 8-40 MB of columns.
+CHUNK_ROWS = 1 << 18
 
 
-@dataclass
+@dataclass(frozen=True)
+class Chunk:
+    """Consecutive steps ``k0 .. k0 + k − 1``: ``t`` (k,), ``truth`` (k, M, 4), ``phase`` (k, M), ``probes``
+    ``name → (k, N, *shape)``."""
+
+    k0: int
+    t: np.ndarray
+    truth: np.ndarray
+    phase: np.ndarray
+    probes: dict[str, np.ndarray]
+
+
+class Recorder:
+    """Collects one row per step; ``probes`` maps each recorded UAV quantity to its shape per UAV."""
+
+    def __init__(self, meta: dict, n_objects: int, n_uavs: int, probes: dict[str, tuple[int, ...]],
+                 path: Path | None = None):
+        self.meta = {**meta, "format": FORMAT, "n_objects": n_objects, "n_uavs": n_uavs,
+                     "probes": {k: list(v) for k, v in probes.items()}}
+        self.n_objects, self.n_uavs, self.probes = n_objects, n_uavs, probes
+        self.chunk_steps = max(1, CHUNK_ROWS // max(n_objects, n_uavs, 1))
+        self.path = path
+        self._buf: list[tuple] = []
+        self._mem: list[Chunk] = []
+        self._writers = None
+        self._steps = 0
+        self._t_last = 0.0
+
+    def record(self, t: float, truth: np.ndarray, phase: np.ndarray, probes: dict[str, np.ndarray]) -> None:
+        """Append one step (arrays are copied)."""
+        self._buf.append((t, np.array(truth, dtype=float), np.array(phase, dtype=np.int16),
+                          {k: np.array(probes[k], dtype=float) for k in self.probes}))
+        if len(self._buf) == self.chunk_steps:
+            self._flush()
+
+    def _flush(self) -> None:
+        if not self._buf:
+            return
+        t, truth, phase, probes = zip(*self._buf, strict=True)
+        chunk = Chunk(self._steps, np.array(t), np.stack(truth), np.stack(phase),
+                      {k: np.stack([p[k] for p in probes]) for k in self.probes})
+        self._steps += len(t)
+        self._t_last = float(t[-1])
+        self._buf = []
+        if self.path is None:
+            self._mem.append(chunk)
+        else:
+            self._write(chunk)
+
+    def _write(self, c: Chunk) -> None:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        k, m, n = len(c.t), self.n_objects, self.n_uavs
+        objects = {"step": np.repeat(np.arange(c.k0, c.k0 + k, dtype=np.int32), m),
+                   "t": np.repeat(c.t, m),
+                   "object": np.tile(np.arange(m, dtype=np.int32), k),
+                   **{col: c.truth[..., j].ravel() for j, col in enumerate(("x", "y", "vx", "vy"))},
+                   "phase": c.phase.ravel()}
+        uavs = {"step": np.repeat(np.arange(c.k0, c.k0 + k, dtype=np.int32), n),
+                "uav": np.tile(np.arange(n, dtype=np.int32), k)}
+        for name, shape in self.probes.items():
+            flat = c.probes[name].reshape(k * n, -1)
+            size = int(np.prod(shape))
+            uavs[name] = (pa.array(flat[:, 0]) if shape == () else
+                          pa.FixedSizeListArray.from_arrays(pa.array(flat.ravel()), size))
+        tables = {"objects": pa.table(objects), "uavs": pa.table(uavs)}
+        if self._writers is None:
+            self.path.mkdir(parents=True, exist_ok=True)
+            self._writers = {name: pq.ParquetWriter(self.path / f"{name}.parquet", table.schema)
+                             for name, table in tables.items()}
+        for name, table in tables.items():
+            self._writers[name].write_table(table, row_group_size=len(table))
+
+    def close(self) -> Recording:
+        """Finish the recording (files closed, ``meta.json`` written last) and return it."""
+        self._flush()
+        meta = {**self.meta, "n_steps": self._steps, "chunk_steps": self.chunk_steps, "t_last": self._t_last}
+        if self.path is None:
+            return Recording(meta, self._mem)
+        if self._writers is not None:
+            for w in self._writers.values():
+                w.close()
+        self.path.mkdir(parents=True, exist_ok=True)
+        (self.path / "meta.json").write_text(json.dumps(meta, indent=2))
+        return Recording(meta, path=self.path)
+
+
 class Recording:
-    """Arrays sampled at the estimation rate; K steps, N UAVs.
+    """A finished run: ``meta`` (scenario, groups, tracked object, probes …) and its steps, in memory or on disk.
 
-    ``target`` (K, 4) and ``uav`` (K, N, 4) are the truth ``[x, y, vx, vy]`` (the world's);
-    ``estimate`` (K, N, 4) and ``covariance`` (K, N, 4, 4) are each UAV's onboard estimate of the target's
-    ``[x, y, vx, vy]`` and its covariance. ``phase`` (K,) indexes ``phase_names``.
+    :meth:`chunks` streams the steps; the properties below gather whole arrays for capability 1's analysis of
+    small runs: ``t`` (K,), ``phase`` (K,) of the tracked target, ``target`` (K, 4) its truth, ``uav`` (K, N, 4)
+    the UAVs' truth, ``estimate`` (K, N, 4) and ``covariance`` (K, N, 4, 4) each UAV's onboard estimate of the
+    target's ``[x, y, vx, vy]``.
     """
 
-    t: np.ndarray
-    phase: np.ndarray
-    phase_names: list[str]
-    target: np.ndarray
-    uav: np.ndarray
-    estimate: np.ndarray
-    covariance: np.ndarray
-    d: float
-    r_comm: float
-    chase_start: float = 0.0
-    meta: dict = field(default_factory=dict)
+    def __init__(self, meta: dict, chunks: list[Chunk] | None = None, path: Path | None = None):
+        self.meta, self._chunks, self.path = meta, chunks, path
+        self._cache: dict[str, np.ndarray] = {}
+
+    @classmethod
+    def from_arrays(cls, t, phase, phase_names, target, uav, estimate, covariance, d, r_comm, chase_start=0.0,
+                    meta: dict | None = None) -> Recording:
+        """A one-target recording from whole arrays (capability 1's view above; for tests and external data):
+        object 0 is the target, objects 1..N the UAVs."""
+        t = np.asarray(t, dtype=float)
+        n = np.shape(uav)[1]
+        truth = np.concatenate([np.asarray(target, dtype=float)[:, None, :], np.asarray(uav, dtype=float)], axis=1)
+        phases = np.full(truth.shape[:2], -1, dtype=np.int16)
+        phases[:, 0] = phase
+        full = {"dt": float(t[1] - t[0]) if len(t) > 1 else 0.0, "groups": {"targets": [0, 1], "uavs": [1, 1 + n]},
+                "tracked": 0, "phase_names": list(phase_names), "d": d, "r_comm": r_comm, "chase_start": chase_start,
+                "format": FORMAT, "n_objects": n + 1, "n_uavs": n, "n_steps": len(t),
+                "t_last": float(t[-1]) if len(t) else 0.0, "probes": {"estimate": [4], "covariance": [4, 4]},
+                **(meta or {})}
+        chunk = Chunk(0, t, truth, phases, {"estimate": np.asarray(estimate, dtype=float),
+                                            "covariance": np.asarray(covariance, dtype=float)})
+        return cls(full, [chunk])
+
+    @classmethod
+    def load(cls, path: Path) -> Recording:
+        """A recording written to ``path`` (its ``meta.json`` and Parquet files)."""
+        path = Path(path)
+        meta = json.loads((path / "meta.json").read_text())
+        if meta.get("format") != FORMAT:
+            raise ValueError(f"{path}: recording format {meta.get('format')!r}, this version reads {FORMAT}")
+        return cls(meta, path=path)
+
+    # --- streaming ------------------------------------------------------------------------------------
+    def chunks(self) -> Iterator[Chunk]:
+        if self._chunks is not None:
+            yield from self._chunks
+            return
+        import pyarrow.parquet as pq
+
+        m, n = self.meta["n_objects"], self.meta["n_uavs"]
+        objects = pq.ParquetFile(self.path / "objects.parquet") if self.meta["n_steps"] else None
+        uavs = pq.ParquetFile(self.path / "uavs.parquet") if self.meta["n_steps"] else None
+        k0 = 0
+        for g in range(objects.num_row_groups if objects else 0):
+            o = objects.read_row_group(g)
+            u = uavs.read_row_group(g)
+            k = o.num_rows // m
+            truth = np.stack([o.column(c).to_numpy() for c in ("x", "y", "vx", "vy")], axis=-1).reshape(k, m, 4)
+            probes = {}
+            for name, shape in self.meta["probes"].items():
+                col = u.column(name).combine_chunks()
+                flat = col.to_numpy() if not shape else col.flatten().to_numpy()
+                probes[name] = flat.reshape(k, n, *shape)
+            yield Chunk(k0, o.column("t").to_numpy()[::m].copy(), truth,
+                        o.column("phase").to_numpy().reshape(k, m), probes)
+            k0 += k
+
+    def _gather(self, key: str, pick) -> np.ndarray:
+        if key not in self._cache:
+            parts = [pick(c) for c in self.chunks()]
+            self._cache[key] = np.concatenate(parts) if parts else np.zeros((0,))
+        return self._cache[key]
+
+    # --- capability 1's view ---------------------------------------------------------------------------
+    @property
+    def tracked(self) -> int:
+        """World object index of the target the estimators follow."""
+        return int(self.meta["tracked"])
+
+    @property
+    def uav_slice(self) -> slice:
+        start, stop = self.meta["groups"]["uavs"]
+        return slice(start, stop)
+
+    @property
+    def t(self) -> np.ndarray:
+        return self._gather("t", lambda c: c.t)
+
+    @property
+    def phase(self) -> np.ndarray:
+        return self._gather("phase", lambda c: c.phase[:, self.tracked].astype(np.int64))
+
+    @property
+    def phase_names(self) -> list[str]:
+        return list(self.meta["phase_names"])
+
+    @property
+    def target(self) -> np.ndarray:
+        return self._gather("target", lambda c: c.truth[:, self.tracked])
+
+    @property
+    def uav(self) -> np.ndarray:
+        return self._gather("uav", lambda c: c.truth[:, self.uav_slice])
+
+    @property
+    def estimate(self) -> np.ndarray:
+        return self._gather("estimate", lambda c: c.probes["estimate"][..., :4])
+
+    @property
+    def covariance(self) -> np.ndarray:
+        return self._gather("covariance", lambda c: c.probes["covariance"][..., :4, :4])
+
+    @property
+    def d(self) -> float:
+        return float(self.meta["d"])
+
+    @property
+    def r_comm(self) -> float:
+        return float(self.meta["r_comm"])
+
+    @property
+    def chase_start(self) -> float:
+        return float(self.meta.get("chase_start", 0.0))
 
     @property
     def n_agents(self) -> int:
-        return self.uav.shape[1]
+        return int(self.meta["n_uavs"])
 
-    def write_timeseries(self, path: Path) -> None:
-        """One row per UAV per estimation step (CSV)."""
-        K, N = self.estimate.shape[:2]
-        rows = np.empty((K, N, len(TIMESERIES_COLUMNS)))
-        rows[:, :, 0] = self.t[:, None]
-        rows[:, :, 1] = self.phase[:, None]
-        rows[:, :, 2] = np.arange(N)[None, :]
-        rows[:, :, 3:7] = self.target[:, None, :]
-        rows[:, :, 7:11] = self.estimate
-        rows[:, :, 11:15] = self.uav
-        with open(path, "w", newline="") as fh:
-            writer = csv.writer(fh)
-            writer.writerow(TIMESERIES_COLUMNS)
-            fmt = ["%.4f", "%d", "%d"] + ["%.6g"] * (len(TIMESERIES_COLUMNS) - 3)
-            np.savetxt(fh, rows.reshape(K * N, -1), delimiter=",", fmt=fmt)
+    @property
+    def t_last(self) -> float:
+        """Time of the last recorded step, s."""
+        return float(self.meta["t_last"])
+
+    @property
+    def dt(self) -> float:
+        return float(self.meta["dt"])

@@ -1,177 +1,238 @@
-"""The world: the only holder of truth (target and UAV vehicles), integrated at the physics rate.
+"""The world: the only holder of truth, a set of named vehicle groups integrated at the physics rate.
 
-It hands each UAV what that UAV's own devices would give it (a noisy navigation solution, a noisy
-range-bearing measurement of the target) and nothing else. Onboard code never imports this module.
+A group (``uavs``, ``targets``, ``decoys``, any number of members each) has one vehicle kind (quadrotor or
+double integrator) and, when nothing onboard commands it, a driver (:class:`ProfileDriver`: each member's
+autopilot flies its own velocity profile). The world hands each UAV what that UAV's own devices would give it
+(a noisy navigation solution, its sensor's detections) and keeps the origin of every detection to itself.
+Onboard code never imports this module, and this module never imports the scenarios (the builder,
+:mod:`swarmtrack.sim.build`, translates a scenario into a world).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+
 import numpy as np
 
-from swarmtrack.scenarios.loader import ScenarioError
-from swarmtrack.scenarios.schema import Scenario, TargetSpec
-from swarmtrack.sensors.range_bearing import measure
+from swarmtrack.sensors import range_bearing
 from swarmtrack.vehicles import double_integrator, quadrotor
-from swarmtrack.vehicles.profile import Phase, VelocityProfile, l23_profile, l24_profile
+from swarmtrack.vehicles.profile import VelocityProfile
+
+VEHICLES = ("quadrotor", "double_integrator")
 
 
-def build_profile(spec: TargetSpec) -> VelocityProfile:
-    if spec.profile == "l24":
-        return l24_profile()
-    if spec.profile == "l23":
-        return l23_profile()
-    if spec.profile == "hover":
-        return VelocityProfile((Phase("hover", spec.hover_duration, (0.0, 0.0), (0.0, 0.0), (0.0, 0.0), (0.0, 0.0)),))
-    return VelocityProfile(tuple(
-        Phase(p.name, p.duration, tuple(p.c), tuple(p.amplitude), tuple(p.omega), tuple(p.phi))
-        for p in spec.phases))
+@dataclass(frozen=True)
+class ProfileDriver:
+    """Every member's autopilot flies its own velocity profile: ``a = gain·(v_cmd − v) + a_ff`` plus a random
+    gust of std ``wind_std`` (L24 Sec. 4 target; gains chosen, see the scenario schema)."""
+
+    profiles: tuple[VelocityProfile, ...]
+    gain: float
+    wind_std: float
 
 
-def spawn_positions(scenario: Scenario, rng: np.random.Generator) -> np.ndarray:
-    """Initial UAV positions: the scenario's, or seeded uniform draws in the spawn box, kept apart."""
-    sw = scenario.swarm
-    if sw.initial_positions is not None:
-        return np.asarray(sw.initial_positions, dtype=float)
-    center = np.asarray(sw.spawn_center)
-    pos = center + rng.uniform(-sw.spawn_half_width, sw.spawn_half_width, size=(sw.n_uavs, 2))
-    for _ in range(100):  # redraw the UAVs that are too close to an earlier one
-        diff = pos[:, None, :] - pos[None, :, :]
-        close = np.triu(np.einsum("ijk,ijk->ij", diff, diff) < sw.min_separation**2, k=1).any(axis=0)
-        if not close.any():
-            break
-        pos[close] = center + rng.uniform(-sw.spawn_half_width, sw.spawn_half_width, size=(close.sum(), 2))
-    else:
-        raise ScenarioError(f"swarm: cannot place {sw.n_uavs} UAVs {sw.min_separation} m apart in a spawn box of "
-                            f"half-width {sw.spawn_half_width} m; enlarge swarm.spawn_half_width or lower "
-                            "swarm.min_separation")
-    return pos
+@dataclass(frozen=True)
+class Group:
+    """``start`` (n, 2) initial positions; ``driver`` None: commanded onboard (the UAVs)."""
+
+    name: str
+    vehicle: str
+    start: np.ndarray
+    driver: ProfileDriver | None = None
+
+    @property
+    def size(self) -> int:
+        return len(self.start)
+
+
+@dataclass(frozen=True)
+class RangeBearingSensor:
+    """Truth side of the range-bearing sensor (L24 Sec. 3.2): every UAV measures every object of the ``sensed``
+    groups (within ``max_range``), ``latency`` s late."""
+
+    sigma_range: float
+    sigma_bearing: float
+    max_range: float | None = None
+    latency: float = 0.0
+    sensed: tuple[str, ...] = ("targets", "decoys")
+
+
+@dataclass
+class _Layout:
+    """Where each object lives: rows of the quadrotor and point-mass arrays, and its driver column."""
+
+    quad_obj: list = field(default_factory=list)
+    point_obj: list = field(default_factory=list)
+    quad_driver: list = field(default_factory=list)
+    point_driver: list = field(default_factory=list)
 
 
 class World:
-    """Truth. Target: an Iris-like quadrotor whose autopilot flies the velocity profile. UAVs: quadrotors
-    (attitude loop, tilt and thrust limits) or ideal double integrators, commanded in acceleration."""
+    """Truth of every group; :meth:`advance` integrates them together (one batched step per vehicle kind)."""
 
-    def __init__(self, scenario: Scenario, rng: np.random.Generator, dt: float, duration: float, *,
-                 compiled: bool = False):
-        self.scenario = scenario
-        self.compiled = compiled  # advance() through vehicles.kernels (same numbers as step())
-        self.rng = rng
-        self.dt = dt
-        self.profile = build_profile(scenario.target)
+    def __init__(self, groups: list[Group], sensor: RangeBearingSensor, *, dt: float, duration: float,
+                 nav_std: tuple[float, float], wind_rng: np.random.Generator, nav_rng: np.random.Generator,
+                 sensor_rng: np.random.Generator, compiled: bool = False):
+        names = [g.name for g in groups]
+        if "uavs" not in names or len(set(names)) != len(names):
+            raise ValueError(f"groups must be uniquely named and include 'uavs'; got {names}")
+        self.groups = {g.name: g for g in groups}
+        self.dt, self.sensor, self.compiled = dt, sensor, compiled
         self.params = quadrotor.QuadrotorParams()
-        start = spawn_positions(scenario, rng)
-        self.uav_quadrotor = scenario.swarm.vehicle == "quadrotor"
-        target = quadrotor.hover_state(np.asarray([scenario.target.start], dtype=float))
-        if self.uav_quadrotor:  # one array, target in row 0, so one batched step integrates everything
-            self._vehicles = np.asarray(quadrotor.hover_state(np.concatenate([target[:, :2], start])), order="F")
-        else:
-            self._target = target
-            self._uavs = np.concatenate([start, np.zeros_like(start)], axis=1)
-        self._sensor = scenario.sensor
-        self._nav_std = np.array([scenario.swarm.nav_position_std] * 2 + [scenario.swarm.nav_velocity_std] * 2)
-        # the target autopilot's velocity profile and the wind, sampled once for every physics tick
+        self._nav_rng, self._sensor_rng = nav_rng, sensor_rng
+        self._nav_std = np.array([nav_std[0]] * 2 + [nav_std[1]] * 2)
+        # object index ranges of each group, in group order
+        self.slices, start = {}, 0
+        for g in groups:
+            self.slices[g.name] = slice(start, start + g.size)
+            start += g.size
+        self.n_objects = start
+        # the objects the sensor sees, in label order (a cooperative sensor labels each by this index)
+        self._sensed = np.concatenate([np.arange(self.slices[n].start, self.slices[n].stop, dtype=np.int64)
+                                       for n in sensor.sensed if n in self.slices] or [np.zeros(0, np.int64)])
+        # physics layout and the drivers' profiles, gusts and gains sampled once for every physics tick
         ticks = int(np.ceil(duration / dt)) + 2
         grid = np.arange(ticks) * dt
-        self._v_cmd = self.profile.velocity(grid)
-        self._a_ff = self.profile.acceleration(grid)
-        self._wind = rng.standard_normal((ticks, 2)) * scenario.target.wind_std
-        self._accel = np.zeros((scenario.swarm.n_uavs + 1, 2))
-        # ring buffer of past (target, UAV) positions, for measurements that arrive `latency` late
-        lag = int(round(scenario.sensor.latency / dt))
-        self._history = np.repeat(np.concatenate([self.target[:, :2], self.uavs[:, :2]])[None], lag + 1, axis=0)
+        lay, v_cmd, a_ff, gains, winds = _Layout(), [], [], [], []
+        for g in groups:
+            for k in range(g.size):
+                obj = self.slices[g.name].start + k
+                d = -1
+                if g.driver is not None:
+                    d = len(gains)
+                    prof = g.driver.profiles[k]
+                    v_cmd.append(prof.velocity(grid))
+                    a_ff.append(prof.acceleration(grid))
+                    gains.append(g.driver.gain)
+                    winds.append(g.driver.wind_std)
+                (lay.quad_obj if g.vehicle == "quadrotor" else lay.point_obj).append(obj)
+                (lay.quad_driver if g.vehicle == "quadrotor" else lay.point_driver).append(d)
+        n_driven = len(gains)
+        self._phase = np.full((ticks, self.n_objects), -1, dtype=np.int16)  # profile phase at every tick
+        for g in groups:
+            if g.driver is not None:
+                for k, prof in enumerate(g.driver.profiles):
+                    self._phase[:, self.slices[g.name].start + k] = prof.phase_index(grid)
+        self._v_cmd = np.stack(v_cmd, axis=1) if n_driven else np.zeros((ticks, 0, 2))
+        self._a_ff = np.stack(a_ff, axis=1) if n_driven else np.zeros((ticks, 0, 2))
+        self._wind = wind_rng.standard_normal((ticks, n_driven, 2)) * np.asarray(winds, dtype=float)[None, :, None]
+        self._gains = np.asarray(gains, dtype=float)
+        self._quad_obj = np.asarray(lay.quad_obj, dtype=np.int64)
+        self._point_obj = np.asarray(lay.point_obj, dtype=np.int64)
+        self._quad_driver = np.asarray(lay.quad_driver, dtype=np.int64)
+        self._point_driver = np.asarray(lay.point_driver, dtype=np.int64)
+        starts = np.concatenate([np.asarray(g.start, dtype=float).reshape(-1, 2) for g in groups])
+        self._quads = np.asarray(quadrotor.hover_state(starts[self._quad_obj]), order="F")
+        self._points = np.zeros((len(self._point_obj), 4))
+        self._points[:, :2] = starts[self._point_obj]
+        self._quad_cmd = np.zeros((len(self._quad_obj), 2))
+        self._point_cmd = np.zeros((len(self._point_obj), 2))
+        # each object's row in the stacked [quadrotors; points] truth, and the commanded (UAV) rows
+        self._row = np.empty(self.n_objects, dtype=np.int64)
+        self._row[self._quad_obj] = np.arange(len(self._quad_obj))
+        self._row[self._point_obj] = len(self._quad_obj) + np.arange(len(self._point_obj))
+        # ring buffer of past positions, for measurements that arrive `latency` late
+        lag = int(round(sensor.latency / dt))
+        self._history = np.repeat(starts[None], lag + 1, axis=0)
         self._tick = 0
         if compiled:
             from swarmtrack.vehicles import kernels
 
             self._kernel = kernels.advance
             self._kernel_consts = kernels.params_tuple(self.params)
-            self._no_points = np.empty((0, 4))
 
     @property
     def t(self) -> float:
         """Simulated time, s."""
         return self._tick * self.dt
 
-    @property
-    def target(self) -> np.ndarray:
-        return self._vehicles[:1] if self.uav_quadrotor else self._target
-
-    @property
-    def uavs(self) -> np.ndarray:
-        return self._vehicles[1:] if self.uav_quadrotor else self._uavs
-
     # --- truth, for the engine's recorder and the metrics only -------------------------------------------
-    @property
-    def target_truth(self) -> np.ndarray:
-        """[x, y, vx, vy] of the target."""
-        return self.target[0, :4]
+    def _all_truth(self) -> np.ndarray:
+        return np.concatenate([self._quads[:, :4], self._points])[self._row]
 
-    @property
-    def uav_truth(self) -> np.ndarray:
-        """(N, 4) [x, y, vx, vy] of the UAVs."""
-        return self.uavs[:, :4]
+    def truth(self, group: str | None = None) -> np.ndarray:
+        """(n, 4) ``[x, y, vx, vy]`` of a group's members (a copy), or of every object with ``group=None``."""
+        truth = self._all_truth()
+        return truth if group is None else truth[self.slices[group]]
 
-    def phase_index(self) -> int:
-        return int(self.profile.phase_index(self.t))
+    def phase_index(self) -> np.ndarray:
+        """(n_objects,) index of the profile phase each driven object flies now (−1: not driven)."""
+        return self._phase[min(self._tick, len(self._phase) - 1)]
+
+    def label_of(self, obj: int) -> int:
+        """The label the sensor reports for world object ``obj``."""
+        return int(np.flatnonzero(self._sensed == obj)[0])
 
     # --- what each UAV's own devices report ----------------------------------------------------------
     def navigation(self) -> np.ndarray:
-        """Each UAV's own navigation solution (N, 4): truth plus white noise."""
-        nav = self.uavs[:, :4].copy()
+        """Each UAV's own navigation solution (N, 4): truth plus white noise (the ``navigation`` stream)."""
+        nav = self.truth("uavs")
         if self._nav_std.any():
-            nav += self.rng.standard_normal(nav.shape) * self._nav_std
+            nav += self._nav_rng.standard_normal(nav.shape) * self._nav_std
         return nav
 
-    def measure_target(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Each UAV's range-bearing measurement of the target (N, 2) (L24 Sec. 3.2, corrected h), the
-        navigation position stamped on it (N, 2), both ``sensor.latency`` seconds old, and whether the UAV saw
-        the target at all (N,) (within ``sensor.max_range``; rows of unseen targets are NaN). An onboard filter
-        that takes the packet as current sees the target where it was (the SITL pipeline delay)."""
-        then = self._history[(self._tick + 1) % len(self._history)]
-        z = measure(then[0], then[1:], self._sensor.sigma_range, self._sensor.sigma_bearing, self.rng)
-        pose = then[1:].copy()
+    def sense(self):
+        """Every UAV's detections, ``sensor.latency`` old, and (for the recorder and metrics only) the object
+        each came from. The navigation position stamped on a detection is also that old, with its own error,
+        so an onboard filter that takes the packet as current sees objects where they were."""
+        lagged = len(self._history) > 1
+        then = self._history[(self._tick + 1) % len(self._history)] if lagged else self._all_truth()[:, :2]
+        uavs = then[self.slices["uavs"]]
+        sensed = self._sensed
+        stamped = uavs.copy()
         if self._nav_std[0] > 0:
-            pose += self.rng.standard_normal(pose.shape) * self._nav_std[0]
-        seen = np.ones(len(z), dtype=bool)
-        if self._sensor.max_range is not None:
-            seen = np.hypot(*(then[0] - then[1:]).T) <= self._sensor.max_range
-            z[~seen] = np.nan
-        return z, pose, seen
+            stamped += self._nav_rng.standard_normal(stamped.shape) * self._nav_std[0]
+        s = self.sensor
+        det, source = range_bearing.sense(then[sensed], uavs, stamped, s.sigma_range, s.sigma_bearing,
+                                          self._sensor_rng, s.max_range)
+        return det, sensed[source]
 
     # --- physics -----------------------------------------------------------------------------------------
-    def advance(self, uav_accel_cmd: np.ndarray, ticks: int) -> None:
-        """Advance the truth by ``ticks`` physics steps with the UAVs' commanded accelerations (N, 2) held.
+    def advance(self, commands: dict[str, np.ndarray], ticks: int) -> None:
+        """Advance the truth by ``ticks`` physics steps, each commanded group's accelerations (n, 2) held.
 
         The same as ``ticks`` calls of :meth:`step` (the reference); with ``compiled`` one call of the numba
-        kernel :func:`swarmtrack.vehicles.kernels.advance`, which gives the same numbers to a few ulps and
-        updates the state arrays in place (so views such as :attr:`target_truth` follow: copy what must stay).
+        kernel :func:`swarmtrack.vehicles.kernels.advance`, which gives the same numbers to a few ulps.
         """
+        nq = len(self._quad_obj)
+        for name, u in commands.items():
+            rows = self._row[self.slices[name]]
+            if rows[0] == 0 and rows[-1] == len(rows) - 1 and len(rows) == nq:  # all quadrotors: no scatter
+                self._quad_cmd[:] = u
+                continue
+            q = rows < nq
+            self._quad_cmd[rows[q]] = u[q]
+            self._point_cmd[rows[~q] - nq] = u[~q]
         if not self.compiled:
             for _ in range(ticks):
-                self.step(uav_accel_cmd)
+                self.step()
             return
-        if self.uav_quadrotor:
-            quads, points = self._vehicles, self._no_points
-        else:
-            quads, points = self._target, self._uavs
-        self._kernel(quads, points, uav_accel_cmd, self._v_cmd, self._a_ff, self._wind, self._tick, ticks,
-                     self.scenario.target.velocity_gain, self.dt, self._kernel_consts, self._history)
+        self._kernel(self._quads, self._points, self._quad_cmd, self._point_cmd, self._quad_driver,
+                     self._point_driver, self._v_cmd, self._a_ff, self._wind, self._gains, self._tick, ticks,
+                     self.dt, self._kernel_consts, self._history, self._quad_obj, self._point_obj)
         self._tick += ticks
 
-    def step(self, uav_accel_cmd: np.ndarray) -> None:
-        """Advance the truth by one physics step with the UAVs' commanded accelerations (N, 2)."""
-        k = self._tick
-        a_target = quadrotor.velocity_tracking_accel(self._v_cmd[k], self.target[0, 2:4], self._a_ff[k],
-                                                     self.scenario.target.velocity_gain)
-        if self.uav_quadrotor:
-            accel = self._accel
-            accel[0] = a_target + self._wind[k]  # gusts: a random acceleration the autopilot must reject
-            accel[1:] = uav_accel_cmd
-            self._vehicles = quadrotor.step(self._vehicles, accel, self.params, self.dt)
-        else:
-            self._target = quadrotor.step(self._target, (a_target + self._wind[k])[None], self.params, self.dt)
-            self._uavs = double_integrator.step(self._uavs, uav_accel_cmd, self.dt)
+    def _accel(self, cmd: np.ndarray, driver: np.ndarray, velocity: np.ndarray) -> np.ndarray:
+        """Commanded rows keep their command; driven rows fly their profile (feed-forward + P) plus the gust."""
+        k, driven = self._tick, driver >= 0
+        if not driven.any():
+            return cmd
+        a = cmd.copy()
+        d = driver[driven]
+        a[driven] = quadrotor.velocity_tracking_accel(self._v_cmd[k, d], velocity[driven], self._a_ff[k, d],
+                                                      self._gains[d, None]) + self._wind[k, d]
+        return a
+
+    def step(self) -> None:
+        """Advance the truth by one physics step (the numpy reference of the compiled kernel)."""
+        if len(self._quad_obj):
+            a = self._accel(self._quad_cmd, self._quad_driver, self._quads[:, 2:4])
+            self._quads = quadrotor.step(self._quads, a, self.params, self.dt)
+        if len(self._point_obj):
+            a = self._accel(self._point_cmd, self._point_driver, self._points[:, 2:4])
+            self._points = double_integrator.step(self._points, a, self.dt)
         self._tick += 1
-        slot = self._history[self._tick % len(self._history)]
-        slot[0] = self.target[0, :2]
-        slot[1:] = self.uavs[:, :2]
+        if len(self._history) > 1:
+            slot = self._history[self._tick % len(self._history)]
+            slot[self._quad_obj] = self._quads[:, :2]
+            slot[self._point_obj] = self._points[:, :2]

@@ -7,13 +7,13 @@ overhead. :func:`advance` does the same arithmetic, one vehicle at a time, in th
 (so the numbers agree with the reference to a few ulps: only ``sin``, ``cos``, ``atan`` and ``hypot`` come
 from a different math library), for ``ticks`` ticks in a row:
 
-* the target's autopilot: ``a = gain·(v_cmd[k] − v) + a_ff[k]`` (feed-forward + P, L24 Sec. 4) plus the
-  wind gust ``wind[k]``, flown by the quadrotor model;
+* every driven vehicle's autopilot (targets, decoys): ``a = gain·(v_cmd[k] − v) + a_ff[k]`` (feed-forward + P,
+  L24 Sec. 4) plus the wind gust ``wind[k]``; every commanded vehicle (UAVs) holds its command;
 * every quadrotor (L24 Sec. 3.1 FS model rows, see :mod:`~swarmtrack.vehicles.quadrotor`): tilt setpoint
   from the norm-clipped command with the altitude-hold inversion, PD attitude law clipped to
   ``±max_moment/I``, semi-implicit Euler (rates, angles, velocity from the achieved tilt, position);
 * every double integrator (L24 Sec. 2): ``p ← p + dt·u``, ``q ← q + dt·p``;
-* the ring buffer of past (target, UAV) positions the world's delayed measurements read.
+* the ring buffer of past positions the world's delayed measurements read.
 
 The kernel is ``@numba.njit(cache=True, fastmath=False)``, serial, and updates its arrays in place; the
 world calls it through :meth:`swarmtrack.sim.world.World.advance`, and the tests hold it to the reference.
@@ -88,34 +88,45 @@ def _quadrotor_step(S, m, ax, ay, dt, g, a_max, a_max_g, kp, kd, alpha_phi, alph
 
 
 @numba.njit(cache=True, fastmath=False)
-def _advance(S, points, uav_cmd, v_cmd, a_ff, wind, tick, ticks, gain, dt, consts, history):
+def _advance(S, points, quad_cmd, point_cmd, quad_driver, point_driver, v_cmd, a_ff, wind, gains, tick, ticks, dt,
+             consts, history, quad_obj, point_obj):
     g, a_max, a_max_g, kp, kd, alpha_phi, alpha_theta, f_max = consts
     n_quad = S.shape[1]
     n_point = points.shape[0]
     lag = history.shape[0]
     for k in range(tick, tick + ticks):
-        # Target (row 0): autopilot velocity tracking (feed-forward + P) plus the gust, flown by the model.
-        ax = gain * (v_cmd[k, 0] - S[2, 0]) + a_ff[k, 0] + wind[k, 0]
-        ay = gain * (v_cmd[k, 1] - S[3, 0]) + a_ff[k, 1] + wind[k, 1]
-        _quadrotor_step(S, 0, ax, ay, dt, g, a_max, a_max_g, kp, kd, alpha_phi, alpha_theta, f_max)
-        for m in range(1, n_quad):  # quadrotor UAVs
-            _quadrotor_step(S, m, uav_cmd[m - 1, 0], uav_cmd[m - 1, 1], dt, g, a_max, a_max_g, kp, kd,
-                            alpha_phi, alpha_theta, f_max)
-        for m in range(n_point):  # double-integrator UAVs: velocity first, then position
-            vx = uav_cmd[m, 0] * dt + points[m, 2]
-            vy = uav_cmd[m, 1] * dt + points[m, 3]
+        for m in range(n_quad):
+            d = quad_driver[m]
+            if d >= 0:  # driven: autopilot velocity tracking (feed-forward + P) plus the gust
+                ax = gains[d] * (v_cmd[k, d, 0] - S[2, m]) + a_ff[k, d, 0] + wind[k, d, 0]
+                ay = gains[d] * (v_cmd[k, d, 1] - S[3, m]) + a_ff[k, d, 1] + wind[k, d, 1]
+            else:  # commanded onboard
+                ax = quad_cmd[m, 0]
+                ay = quad_cmd[m, 1]
+            _quadrotor_step(S, m, ax, ay, dt, g, a_max, a_max_g, kp, kd, alpha_phi, alpha_theta, f_max)
+        for m in range(n_point):  # double integrators: velocity first, then position
+            d = point_driver[m]
+            if d >= 0:
+                ax = gains[d] * (v_cmd[k, d, 0] - points[m, 2]) + a_ff[k, d, 0] + wind[k, d, 0]
+                ay = gains[d] * (v_cmd[k, d, 1] - points[m, 3]) + a_ff[k, d, 1] + wind[k, d, 1]
+            else:
+                ax = point_cmd[m, 0]
+                ay = point_cmd[m, 1]
+            vx = ax * dt + points[m, 2]
+            vy = ay * dt + points[m, 3]
             points[m, 0] = vx * dt + points[m, 0]
             points[m, 1] = vy * dt + points[m, 1]
             points[m, 2] = vx
             points[m, 3] = vy
         # Ring buffer of past positions: slot (k + 1) mod lag holds the truth after this tick.
-        slot = (k + 1) % lag
-        for m in range(n_quad):
-            history[slot, m, 0] = S[0, m]
-            history[slot, m, 1] = S[1, m]
-        for m in range(n_point):
-            history[slot, 1 + m, 0] = points[m, 0]
-            history[slot, 1 + m, 1] = points[m, 1]
+        if lag > 1:
+            slot = (k + 1) % lag
+            for m in range(n_quad):
+                history[slot, quad_obj[m], 0] = S[0, m]
+                history[slot, quad_obj[m], 1] = S[1, m]
+            for m in range(n_point):
+                history[slot, point_obj[m], 0] = points[m, 0]
+                history[slot, point_obj[m], 1] = points[m, 1]
 
 
 def params_tuple(params: QuadrotorParams) -> tuple[float, ...]:
@@ -126,25 +137,24 @@ def params_tuple(params: QuadrotorParams) -> tuple[float, ...]:
             float(f_max))
 
 
-def advance(quads, points, uav_cmd, v_cmd, a_ff, wind, tick: int, ticks: int, gain: float, dt: float,
-            consts: tuple[float, ...], history) -> None:
-    """Advance the vehicles by ``ticks`` physics ticks from tick ``tick``, **in place**.
+def advance(quads, points, quad_cmd, point_cmd, quad_driver, point_driver, v_cmd, a_ff, wind, gains,
+            tick: int, ticks: int, dt: float, consts: tuple[float, ...], history, quad_obj, point_obj) -> None:
+    """Advance every vehicle by ``ticks`` physics ticks from tick ``tick``, **in place**.
 
-    ``quads`` (M, 8) are quadrotor states with the target in row 0 and quadrotor UAVs in rows 1.. (M = 1 when
-    the UAVs are double integrators); ``points`` (N, 4) are double-integrator UAVs ``[x, y, vx, vy]``
-    (N = 0 when they are quadrotors). ``uav_cmd`` (N_uav, 2) is the UAVs' commanded acceleration, held over
-    the ticks; ``v_cmd``, ``a_ff``, ``wind`` (K, 2) are the target's velocity profile, its derivative and the
-    gusts sampled at every tick (rows ``tick .. tick + ticks − 1`` are used) and ``gain`` its autopilot's
-    velocity gain; ``consts`` from :func:`params_tuple`. ``history`` (L, 1 + N_uav, 2) is the ring buffer
-    of past positions: after tick ``k`` (0-based, global) slot ``(k + 1) mod L`` holds the target's and
-    the UAVs' positions. The float arrays must be float64. The kernel works on ``quads.T`` (8, M), the
-    layout :func:`~swarmtrack.vehicles.quadrotor.step` computes in: with the Fortran-ordered states it
-    returns (which the world keeps) that is C-contiguous, the layout the kernel is compiled for.
+    ``quads`` (Mq, 8) quadrotor and ``points`` (Mp, 4) double-integrator states ``[x, y, vx, vy]``. A vehicle is
+    either *driven* (``quad_driver[m]``/``point_driver[m]`` = d ≥ 0: its autopilot flies the velocity profile
+    ``v_cmd[:, d]`` with feed-forward ``a_ff[:, d]``, gain ``gains[d]`` and gust ``wind[:, d]``, all (K, D, 2)
+    sampled at every tick) or *commanded* (−1: the acceleration ``quad_cmd[m]``/``point_cmd[m]`` is held over
+    the ticks). ``consts`` from :func:`params_tuple`. ``history`` (L, M, 2) is the ring buffer of past positions
+    of the world's M objects (``quad_obj``, ``point_obj`` give each vehicle's object index): after tick ``k``
+    (global) slot ``(k + 1) mod L`` holds the positions; with L = 1 it is not kept. The kernel works on
+    ``quads.T`` (8, Mq), the layout :func:`~swarmtrack.vehicles.quadrotor.step` computes in: with the
+    Fortran-ordered states it returns (which the world keeps) that is C-contiguous.
     """
     if tick < 0 or tick + ticks > min(len(v_cmd), len(a_ff), len(wind)):
         raise IndexError(f"ticks {tick}..{tick + ticks - 1} are beyond the sampled profile ({len(v_cmd)} ticks)")
-    _advance(quads.T, points, np.ascontiguousarray(uav_cmd, dtype=np.float64), v_cmd, a_ff, wind, int(tick),
-             int(ticks), float(gain), float(dt), consts, history)
+    _advance(quads.T, points, quad_cmd, point_cmd, quad_driver, point_driver, v_cmd, a_ff, wind, gains, int(tick),
+             int(ticks), float(dt), consts, history, quad_obj, point_obj)
 
 
 __all__ = ["advance", "params_tuple"]

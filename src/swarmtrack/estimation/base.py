@@ -1,0 +1,50 @@
+"""The estimator role: what every onboard estimator offers the simulator, whatever its family.
+
+An estimator object holds the filters of the whole swarm as arrays (row i is UAV i's computer) and is driven by
+the engine's step loop (sense → share → deliver → fuse → record): :meth:`Estimator.share` predicts and returns
+what each UAV broadcasts; the channel delivers it; :meth:`Estimator.fuse` updates row i from UAV i's own
+detections and its inbox only. Controllers read :meth:`Estimator.view`; the recorder samples the declared
+:attr:`Estimator.probes`. Implementations: :mod:`swarmtrack.estimation.information` (decentralized information
+filter and the centralized baseline); registered for scenarios in :mod:`swarmtrack.sim.build`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from swarmtrack.network.messages import Inbox, Outbox
+from swarmtrack.sensors.detections import Detections
+
+
+@dataclass(frozen=True)
+class Probe:
+    """A recorded quantity: ``name`` and its shape per UAV (``()`` for a scalar)."""
+
+    name: str
+    shape: tuple[int, ...] = ()
+
+
+@dataclass(frozen=True)
+class TargetView:
+    """What controllers read: each UAV's estimate of the target it follows, ``[x, y, vx, vy]`` (N, 4)."""
+
+    state: np.ndarray
+
+
+class Estimator(Protocol):
+    probes: tuple[Probe, ...]
+
+    def share(self, t: float, nav: np.ndarray, own: Detections) -> Outbox:
+        """Predict to ``t`` and return what each UAV broadcasts this step."""
+
+    def fuse(self, t: float, own: Detections, inbox: Inbox) -> None:
+        """Update every UAV's estimate from its own detections and what its links delivered."""
+
+    def view(self) -> TargetView:
+        """The estimates controllers follow."""
+
+    def sample(self) -> dict[str, np.ndarray]:
+        """The current value of every probe, (N, *shape) each."""

@@ -1,0 +1,36 @@
+"""What crosses the network: an outbox of payloads per UAV, and the inbox the channel delivers.
+
+An outbox is a plain mapping ``name → array (N, ...)``: row ``j`` is what UAV ``j`` broadcasts this step.
+The :class:`Inbox` pairs it with the links that carried it this step; UAV ``i`` reads sender ``j``'s payload only
+where ``links[i, j]`` (a dense boolean array for small swarms, a sparse CSR matrix for large ones), so a
+summable payload (information contributions, L24 eq. 7) is delivered as one (sparse) matrix product.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+Outbox = dict[str, np.ndarray]
+
+
+@dataclass(frozen=True)
+class Inbox:
+    links: object
+    payloads: Outbox
+
+    def sum(self, name: str) -> np.ndarray:
+        """``Σ_{j: links[i, j]} payload_j`` for every receiver i (L24 eq. 7)."""
+        from swarmtrack.network.channel import Channel
+
+        return Channel.sum_received(self.links, self.payloads[name])
+
+    def edges(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(receivers, senders)`` of every link that carried a message, receiver-major."""
+        links = self.links
+        if isinstance(links, np.ndarray):
+            return np.nonzero(links)
+        coo = links.tocoo()
+        order = np.lexsort((coo.col, coo.row))
+        return coo.row[order].astype(np.int64), coo.col[order].astype(np.int64)

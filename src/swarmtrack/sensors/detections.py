@@ -1,0 +1,51 @@
+"""Detections: what a sensor hands the onboard code, ragged over the swarm.
+
+A sensing step yields any number of detections per UAV (none when nothing is in range, several when several
+objects are). Row ``r`` was taken by UAV ``owner[r]`` from where its own navigation put it (``sensor_pos[r]``)
+and carries the measurement ``z[r]`` and, where the sensor reports one, a ``label[r]`` the UAV can read
+(``-1``: none, e.g. an unidentified object). The object a detection came from is *not* here: the world keeps
+it beside (``source``) for the recorder and the metrics only, so onboard code cannot look at it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: Label of a detection whose object the sensor cannot tell.
+UNLABELLED = -1
+
+
+@dataclass(frozen=True)
+class Detections:
+    """``owner`` (M,) int, ``z`` (M, m), ``sensor_pos`` (M, 2), ``label`` (M,) int; ``n_uavs`` owners exist."""
+
+    owner: np.ndarray
+    z: np.ndarray
+    sensor_pos: np.ndarray
+    label: np.ndarray
+    n_uavs: int
+    #: When every UAV detected each of ``grid`` objects (rows UAV-major, labels ``0..grid-1`` in order), so that
+    #: per-UAV lookups are reshapes; None otherwise.
+    grid: int | None = None
+
+    def __len__(self) -> int:
+        return len(self.owner)
+
+    def of_label(self, label: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per-UAV arrays of the detection labelled ``label``: ``z`` (N, m), ``sensor_pos`` (N, 2) and ``seen``
+        (N,); rows of UAVs that did not detect it are NaN. A sensor gives at most one per UAV and label."""
+        n, m = self.n_uavs, self.z.shape[-1]
+        if self.grid is not None and 0 <= label < self.grid:
+            return (self.z.reshape(n, self.grid, m)[:, label].copy(),
+                    self.sensor_pos.reshape(n, self.grid, 2)[:, label].copy(), np.ones(n, dtype=bool))
+        pick = self.label == label
+        owners = self.owner[pick]
+        z = np.full((n, m), np.nan)
+        pos = np.full((n, 2), np.nan)
+        z[owners] = self.z[pick]
+        pos[owners] = self.sensor_pos[pick]
+        seen = np.zeros(n, dtype=bool)
+        seen[owners] = True
+        return z, pos, seen

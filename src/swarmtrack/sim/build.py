@@ -1,0 +1,193 @@
+"""From a scenario to a runnable simulation: world, onboard stack, channel, recorder metadata.
+
+The registries :data:`ESTIMATORS` and :data:`CONTROLLERS` map a scenario section's ``kind`` to the function that
+builds it; :func:`register` adds a kind (its settings class goes into the schema's registry, its builder here),
+so a new capability adds modules and a registry entry, never a branch in the engine.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from swarmtrack.control.flocking import FlockingController, FlockingGains
+from swarmtrack.estimation.information import InformationEstimator, RangeBearingUpdate
+from swarmtrack.models import make_model
+from swarmtrack.network.channel import Channel
+from swarmtrack.scenarios.loader import ScenarioError
+from swarmtrack.scenarios.schema import (
+    CONTROLLER_KINDS,
+    ESTIMATOR_KINDS,
+    ControllerSpec,
+    EstimatorSpec,
+    FilterSpec,
+    FlockingSpec,
+    GroupSpec,
+    MemberSpec,
+    Scenario,
+)
+from swarmtrack.sim.agent import OnboardStack
+from swarmtrack.sim.oracle import TruthOracle
+from swarmtrack.sim.streams import stream
+from swarmtrack.sim.world import Group, ProfileDriver, RangeBearingSensor, World
+from swarmtrack.vehicles.profile import Phase, VelocityProfile, l23_profile, l24_profile
+
+
+@dataclass(frozen=True)
+class Context:
+    """What a builder may use besides its own settings: the scenario, the rates and the world's labels (the
+    sensor label of each world object, as the onboard side knows it)."""
+
+    scenario: Scenario
+    n_uavs: int
+    dt_estimation: float
+    dt_control: float
+    compiled: bool
+    world: World
+
+    def label_of(self, group: str, member: int) -> int:
+        """The label the sensor reports for ``group`` member ``member`` (0-based)."""
+        return self.world.label_of(self.world.slices[group].start + member)
+
+
+def _information(spec: FilterSpec, ctx: Context) -> InformationEstimator:
+    s = ctx.scenario.sensor
+    return InformationEstimator(
+        make_model(spec.model, ctx.dt_estimation, spec.q), RangeBearingUpdate(s.sigma_range, s.sigma_bearing, s.update),
+        ctx.n_uavs, label=ctx.label_of("targets", spec.target - 1), share=spec.share,
+        centralized=spec.kind == "centralized", initial_info=spec.initial_information,
+        fake_vz_sigma=spec.fake_vz_sigma, compiled=ctx.compiled)
+
+
+def flocking_gains(spec: FlockingSpec, r_comm: float) -> FlockingGains:
+    """The scenario's flocking gains (names checked by the schema) with its d and r_comm."""
+    return dataclasses.replace(FlockingGains(), **spec.gains, d=spec.d, r_comm=r_comm)
+
+
+def _flocking(spec: FlockingSpec, ctx: Context) -> FlockingController:
+    return FlockingController(flocking_gains(spec, ctx.scenario.network.r_comm), spec.variant, ctx.n_uavs,
+                              spec.chase_after_steps * ctx.dt_estimation, compiled=ctx.compiled)
+
+
+#: ``kind`` → builder ``(settings, Context) -> Estimator``.
+ESTIMATORS: dict[str, Callable] = {"information": _information, "centralized": _information}
+#: ``kind`` → builder ``(settings, Context) -> Controller``.
+CONTROLLERS: dict[str, Callable] = {"flocking": _flocking}
+
+
+def register(role: str, spec: type, builder: Callable) -> None:
+    """Add an estimator (``role="estimator"``) or controller kind: its settings class (a subclass of
+    :class:`~swarmtrack.scenarios.schema.EstimatorSpec` / ``ControllerSpec`` with a ``kind`` literal) and its
+    builder. Scenarios can then pick it by ``kind``."""
+    kinds, builders, base = {"estimator": (ESTIMATOR_KINDS, ESTIMATORS, EstimatorSpec),
+                             "controller": (CONTROLLER_KINDS, CONTROLLERS, ControllerSpec)}[role]
+    if not issubclass(spec, base):
+        raise TypeError(f"{spec.__name__} must subclass {base.__name__}")
+    kind = spec.model_fields["kind"].default
+    kinds[kind] = spec
+    builders[kind] = builder
+
+
+def build_profile(m: MemberSpec) -> VelocityProfile:
+    if m.profile == "l24":
+        return l24_profile()
+    if m.profile == "l23":
+        return l23_profile()
+    if m.profile == "hover":
+        return VelocityProfile((Phase("hover", m.hover_duration, (0.0, 0.0), (0.0, 0.0), (0.0, 0.0), (0.0, 0.0)),))
+    return VelocityProfile(tuple(Phase(p.name, p.duration, tuple(p.c), tuple(p.amplitude), tuple(p.omega),
+                                       tuple(p.phi)) for p in m.phases))
+
+
+def spawn_positions(scenario: Scenario, rng: np.random.Generator) -> np.ndarray:
+    """Initial UAV positions: the scenario's, or seeded uniform draws in the spawn box, kept apart."""
+    sw = scenario.swarm
+    if sw.initial_positions is not None:
+        return np.asarray(sw.initial_positions, dtype=float)
+    center = np.asarray(sw.spawn_center)
+    pos = center + rng.uniform(-sw.spawn_half_width, sw.spawn_half_width, size=(sw.n_uavs, 2))
+    for _ in range(100):  # redraw the UAVs that are too close to an earlier one
+        close = _too_close(pos, sw.min_separation)
+        if not close.any():
+            break
+        pos[close] = center + rng.uniform(-sw.spawn_half_width, sw.spawn_half_width, size=(close.sum(), 2))
+    else:
+        raise ScenarioError(f"swarm: cannot place {sw.n_uavs} UAVs {sw.min_separation} m apart in a spawn box of "
+                            f"half-width {sw.spawn_half_width} m; enlarge swarm.spawn_half_width or lower "
+                            "swarm.min_separation")
+    return pos
+
+
+def _too_close(pos: np.ndarray, min_sep: float) -> np.ndarray:
+    """UAVs closer than ``min_sep`` to an earlier UAV (KD-tree pairs: O(N) memory)."""
+    from scipy.spatial import cKDTree
+
+    close = np.zeros(len(pos), dtype=bool)
+    if min_sep > 0 and len(pos) > 1:
+        pairs = cKDTree(pos).query_pairs(min_sep, output_type="ndarray")
+        if len(pairs):
+            d2 = np.sum((pos[pairs[:, 0]] - pos[pairs[:, 1]]) ** 2, axis=1)
+            later = pairs[d2 < min_sep**2].max(axis=1)
+            close[later] = True
+    return close
+
+
+def _group(name: str, spec: GroupSpec) -> Group:
+    starts = np.asarray([m.start for m in spec.members], dtype=float).reshape(-1, 2)
+    driver = ProfileDriver(tuple(build_profile(m) for m in spec.members), spec.velocity_gain, spec.wind_std)
+    return Group(name, spec.vehicle, starts, driver)
+
+
+@dataclass
+class Simulation:
+    """Everything one run needs: the truth, the onboard stack, the channel and the recording's metadata."""
+
+    world: World
+    stack: OnboardStack
+    channel: Channel
+    meta: dict
+
+
+def build(scenario: Scenario) -> Simulation:
+    """Wire a validated scenario into a :class:`Simulation` (random streams derived by purpose from its seed)."""
+    rates = scenario.rates
+    dt_phys = 1.0 / rates.physics
+    dt_est = round(rates.physics / rates.estimation) * dt_phys
+    dt_ctrl = round(rates.physics / rates.control) * dt_phys
+    compiled = scenario.kernels != "numpy"  # one decision for every compiled fast path
+    n = scenario.swarm.n_uavs
+    seed = scenario.seed
+    groups = [_group("targets", scenario.targets), _group("decoys", scenario.decoys),
+              Group("uavs", scenario.swarm.vehicle, spawn_positions(scenario, stream(seed, "spawn")))]
+    s = scenario.sensor
+    world = World(groups, RangeBearingSensor(s.sigma_range, s.sigma_bearing, s.max_range, s.latency),
+                  dt=dt_phys, duration=scenario.run_duration(),
+                  nav_std=(scenario.swarm.nav_position_std, scenario.swarm.nav_velocity_std),
+                  wind_rng=stream(seed, "wind"), nav_rng=stream(seed, "navigation"),
+                  sensor_rng=stream(seed, f"sensor/{s.kind}"), compiled=compiled)
+    ctx = Context(scenario, n, dt_est, dt_ctrl, compiled, world)
+    estimator = ESTIMATORS[scenario.estimator.kind](scenario.estimator, ctx)
+    controller = CONTROLLERS[scenario.controller.kind](scenario.controller, ctx)
+    tracked = world.slices["targets"].start + getattr(scenario.estimator, "target", 1) - 1
+    guide = estimator
+    if getattr(scenario.controller, "follow", "estimate") == "truth":
+        guide = TruthOracle(lambda: world.truth()[tracked], n)
+    net = scenario.network
+    channel = Channel(net.topology, n, net.r_comm, tuple((a - 1, b - 1) for a, b in net.edges),
+                      net.loss_probability, stream(seed, "channel"))
+    profiles = scenario.targets.members
+    meta = {
+        "scenario": scenario.name, "seed": seed, "dt": dt_est,
+        "groups": {name: [sl.start, sl.stop] for name, sl in world.slices.items()},
+        "tracked": int(tracked),
+        "phase_names": list(build_profile(profiles[tracked - world.slices["targets"].start]).phase_names),
+        "d": getattr(scenario.controller, "d", float("nan")), "r_comm": net.r_comm,
+        "chase_start": getattr(scenario.controller, "chase_after_steps", 0) * dt_est,
+        "model": getattr(scenario.estimator, "model", None), "topology": net.topology,
+        "estimator": scenario.estimator.kind, "share": getattr(scenario.estimator, "share", None),
+        "controller": scenario.controller.kind, "variant": getattr(scenario.controller, "variant", None),
+    }
+    return Simulation(world, OnboardStack(estimator, controller, guide), channel, meta)

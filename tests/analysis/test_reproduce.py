@@ -87,7 +87,8 @@ def test_a_cached_run_is_reused_and_carries_its_key(tmp_path, runs, capsys):
     (lambda e: json.dumps({**e, "version": "0.0.1"}), "stale"),
     (lambda e: json.dumps({**e, "key": "0" * 64}), "foreign"),
     (lambda e: json.dumps({**e, "format": CACHE_FORMAT + 1}), "foreign"),
-], ids=["not-json", "empty", "not-an-object", "other-version", "other-key", "other-format"])
+    (lambda e: json.dumps({**e, "metrics": None}), "corrupt"),
+], ids=["not-json", "empty", "not-an-object", "other-version", "other-key", "other-format", "no-metrics"])
 def test_a_bad_cache_entry_is_run_again_with_one_warning_line(tmp_path, runs, capsys, damage, reason):
     run_all([("l24-cv", 1)], tmp_path, workers=1)
     path = entry_path(tmp_path)

@@ -62,14 +62,16 @@ def read_cached(path: Path, key: str, version: str) -> tuple[dict | None, str]:
         entry = json.loads(path.read_text())
     except (OSError, UnicodeDecodeError, ValueError) as exc:
         return None, f"corrupt ({type(exc).__name__}: {exc})"
-    if not isinstance(entry, dict) or not isinstance(entry.get("metrics"), dict):
-        return None, "corrupt (no metrics object)"
+    if not isinstance(entry, dict):
+        return None, f"corrupt (a JSON {type(entry).__name__}, not an object)"
     if entry.get("format") != CACHE_FORMAT:
         return None, f"foreign (cache format {entry.get('format')!r}, expected {CACHE_FORMAT})"
     if entry.get("version") != version:
         return None, f"stale (written by swarmtrack {entry.get('version')}, this is {version})"
     if entry.get("key") != key:
         return None, f"foreign (key {str(entry.get('key'))[:12]} does not match {key[:12]})"
+    if not isinstance(entry.get("metrics"), dict):
+        return None, "corrupt (no metrics object)"
     return entry["metrics"], ""
 
 

@@ -16,6 +16,7 @@ from pathlib import Path
 import click
 import yaml
 
+from swarmtrack.analysis.papers import PAPERS
 from swarmtrack.scenarios.loader import ScenarioError, builtin_names, load_raw, load_scenario
 
 
@@ -99,8 +100,8 @@ def run_cmd(scenario: str, out: Path | None, seed: int | None, overrides: tuple[
                f"{'n/a' if offset is None else f'{offset:.3f} m'} | written to {out}")
 
 
-@main.command("reproduce")
-@click.argument("paper", type=click.Choice(["l24", "l23"]))
+@main.command("reproduce", epilog="\b\nPapers:\n" + "\n".join(f"  {k}  {p.title}" for k, p in sorted(PAPERS.items())))
+@click.argument("paper", type=click.Choice(sorted(PAPERS)))
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="output folder (default: runs/reproduce-<paper>)")
 @click.option("--runs", type=click.IntRange(min=1), default=10, show_default=True, help="seeds per experiment")

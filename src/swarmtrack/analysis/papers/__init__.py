@@ -1,0 +1,16 @@
+"""The reproducible papers, one module each, and the registry :data:`PAPERS` that ``swarmtrack reproduce`` reads.
+
+A paper module holds the published numbers as printed (units converted to metres and m/s), its experiments
+(built-in scenario names), ``analyse(by_scenario) -> (claims, markdown, numbers)`` and ``figures(out)``, and
+exports them as ``PAPER`` (:class:`Paper`). Adding a paper is one module here and one line below.
+"""
+
+from swarmtrack.analysis.papers import l23, l24
+from swarmtrack.analysis.papers.base import Claim, Paper
+
+PAPERS: dict[str, Paper] = {
+    "l24": l24.PAPER,  # Lizzio et al., Drones 2024: Tables 1-3, Figs. 2-7
+    "l23": l23.PAPER,  # Lizzio et al., EASN 2022: Table 1, Fig. 1
+}
+
+__all__ = ["PAPERS", "Claim", "Paper"]

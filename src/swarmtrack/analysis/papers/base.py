@@ -1,0 +1,50 @@
+"""What a paper module provides (:class:`Paper`), the claims it checks (:class:`Claim`) and shared statistics."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+#: ``analyse(by_scenario) -> (claims, markdown, numbers)``; ``by_scenario`` maps each experiment to its runs'
+#: metrics (one dict per seed, ``{"diverged": message}`` for a run whose filter diverged).
+Analyse = Callable[[dict[str, list[dict]]], tuple[list["Claim"], str, dict]]
+
+
+@dataclass(frozen=True)
+class Paper:
+    """One reproducible paper: its built-in scenarios, how to compare their runs with it, its figures."""
+
+    name: str  #: short name, the ``swarmtrack reproduce`` argument
+    title: str
+    experiments: tuple[str, ...]  #: built-in scenario names, each run over seeds 1..runs
+    analyse: Analyse
+    figures: Callable[[Path], list[Path]]  #: writes the paper's figures (seed 1) into a folder
+
+
+@dataclass
+class Claim:
+    """A statement of the paper, the paper's and the project's numbers for it, and whether the project's hold."""
+
+    id: str
+    text: str
+    paper: object
+    project: object
+    holds: bool
+
+    def as_dict(self) -> dict:
+        return {"id": self.id, "text": self.text, "paper": self.paper, "project": self.project,
+                "holds": bool(self.holds)}
+
+
+def stats(values: list[float]) -> tuple[float, float]:
+    """Mean and standard deviation over seeds."""
+    a = np.asarray(values, dtype=float)
+    return float(a.mean()), float(a.std())
+
+
+def converged(runs: list[dict]) -> list[dict]:
+    """The runs whose filter did not diverge."""
+    return [r for r in runs if "diverged" not in r]

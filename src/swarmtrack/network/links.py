@@ -26,22 +26,26 @@ TOPOLOGIES = ("none", "line", "ring", "full", "proximity", "edges")
 SPARSE_MIN_UAVS = 300
 """Swarm size from which the constructors return CSR links (when called with ``sparse=None``).
 
-Measured for :func:`proximity_links` (this machine, 2 cores, scipy 1.17, positions uniform in a square of
-half-width ``2.2 √N`` with r_comm = 4.8, i.e. ≈ 3 neighbours per UAV; median of repeated calls):
+Measured for :func:`proximity_links` (2-core machine shared with other jobs, numpy 2.4, scipy 1.17; positions
+uniform in a square of half-width ``2.2 √N`` with r_comm = 4.8, i.e. ≈ 3.5 links per UAV; fastest / median
+of 10-50 calls):
 
-======  ===========  ============
-N       dense        sparse (KD)
-======  ===========  ============
-100     0.08 ms      0.10 ms
-200     0.24 ms      0.17 ms
-400     1.0 ms       0.32 ms
-1,000   7.1 ms       0.77 ms
-10,000  700 ms       8.5 ms
-======  ===========  ============
+======  ==================  ===============
+N       dense, ms           sparse (KD), ms
+======  ==================  ===============
+100     0.04 / 0.04         0.17 / 0.19
+200     0.13 / 0.14         0.25 / 0.50
+300     1.4 / 1.5           0.34 / 0.60
+400     2.8 / 7.0           0.45 / 0.56
+1,000   15 / 20             1.4 / 1.6
+10,000  1,500 / 2,600       25 / 43
+======  ==================  ===============
 
-Sparse construction wins from a few hundred UAVs on; below that both take well under a millisecond and the
-dense form keeps the small-swarm code paths (and their numbers, bit for bit) as they were. ``full`` stays
-dense at any size (see :func:`static_links`).
+The dense cost jumps between 200 and 300 UAVs (where its (N, N) float temporaries pass 0.5 MB each); from
+300 UAVs on sparse construction wins, and so do the inbox sum (4×4 payload: 0.15 ms dense
+vs 0.08 ms CSR at N = 300) and the compiled flocking kernel. Below, both forms take well under a
+millisecond and the dense form keeps the small-swarm code paths (and their numbers, bit for bit) as they
+were. ``full`` stays dense at any size (see :func:`static_links`).
 """
 
 Links = np.ndarray | sp.csr_array

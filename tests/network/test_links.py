@@ -169,3 +169,9 @@ def test_proximity_cache_follows_moving_positions():
     first = ch.links(q)
     q[:] = q * 0.5  # the caller moves the swarm in place
     assert np.array_equal(ch.links(q), proximity_links(q, 4.8)) and not np.array_equal(ch.links(q), first)
+
+
+def test_edge_list_leaves_out_a_stored_self_link():
+    links = sp.csr_array(np.array([[True, True], [False, True]]))
+    receivers, senders = edge_list(links)
+    assert receivers.tolist() == [0] and senders.tolist() == [1]

@@ -72,9 +72,10 @@ def to_dense(links: Links) -> np.ndarray:
 
 
 def neighbour_lists(links: Links) -> tuple[np.ndarray, np.ndarray]:
-    """CSR structure ``(indptr, senders)``: UAV i hears ``senders[indptr[i]:indptr[i + 1]]`` (ascending).
+    """CSR structure ``(indptr, senders)``: UAV i hears ``senders[indptr[i]:indptr[i + 1]]``.
 
-    For dense links the diagonal, if set, is left out, so both forms give the same lists.
+    CSR links are returned as stored (no copy); for dense links the diagonal, if set, is left out, so both
+    forms of the same links give the same lists.
     """
     if is_sparse(links):
         return links.indptr, links.indices
@@ -85,9 +86,13 @@ def neighbour_lists(links: Links) -> tuple[np.ndarray, np.ndarray]:
 
 
 def edge_list(links: Links) -> tuple[np.ndarray, np.ndarray]:
-    """Directed links as ``(receivers, senders)`` int arrays in row-major order (no self-loops)."""
+    """Directed links as ``(receivers, senders)`` int arrays in row-major order, self-loops left out (a dense
+    mask or a hand-made CSR array may carry some)."""
     indptr, senders = neighbour_lists(links)
     receivers = np.repeat(np.arange(len(indptr) - 1), np.diff(indptr))
+    if is_sparse(links):
+        keep = receivers != senders
+        receivers, senders = receivers[keep], senders[keep]
     return receivers, senders
 
 

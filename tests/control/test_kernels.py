@@ -1,10 +1,14 @@
 """The compiled flocking kernel (control/kernels.py) against the numpy reference (control/flocking.py)."""
 
+import tracemalloc
+
 import numpy as np
 import pytest
+from scipy import sparse as sp
 
 from swarmtrack.control import VARIANTS, FlockingGains, FlockingState, flocking_control
 from swarmtrack.control.kernels import flocking_control_compiled
+from swarmtrack.network.links import drop, is_sparse, neighbour_sum, proximity_links
 from swarmtrack.vehicles import double_integrator
 
 TOL = 1e-12  # same terms, only the order of the neighbour sums differs
@@ -72,3 +76,72 @@ def test_closed_loop_runs_stay_together(variant):
     _close(s_fast.v_int_integral, s_ref.v_int_integral, 1e-9)
     # the swarm did gather around the target
     assert np.linalg.norm(ref[-1, :, :2].mean(axis=0) - [0.5 * 299 * dt, np.sin(0.1 * 299 * dt)]) < 3.0
+
+
+# --------------------------------------------------------------------------- sparse (CSR) links
+
+
+def _swarm_links(n, seed, neighbours_per_uav=4.0, r_comm=4.8):
+    """Uniform positions holding ~``neighbours_per_uav`` UAVs within r_comm, and their links in both forms."""
+    half = np.sqrt(np.pi * r_comm**2 * n / neighbours_per_uav) / 2
+    q = np.random.default_rng(seed).uniform(-half, half, (n, 2))
+    return q, proximity_links(q, r_comm, sparse=False), proximity_links(q, r_comm, sparse=True)
+
+
+def _random_inputs(rng, n):
+    p, q_t, p_t = rng.normal(0, 1, (n, 2)), rng.normal(0, 3, (n, 2)), rng.normal(0, 1, (n, 2))
+    state = FlockingState(rng.normal(0, 2, (n, 2)), rng.normal(0, 2, (n, 2)))
+    return p, q_t, p_t, state, rng.random(n) < 0.7
+
+
+@pytest.mark.parametrize("variant", VARIANTS)
+@pytest.mark.parametrize("control", [flocking_control, flocking_control_compiled], ids=["numpy", "compiled"])
+def test_sparse_links_give_the_dense_reference_at_n_2000(variant, control):
+    q, dense, links = _swarm_links(2000, 11)
+    p, q_t, p_t, state, active = _random_inputs(np.random.default_rng(11), 2000)
+    # r_comm = 6 > 4.8: the bump still reaches beyond the links, so the links, not the bump, cut pairs off
+    for gains in (FlockingGains(), FlockingGains(accel_limit=np.inf, d=3.0, r_comm=6.0, h=0.5)):
+        u_ref, s_ref = flocking_control(q, p, q_t, p_t, dense, state, gains, variant, 0.05, active=active)
+        u, s = control(q, p, q_t, p_t, links, state, gains, variant, 0.05, active=active)
+        _close(u, u_ref)
+        _close(s.e_int_integral, s_ref.e_int_integral)
+        _close(s.v_int_integral, s_ref.v_int_integral)
+
+
+@pytest.mark.parametrize("variant", VARIANTS)
+@pytest.mark.parametrize("n", [1, 2, 5, 40])
+def test_asymmetric_sparse_links_give_the_dense_reference(variant, n):
+    """Random one-way links (as after message loss), a stored self-link (ignored), pairs beyond r_comm."""
+    rng = np.random.default_rng(100 + n)
+    for _ in range(10):
+        q = rng.uniform(-1.5, 1.5, (n, 2)) * max(1.0, np.sqrt(n))
+        p, q_t, p_t, state, active = _random_inputs(rng, n)
+        dense = rng.random((n, n)) < 0.7
+        links = sp.csr_array(dense)
+        u_ref, s_ref = flocking_control(q, p, q_t, p_t, dense, state, FlockingGains(), variant, 0.05, active=active)
+        for control in (flocking_control, flocking_control_compiled):
+            u, s = control(q, p, q_t, p_t, links, state, FlockingGains(), variant, 0.05, active=active)
+            _close(u, u_ref)
+            _close(s.e_int_integral, s_ref.e_int_integral)
+            _close(s.v_int_integral, s_ref.v_int_integral)
+
+
+def test_sparse_path_never_builds_an_n_by_n_array():
+    """Memory O(N + links): links, inbox sums, losses and flocking at N = 20,000 allocate well under one N² byte
+    array (400 MB)."""
+    n = 20_000
+    rng = np.random.default_rng(5)
+    q = rng.uniform(-1, 1, (n, 2)) * np.sqrt(n) * 2.2
+    p, q_t, p_t, state, active = _random_inputs(rng, n)
+    flocking_control_compiled(q[:2], p[:2], q_t[:2], p_t[:2], sp.csr_array(np.ones((2, 2), bool)),
+                              FlockingState.zeros(2))  # compile outside the measurement
+    tracemalloc.start()
+    try:
+        links = proximity_links(q, 4.8)
+        neighbour_sum(drop(links, 0.2, rng), rng.standard_normal((n, 2, 2)))
+        flocking_control(q, p, q_t, p_t, links, state, active=active)
+        flocking_control_compiled(q, p, q_t, p_t, links, state, active=active)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert is_sparse(links) and peak < 20e6

@@ -10,8 +10,11 @@ Three variants share one function, :func:`flocking_control`:
     integral + ``-K_vint ∫ (p_i - p_t) dt`` (L23 eq. 9) and the constant target gain ``K_dt`` replaced by the
     dynamic gain ``atan(‖q_i - q_t‖ / D_dt)`` (L24 eq. 3, L23 eq. 10).
 
-Everything is vectorised over agents: neighbour sums are reductions over an ``(N, N)`` pair axis
-(``Σ_j c_ij (x_i - x_j) = x_i Σ_j c_ij - (C x)_i``), so no array larger than ``(N, N)`` is built.
+Everything is vectorised over agents. With dense ``(N, N)`` neighbour masks the neighbour sums are
+reductions over the pair axis (``Σ_j c_ij (x_i - x_j) = x_i Σ_j c_ij - (C x)_i``), so no array larger than
+``(N, N)`` is built; with sparse (CSR) links (:mod:`swarmtrack.network.links`, large swarms) the pair terms
+are computed per stored link and summed per receiver, in O(N + links) memory. Both give the same numbers to
+rounding.
 
 Conventions
 -----------
@@ -28,6 +31,8 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
+
+from swarmtrack.network.links import Links, edge_list, is_sparse
 
 __all__ = [
     "VARIANTS",
@@ -190,13 +195,48 @@ def _pair_weights(
     mask = np.asarray(neighbours, dtype=bool)
     w *= mask
     np.fill_diagonal(w, 0.0)
-    c = w * phi(sig - _sigma_from_sq(gains.d**2, eps)) / (1.0 + eps * sig)
-    return w, c
+    return w, _regulator_coefficients(w, sig, gains)
+
+
+def _regulator_coefficients(w: np.ndarray, sig: np.ndarray, gains: FlockingGains) -> np.ndarray:
+    """``c_ij = a_ij φ(‖q_ij‖σ − ‖d‖σ)/(1 + ε‖q_ij‖σ)`` (L24 eq. 1) from ``a_ij`` and ``‖q_ij‖σ``."""
+    return w * phi(sig - _sigma_from_sq(gains.d**2, gains.eps)) / (1.0 + gains.eps * sig)
 
 
 def _laplacian_apply(c: np.ndarray, x: np.ndarray) -> np.ndarray:
     """``Σ_j c_ij (x_i − x_j)`` for all i, as ``x_i Σ_j c_ij − (C x)_i``."""
     return x * c.sum(axis=1)[:, None] - c @ x
+
+
+def _dense_neighbour_terms(
+    q: np.ndarray, p: np.ndarray, neighbours: np.ndarray, gains: FlockingGains
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(e_int, Σ_j a_ij (p_i − p_j))`` (L23 eq. 7, L24 velocity matching) over an ``(N, N)`` mask."""
+    w, c = _pair_weights(q, neighbours, gains)
+    return -_laplacian_apply(c, q), _laplacian_apply(w, p)
+
+
+def _sparse_neighbour_terms(
+    q: np.ndarray, p: np.ndarray, links: Links, gains: FlockingGains
+) -> tuple[np.ndarray, np.ndarray]:
+    """Same as :func:`_dense_neighbour_terms` for CSR links: ``a_ij``, ``c_ij`` per stored link (receiver i,
+    sender j), summed per receiver; O(N + links) memory."""
+    n = q.shape[0]
+    i, j = edge_list(links)
+    dq = q[i] - q[j]
+    sig = _sigma_from_sq(dq[:, 0] * dq[:, 0] + dq[:, 1] * dq[:, 1], gains.eps)
+    w = bump(sig / _sigma_from_sq(gains.r_comm**2, gains.eps), gains.h)
+    c = _regulator_coefficients(w, sig, gains)
+    e_int = -_edge_laplacian_apply(c, i, j, q, n)
+    return e_int, _edge_laplacian_apply(w, i, j, p, n)
+
+
+def _edge_laplacian_apply(c: np.ndarray, i: np.ndarray, j: np.ndarray, x: np.ndarray, n: int) -> np.ndarray:
+    """``Σ_j c_ij (x_i − x_j)`` for all i, with ``c`` given per directed link ``(i, j)``."""
+    out = x * np.bincount(i, weights=c, minlength=n)[:, None]
+    for k in range(x.shape[1]):
+        out[:, k] -= np.bincount(i, weights=c * x[j, k], minlength=n)
+    return out
 
 
 def _clip_norm(u: np.ndarray, limit: float) -> np.ndarray:
@@ -227,9 +267,11 @@ def flocking_control(
         Each agent's own position and velocity.
     q_t, p_t : (N, 2) or (2,)
         Target position and velocity as *each* agent knows it (its own estimate; a (2,) array is broadcast).
-    neighbours : (N, N) bool
+    neighbours : (N, N) bool array or CSR links
         ``neighbours[i, j]``: agent i receives agent j's state (diagonal ignored). The bump ``a_ij`` on
-        ``‖q_i − q_j‖σ/‖r_comm‖σ`` additionally zeroes agents beyond r_comm.
+        ``‖q_i − q_j‖σ/‖r_comm‖σ`` additionally zeroes agents beyond r_comm. Sparse links
+        (:func:`swarmtrack.network.links.proximity_links` for large swarms) give the same numbers to
+        rounding without any ``(N, N)`` array.
     state : FlockingState
         Integrals at this step.
     gains : FlockingGains, default ``FlockingGains()``.
@@ -263,11 +305,11 @@ def flocking_control(
     q_t = np.broadcast_to(np.asarray(q_t, dtype=float), (n, 2))
     p_t = np.broadcast_to(np.asarray(p_t, dtype=float), (n, 2))
 
-    w, c = _pair_weights(q, neighbours, g)
     # e_int,i = Σ_j c_ij (q_j − q_i) = −Σ_j c_ij (q_i − q_j)   (L23 eq. 7, a_ij-weighted)
-    e_int = -_laplacian_apply(c, q)
+    neighbour_terms = _sparse_neighbour_terms if is_sparse(neighbours) else _dense_neighbour_terms
+    e_int, p_disagreement = neighbour_terms(q, p, neighbours, g)
     u_d = g.K_d * e_int  # L24 eq. 1 distance regulator: −K_d Σ c_ij (q_i − q_j)
-    u_v = -g.K_v * _laplacian_apply(w, p)  # L24 velocity matching
+    u_v = -g.K_v * p_disagreement  # L24 velocity matching
     eq = q - q_t
     ep = p - p_t
     if variant == "tailored":

@@ -1,6 +1,8 @@
-"""Communication topologies as (N, N) boolean adjacency matrices; ``A[i, j]`` means i receives from j.
+"""Communication topologies as dense (N, N) boolean adjacency matrices; ``A[i, j]`` means i receives from j.
 
-L24 Fig. 1 is the line 1-2-3; L23 compares ``none`` (no fusion) with ``full`` (full fusion).
+L24 Fig. 1 is the line 1-2-3; L23 compares ``none`` (no fusion) with ``full`` (full fusion). The links
+themselves are built by :mod:`swarmtrack.network.links` (dense or sparse); :func:`adjacency` is its dense
+form, for small swarms and tests.
 """
 
 from __future__ import annotations
@@ -9,7 +11,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
-TOPOLOGIES = ("none", "line", "ring", "full", "proximity", "edges")
+from swarmtrack.network.links import TOPOLOGIES, proximity_links, static_links
+
+__all__ = ["TOPOLOGIES", "adjacency"]
 
 
 def adjacency(
@@ -20,34 +24,14 @@ def adjacency(
     r_comm: float | None = None,
     edges: Sequence[Sequence[int]] = (),
 ) -> np.ndarray:
-    """Symmetric adjacency without self-loops.
+    """Symmetric dense adjacency without self-loops.
 
     ``proximity`` links UAVs closer than ``r_comm`` (needs ``positions`` (n, 2)); ``edges`` takes 0-based
-    undirected pairs.
+    undirected pairs. See :func:`~swarmtrack.network.links.proximity_links` and
+    :func:`~swarmtrack.network.links.static_links`, which this calls with ``sparse=False``.
     """
-    A = np.zeros((n, n), dtype=bool)
-    if kind == "none":
-        return A
-    if kind == "full":
-        A[:] = True
-    elif kind == "line":
-        idx = np.arange(n - 1)
-        A[idx, idx + 1] = A[idx + 1, idx] = True
-    elif kind == "ring":
-        idx = np.arange(n)
-        A[idx, (idx + 1) % n] = A[(idx + 1) % n, idx] = True
-    elif kind == "proximity":
+    if kind == "proximity":
         if positions is None or r_comm is None:
             raise ValueError("proximity topology needs positions and r_comm")
-        diff = positions[:, None, :] - positions[None, :, :]
-        A = np.einsum("ijk,ijk->ij", diff, diff) < r_comm * r_comm
-    elif kind == "edges":
-        for e in edges:
-            i, j = int(e[0]), int(e[1])
-            if not (0 <= i < n and 0 <= j < n) or i == j:
-                raise ValueError(f"edge {list(e)} names a missing UAV or a self-loop (UAVs are 0..{n - 1})")
-            A[i, j] = A[j, i] = True
-    else:
-        raise ValueError(f"unknown topology {kind!r}; choose one of {', '.join(TOPOLOGIES)}")
-    np.fill_diagonal(A, False)
-    return A
+        return proximity_links(positions, r_comm, sparse=False)
+    return static_links(kind, n, edges, sparse=False)

@@ -1,0 +1,177 @@
+"""Dense and sparse links (network/links.py) hold the same links and give the same sums."""
+
+import numpy as np
+import pytest
+from scipy import sparse as sp
+
+from swarmtrack.network import (
+    SPARSE_MIN_UAVS,
+    Channel,
+    adjacency,
+    drop,
+    edge_list,
+    is_sparse,
+    n_links,
+    neighbour_lists,
+    neighbour_sum,
+    proximity_links,
+    static_links,
+    to_dense,
+)
+
+
+def _swarm(n, seed, neighbours_per_uav=3.0, r_comm=4.8):
+    """Uniform positions in a square holding about ``neighbours_per_uav`` UAVs within r_comm of each UAV."""
+    half = np.sqrt(np.pi * r_comm**2 * n / neighbours_per_uav) / 2
+    return np.random.default_rng(seed).uniform(-half, half, (n, 2))
+
+
+def _canonical(A):
+    return (is_sparse(A) and A.dtype == bool and A.has_canonical_format and np.all(A.data)
+            and not A.diagonal().any())
+
+
+def _brute_force(q, r_comm):
+    n = len(q)
+    return np.array([[i != j and np.sum((q[i] - q[j]) ** 2) < r_comm**2 for j in range(n)] for i in range(n)])
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_sparse_proximity_is_exactly_the_dense_proximity(seed):
+    q = _swarm(500, seed)
+    dense = proximity_links(q, 4.8, sparse=False)
+    links = proximity_links(q, 4.8, sparse=True)
+    assert _canonical(links) and np.array_equal(links.toarray(), dense)
+    assert n_links(links) == n_links(dense) > 0
+
+
+def test_pairs_at_exactly_r_comm_are_out_and_coincident_uavs_are_in():
+    # on an integer grid with spacing 3 and r_comm = 6, many pairs sit at exactly 6 (and √(36) is exact);
+    # the KD-tree alone would count them as inside
+    g = np.arange(12) * 3.0
+    q = np.stack(np.meshgrid(g, g), axis=-1).reshape(-1, 2)
+    q = np.concatenate([q, q[:5]])  # five UAVs sharing a spot with another
+    for r_comm in (6.0, 3.0 * np.sqrt(2.0), 4.8):
+        dense = proximity_links(q, r_comm, sparse=False)
+        links = proximity_links(q, r_comm, sparse=True)
+        assert np.array_equal(links.toarray(), dense)
+        assert np.array_equal(dense, _brute_force(q, r_comm))
+    assert not links[0, 2] and links[0, 144] and links[144, 0]  # d = 6 == r_comm: out; d = 0: in
+
+
+def test_proximity_chooses_sparse_from_the_threshold_on():
+    assert not is_sparse(proximity_links(_swarm(SPARSE_MIN_UAVS - 1, 0), 4.8))
+    assert is_sparse(proximity_links(_swarm(SPARSE_MIN_UAVS, 0), 4.8))
+
+
+def test_adjacency_is_the_dense_form_whatever_the_size():
+    q = _swarm(SPARSE_MIN_UAVS + 10, 1)
+    assert not is_sparse(adjacency("proximity", len(q), positions=q, r_comm=4.8))
+    assert not is_sparse(adjacency("ring", SPARSE_MIN_UAVS + 10))
+
+
+@pytest.mark.parametrize("kind, edges", [("none", ()), ("line", ()), ("ring", ()),
+                                          ("edges", [(0, 5), (5, 0), (3, 7), (2, 9)])])
+@pytest.mark.parametrize("n", [1, 2, 3, 10])
+def test_static_sparse_links_equal_the_dense_ones(kind, edges, n):
+    edges = [e for e in edges if max(e) < n]
+    dense = static_links(kind, n, edges, sparse=False)
+    links = static_links(kind, n, edges, sparse=True)
+    assert _canonical(links) and np.array_equal(links.toarray(), dense)
+    assert np.array_equal(dense, dense.T) and not dense.diagonal().any()
+
+
+def test_large_static_topologies_are_sparse_except_full():
+    n = SPARSE_MIN_UAVS
+    assert is_sparse(static_links("ring", n)) and n_links(static_links("ring", n)) == 2 * n
+    assert is_sparse(static_links("line", n)) and n_links(static_links("line", n)) == 2 * (n - 1)
+    full = static_links("full", n)
+    assert not is_sparse(full) and n_links(full) == n * (n - 1)
+
+
+def test_static_links_check_their_arguments():
+    with pytest.raises(ValueError, match="missing UAV"):
+        static_links("edges", 3, [(0, 3)], sparse=True)
+    with pytest.raises(ValueError, match="self-loop"):
+        static_links("edges", 3, [(1, 1)], sparse=True)
+    with pytest.raises(ValueError, match="unknown topology"):
+        static_links("star", 3)
+    with pytest.raises(ValueError, match="proximity_links"):
+        static_links("proximity", 3)
+
+
+@pytest.mark.parametrize("shape", [(), (2,), (4, 4)])
+def test_sparse_neighbour_sum_equals_the_dense_one(shape):
+    rng = np.random.default_rng(3)
+    q = _swarm(400, 3, neighbours_per_uav=6)
+    dense, links = proximity_links(q, 4.8, sparse=False), proximity_links(q, 4.8, sparse=True)
+    payload = rng.standard_normal((400, *shape))
+    got = neighbour_sum(links, payload)
+    assert got.shape == payload.shape
+    np.testing.assert_allclose(got, neighbour_sum(dense, payload), rtol=1e-13, atol=1e-13)
+
+
+def test_edge_list_is_row_major_and_agrees_between_forms():
+    rng = np.random.default_rng(4)
+    dense = rng.random((30, 30)) < 0.2
+    dense[np.arange(30), np.arange(30)] = True  # a set diagonal is not a link
+    receivers, senders = edge_list(dense)
+    expected = [(i, j) for i in range(30) for j in range(30) if dense[i, j] and i != j]
+    assert list(zip(receivers.tolist(), senders.tolist(), strict=True)) == expected
+    links = sp.csr_array(dense & ~np.eye(30, dtype=bool))
+    for a, b in zip(edge_list(links), (receivers, senders), strict=True):
+        assert np.array_equal(a, b)
+    indptr, s = neighbour_lists(dense)
+    assert np.array_equal(indptr, links.indptr) and np.array_equal(s, links.indices)
+
+
+def test_drop_keeps_about_one_minus_p_of_sparse_links_reproducibly():
+    links = proximity_links(_swarm(2000, 5, neighbours_per_uav=5), 4.8, sparse=True)
+    kept = [drop(links, 0.3, np.random.default_rng(seed)) for seed in (1, 1, 2)]
+    assert all(_canonical(k) for k in kept)
+    assert abs(n_links(kept[0]) / n_links(links) - 0.7) < 0.02
+    assert (kept[0] != kept[1]).nnz == 0 and (kept[0] != kept[2]).nnz > 0
+    assert (kept[0] > links).nnz == 0  # only ever removes links
+
+
+def test_drop_on_dense_links_is_the_channels_historic_draw():
+    A = np.random.default_rng(0).random((20, 20)) < 0.5
+    expected = A & (np.random.default_rng(9).random((20, 20)) >= 0.25)
+    assert np.array_equal(drop(A, 0.25, np.random.default_rng(9)), expected)
+    assert drop(A, 0.0, None) is A  # nothing lost, nothing drawn
+
+
+def test_channel_picks_sparse_links_above_the_threshold():
+    small, large = SPARSE_MIN_UAVS - 1, SPARSE_MIN_UAVS
+    for topology in ("proximity", "ring"):
+        assert not is_sparse(Channel(topology, small, 4.8).links(_swarm(small, 0)))
+        assert is_sparse(Channel(topology, large, 4.8).links(_swarm(large, 0)))
+    assert not is_sparse(Channel("full", large, 4.8).links(_swarm(large, 0)))
+    assert is_sparse(Channel("full", large, 4.8).beacon_links(_swarm(large, 0)))
+
+
+def test_beacon_links_are_the_proximity_graph_with_their_own_losses():
+    q = _swarm(SPARSE_MIN_UAVS + 50, 6)
+    proximity = proximity_links(q, 4.8, sparse=False)
+    assert np.array_equal(to_dense(Channel("line", len(q), 4.8).beacon_links(q)), proximity)
+    ch = Channel("proximity", len(q), 4.8, loss_probability=0.4, rng=np.random.default_rng(2))
+    links, beacons = to_dense(ch.links(q)), to_dense(ch.beacon_links(q))
+    assert ch._proximity(q.copy()) is ch._proximity(q)  # one proximity graph per positions
+    assert not (links & ~proximity).any() and not (beacons & ~proximity).any()
+    assert (links != beacons).any()  # separate loss draws
+    n = n_links(proximity)
+    assert abs(n_links(links) / n - 0.6) < 0.05 and abs(n_links(beacons) / n - 0.6) < 0.05
+
+
+def test_proximity_cache_follows_moving_positions():
+    q = _swarm(50, 7)
+    ch = Channel("proximity", 50, 4.8)
+    first = ch.links(q)
+    q[:] = q * 0.5  # the caller moves the swarm in place
+    assert np.array_equal(ch.links(q), proximity_links(q, 4.8)) and not np.array_equal(ch.links(q), first)
+
+
+def test_edge_list_leaves_out_a_stored_self_link():
+    links = sp.csr_array(np.array([[True, True], [False, True]]))
+    receivers, senders = edge_list(links)
+    assert receivers.tolist() == [0] and senders.tolist() == [1]

@@ -59,13 +59,6 @@ class Channel:
             self._near_at = np.array(positions, dtype=float, copy=True)
         return self._near
 
-    def beacon_links(self, positions: np.ndarray) -> np.ndarray:
-        """Links that carry a flocking beacon: the proximity graph within r_comm minus losses."""
-        A = adjacency("proximity", self.n, positions=positions, r_comm=self.r_comm)
-        if self.loss_probability > 0.0:
-            A = A & (self.rng.random(A.shape) >= self.loss_probability)
-        return A
-
     @staticmethod
     def sum_received(links: Links, payload: np.ndarray) -> np.ndarray:
         """Inbox sum ``Σ_{j ∈ N_i} payload_j`` for every i (L24 eq. 7): ``links (N, N) @ payload (N, ...)``."""

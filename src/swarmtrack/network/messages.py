@@ -12,25 +12,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from swarmtrack.network.links import Links, edge_list, neighbour_sum
+
 Outbox = dict[str, np.ndarray]
 
 
 @dataclass(frozen=True)
 class Inbox:
-    links: object
+    links: Links
     payloads: Outbox
 
     def sum(self, name: str) -> np.ndarray:
-        """``Σ_{j: links[i, j]} payload_j`` for every receiver i (L24 eq. 7)."""
-        from swarmtrack.network.channel import Channel
-
-        return Channel.sum_received(self.links, self.payloads[name])
+        """``Σ_{j: links[i, j]} payload_j`` for every receiver i (L24 eq. 7): a (sparse) matrix product."""
+        return neighbour_sum(self.links, self.payloads[name])
 
     def edges(self) -> tuple[np.ndarray, np.ndarray]:
         """``(receivers, senders)`` of every link that carried a message, receiver-major."""
-        links = self.links
-        if isinstance(links, np.ndarray):
-            return np.nonzero(links)
-        coo = links.tocoo()
-        order = np.lexsort((coo.col, coo.row))
-        return coo.row[order].astype(np.int64), coo.col[order].astype(np.int64)
+        return edge_list(self.links)

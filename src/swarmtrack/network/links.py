@@ -136,11 +136,15 @@ def proximity_links(positions: np.ndarray, r_comm: float, *, sparse: bool | None
         A = _squared_distance(q[:, None, :], q[None, :, :]) < r2
         np.fill_diagonal(A, False)
         return A
-    pairs = cKDTree(q).query_pairs(float(r_comm) * (1.0 + 1e-9), output_type="ndarray")
+    tree = cKDTree(q, balanced_tree=False, compact_nodes=False)  # faster to build, same pairs
+    pairs = tree.query_pairs(float(r_comm) * (1.0 + 1e-9), output_type="ndarray")
     a, b = pairs[:, 0], pairs[:, 1]
     near = _squared_distance(q[a], q[b]) < r2
-    a, b = a[near], b[near]
-    return _csr(n, np.concatenate([a, b]), np.concatenate([b, a]))
+    a, b = a[near].astype(np.int64), b[near].astype(np.int64)
+    # distinct pairs i < j: both directions, sorted row-major by one sort of the keys (no duplicates to merge)
+    key = np.sort(np.concatenate([a * n + b, b * n + a]))
+    rows, cols = np.divmod(key, n)
+    return _sorted_csr(n, rows, cols)
 
 
 def static_links(kind: str, n: int, edges: Sequence[Sequence[int]] = (), *, sparse: bool | None = None) -> Links:

@@ -129,22 +129,25 @@ def sense(
     stamped: np.ndarray,
     sigma_range: float,
     sigma_bearing: float,
-    rng: np.random.Generator,
+    noise: np.ndarray,
     max_range: float | None = None,
 ):
     """One range-bearing sensing step of every UAV towards every labelled object (truth side; L24 Sec. 3.2).
 
     ``objects`` (M, 2) and ``uavs`` (N, 2) are true positions, ``stamped`` (N, 2) the navigation positions the
-    UAVs stamp on their measurements. The sensor is a cooperative one (a marker it can read), so each detection
-    carries its object's index as its label. Noise for every (UAV, object) pair is drawn from ``rng`` whether
-    or not the pair is in range, so the draws do not depend on the geometry. Returns the
+    UAVs stamp on their measurements, ``noise`` (N, M, 2) standard normal draws for every (UAV, object) pair,
+    in range or not (so the draws do not depend on the geometry). The sensor is a cooperative one (a marker
+    it can read), so each detection carries its object's index as its label. Returns the
     :class:`~swarmtrack.sensors.detections.Detections` (UAV-major order) and, for the world only, the index of
     the object each came from.
     """
     from swarmtrack.sensors.detections import Detections
 
     n, m = len(uavs), len(objects)
-    z = measure(objects[None, :, :], uavs[:, None, :], sigma_range, sigma_bearing, rng)  # (N, M, 2)
+    d = objects[None, :, :] - uavs[:, None, :]
+    z = np.empty((n, m, 2))
+    z[..., 0] = np.hypot(d[..., 0], d[..., 1]) + sigma_range * noise[..., 0]
+    z[..., 1] = wrap_angle(np.arctan2(d[..., 1], d[..., 0]) + sigma_bearing * noise[..., 1])
     owner, source = np.divmod(np.arange(n * m), m) if m else (np.zeros(0, int), np.zeros(0, int))
     z = z.reshape(n * m, 2)
     grid = m

@@ -166,8 +166,7 @@ def build(scenario: Scenario) -> Simulation:
     world = World(groups, RangeBearingSensor(s.sigma_range, s.sigma_bearing, s.max_range, s.latency),
                   dt=dt_phys, duration=scenario.run_duration(),
                   nav_std=(scenario.swarm.nav_position_std, scenario.swarm.nav_velocity_std),
-                  wind_rng=stream(seed, "wind"), nav_rng=stream(seed, "navigation"),
-                  sensor_rng=stream(seed, f"sensor/{s.kind}"), compiled=compiled)
+                  streams=lambda purpose: stream(seed, purpose), compiled=compiled)
     ctx = Context(scenario, n, dt_est, dt_ctrl, compiled, world)
     estimator = ESTIMATORS[scenario.estimator.kind](scenario.estimator, ctx)
     controller = CONTROLLERS[scenario.controller.kind](scenario.controller, ctx)

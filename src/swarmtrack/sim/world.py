@@ -10,6 +10,7 @@ Onboard code never imports this module, and this module never imports the scenar
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -48,7 +49,8 @@ class Group:
 @dataclass(frozen=True)
 class RangeBearingSensor:
     """Truth side of the range-bearing sensor (L24 Sec. 3.2): every UAV measures every object of the ``sensed``
-    groups (within ``max_range``), ``latency`` s late."""
+    groups (within ``max_range``), ``latency`` s late; the noise of the detections of each object comes from
+    that object's stream (``sensor/range_bearing/<group>/<member>``)."""
 
     sigma_range: float
     sigma_bearing: float
@@ -71,15 +73,17 @@ class World:
     """Truth of every group; :meth:`advance` integrates them together (one batched step per vehicle kind)."""
 
     def __init__(self, groups: list[Group], sensor: RangeBearingSensor, *, dt: float, duration: float,
-                 nav_std: tuple[float, float], wind_rng: np.random.Generator, nav_rng: np.random.Generator,
-                 sensor_rng: np.random.Generator, compiled: bool = False):
+                 nav_std: tuple[float, float], streams: Callable[[str], np.random.Generator],
+                 compiled: bool = False):
         names = [g.name for g in groups]
         if "uavs" not in names or len(set(names)) != len(names):
             raise ValueError(f"groups must be uniquely named and include 'uavs'; got {names}")
         self.groups = {g.name: g for g in groups}
         self.dt, self.sensor, self.compiled = dt, sensor, compiled
         self.params = quadrotor.QuadrotorParams()
-        self._nav_rng, self._sensor_rng = nav_rng, sensor_rng
+        # random streams by purpose (swarmtrack.sim.streams): each driven member's gusts have their own, so adding
+        # a member or a group shifts no other draw
+        self._nav_rng = streams("navigation")
         self._nav_std = np.array([nav_std[0]] * 2 + [nav_std[1]] * 2)
         # object index ranges of each group, in group order
         self.slices, start = {}, 0
@@ -87,9 +91,12 @@ class World:
             self.slices[g.name] = slice(start, start + g.size)
             start += g.size
         self.n_objects = start
-        # the objects the sensor sees, in label order (a cooperative sensor labels each by this index)
+        # the objects the sensor sees, in label order (a cooperative sensor labels each by this index), each
+        # with its own noise stream
         self._sensed = np.concatenate([np.arange(self.slices[n].start, self.slices[n].stop, dtype=np.int64)
                                        for n in sensor.sensed if n in self.slices] or [np.zeros(0, np.int64)])
+        names = [(g.name, k) for g in groups for k in range(g.size)]
+        self._sensor_rngs = [streams("sensor/range_bearing/{}/{}".format(*names[o])) for o in self._sensed]
         # physics layout and the drivers' profiles, gusts and gains sampled once for every physics tick
         ticks = int(np.ceil(duration / dt)) + 2
         grid = np.arange(ticks) * dt
@@ -104,7 +111,7 @@ class World:
                     v_cmd.append(prof.velocity(grid))
                     a_ff.append(prof.acceleration(grid))
                     gains.append(g.driver.gain)
-                    winds.append(g.driver.wind_std)
+                    winds.append(streams(f"wind/{g.name}/{k}").standard_normal((ticks, 2)) * g.driver.wind_std)
                 (lay.quad_obj if g.vehicle == "quadrotor" else lay.point_obj).append(obj)
                 (lay.quad_driver if g.vehicle == "quadrotor" else lay.point_driver).append(d)
         n_driven = len(gains)
@@ -115,7 +122,7 @@ class World:
                     self._phase[:, self.slices[g.name].start + k] = prof.phase_index(grid)
         self._v_cmd = np.stack(v_cmd, axis=1) if n_driven else np.zeros((ticks, 0, 2))
         self._a_ff = np.stack(a_ff, axis=1) if n_driven else np.zeros((ticks, 0, 2))
-        self._wind = wind_rng.standard_normal((ticks, n_driven, 2)) * np.asarray(winds, dtype=float)[None, :, None]
+        self._wind = np.stack(winds, axis=1) if n_driven else np.zeros((ticks, 0, 2))
         self._gains = np.asarray(gains, dtype=float)
         self._quad_obj = np.asarray(lay.quad_obj, dtype=np.int64)
         self._point_obj = np.asarray(lay.point_obj, dtype=np.int64)
@@ -183,8 +190,11 @@ class World:
         if self._nav_std[0] > 0:
             stamped += self._nav_rng.standard_normal(stamped.shape) * self._nav_std[0]
         s = self.sensor
-        det, source = range_bearing.sense(then[sensed], uavs, stamped, s.sigma_range, s.sigma_bearing,
-                                          self._sensor_rng, s.max_range)
+        noise = np.empty((len(uavs), len(sensed), 2))
+        for j, rng in enumerate(self._sensor_rngs):
+            noise[:, j] = rng.standard_normal((len(uavs), 2))
+        det, source = range_bearing.sense(then[sensed], uavs, stamped, s.sigma_range, s.sigma_bearing, noise,
+                                          s.max_range)
         return det, sensed[source]
 
     # --- physics -----------------------------------------------------------------------------------------

@@ -62,58 +62,105 @@ class _Moments:
         return np.sqrt(self.m2 / self.n)
 
 
-def rmse_table(rec: Recording) -> dict[str, dict[str, float]]:
-    """RMSE per phase and in total, per component, mean over UAVs (L24 Tables 1-3), in metres and m/s."""
-    names = rec.phase_names
-    sq = np.zeros((len(names) + 1, rec.n_agents, 4))
-    count = np.zeros(len(names) + 1)
-    for c in rec.chunks():
-        keep = _window(rec, c.t)
-        e2 = _errors(rec, c)[keep] ** 2
-        phase = c.phase[keep, rec.tracked]
+class _Rmse:
+    """Squared errors per phase, UAV and component (L24 Tables 1-3)."""
+
+    def __init__(self, rec: Recording):
+        self.rec = rec
+        self.sq = np.zeros((len(rec.phase_names) + 1, rec.n_agents, 4))
+        self.count = np.zeros(len(rec.phase_names) + 1)
+
+    def add(self, c: Chunk, keep: np.ndarray, err: np.ndarray) -> None:
+        e2 = err ** 2
+        phase = c.phase[keep, self.rec.tracked]
         for p in np.unique(phase):
             sel = phase == p
-            sq[p] += e2[sel].sum(axis=0)
-            count[p] += sel.sum()
-        sq[-1] += e2.sum(axis=0)
-        count[-1] += len(e2)
-    table = {}
-    for p, name in enumerate([*names, "total"]):
-        if count[p]:
-            per_uav = np.sqrt(sq[p] / count[p])  # (N, 4)
-            table[name] = dict(zip(COMPONENTS, per_uav.mean(axis=0).tolist(), strict=True))
-    return table
+            self.sq[p] += e2[sel].sum(axis=0)
+            self.count[p] += sel.sum()
+        self.sq[-1] += e2.sum(axis=0)
+        self.count[-1] += len(e2)
+
+    def result(self) -> dict[str, dict[str, float]]:
+        table = {}
+        for p, name in enumerate([*self.rec.phase_names, "total"]):
+            if self.count[p]:
+                per_uav = np.sqrt(self.sq[p] / self.count[p])  # (N, 4)
+                table[name] = dict(zip(COMPONENTS, per_uav.mean(axis=0).tolist(), strict=True))
+        return table
+
+
+class _Spread:
+    """Standard deviation over time of each UAV's error, mean over UAVs (L23 Table 1)."""
+
+    def __init__(self, rec: Recording):
+        self.mom = _Moments()
+
+    def add(self, c: Chunk, keep: np.ndarray, err: np.ndarray) -> None:
+        self.mom.add(err)
+
+    def result(self) -> dict[str, float]:
+        return dict(zip(COMPONENTS, self.mom.std.mean(axis=0).tolist(), strict=True))
+
+
+class _ReportedStd:
+    """The filters' own standard deviation ``sqrt(P_ii)``, mean over time and UAVs."""
+
+    def __init__(self, rec: Recording):
+        self.total, self.n = 0.0, 0
+
+    def add(self, c: Chunk, keep: np.ndarray, err: np.ndarray) -> None:
+        cov = c.probes["covariance"][keep]
+        self.total = self.total + np.sqrt(np.diagonal(cov[..., :4, :4], axis1=-2, axis2=-1)).sum(axis=(0, 1))
+        self.n += cov.shape[0] * cov.shape[1]
+
+    def result(self) -> dict[str, float]:
+        return dict(zip(COMPONENTS, (self.total / self.n).tolist(), strict=True))
+
+
+class _Nees:
+    """Mean normalised estimation error squared of [x, y, vx, vy]."""
+
+    def __init__(self, rec: Recording):
+        self.total, self.n = 0.0, 0
+
+    def add(self, c: Chunk, keep: np.ndarray, err: np.ndarray) -> None:
+        cov = c.probes["covariance"][keep][..., :4, :4]
+        sol = np.linalg.solve(cov, err[..., None])[..., 0]
+        self.total += float(np.sum(err * sol))
+        self.n += err.shape[0] * err.shape[1]
+
+    def result(self) -> float:
+        return self.total / self.n
+
+
+def _scan(rec: Recording, metrics: list) -> list:
+    """One pass over the recording's chunks feeding every accumulator the chase-window errors."""
+    for c in rec.chunks():
+        keep = _window(rec, c.t)
+        err = _errors(rec, c)[keep] if "estimate" in c.probes else None
+        for m in metrics:
+            m.add(c, keep, err)
+    return [m.result() for m in metrics]
+
+
+def rmse_table(rec: Recording) -> dict[str, dict[str, float]]:
+    """RMSE per phase and in total, per component, mean over UAVs (L24 Tables 1-3), in metres and m/s."""
+    return _scan(rec, [_Rmse(rec)])[0]
 
 
 def spread_table(rec: Recording) -> dict[str, float]:
     """Standard deviation over time of each UAV's estimation error, mean over UAVs (L23 Table 1)."""
-    mom = _Moments()
-    for c in rec.chunks():
-        mom.add(_errors(rec, c)[_window(rec, c.t)])
-    return dict(zip(COMPONENTS, mom.std.mean(axis=0).tolist(), strict=True))
+    return _scan(rec, [_Spread(rec)])[0]
 
 
 def reported_std(rec: Recording) -> dict[str, float]:
     """The filters' own standard deviation ``sqrt(P_ii)``, mean over time and UAVs (compare with the spread)."""
-    total, n = 0.0, 0
-    for c in rec.chunks():
-        cov = c.probes["covariance"][_window(rec, c.t)]
-        total = total + np.sqrt(np.diagonal(cov[..., :4, :4], axis1=-2, axis2=-1)).sum(axis=(0, 1))
-        n += cov.shape[0] * cov.shape[1]
-    return dict(zip(COMPONENTS, (total / n).tolist(), strict=True))
+    return _scan(rec, [_ReportedStd(rec)])[0]
 
 
 def nees(rec: Recording) -> float:
     """Mean normalised estimation error squared of [x, y, vx, vy] (4 for a consistent filter)."""
-    total, n = 0.0, 0
-    for c in rec.chunks():
-        keep = _window(rec, c.t)
-        err = _errors(rec, c)[keep]
-        cov = c.probes["covariance"][keep][..., :4, :4]
-        sol = np.linalg.solve(cov, err[..., None])[..., 0]
-        total += float(np.sum(err * sol))
-        n += err.shape[0] * err.shape[1]
-    return total / n
+    return _scan(rec, [_Nees(rec)])[0]
 
 
 def target_distances(rec: Recording) -> np.ndarray:
@@ -156,7 +203,7 @@ def spacing(rec: Recording, last: float = 10.0) -> dict:
     d_min, tail_sum, tail_n = np.inf, 0.0, 0
     sign = crossed = None
     over = np.zeros(n * (n - 1) // 2)
-    for c in rec.chunks():
+    for c in rec.chunks(probes_wanted=False):
         dist = _pairs_of(c.truth[:, rec.uav_slice, :2])
         d_min = min(d_min, float(dist.min()))
         tail = c.t >= tail_from
@@ -182,7 +229,7 @@ def _neighbour_spacing(rec: Recording, last: float) -> dict:
 
     tail_from = rec.t_last - last
     d_min, offsets = np.inf, []
-    for c in rec.chunks():
+    for c in rec.chunks(probes_wanted=False):
         for t, q in zip(c.t, c.truth[:, rec.uav_slice, :2], strict=True):
             tree = cKDTree(q)
             d_min = min(d_min, float(tree.query(q, k=2)[0][:, 1].min()))
@@ -210,21 +257,29 @@ def spacing_overshoot(rec: Recording) -> float:
     return spacing(rec)["overshoot"]
 
 
-def _target_distance(rec: Recording) -> dict:
-    total, n, far = 0.0, 0, 0.0
-    for c in rec.chunks():
-        keep = _window(rec, c.t)
-        dist = np.linalg.norm(c.truth[keep][:, rec.uav_slice, :2] - c.truth[keep][:, rec.tracked, None, :2], axis=-1)
-        total += float(dist.sum())
-        n += dist.size
-        far = max(far, float(dist.max())) if dist.size else far
-    return {"mean": total / n, "max": far}
+class _TargetDistance:
+    """True distance of every UAV to the tracked target: mean and max over the chase window."""
+
+    def __init__(self, rec: Recording):
+        self.rec, self.total, self.n, self.far = rec, 0.0, 0, 0.0
+
+    def add(self, c: Chunk, keep: np.ndarray, err) -> None:
+        truth = c.truth[keep]
+        dist = np.linalg.norm(truth[:, self.rec.uav_slice, :2] - truth[:, self.rec.tracked, None, :2], axis=-1)
+        self.total += float(dist.sum())
+        self.n += dist.size
+        self.far = max(self.far, float(dist.max())) if dist.size else self.far
+
+    def result(self) -> dict:
+        return {"mean": self.total / self.n, "max": self.far}
 
 
 def summary(rec: Recording) -> dict:
-    """All scalar metrics of one run, JSON-ready. The estimation metrics need the ``estimate`` and ``covariance``
-    probes of a Gaussian estimator (capability 1's); a run whose estimator records others gets the rest."""
-    out = {}
+    """All scalar metrics of one run, JSON-ready, in one pass over the recording (and one over its truth for the
+    spacing). The estimation metrics need the ``estimate`` and ``covariance`` probes of a Gaussian estimator
+    (capability 1's); a run whose estimator records others gets the rest."""
+    accs = {}
     if {"estimate", "covariance"} <= set(rec.meta["probes"]):
-        out.update(rmse=rmse_table(rec), spread=spread_table(rec), reported_std=reported_std(rec), nees=nees(rec))
-    return {**out, "target_distance": _target_distance(rec), "inter_agent_distance": spacing(rec)}
+        accs = {"rmse": _Rmse(rec), "spread": _Spread(rec), "reported_std": _ReportedStd(rec), "nees": _Nees(rec)}
+    accs["target_distance"] = _TargetDistance(rec)
+    return {**dict(zip(accs, _scan(rec, list(accs.values())), strict=True)), "inter_agent_distance": spacing(rec)}

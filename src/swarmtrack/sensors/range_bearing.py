@@ -16,6 +16,8 @@ All functions broadcast over leading batch axes; positions are ``(..., 2)`` arra
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 #: L24 Sec. 4 sensor noise: (σ_range [m], σ_bearing [rad]).
@@ -148,11 +150,20 @@ def sense(
     z = np.empty((n, m, 2))
     z[..., 0] = np.hypot(d[..., 0], d[..., 1]) + sigma_range * noise[..., 0]
     z[..., 1] = wrap_angle(np.arctan2(d[..., 1], d[..., 0]) + sigma_bearing * noise[..., 1])
-    owner, source = np.divmod(np.arange(n * m), m) if m else (np.zeros(0, int), np.zeros(0, int))
+    owner, source = _grid(n, m)
     z = z.reshape(n * m, 2)
     grid = m
     if max_range is not None:
         inside = np.hypot(*(objects[source] - uavs[owner]).T) <= max_range
         owner, source, z = owner[inside], source[inside], z[inside]
         grid = None
-    return Detections(owner, z, stamped[owner], source.copy(), n, grid), source
+    return Detections(owner, z, stamped[owner], source, n, grid), source
+
+
+@functools.lru_cache(maxsize=8)
+def _grid(n: int, m: int) -> tuple[np.ndarray, np.ndarray]:
+    """Owner and object of every (UAV, object) pair, UAV-major (read-only, shared between steps)."""
+    owner, source = np.divmod(np.arange(n * m), m) if m else (np.zeros(0, int), np.zeros(0, int))
+    owner.setflags(write=False)
+    source.setflags(write=False)
+    return owner, source

@@ -109,7 +109,7 @@ def spawn_positions(scenario: Scenario, rng: np.random.Generator) -> np.ndarray:
         return np.asarray(sw.initial_positions, dtype=float)
     center = np.asarray(sw.spawn_center)
     pos = center + rng.uniform(-sw.spawn_half_width, sw.spawn_half_width, size=(sw.n_uavs, 2))
-    for _ in range(100):  # redraw the UAVs that are too close to an earlier one
+    for _ in range(10_000):  # redraw the UAVs that are too close to an earlier one (near jamming: thousands)
         close = _too_close(pos, sw.min_separation)
         if not close.any():
             break

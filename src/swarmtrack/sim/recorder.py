@@ -92,7 +92,10 @@ class Recorder:
         tables = {"objects": pa.table(objects), "uavs": pa.table(uavs)}
         if self._writers is None:
             self.path.mkdir(parents=True, exist_ok=True)
-            self._writers = {name: pq.ParquetWriter(self.path / f"{name}.parquet", table.schema)
+            # float columns are noise-like: no dictionary encoding, statistics only where a reader filters
+            self._writers = {name: pq.ParquetWriter(self.path / f"{name}.parquet", table.schema,
+                                                    use_dictionary=["step", "object", "uav", "phase"],
+                                                    write_statistics=["step"])
                              for name, table in tables.items()}
         for name, table in tables.items():
             self._writers[name].write_table(table, row_group_size=len(table))
@@ -153,7 +156,8 @@ class Recording:
         return cls(meta, path=path)
 
     # --- streaming ------------------------------------------------------------------------------------
-    def chunks(self) -> Iterator[Chunk]:
+    def chunks(self, probes_wanted: bool = True) -> Iterator[Chunk]:
+        """The recording's steps, a chunk at a time; ``probes_wanted=False`` reads the truth only."""
         if self._chunks is not None:
             yield from self._chunks
             return
@@ -165,11 +169,11 @@ class Recording:
         k0 = 0
         for g in range(objects.num_row_groups if objects else 0):
             o = objects.read_row_group(g)
-            u = uavs.read_row_group(g)
             k = o.num_rows // m
             truth = np.stack([o.column(c).to_numpy() for c in ("x", "y", "vx", "vy")], axis=-1).reshape(k, m, 4)
             probes = {}
-            for name, shape in self.meta["probes"].items():
+            u = uavs.read_row_group(g) if probes_wanted else None
+            for name, shape in self.meta["probes"].items() if probes_wanted else ():
                 col = u.column(name).combine_chunks()
                 flat = col.to_numpy() if not shape else col.flatten().to_numpy()
                 probes[name] = flat.reshape(k, n, *shape)

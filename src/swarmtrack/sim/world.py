@@ -141,6 +141,15 @@ class World:
         # ring buffer of past positions, for measurements that arrive `latency` late
         lag = int(round(sensor.latency / dt))
         self._history = np.repeat(starts[None], lag + 1, axis=0)
+        # where each group's commands go: a slice of the quadrotor or point rows when the group is contiguous in one
+        # of them (the UAVs always are: they are one vehicle kind), else row indices
+        self._cmd_rows = {}
+        for g in groups:
+            rows = self._row[self.slices[g.name]]
+            nq = len(self._quad_obj)
+            kind, r = (self._quad_cmd, rows) if g.vehicle == "quadrotor" else (self._point_cmd, rows - nq)
+            self._cmd_rows[g.name] = (kind, slice(r[0], r[-1] + 1) if len(r) and np.all(np.diff(r) == 1) else r)
+        self._truth_at = -1  # tick of the cached truth
         self._tick = 0
         if compiled:
             from swarmtrack.vehicles import kernels
@@ -155,12 +164,15 @@ class World:
 
     # --- truth, for the engine's recorder and the metrics only -------------------------------------------
     def _all_truth(self) -> np.ndarray:
-        return np.concatenate([self._quads[:, :4], self._points])[self._row]
+        if self._truth_at != self._tick:  # gathered once per tick (the arrays only change in advance())
+            self._truth = np.concatenate([self._quads[:, :4], self._points])[self._row]
+            self._truth_at = self._tick
+        return self._truth
 
     def truth(self, group: str | None = None) -> np.ndarray:
         """(n, 4) ``[x, y, vx, vy]`` of a group's members (a copy), or of every object with ``group=None``."""
         truth = self._all_truth()
-        return truth if group is None else truth[self.slices[group]]
+        return truth.copy() if group is None else truth[self.slices[group]].copy()
 
     def phase_index(self) -> np.ndarray:
         """(n_objects,) index of the profile phase each driven object flies now (−1: not driven)."""
@@ -204,15 +216,9 @@ class World:
         The same as ``ticks`` calls of :meth:`step` (the reference); with ``compiled`` one call of the numba
         kernel :func:`swarmtrack.vehicles.kernels.advance`, which gives the same numbers to a few ulps.
         """
-        nq = len(self._quad_obj)
         for name, u in commands.items():
-            rows = self._row[self.slices[name]]
-            if rows[0] == 0 and rows[-1] == len(rows) - 1 and len(rows) == nq:  # all quadrotors: no scatter
-                self._quad_cmd[:] = u
-                continue
-            q = rows < nq
-            self._quad_cmd[rows[q]] = u[q]
-            self._point_cmd[rows[~q] - nq] = u[~q]
+            target, rows = self._cmd_rows[name]
+            target[rows] = u
         if not self.compiled:
             for _ in range(ticks):
                 self.step()

@@ -305,11 +305,14 @@ def main(argv: list[str] | None = None) -> None:
                         help="add 10,000 UAVs and the two memory runs (minutes; see the module docstring)")
     args = parser.parse_args(argv)
 
-    def progress(msg: str) -> None:
-        print(f"... {msg}", file=sys.stderr, flush=True)
+    t0 = time.perf_counter()
+
+    def progress(msg: str) -> None:  # on stderr, with the time since the start: how long each part takes
+        print(f"[{time.perf_counter() - t0:6.0f} s] {msg}", file=sys.stderr, flush=True)
 
     load = os.getloadavg()[0]  # other work on the machine slows every figure: kept beside them
     figs = measure(args.large, 1 if args.quick else 3, progress)
+    progress("done")
     if args.json:
         print(json.dumps({**as_json(figs), "load_average_1min": round(load, 2)}))
     else:

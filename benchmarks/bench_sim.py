@@ -27,10 +27,13 @@ Run: ``PYTHONPATH=src .venv/bin/python benchmarks/bench_sim.py [--json] [--quick
 ``python -m swarmtrack.cli`` on the same sources as this process. Times on the 2-core development machine
 (dense simulator core, before the big-swarm rewrite):
 
-- default (L24 cores, the whole-process run, 1,000 UAVs): about 1 min; ``--quick`` (one repeat) about 30 s;
-- ``--large`` adds: 10,000 UAVs steps/s, compiled and numpy, about 5 min each today (time-out 15 min each);
-  the 60 s 10,000-UAV memory run fails after about 25 s today (over the 4 GB limit; time-out 20 min); the
-  1,000-UAV l24-ct memory run fails in about 3 s today (the spawn box is too small for 1,000 UAVs).
+- default (L24 cores, the whole-process runs, 1,000 UAVs): about 2 min; ``--quick`` (one repeat) about 1 min;
+- ``--large`` adds about 13 min today: 10,000 UAVs steps/s, compiled about 4 min and numpy about 8 min
+  (time-out 15 min each); the 60 s 10,000-UAV memory run fails after about 30 s (over its 4 GB limit in the
+  dense proximity graph; time-out 20 min); the 1,000-UAV l24-ct memory run fails in about 15 s (the spawn box
+  of half-width 20 m cannot hold 1,000 UAVs 1 m apart). A whole ``--large --json`` run took 14.6 min.
+
+The progress lines on stderr give the time since the start of each part.
 """
 
 from __future__ import annotations

@@ -27,7 +27,7 @@ Run: ``PYTHONPATH=src .venv/bin/python benchmarks/bench_sim.py [--json] [--quick
 ``python -m swarmtrack.cli`` on the same sources as this process. Times on the 2-core development machine
 (dense simulator core, before the big-swarm rewrite):
 
-- default (L24 cores, the whole-process runs, 1,000 UAVs): about 2 min; ``--quick`` (one repeat) about 1 min;
+- default (L24 cores, the whole-process runs, 1,000 UAVs): about 1 min (2 on a busy machine); ``--quick`` about 30 s;
 - ``--large`` adds about 13 min today: 10,000 UAVs steps/s, compiled about 4 min and numpy about 8 min
   (time-out 15 min each); the 60 s 10,000-UAV memory run fails after about 30 s (over its 4 GB limit in the
   dense proximity graph; time-out 20 min); the 1,000-UAV l24-ct memory run fails in about 15 s (the spawn box

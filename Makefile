@@ -5,7 +5,7 @@ PY ?= python3
 VENV := .venv
 STAMP := $(VENV)/.installed
 
-.PHONY: run test setup bench clean
+.PHONY: run test setup bench bench-large clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -21,9 +21,15 @@ run: $(STAMP)
 test: $(STAMP)
 	$(VENV)/bin/python -m pytest
 
+# bench: the default speed figures (about 1.5 min); bench-large adds 10,000 UAVs and the peak-memory runs
+# (tens of minutes, see benchmarks/bench_sim.py). Both scripts take --json and --quick.
 bench: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_filters.py
 	$(VENV)/bin/python benchmarks/bench_sim.py
+
+bench-large: $(STAMP)
+	$(VENV)/bin/python benchmarks/bench_filters.py
+	$(VENV)/bin/python benchmarks/bench_sim.py --large
 
 clean:
 	rm -rf $(VENV) runs

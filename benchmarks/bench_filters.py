@@ -6,7 +6,9 @@ predicted position → contribution kernel → ``cv_cycle``, which carries ``x, 
 recover). Figures are agent-updates per second (N × cycles / wall time, ``time.perf_counter``, each case
 timed for ≥ 1 s after a warm-up that also absorbs numba compilation).
 
-Run: ``.venv/bin/python benchmarks/bench_filters.py`` (about 10-20 s).
+Run: ``.venv/bin/python benchmarks/bench_filters.py [--json] [--quick]`` (about 10-20 s; ``--quick`` times each
+case for 0.2 s, about 5 s). ``--json`` prints one flat JSON object ``{name: value}`` instead of the table
+(agent-updates/s; a compiled figure's numpy reference is ``<name>_numpy``).
 """
 
 from __future__ import annotations
@@ -19,6 +21,8 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("MKL_NUM_THREADS", "1")
 
+import argparse  # noqa: E402
+import json  # noqa: E402
 import time  # noqa: E402
 
 import numpy as np  # noqa: E402
@@ -107,34 +111,50 @@ def numba_cv(sensors, z, with_contributions=True):
     return step, (Y, y, x, P)
 
 
-def main():
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--json", action="store_true", help="print one flat JSON object {name: value} instead")
+    parser.add_argument("--quick", action="store_true", help="time each case for 0.2 s instead of 1 s (smoke test)")
+    args = parser.parse_args(argv)
+    min_seconds = 0.2 if args.quick else MIN_SECONDS
+
     rng = np.random.default_rng(0)
     sensors, z = _measurements(rng)
+    # (JSON name, table label, step, reference point, practical limit)
     cases = [
-        ("numpy reference, CV (4 states)", numpy_reference("cv", sensors, z)[0], NUMPY_REFERENCE_POINT, None),
-        ("numpy reference, FS (12 states)", numpy_reference("fs", sensors, z)[0], None, None),
-        ("numba CV kernel, full cycle", numba_cv(sensors, z)[0], CV_GOAL, CV_PRACTICAL_LIMIT),
-        ("numba CV kernel, cv_cycle only", numba_cv(sensors, z, with_contributions=False)[0], None, None),
+        ("cv_cycle_agent_updates_per_s_numpy", "numpy reference, CV (4 states)", numpy_reference("cv", sensors, z)[0],
+         NUMPY_REFERENCE_POINT, None),
+        ("fs_cycle_agent_updates_per_s_numpy", "numpy reference, FS (12 states)", numpy_reference("fs", sensors, z)[0],
+         None, None),
+        ("cv_cycle_agent_updates_per_s", "numba CV kernel, full cycle", numba_cv(sensors, z)[0], CV_GOAL,
+         CV_PRACTICAL_LIMIT),
+        ("cv_kernel_only_agent_updates_per_s", "numba CV kernel, cv_cycle only",
+         numba_cv(sensors, z, with_contributions=False)[0], None, None),
     ]
-    print(f"Information-filter cycle, N = {N} agents, one core "
-          f"(NUMBA_NUM_THREADS={os.environ['NUMBA_NUM_THREADS']}), position-mode range-bearing update")
-    header = f"{'case':<34} {'agent-updates/s':>16} {'µs/cycle':>10} {'cycles':>7}   reference point"
-    print(header)
-    print("-" * (len(header) + 24))
     results = {}
-    for name, step, ref, limit in cases:
-        rate, reps, elapsed = _rate(step)
-        results[name] = rate
+    rows = []
+    for key, name, step, ref, limit in cases:
+        rate, reps, elapsed = _rate(step, min_seconds)
+        results[key] = rate
         note = ""
         if ref is not None and limit is None:
             note = f"issue: ~{ref / 1e6:.1f} M/s"
         elif ref is not None:
             verdict = "MET" if rate >= ref else "NOT MET"
             note = f"goal ≥ {ref / 1e6:.0f} M/s ({verdict}); practical limit ~{limit / 1e6:.0f} M/s"
-        print(f"{name:<34} {rate / 1e6:>14.2f} M {1e6 * elapsed / reps:>10.1f} {reps:>7d}   {note}")
-    base = results["numpy reference, CV (4 states)"]
-    fast = results["numba CV kernel, full cycle"]
-    print(f"\nspeed-up of the numba CV full cycle over the numpy CV reference: {fast / base:.1f}x")
+        rows.append(f"{name:<34} {rate / 1e6:>14.2f} M {1e6 * elapsed / reps:>10.1f} {reps:>7d}   {note}")
+    speedup = results["cv_cycle_agent_updates_per_s"] / results["cv_cycle_agent_updates_per_s_numpy"]
+    if args.json:
+        figures = {k: round(v, 1) for k, v in results.items()}
+        print(json.dumps({**figures, "cv_cycle_speedup_over_numpy": round(speedup, 2)}))
+        return
+    print(f"Information-filter cycle, N = {N} agents, one core "
+          f"(NUMBA_NUM_THREADS={os.environ['NUMBA_NUM_THREADS']}), position-mode range-bearing update")
+    header = f"{'case':<34} {'agent-updates/s':>16} {'µs/cycle':>10} {'cycles':>7}   reference point"
+    print(header)
+    print("-" * (len(header) + 24))
+    print("\n".join(rows))
+    print(f"\nspeed-up of the numba CV full cycle over the numpy CV reference: {speedup:.1f}x")
 
 
 if __name__ == "__main__":

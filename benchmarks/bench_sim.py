@@ -1,25 +1,107 @@
-"""Simulator speed: real-time factors of the L24 scenarios and steps per second of a 1000-UAV swarm.
+"""Simulator speed and memory, on one core: real-time factors of the L24 scenarios, estimation steps per second
+of 1,000- and 10,000-UAV swarms, peak memory of two big runs.
 
-Prints its figures; goals from issue 2: l24-cv >= 500x and l24-fs >= 200x real time in the simulation core,
-the whole ``swarmtrack run l24-cv --no-plots`` process >= 100x, the 1000-UAV swarm (proximity topology, CV
-information filter, tailored flocking) >= 20 estimation steps/s. The goals are for the default
-``kernels: auto`` (the compiled numba fast paths); the ``kernels=numpy`` rows show the numpy reference.
+Goals (issue 2 and the big-swarm work; the goal is printed beside each figure), for the default
+``kernels: auto`` (the compiled numba fast paths); every figure has its ``kernels=numpy`` reference beside it,
+measured in the same run:
+
+- ``l24-cv`` >= 500x and ``l24-fs`` >= 200x real time in the simulation core (``simulate``), and the whole
+  ``swarmtrack run l24-cv --no-plots`` process >= 100x (no regression is the goal);
+- 1,000 UAVs (proximity topology, CV information filter, tailored flocking, hovering target, 5 s):
+  >= 300 estimation steps/s;
+- ``--large`` only: 10,000 UAVs, same set-up at the same density (spawn half-width 60 * sqrt(10) ~ 190 m,
+  3 s): >= 20 estimation steps/s; peak memory (``ru_maxrss``) of the 60 s 10,000-UAV run with its recording
+  written to disk (``swarmtrack run ... --set duration=60 --no-plots --out TMP``) <= 2 GB; peak memory of
+  ``swarmtrack run l24-ct --set swarm.n_uavs=1000 --set network.topology=proximity
+  --set swarm.spawn_half_width=20 --no-plots`` <= 2 GB. The memory runs have no numpy reference (memory is
+  a matter of the data structures, and a second 60 s 10,000-UAV run would double the time).
+
+The ``--large`` cases run in child processes with a memory limit (``RLIMIT_AS``) and a time-out, so a case that
+runs out of memory or time is reported as ``failed: <one line>`` / ``timed out`` (``null`` plus a
+``<name>_error`` string with ``--json``) instead of stopping the benchmark or swapping the machine. The
+10,000-UAV steps/s are timed inside their child around the ``simulate`` call only, after a warm-up run.
+Peak memory is the child's ``resource.getrusage(RUSAGE_CHILDREN).ru_maxrss`` read by a fresh wrapper process
+whose only child is the run. GB = 1e9 bytes.
+
+Run: ``PYTHONPATH=src .venv/bin/python benchmarks/bench_sim.py [--json] [--quick] [--large]``; children run
+``python -m swarmtrack.cli`` on the same sources as this process. Times on the 2-core development machine
+(dense simulator core, before the big-swarm rewrite):
+
+- default (L24 cores, the whole-process runs, 1,000 UAVs): about 1 min (2 on a busy machine); ``--quick`` about 30 s;
+- ``--large`` adds about 13 min today: 10,000 UAVs steps/s, compiled about 4 min and numpy about 8 min
+  (time-out 15 min each); the 60 s 10,000-UAV memory run fails after about 30 s (over its 4 GB limit in the
+  dense proximity graph; time-out 20 min); the 1,000-UAV l24-ct memory run fails in about 15 s (the spawn box
+  of half-width 20 m cannot hold 1,000 UAVs 1 m apart). A whole ``--large --json`` run took 14.6 min.
+
+The progress lines on stderr give the time since the start of each part.
 """
 
 from __future__ import annotations
 
-import shutil
-import subprocess
-import sys
-import tempfile
-import time
-from pathlib import Path
+import os
 
-from swarmtrack.scenarios import load_scenario
-from swarmtrack.sim.engine import simulate
+# One core: numba serial kernels, no threaded BLAS (inherited by the child processes). Other environment
+# settings are left as they are.
+os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("MKL_NUM_THREADS", "1")
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import math  # noqa: E402
+import shutil  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from dataclasses import dataclass  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import swarmtrack  # noqa: E402
+from swarmtrack.scenarios import load_scenario  # noqa: E402
+from swarmtrack.sim.engine import simulate  # noqa: E402
+
+GB = 1e9
+L24_SECONDS = 153.1  # simulated time of the L24 profile (linear + sinusoidal + circular)
+RUN_MEMORY_LIMIT_GB = 4.0  # RLIMIT_AS of a memory run: twice its goal, far below the machine's 24 GiB
+STEPS_MEMORY_LIMIT_GB = 8.0  # RLIMIT_AS of a 10,000-UAV steps/s child (the dense core needs ~3 GB today)
+STEPS_TIMEOUT_S = 15 * 60
+RUN_TIMEOUT_S = 20 * 60
 
 
-def best_of(fn, repeat: int = 3) -> float:
+def swarm_overrides(n: int, half_width: float, duration: float) -> list[str]:
+    """The big-swarm set-up: proximity topology, CV information filter (l24-cv), tailored flocking, hovering target."""
+    return [f"swarm.n_uavs={n}", f"swarm.spawn_half_width={half_width:g}", "swarm.spawn_center=[0, 0]",
+            "network.topology=proximity", "target.profile=hover", f"duration={duration:g}", "sensor.latency=0"]
+
+
+SWARM_1K = swarm_overrides(1000, 60, 5)
+HALF_WIDTH_10K = round(60 * math.sqrt(10))  # same density as 1,000 UAVs in a half-width of 60 m
+SWARM_10K_STEPS = swarm_overrides(10_000, HALF_WIDTH_10K, 3)
+SWARM_10K_RUN = swarm_overrides(10_000, HALF_WIDTH_10K, 60)
+CT_1K_RUN = ["swarm.n_uavs=1000", "network.topology=proximity", "swarm.spawn_half_width=20"]
+
+
+@dataclass
+class Figure:
+    """One measured figure and its reference (``kernels=numpy``), both ``None`` when not measured."""
+
+    name: str  # JSON key, snake_case; the reference is ``<name>_numpy``
+    label: str
+    unit: str  # printed after the value
+    goal: str  # e.g. ">= 500x"
+    value: float | None
+    wall: str = ""
+    error: str | None = None
+    ref: float | None = None
+    ref_wall: str = ""
+    ref_error: str | None = None
+    has_ref: bool = True
+    met: bool | None = None
+
+
+def best_of(fn, repeat: int) -> float:
     times = []
     for _ in range(repeat):
         t0 = time.perf_counter()
@@ -28,40 +110,218 @@ def best_of(fn, repeat: int = 3) -> float:
     return min(times)
 
 
-def main() -> None:
-    rows = []
-    for name, goal in (("l24-cv", 500), ("l24-fs", 200)):
-        for kernels in ("auto", "numpy"):
-            scn = load_scenario(name, [f"kernels={kernels}"])
-            sim_time = scn.duration or 153.1
-            wall = best_of(lambda scn=scn: simulate(scn))
-            label, target = (f"{name} simulation core", f">= {goal}x") if kernels == "auto" else (
-                f"{name} simulation core, kernels=numpy", "(reference)")
-            rows.append((label, f"{wall:.2f} s", f"{sim_time / wall:.0f}x real time", target))
+def child_env() -> dict[str, str]:
+    """This process's environment with the imported ``swarmtrack`` sources first on PYTHONPATH."""
+    src = str(Path(swarmtrack.__file__).resolve().parents[1])
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([src, *filter(None, [env.get("PYTHONPATH")])])
+    return env
 
-    exe = Path(sys.executable).with_name("swarmtrack")
-    out = Path(tempfile.mkdtemp())
+
+def cli(*args: str) -> list[str]:
+    return [sys.executable, "-m", "swarmtrack.cli", *args]
+
+
+def one_line(text: str, limit: int = 300) -> str:
+    """The last non-empty line of a child's stderr (its exception or click error), shortened."""
+    lines = [ln.strip() for ln in text.splitlines() if ln.strip()]
+    line = lines[-1] if lines else "(no message)"
+    return line if len(line) <= limit else line[: limit - 3] + "..."
+
+
+# A fresh wrapper process whose only child is the command: its RUSAGE_CHILDREN maxrss is the command's peak.
+# argv[1] = JSON [command, address-space limit in bytes, time-out in s]; prints one JSON line.
+_MEMORY_WRAPPER = """\
+import json, resource, subprocess, sys, time
+cmd, limit, timeout = json.loads(sys.argv[1])
+def limit_memory():
+    resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+t0 = time.perf_counter()
+try:
+    p = subprocess.run(cmd, preexec_fn=limit_memory, capture_output=True, text=True, timeout=timeout)
+    out = {"returncode": p.returncode, "stderr": p.stderr[-4000:], "timed_out": False}
+except subprocess.TimeoutExpired:
+    out = {"returncode": None, "stderr": "", "timed_out": True}
+out["wall"] = time.perf_counter() - t0
+out["maxrss_kb"] = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+print(json.dumps(out))
+"""
+
+
+def peak_memory(cmd: list[str], limit_gb: float, timeout: float) -> tuple[float | None, float, str | None]:
+    """Peak RSS (GB) of ``cmd`` run under an address-space limit and a time-out: (GB or None, wall s, error)."""
     try:
-        wall = best_of(lambda: subprocess.run([str(exe), "run", "l24-cv", "--no-plots", "--out", str(out / "r")],
-                                              check=True, capture_output=True))
+        p = subprocess.run([sys.executable, "-c", _MEMORY_WRAPPER, json.dumps([cmd, int(limit_gb * GB), timeout])],
+                           capture_output=True, text=True, env=child_env(), timeout=timeout + 120)
+        res = json.loads(p.stdout.strip().splitlines()[-1])
+    except Exception as exc:  # the wrapper itself failed: report it, keep benchmarking
+        return None, 0.0, f"failed: memory wrapper: {type(exc).__name__}: {exc}"[:300]
+    peak = res["maxrss_kb"] * 1024 / GB
+    if res["timed_out"]:
+        return None, res["wall"], f"timed out after {timeout:.0f} s (peak {peak:.2f} GB so far)"
+    if res["returncode"] != 0:
+        return None, res["wall"], (f"failed (exit {res['returncode']}, limit {limit_gb:g} GB, peak {peak:.2f} GB): "
+                                   f"{one_line(res['stderr'])}")
+    return peak, res["wall"], None
+
+
+# A child that times one simulate() call (after a small warm-up run that loads the compiled kernels) under an
+# address-space limit. argv[1] = JSON [overrides, limit in bytes]; prints one JSON line.
+_STEPS_CHILD = """\
+import json, resource, sys, time
+overrides, limit = json.loads(sys.argv[1])
+resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+from swarmtrack.scenarios import load_scenario
+from swarmtrack.sim.engine import simulate
+warm = [o for o in overrides if not o.startswith(("swarm.n_uavs=", "duration="))]
+simulate(load_scenario("l24-cv", [*warm, "swarm.n_uavs=20", "duration=0.5"]))
+scn = load_scenario("l24-cv", overrides)
+t0 = time.perf_counter()
+simulate(scn)
+wall = time.perf_counter() - t0
+print(json.dumps({"wall": wall, "steps": round(scn.run_duration() * scn.rates.estimation)}))
+"""
+
+
+def steps_in_child(overrides: list[str], limit_gb: float, timeout: float) -> tuple[float | None, str, str | None]:
+    """Estimation steps/s of l24-cv with ``overrides``, timed in a child: (steps/s or None, wall text, error)."""
+    try:
+        p = subprocess.run([sys.executable, "-c", _STEPS_CHILD, json.dumps([overrides, int(limit_gb * GB)])],
+                           capture_output=True, text=True, env=child_env(), timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return None, "", f"timed out after {timeout:.0f} s"
+    if p.returncode != 0:
+        return None, "", f"failed (exit {p.returncode}, limit {limit_gb:g} GB): {one_line(p.stderr)}"
+    res = json.loads(p.stdout.strip().splitlines()[-1])
+    return res["steps"] / res["wall"], f"{res['wall']:.2f} s / {res['steps']} steps", None
+
+
+def steps_in_process(overrides: list[str]) -> tuple[float, str]:
+    scn = load_scenario("l24-cv", overrides)
+    wall = best_of(lambda: simulate(scn), repeat=1)
+    steps = round(scn.run_duration() * scn.rates.estimation)
+    return steps / wall, f"{wall:.2f} s / {steps} steps"
+
+
+def measure(large: bool, repeat: int, progress) -> list[Figure]:
+    figs = []
+    for name, goal in (("l24-cv", 500), ("l24-fs", 200)):
+        res = {}
+        for kernels in ("auto", "numpy"):
+            progress(f"{name} simulation core, kernels={kernels}")
+            scn = load_scenario(name, [f"kernels={kernels}"])
+            wall = best_of(lambda scn=scn: simulate(scn), repeat)
+            res[kernels] = (scn.run_duration() / wall, f"{wall:.2f} s")
+        figs.append(Figure(f"{name.replace('-', '_')}_core_realtime_factor", f"{name} simulation core",
+                           "x real time", f">= {goal}x", res["auto"][0], res["auto"][1], ref=res["numpy"][0],
+                           ref_wall=res["numpy"][1], met=res["auto"][0] >= goal))
+
+    out = Path(tempfile.mkdtemp(prefix="bench-sim-"))
+    try:
+        res = {}
+        for kernels in ("auto", "numpy"):
+            progress(f"swarmtrack run l24-cv --no-plots, kernels={kernels}")
+            cmd = cli("run", "l24-cv", "--set", f"kernels={kernels}", "--no-plots", "--out", str(out / "r"))
+            wall = best_of(lambda cmd=cmd: subprocess.run(cmd, check=True, capture_output=True, env=child_env()),
+                           repeat)
+            res[kernels] = (L24_SECONDS / wall, f"{wall:.2f} s")
     finally:
         shutil.rmtree(out, ignore_errors=True)
-    rows.append(("swarmtrack run l24-cv --no-plots", f"{wall:.2f} s", f"{153.1 / wall:.0f}x real time", ">= 100x"))
+    figs.append(Figure("l24_cv_run_realtime_factor", "swarmtrack run l24-cv --no-plots", "x real time", ">= 100x",
+                       res["auto"][0], res["auto"][1], ref=res["numpy"][0], ref_wall=res["numpy"][1],
+                       met=res["auto"][0] >= 100))
 
-    big = ["swarm.n_uavs=1000", "swarm.spawn_half_width=60", "swarm.spawn_center=[0, 0]", "network.topology=proximity",
-           "target.profile=hover", "duration=5", "sensor.latency=0"]
+    res = {}
     for kernels in ("auto", "numpy"):
-        scn = load_scenario("l24-cv", [*big, f"kernels={kernels}"])
-        wall = best_of(lambda scn=scn: simulate(scn), repeat=1)
-        steps = 5.0 * scn.rates.estimation
-        label, target = ("1000 UAVs, proximity, CV, flocking", ">= 20 steps/s") if kernels == "auto" else (
-            "1000 UAVs, ..., kernels=numpy", "(reference)")
-        rows.append((label, f"{wall:.2f} s / 5 s", f"{steps / wall:.1f} estimation steps/s", target))
+        progress(f"1,000 UAVs, kernels={kernels}")
+        res[kernels] = steps_in_process([*SWARM_1K, f"kernels={kernels}"])
+    figs.append(Figure("uav1000_steps_per_s", "1,000 UAVs, proximity, CV, flocking", "estimation steps/s",
+                       ">= 300 steps/s", res["auto"][0], res["auto"][1], ref=res["numpy"][0],
+                       ref_wall=res["numpy"][1], met=res["auto"][0] >= 300))
+    if not large:
+        return figs
 
+    res = {}
+    for kernels in ("auto", "numpy"):
+        progress(f"10,000 UAVs, kernels={kernels} (child process, time-out {STEPS_TIMEOUT_S} s)")
+        res[kernels] = steps_in_child([*SWARM_10K_STEPS, f"kernels={kernels}"], STEPS_MEMORY_LIMIT_GB,
+                                      STEPS_TIMEOUT_S)
+    (v, w, e), (rv, rw, re) = res["auto"], res["numpy"]
+    figs.append(Figure("uav10000_steps_per_s", "10,000 UAVs, proximity, CV, flocking", "estimation steps/s",
+                       ">= 20 steps/s", v, w, e, rv, rw, re, met=None if v is None else v >= 20))
+
+    for name, label, cmd in (
+            ("uav10000_run60_peak_rss_gb", "10,000 UAVs, 60 s run, recording on disk",
+             ["l24-cv", *SWARM_10K_RUN]),
+            ("l24_ct_uav1000_run_peak_rss_gb", "swarmtrack run l24-ct, 1,000 UAVs, proximity", ["l24-ct", *CT_1K_RUN])):
+        progress(f"{label} (memory limit {RUN_MEMORY_LIMIT_GB:g} GB, time-out {RUN_TIMEOUT_S} s)")
+        scenario, *overrides = cmd
+        out = Path(tempfile.mkdtemp(prefix="bench-sim-"))
+        try:
+            args = cli("run", scenario, *[a for o in overrides for a in ("--set", o)], "--no-plots",
+                       "--out", str(out / "r"))
+            peak, wall, err = peak_memory(args, RUN_MEMORY_LIMIT_GB, RUN_TIMEOUT_S)
+        finally:
+            shutil.rmtree(out, ignore_errors=True)
+        figs.append(Figure(name, label, "GB peak RSS", "<= 2 GB", peak, f"{wall:.1f} s", err, has_ref=False,
+                           met=None if peak is None else peak <= 2.0))
+    return figs
+
+
+def as_json(figs: list[Figure]) -> dict:
+    out = {}
+    for f in figs:
+        for key, value, error in ((f.name, f.value, f.error), (f"{f.name}_numpy", f.ref, f.ref_error)):
+            if key.endswith("_numpy") and not f.has_ref:
+                continue
+            out[key] = None if value is None else round(value, 4)
+            if error is not None:
+                out[f"{key}_error"] = error
+    return out
+
+
+def print_table(figs: list[Figure]) -> None:
+    def shown(value, error, unit):
+        if value is None:
+            return error if len(error) <= 100 else error[:97] + "..."
+        sep = "" if unit.startswith("x ") else " "
+        return f"{value:.1f}{sep}{unit}" if value < 1000 else f"{value:.0f}{sep}{unit}"
+
+    rows = []
+    for f in figs:
+        verdict = "" if f.met is None else (" (met)" if f.met else " (NOT MET)")
+        rows.append((f.label, f.wall, shown(f.value, f.error, f.unit), f.goal + verdict))
+        if f.has_ref:
+            rows.append(("  kernels=numpy", f.ref_wall, shown(f.ref, f.ref_error, f.unit), "(reference)"))
     width = max(len(r[0]) for r in rows)
-    print(f"{'benchmark':{width}s}  {'wall':>14s}  {'figure':>28s}  goal")
+    print(f"{'benchmark':{width}s}  {'wall':>22s}  {'figure':>28s}  goal")
     for r in rows:
-        print(f"{r[0]:{width}s}  {r[1]:>14s}  {r[2]:>28s}  {r[3]}")
+        print(f"{r[0]:{width}s}  {r[1]:>22s}  {r[2]:>28s}  {r[3]}")
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--json", action="store_true", help="print one flat JSON object {name: value} instead")
+    parser.add_argument("--quick", action="store_true", help="one repeat instead of the best of 3 (smoke test)")
+    parser.add_argument("--large", action="store_true",
+                        help="add 10,000 UAVs and the two memory runs (minutes; see the module docstring)")
+    args = parser.parse_args(argv)
+
+    t0 = time.perf_counter()
+
+    def progress(msg: str) -> None:  # on stderr, with the time since the start: how long each part takes
+        print(f"[{time.perf_counter() - t0:6.0f} s] {msg}", file=sys.stderr, flush=True)
+
+    load = os.getloadavg()[0]  # other work on the machine slows every figure: kept beside them
+    figs = measure(args.large, 1 if args.quick else 3, progress)
+    progress("done")
+    if args.json:
+        print(json.dumps({**as_json(figs), "load_average_1min": round(load, 2)}))
+    else:
+        print(f"one core (NUMBA_NUM_THREADS={os.environ['NUMBA_NUM_THREADS']}); 1-min load average at start "
+              f"{load:.2f} on {os.cpu_count()} cores")
+        print_table(figs)
 
 
 if __name__ == "__main__":

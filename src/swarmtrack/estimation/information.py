@@ -185,8 +185,9 @@ class InformationEstimator:
             if self.centralized:  # the fusion centre linearises everything at its own prediction
                 x_pos = np.broadcast_to(x_pos, pos.shape)
             I, i = self.update_rule.contributions(x_pos, pos, z)
-        I[~seen] = 0.0  # unseen rows are NaN
-        i[~seen] = 0.0
+        if not seen.all():  # unseen rows are NaN
+            I[~seen] = 0.0
+            i[~seen] = 0.0
         self._own = {"info_matrix": I, "info_vector": i, "z": z, "sensor_pos": pos, "seen": seen}
         return self._own if self.share_mode == "information" or self.centralized else {
             "z": z, "sensor_pos": pos, "seen": seen}

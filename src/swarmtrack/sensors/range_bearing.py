@@ -31,9 +31,8 @@ MIN_RANGE = 1e-3
 
 def wrap_angle(a: np.ndarray | float) -> np.ndarray:
     """Wrap angles to ``(−π, π]`` (use it on bearing innovations)."""
-    a = np.asarray(a, dtype=float)
-    w = np.mod(a + np.pi, 2.0 * np.pi) - np.pi  # in [−π, π)
-    return np.where(w <= -np.pi, w + 2.0 * np.pi, w)
+    # π − [0, 2π) = (−π, π]: three operations, and no correction for the endpoint
+    return np.pi - np.mod(np.pi - np.asarray(a, dtype=float), 2.0 * np.pi)
 
 
 def _range_bearing(

@@ -179,14 +179,15 @@ def build(scenario: Scenario) -> Simulation:
                       net.loss_probability, stream(seed, "channel"))
     profiles = scenario.targets.members
     meta = {
-        "scenario": scenario.name, "seed": seed, "dt": dt_est,
+        "scenario": scenario.name, "seed": seed, "dt": dt_est, "topology": net.topology, "r_comm": net.r_comm,
         "groups": {name: [sl.start, sl.stop] for name, sl in world.slices.items()},
         "tracked": int(tracked),
         "phase_names": list(build_profile(profiles[tracked - world.slices["targets"].start]).phase_names),
-        "d": getattr(scenario.controller, "d", float("nan")), "r_comm": net.r_comm,
+        # what capability 1's metrics and figures read: the flocking's d, when the chase starts, the filter model
+        "d": getattr(scenario.controller, "d", float("nan")),
         "chase_start": getattr(scenario.controller, "chase_after_steps", 0) * dt_est,
-        "model": getattr(scenario.estimator, "model", None), "topology": net.topology,
-        "estimator": scenario.estimator.kind, "share": getattr(scenario.estimator, "share", None),
-        "controller": scenario.controller.kind, "variant": getattr(scenario.controller, "variant", None),
+        "model": getattr(scenario.estimator, "model", None),
+        "estimator": scenario.estimator.model_dump(mode="json"),
+        "controller": scenario.controller.model_dump(mode="json"),
     }
     return Simulation(world, OnboardStack(estimator, controller, guide), channel, meta)

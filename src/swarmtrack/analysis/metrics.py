@@ -231,13 +231,14 @@ def _neighbour_spacing(rec: Recording, last: float) -> dict:
     d_min, offsets = np.inf, []
     for c in rec.chunks(probes_wanted=False):
         for t, q in zip(c.t, c.truth[:, rec.uav_slice, :2], strict=True):
-            tree = cKDTree(q)
-            d_min = min(d_min, float(tree.query(q, k=2)[0][:, 1].min()))
+            tree = cKDTree(q, balanced_tree=False, compact_nodes=False)  # faster to build, same answers
+            d_min = min(d_min, float(tree.query(q, k=2)[0][:, 1].min()))  # each UAV's nearest other UAV
             if t >= tail_from:
                 pairs = tree.query_pairs(rec.r_comm, output_type="ndarray")
-                if len(pairs):
-                    dist = np.linalg.norm(q[pairs[:, 0]] - q[pairs[:, 1]], axis=1)
-                    offsets.append(float(np.mean(np.abs(dist[dist < rec.r_comm] - rec.d))))
+                dist = np.linalg.norm(q[pairs[:, 0]] - q[pairs[:, 1]], axis=1)
+                near = dist < rec.r_comm
+                if near.any():
+                    offsets.append(float(np.mean(np.abs(dist[near] - rec.d))))
     return {"min": d_min, "offset": float(np.mean(offsets)) if offsets else float("nan"), "open_pairs": None,
             "overshoot": None}
 

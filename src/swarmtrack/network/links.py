@@ -16,10 +16,12 @@ the number of links; the CSR form costs O(N + links).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING, Union
 
 import numpy as np
-from scipy import sparse as sp
-from scipy.spatial import cKDTree
+
+if TYPE_CHECKING:  # scipy is imported where sparse links are built: small swarms never pay for it (~0.4 s)
+    from scipy import sparse as sp
 
 TOPOLOGIES = ("none", "line", "ring", "full", "proximity", "edges")
 
@@ -48,12 +50,12 @@ millisecond and the dense form keeps the small-swarm code paths (and their numbe
 were. ``full`` stays dense at any size (see :func:`static_links`).
 """
 
-Links = np.ndarray | sp.csr_array
+Links = Union[np.ndarray, "sp.csr_array"]
 
 
 def is_sparse(links: Links) -> bool:
     """Whether ``links`` is the CSR form."""
-    return sp.issparse(links)
+    return not isinstance(links, np.ndarray)  # the CSR form is the only other one
 
 
 def _wants_sparse(n: int, sparse: bool | None = None) -> bool:
@@ -138,6 +140,8 @@ def proximity_links(positions: np.ndarray, r_comm: float, *, sparse: bool | None
         A = _squared_distance(q[:, None, :], q[None, :, :]) < r2
         np.fill_diagonal(A, False)
         return A
+    from scipy.spatial import cKDTree
+
     tree = cKDTree(q, balanced_tree=False, compact_nodes=False)  # faster to build, same pairs
     pairs = tree.query_pairs(float(r_comm) * (1.0 + 1e-9), output_type="ndarray")
     a, b = pairs[:, 0], pairs[:, 1]
@@ -220,6 +224,8 @@ def _csr(n: int, receivers: np.ndarray, senders: np.ndarray) -> sp.csr_array:
 def _sorted_csr(n: int, receivers: np.ndarray, senders: np.ndarray) -> sp.csr_array:
     """Bool CSR of distinct off-diagonal links already in row-major order."""
     index = np.int32 if n < 2**31 - 1 else np.int64
+    from scipy import sparse as sp
+
     A = sp.csr_array((np.ones(senders.size, dtype=bool), senders.astype(index), _indptr(receivers, n).astype(index)),
                      shape=(n, n))
     A.has_sorted_indices = True

@@ -17,6 +17,7 @@ from swarmtrack.control.flocking import FlockingController, FlockingGains
 from swarmtrack.estimation.information import InformationEstimator, RangeBearingUpdate
 from swarmtrack.models import make_model
 from swarmtrack.network.channel import Channel
+from swarmtrack.network.links import edge_list, proximity_links
 from swarmtrack.scenarios.loader import ScenarioError
 from swarmtrack.scenarios.schema import (
     CONTROLLER_KINDS,
@@ -122,16 +123,12 @@ def spawn_positions(scenario: Scenario, rng: np.random.Generator) -> np.ndarray:
 
 
 def _too_close(pos: np.ndarray, min_sep: float) -> np.ndarray:
-    """UAVs closer than ``min_sep`` to an earlier UAV (KD-tree pairs: O(N) memory)."""
-    from scipy.spatial import cKDTree
-
+    """UAVs closer than ``min_sep`` to an earlier UAV (the links of a proximity graph of range ``min_sep``: dense
+    for small swarms, a KD-tree for large ones)."""
     close = np.zeros(len(pos), dtype=bool)
     if min_sep > 0 and len(pos) > 1:
-        pairs = cKDTree(pos).query_pairs(min_sep, output_type="ndarray")
-        if len(pairs):
-            d2 = np.sum((pos[pairs[:, 0]] - pos[pairs[:, 1]]) ** 2, axis=1)
-            later = pairs[d2 < min_sep**2].max(axis=1)
-            close[later] = True
+        receivers, senders = edge_list(proximity_links(pos, min_sep))
+        close[np.maximum(receivers, senders)] = True
     return close
 
 

@@ -44,7 +44,7 @@ class Recorder:
                      "probes": {k: list(v) for k, v in probes.items()}}
         self.n_objects, self.n_uavs, self.probes = n_objects, n_uavs, probes
         self.chunk_steps = max(1, CHUNK_ROWS // max(n_objects, n_uavs, 1))
-        self.path = path
+        self.path = None if path is None else Path(path)
         self._buf: list[tuple] = []
         self._mem: list[Chunk] = []
         self._writers = None

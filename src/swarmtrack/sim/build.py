@@ -31,6 +31,7 @@ from swarmtrack.scenarios.schema import (
     Scenario,
 )
 from swarmtrack.sim.agent import OnboardStack
+from swarmtrack.sim.clock import Clock
 from swarmtrack.sim.oracle import TruthOracle
 from swarmtrack.sim.streams import stream
 from swarmtrack.sim.world import Group, ProfileDriver, RangeBearingSensor, World
@@ -140,20 +141,21 @@ def _group(name: str, spec: GroupSpec) -> Group:
 
 @dataclass
 class Simulation:
-    """Everything one run needs: the truth, the onboard stack, the channel and the recording's metadata."""
+    """Everything one run needs: the truth, the onboard stack, the channel, the clock and the recording's
+    metadata."""
 
     world: World
     stack: OnboardStack
     channel: Channel
+    clock: Clock
     meta: dict
 
 
 def build(scenario: Scenario) -> Simulation:
     """Wire a validated scenario into a :class:`Simulation` (random streams derived by purpose from its seed)."""
-    rates = scenario.rates
-    dt_phys = 1.0 / rates.physics
-    dt_est = round(rates.physics / rates.estimation) * dt_phys
-    dt_ctrl = round(rates.physics / rates.control) * dt_phys
+    r = scenario.rates
+    clock = Clock.from_rates(r.physics, r.estimation, r.control, scenario.run_duration())
+    dt_phys, dt_est = clock.dt, clock.dt_estimation
     compiled = scenario.kernels != "numpy"  # one decision for every compiled fast path
     n = scenario.swarm.n_uavs
     seed = scenario.seed
@@ -164,7 +166,7 @@ def build(scenario: Scenario) -> Simulation:
                   dt=dt_phys, duration=scenario.run_duration(),
                   nav_std=(scenario.swarm.nav_position_std, scenario.swarm.nav_velocity_std),
                   streams=lambda purpose: stream(seed, purpose), compiled=compiled)
-    ctx = Context(scenario, n, dt_est, dt_ctrl, compiled, world)
+    ctx = Context(scenario, n, dt_est, clock.dt_control, compiled, world)
     estimator = ESTIMATORS[scenario.estimator.kind](scenario.estimator, ctx)
     controller = CONTROLLERS[scenario.controller.kind](scenario.controller, ctx)
     tracked = world.slices["targets"].start + getattr(scenario.estimator, "target", 1) - 1
@@ -187,4 +189,4 @@ def build(scenario: Scenario) -> Simulation:
         "estimator": scenario.estimator.model_dump(mode="json"),
         "controller": scenario.controller.model_dump(mode="json"),
     }
-    return Simulation(world, OnboardStack(estimator, controller, guide), channel, meta)
+    return Simulation(world, OnboardStack(estimator, controller, guide), channel, clock, meta)

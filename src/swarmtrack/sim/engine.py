@@ -16,7 +16,6 @@ import numpy as np
 from swarmtrack.network.messages import Inbox
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sim.build import build
-from swarmtrack.sim.clock import Clock
 from swarmtrack.sim.recorder import Recorder, Recording
 
 
@@ -25,9 +24,7 @@ def simulate(scenario: Scenario, progress: Callable[[float], None] | None = None
     """Run one closed-loop simulation and return its recording (kept in memory, or streamed to ``record_to``).
     Same scenario and seed, same numbers."""
     sim = build(scenario)
-    r = scenario.rates
-    clock = Clock.from_rates(r.physics, r.estimation, r.control, scenario.run_duration())
-    world, stack, channel = sim.world, sim.stack, sim.channel
+    world, stack, channel, clock = sim.world, sim.stack, sim.channel, sim.clock
     recorder = Recorder(sim.meta, world.n_objects, scenario.swarm.n_uavs, stack.probes, record_to)
     uavs = world.slices["uavs"]
     u = np.zeros((scenario.swarm.n_uavs, 2))
@@ -43,14 +40,16 @@ def simulate(scenario: Scenario, progress: Callable[[float], None] | None = None
             stack.estimator.fuse(t, detections, Inbox(channel.links(positions), outbox))
         recorder.record(t, truth, world.phase_index(), stack.sample())
         view = stack.guide.view()
-        for first, ticks in clock.control_segments(k):
-            if first:
-                if world.t > t:  # a control step between estimation steps: fresh navigation
+        offset = 0  # physics ticks since the estimation step
+        for control_now, ticks in clock.control_segments(k):
+            if control_now:
+                if offset:  # a control step between estimation steps: fresh navigation
                     nav = world.navigation()
                     positions = world.truth("uavs")[:, :2]
                 beacons = Inbox(channel.beacon_links(positions), stack.controller.broadcast(world.t, nav))
                 u = stack.controller.command(world.t, nav, view, beacons, clock.dt_control)
             world.advance({"uavs": u}, ticks)
+            offset += ticks
         if progress is not None and (k % report_every == 0 or k == clock.steps - 1):
             progress((k + 1) / clock.steps)
     return recorder.close()

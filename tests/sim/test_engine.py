@@ -4,6 +4,7 @@ import pytest
 from swarmtrack.analysis.metrics import rmse_table, spacing_offset
 from swarmtrack.estimation.information import FilterDivergence
 from swarmtrack.scenarios import load_scenario
+from swarmtrack.scenarios.loader import ScenarioError
 from swarmtrack.sim.engine import simulate
 
 
@@ -106,3 +107,13 @@ def test_a_uav_out_of_sensor_range_learns_only_through_its_links(share):
     assert var[2] > 1e5  # UAV 3 hears only UAV 2, who saw nothing: prediction only
     assert err(full).max() < 0.08  # with a link to UAV 1, UAV 3 converges too
     assert np.trace(full.covariance[-1, 2, :2, :2]) < 0.01
+
+
+def test_a_duration_that_is_not_a_whole_number_of_steps_runs_to_its_last_whole_step():
+    rec = simulate(load_scenario("l24-cv", ["duration=1.5", "rates.estimation=1", "rates.control=1"]))
+    assert len(rec.t) == 2  # 1.5 estimation steps round to 2, and the world is sampled that long
+
+
+def test_a_run_shorter_than_one_estimation_step_is_refused():
+    with pytest.raises(ScenarioError, match="shorter than one estimation step"):
+        load_scenario("l24-cv", ["duration=0.02"])

@@ -6,7 +6,7 @@ from typing import Literal
 import numpy as np
 import pytest
 
-from swarmtrack.analysis.metrics import rmse_table
+from swarmtrack.analysis.metrics import rmse_table, summary
 from swarmtrack.estimation.base import Probe, TargetView
 from swarmtrack.scenarios import schema
 from swarmtrack.scenarios.loader import ScenarioError, load_raw, validate
@@ -17,7 +17,35 @@ from swarmtrack.sim.engine import simulate
 
 class CentroidSpec(schema.EstimatorSpec):
     kind: Literal["test-centroid"] = "test-centroid"
-    label: int = 0
+    target: int = 1
+
+    def followed_target(self) -> int:
+        return self.target
+
+
+class SilentSpec(schema.EstimatorSpec):
+    """An estimator that follows no single target and records nothing of capability 1's."""
+
+    kind: Literal["test-silent"] = "test-silent"
+
+
+class SilentEstimator:
+    probes = (Probe("heard", ()),)
+
+    def __init__(self, n: int):
+        self.n = n
+
+    def share(self, t, nav, own):
+        return {}
+
+    def fuse(self, t, own, inbox):
+        pass
+
+    def view(self):
+        return TargetView(np.zeros((self.n, 4)))
+
+    def sample(self):
+        return {"heard": np.zeros(self.n)}
 
 
 class CentroidEstimator:
@@ -77,7 +105,9 @@ REGISTRIES = (schema.ESTIMATOR_KINDS, schema.CONTROLLER_KINDS, build_module.ESTI
 @pytest.fixture
 def registered():
     saved = [dict(r) for r in REGISTRIES]
-    build_module.register("estimator", CentroidSpec, lambda spec, ctx: CentroidEstimator(ctx.n_uavs, spec.label))
+    build_module.register("estimator", CentroidSpec,
+                          lambda spec, ctx: CentroidEstimator(ctx.n_uavs, ctx.label_of("targets", spec.target - 1)))
+    build_module.register("estimator", SilentSpec, lambda spec, ctx: SilentEstimator(ctx.n_uavs))
     build_module.register("controller", HoldSpec, lambda spec, ctx: HoldController(spec.gain))
     yield
     for registry, old in zip(REGISTRIES, saved, strict=True):
@@ -112,3 +142,17 @@ def test_an_unregistered_kind_is_a_clear_error_naming_the_known_ones():
 def test_a_registered_kind_validates_its_own_fields(registered):
     with pytest.raises(ScenarioError, match=r"controller.gain: Input should be a valid number"):
         _scenario({"kind": "test-centroid"}, {"kind": "test-hold", "gain": "fast"})
+
+
+def test_an_estimator_that_follows_no_target_runs_and_reports_what_applies(registered):
+    rec = simulate(_scenario({"kind": "test-silent"}, {"kind": "test-hold"}))
+    assert rec.tracked is None
+    metrics = summary(rec)
+    assert "rmse" not in metrics and "target_distance" not in metrics and "inter_agent_distance" in metrics
+    with pytest.raises(ScenarioError, match="follow: truth needs an estimator that follows one target"):
+        _scenario({"kind": "test-silent"}, {"kind": "flocking", "follow": "truth"})
+
+
+def test_a_kind_is_registered_once(registered):
+    with pytest.raises(ValueError, match="already registered"):
+        build_module.register("estimator", CentroidSpec, lambda spec, ctx: None)

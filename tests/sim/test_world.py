@@ -4,7 +4,7 @@ import numpy as np
 
 from swarmtrack.analysis.metrics import rmse_table
 from swarmtrack.scenarios.loader import load_raw, validate
-from swarmtrack.sim.build import build, build_profile
+from swarmtrack.sim.build import build
 from swarmtrack.sim.engine import simulate
 
 TWO_TARGETS = {
@@ -39,7 +39,7 @@ def test_two_targets_and_a_decoy_group_fly_their_own_profiles_in_one_world():
     t = rec.t
     targets = world.slices["targets"]
     for k, member in enumerate(scn.targets.members):
-        expected = build_profile(member).position(t, start=member.start)  # the profile flown without wind
+        expected = member.velocity_profile().position(t, start=member.start)  # the profile flown without wind
         flown = truth[:, targets.start + k, :2]
         # the autopilot's lag only (it builds up at the custom profile's velocity jump between its phases)
         assert np.abs(flown - expected).max() < 1.0, k

@@ -137,7 +137,7 @@ def _scan(rec: Recording, metrics: list) -> list:
     """One pass over the recording's chunks feeding every accumulator the chase-window errors."""
     for c in rec.chunks():
         keep = _window(rec, c.t)
-        err = _errors(rec, c)[keep] if "estimate" in c.probes else None
+        err = _errors(rec, c)[keep] if "estimate" in c.probes and rec.tracked is not None else None
         for m in metrics:
             m.add(c, keep, err)
     return [m.result() for m in metrics]
@@ -170,8 +170,7 @@ def target_distances(rec: Recording) -> np.ndarray:
 
 def pair_distances(rec: Recording) -> np.ndarray:
     """(K, P) true distance of every UAV pair (i < j) (whole run in memory: for plots of small swarms)."""
-    i, j = np.triu_indices(rec.n_agents, 1)
-    return np.linalg.norm(rec.uav[:, i, :2] - rec.uav[:, j, :2], axis=-1)
+    return _pairs_of(rec.uav[:, :, :2])
 
 
 def _pairs_of(q: np.ndarray) -> np.ndarray:
@@ -277,10 +276,12 @@ class _TargetDistance:
 
 def summary(rec: Recording) -> dict:
     """All scalar metrics of one run, JSON-ready, in one pass over the recording (and one over its truth for the
-    spacing). The estimation metrics need the ``estimate`` and ``covariance`` probes of a Gaussian estimator
-    (capability 1's); a run whose estimator records others gets the rest."""
+    spacing). The estimation metrics need a followed target and the ``estimate`` and ``covariance`` probes of a
+    Gaussian estimator (capability 1's); a run whose estimator records others gets the rest."""
     accs = {}
-    if {"estimate", "covariance"} <= set(rec.meta["probes"]):
-        accs = {"rmse": _Rmse(rec), "spread": _Spread(rec), "reported_std": _ReportedStd(rec), "nees": _Nees(rec)}
-    accs["target_distance"] = _TargetDistance(rec)
+    if rec.tracked is not None:
+        if {"estimate", "covariance"} <= set(rec.meta["probes"]):
+            accs = {"rmse": _Rmse(rec), "spread": _Spread(rec), "reported_std": _ReportedStd(rec),
+                    "nees": _Nees(rec)}
+        accs["target_distance"] = _TargetDistance(rec)
     return {**dict(zip(accs, _scan(rec, list(accs.values())), strict=True)), "inter_agent_distance": spacing(rec)}

@@ -369,7 +369,8 @@ class FlockingController:
         # row j of the beacons is UAV j's own navigation state (row i: this UAV's own); the pair terms read
         # row j only where the link i <- j delivered it
         beacons = inbox.payloads["nav"]
-        active = np.full(nav.shape[0], t >= self.chase_after)
+        # t counts physics ticks and chase_after estimation steps: their float products can differ by an ulp
+        active = np.full(nav.shape[0], t >= self.chase_after - 1e-9)
         target = view.state
         u, self.state = self._control(beacons[:, :2], beacons[:, 2:4], target[:, :2], target[:, 2:4], inbox.links,
                                       self.state, self.gains, self.variant, dt, active=active, **self._extra)

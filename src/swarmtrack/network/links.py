@@ -8,9 +8,11 @@ are no self-loops. It is one of
   explicit zeros, no diagonal).
 
 Both hold exactly the same set of links; the constructors here choose the form from the swarm size
-(``sparse=None``: sparse from :data:`SPARSE_MIN_UAVS` UAVs up) and every function accepts both, so the
-numbers downstream do not depend on the choice. A dense array costs N² bytes (100 MB at N = 10,000) whatever
-the number of links; the CSR form costs O(N + links).
+(``sparse=None``: sparse from :data:`SPARSE_MIN_UAVS` UAVs up) and every function accepts both, so without
+message loss the numbers downstream do not depend on the choice. Message loss (:func:`drop`) draws one uniform
+per ordered pair on dense links (as the first release did, so small swarms keep their seeded numbers) and one
+per link on CSR links, so a lossy run's draws differ between the forms. A dense array costs N² bytes (100 MB
+at N = 10,000) whatever the number of links; the CSR form costs O(N + links).
 """
 
 from __future__ import annotations

@@ -44,17 +44,18 @@ class MemberSpec(_Strict):
             raise ValueError("phases must list at least one phase when profile is 'custom'")
         return self
 
-    def profile_duration(self) -> float:
-        """Length of this member's velocity profile, s."""
+    def velocity_profile(self):
+        """The :class:`~swarmtrack.vehicles.profile.VelocityProfile` this member flies."""
+        from swarmtrack.vehicles.profile import Phase, VelocityProfile, l23_profile, l24_profile
+
         if self.profile == "l24":
-            from swarmtrack.vehicles.profile import l24_profile
-
-            return l24_profile().total_duration
+            return l24_profile()
         if self.profile == "l23":
-            from swarmtrack.vehicles.profile import l23_profile
-
-            return l23_profile().total_duration
-        return self.hover_duration if self.profile == "hover" else sum(p.duration for p in self.phases)
+            return l23_profile()
+        if self.profile == "hover":
+            return VelocityProfile((Phase("hover", self.hover_duration),))
+        return VelocityProfile(tuple(Phase(p.name, p.duration, tuple(p.c), tuple(p.amplitude), tuple(p.omega),
+                                           tuple(p.phi)) for p in self.phases))
 
 
 class GroupSpec(_Strict):
@@ -121,6 +122,11 @@ class EstimatorSpec(_Strict):
 
     kind: str
 
+    def followed_target(self) -> int | None:
+        """The member of ``targets`` (1-based) this estimator follows, which the recording's capability-1 metrics
+        and ``controller.follow: truth`` refer to; None: it follows no single target."""
+        return None
+
 
 class ControllerSpec(_Strict):
     """Base of every controller's settings; ``kind`` picks the implementation (see :data:`CONTROLLER_KINDS`)."""
@@ -139,6 +145,9 @@ class FilterSpec(EstimatorSpec):
     initial_information: float = Field(1e-6, gt=0, description="εI, the near-zero initial information")
     fake_vz_sigma: float = Field(0.05, gt=0, description="FS model: std of the fake vz = 0 measurement, m/s")
     target: int = Field(1, ge=1, description="which member of the targets group the filter follows (1-based)")
+
+    def followed_target(self) -> int | None:
+        return self.target
 
     @field_validator("q")
     @classmethod
@@ -275,7 +284,7 @@ class Scenario(_Strict):
         if self.duration is not None:
             return self.duration
         members = self.targets.members + self.decoys.members
-        return max((m.profile_duration() for m in members), default=60.0)
+        return max((m.velocity_profile().total_duration for m in members), default=60.0)
 
     @model_validator(mode="after")
     def _cross_checks(self):
@@ -289,7 +298,13 @@ class Scenario(_Strict):
             for v in e:
                 if not 1 <= v <= n:
                     raise ValueError(f"network.edges names UAV {v}, but the swarm has UAVs 1..{n}")
-        tracked = getattr(self.estimator, "target", None)
-        if tracked is not None and tracked > len(self.targets.members):
-            raise ValueError(f"estimator.target is {tracked}, but targets has {len(self.targets.members)} member(s)")
+        r = self.rates
+        step = round(r.physics / r.estimation) / r.physics
+        if round(self.run_duration() / step) < 1:
+            raise ValueError(f"duration {self.run_duration():g} s is shorter than one estimation step ({step:g} s)")
+        followed = self.estimator.followed_target()
+        if followed is not None and not 1 <= followed <= len(self.targets.members):
+            raise ValueError(f"estimator.target is {followed}, but targets has {len(self.targets.members)} member(s)")
+        if getattr(self.controller, "follow", None) == "truth" and followed is None:
+            raise ValueError("controller.follow: truth needs an estimator that follows one target")
         return self

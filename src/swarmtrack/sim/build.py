@@ -27,7 +27,6 @@ from swarmtrack.scenarios.schema import (
     FilterSpec,
     FlockingSpec,
     GroupSpec,
-    MemberSpec,
     Scenario,
 )
 from swarmtrack.sim.agent import OnboardStack
@@ -35,24 +34,20 @@ from swarmtrack.sim.clock import Clock
 from swarmtrack.sim.oracle import TruthOracle
 from swarmtrack.sim.streams import stream
 from swarmtrack.sim.world import Group, ProfileDriver, RangeBearingSensor, World
-from swarmtrack.vehicles.profile import Phase, VelocityProfile, l23_profile, l24_profile
 
 
 @dataclass(frozen=True)
 class Context:
-    """What a builder may use besides its own settings: the scenario, the rates and the world's labels (the
-    sensor label of each world object, as the onboard side knows it)."""
+    """What a builder may use besides its own settings: the scenario, the rates and the labels the sensor reports
+    for the world's objects. Not the world itself: what a builder hands an onboard component must not be truth."""
 
     scenario: Scenario
     n_uavs: int
     dt_estimation: float
     dt_control: float
     compiled: bool
-    world: World
-
-    def label_of(self, group: str, member: int) -> int:
-        """The label the sensor reports for ``group`` member ``member`` (0-based)."""
-        return self.world.label_of(self.world.slices[group].start + member)
+    label_of: Callable[[str, int], int]
+    """``label_of(group, member)``: the label the sensor reports for ``group`` member ``member`` (0-based)."""
 
 
 def _information(spec: FilterSpec, ctx: Context) -> InformationEstimator:
@@ -82,26 +77,26 @@ CONTROLLERS: dict[str, Callable] = {"flocking": _flocking}
 
 def register(role: str, spec: type, builder: Callable) -> None:
     """Add an estimator (``role="estimator"``) or controller kind: its settings class (a subclass of
-    :class:`~swarmtrack.scenarios.schema.EstimatorSpec` / ``ControllerSpec`` with a ``kind`` literal) and its
-    builder. Scenarios can then pick it by ``kind``."""
+    :class:`~swarmtrack.scenarios.schema.EstimatorSpec` / ``ControllerSpec`` whose ``kind`` is a literal with a
+    default) and its builder. Scenarios can then pick it by ``kind``. A kind is registered once."""
     kinds, builders, base = {"estimator": (ESTIMATOR_KINDS, ESTIMATORS, EstimatorSpec),
                              "controller": (CONTROLLER_KINDS, CONTROLLERS, ControllerSpec)}[role]
     if not issubclass(spec, base):
         raise TypeError(f"{spec.__name__} must subclass {base.__name__}")
     kind = spec.model_fields["kind"].default
+    if not isinstance(kind, str):
+        raise TypeError(f"{spec.__name__}.kind needs a string default (its kind)")
+    if kind in kinds or kind in builders:
+        raise ValueError(f"{role} kind {kind!r} is already registered")
     kinds[kind] = spec
     builders[kind] = builder
 
 
-def build_profile(m: MemberSpec) -> VelocityProfile:
-    if m.profile == "l24":
-        return l24_profile()
-    if m.profile == "l23":
-        return l23_profile()
-    if m.profile == "hover":
-        return VelocityProfile((Phase("hover", m.hover_duration, (0.0, 0.0), (0.0, 0.0), (0.0, 0.0), (0.0, 0.0)),))
-    return VelocityProfile(tuple(Phase(p.name, p.duration, tuple(p.c), tuple(p.amplitude), tuple(p.omega),
-                                       tuple(p.phi)) for p in m.phases))
+def _builder(role: str, kind: str, builders: dict) -> Callable:
+    if kind not in builders:
+        raise ScenarioError(f"{role}.kind {kind!r} has settings but no builder: add both with "
+                            "swarmtrack.sim.build.register")
+    return builders[kind]
 
 
 def spawn_positions(scenario: Scenario, rng: np.random.Generator) -> np.ndarray:
@@ -135,7 +130,7 @@ def _too_close(pos: np.ndarray, min_sep: float) -> np.ndarray:
 
 def _group(name: str, spec: GroupSpec) -> Group:
     starts = np.asarray([m.start for m in spec.members], dtype=float).reshape(-1, 2)
-    driver = ProfileDriver(tuple(build_profile(m) for m in spec.members), spec.velocity_gain, spec.wind_std)
+    driver = ProfileDriver(tuple(m.velocity_profile() for m in spec.members), spec.velocity_gain, spec.wind_std)
     return Group(name, spec.vehicle, starts, driver)
 
 
@@ -163,25 +158,27 @@ def build(scenario: Scenario) -> Simulation:
               Group("uavs", scenario.swarm.vehicle, spawn_positions(scenario, stream(seed, "spawn")))]
     s = scenario.sensor
     world = World(groups, RangeBearingSensor(s.sigma_range, s.sigma_bearing, s.max_range, s.latency),
-                  dt=dt_phys, duration=scenario.run_duration(),
+                  dt=dt_phys, ticks=clock.steps * clock.ticks_estimation,
                   nav_std=(scenario.swarm.nav_position_std, scenario.swarm.nav_velocity_std),
                   streams=lambda purpose: stream(seed, purpose), compiled=compiled)
-    ctx = Context(scenario, n, dt_est, clock.dt_control, compiled, world)
-    estimator = ESTIMATORS[scenario.estimator.kind](scenario.estimator, ctx)
-    controller = CONTROLLERS[scenario.controller.kind](scenario.controller, ctx)
-    tracked = world.slices["targets"].start + getattr(scenario.estimator, "target", 1) - 1
+    ctx = Context(scenario, n, dt_est, clock.dt_control, compiled,
+                  lambda group, member: world.label_of(world.slices[group].start + member))
+    estimator = _builder("estimator", scenario.estimator.kind, ESTIMATORS)(scenario.estimator, ctx)
+    controller = _builder("controller", scenario.controller.kind, CONTROLLERS)(scenario.controller, ctx)
+    followed = scenario.estimator.followed_target()  # 1-based member of targets, checked by the schema
+    tracked = None if followed is None else world.slices["targets"].start + followed - 1
     guide = estimator
-    if getattr(scenario.controller, "follow", "estimate") == "truth":
+    if getattr(scenario.controller, "follow", "estimate") == "truth":  # the schema checked there is a target
         guide = TruthOracle(lambda: world.truth()[tracked], n)
     net = scenario.network
     channel = Channel(net.topology, n, net.r_comm, tuple((a - 1, b - 1) for a, b in net.edges),
                       net.loss_probability, stream(seed, "channel"))
-    profiles = scenario.targets.members
     meta = {
         "scenario": scenario.name, "seed": seed, "dt": dt_est, "topology": net.topology, "r_comm": net.r_comm,
         "groups": {name: [sl.start, sl.stop] for name, sl in world.slices.items()},
-        "tracked": int(tracked),
-        "phase_names": list(build_profile(profiles[tracked - world.slices["targets"].start]).phase_names),
+        "tracked": tracked,
+        "phase_names": [] if followed is None else
+        list(scenario.targets.members[followed - 1].velocity_profile().phase_names),
         # what capability 1's metrics and figures read: the flocking's d, when the chase starts, the filter model
         "d": getattr(scenario.controller, "d", float("nan")),
         "chase_start": getattr(scenario.controller, "chase_after_steps", 0) * dt_est,

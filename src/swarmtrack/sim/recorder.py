@@ -189,9 +189,9 @@ class Recording:
 
     # --- capability 1's view ---------------------------------------------------------------------------
     @property
-    def tracked(self) -> int:
-        """World object index of the target the estimators follow."""
-        return int(self.meta["tracked"])
+    def tracked(self) -> int | None:
+        """World object index of the target the estimators follow (None: they follow no single target)."""
+        return self.meta["tracked"]
 
     @property
     def uav_slice(self) -> slice:

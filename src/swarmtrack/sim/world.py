@@ -72,7 +72,7 @@ class _Layout:
 class World:
     """Truth of every group; :meth:`advance` integrates them together (one batched step per vehicle kind)."""
 
-    def __init__(self, groups: list[Group], sensor: RangeBearingSensor, *, dt: float, duration: float,
+    def __init__(self, groups: list[Group], sensor: RangeBearingSensor, *, dt: float, ticks: int,
                  nav_std: tuple[float, float], streams: Callable[[str], np.random.Generator],
                  compiled: bool = False):
         names = [g.name for g in groups]
@@ -97,8 +97,8 @@ class World:
                                        for n in sensor.sensed if n in self.slices] or [np.zeros(0, np.int64)])
         names = [(g.name, k) for g in groups for k in range(g.size)]
         self._sensor_rngs = [streams("sensor/range_bearing/{}/{}".format(*names[o])) for o in self._sensed]
-        # physics layout and the drivers' profiles, gusts and gains sampled once for every physics tick
-        ticks = int(np.ceil(duration / dt)) + 2
+        # physics layout and the drivers' profiles, gusts and gains sampled once for each of the run's ``ticks``
+        ticks = ticks + 2
         grid = np.arange(ticks) * dt
         lay, v_cmd, a_ff, gains, winds = _Layout(), [], [], [], []
         for g in groups:
@@ -115,11 +115,12 @@ class World:
                 (lay.quad_obj if g.vehicle == "quadrotor" else lay.point_obj).append(obj)
                 (lay.quad_driver if g.vehicle == "quadrotor" else lay.point_driver).append(d)
         n_driven = len(gains)
-        self._phase = np.full((ticks, self.n_objects), -1, dtype=np.int16)  # profile phase at every tick
-        for g in groups:
-            if g.driver is not None:
-                for k, prof in enumerate(g.driver.profiles):
-                    self._phase[:, self.slices[g.name].start + k] = prof.phase_index(grid)
+        # profile phase of every driven object at every tick (the UAVs have none)
+        self._driven = np.asarray([self.slices[g.name].start + k for g in groups if g.driver is not None
+                                   for k in range(g.size)], dtype=np.int64)
+        self._phase = np.stack([p.phase_index(grid) for g in groups if g.driver is not None
+                                for p in g.driver.profiles], axis=1).astype(np.int16) if n_driven else \
+            np.zeros((ticks, 0), dtype=np.int16)
         self._v_cmd = np.stack(v_cmd, axis=1) if n_driven else np.zeros((ticks, 0, 2))
         self._a_ff = np.stack(a_ff, axis=1) if n_driven else np.zeros((ticks, 0, 2))
         self._wind = np.stack(winds, axis=1) if n_driven else np.zeros((ticks, 0, 2))
@@ -141,14 +142,14 @@ class World:
         # ring buffer of past positions, for measurements that arrive `latency` late
         lag = int(round(sensor.latency / dt))
         self._history = np.repeat(starts[None], lag + 1, axis=0)
-        # where each group's commands go: a slice of the quadrotor or point rows when the group is contiguous in one
-        # of them (the UAVs always are: they are one vehicle kind), else row indices
+        # where each group's commands go: a group is one vehicle kind, laid out contiguously in that kind's rows
         self._cmd_rows = {}
         for g in groups:
             rows = self._row[self.slices[g.name]]
-            nq = len(self._quad_obj)
-            kind, r = (self._quad_cmd, rows) if g.vehicle == "quadrotor" else (self._point_cmd, rows - nq)
-            self._cmd_rows[g.name] = (kind, slice(r[0], r[-1] + 1) if len(r) and np.all(np.diff(r) == 1) else r)
+            if g.vehicle != "quadrotor":
+                rows = rows - len(self._quad_obj)
+            target = self._quad_cmd if g.vehicle == "quadrotor" else self._point_cmd
+            self._cmd_rows[g.name] = (target, slice(rows[0], rows[-1] + 1) if len(rows) else slice(0, 0))
         self._truth_at = -1  # tick of the cached truth
         self._tick = 0
         if compiled:
@@ -176,7 +177,9 @@ class World:
 
     def phase_index(self) -> np.ndarray:
         """(n_objects,) index of the profile phase each driven object flies now (−1: not driven)."""
-        return self._phase[min(self._tick, len(self._phase) - 1)]
+        out = np.full(self.n_objects, -1, dtype=np.int16)
+        out[self._driven] = self._phase[min(self._tick, len(self._phase) - 1)]
+        return out
 
     def label_of(self, obj: int) -> int:
         """The label the sensor reports for world object ``obj``."""

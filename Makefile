@@ -16,7 +16,7 @@ $(STAMP): pyproject.toml
 setup: $(STAMP)
 
 run: $(STAMP)
-	$(VENV)/bin/swarmtrack run l24-ct --out runs/l24-ct
+	$(VENV)/bin/swarmtrack run l24-ct --out runs/l24-ct --overwrite
 
 test: $(STAMP)
 	$(VENV)/bin/python -m pytest

@@ -1,16 +1,13 @@
 """Command line: ``swarmtrack run | reproduce | scenarios``.
 
-Bad input (scenario, override, option) prints one message naming the field and exits with code 2; an
-output directory is written to a temporary sibling and moved into place only when complete.
+Bad input (scenario, override, option) prints one message naming the field and exits with code 2; a run's
+folder is staged and moved into place only when complete, and never replaces what the tool did not write
+(:mod:`swarmtrack.outputs`).
 """
 
 from __future__ import annotations
 
-import json
-import shutil
 import sys
-import tempfile
-from contextlib import contextmanager
 from pathlib import Path
 
 import click
@@ -22,22 +19,6 @@ from swarmtrack.scenarios.loader import ScenarioError, builtin_names, load_raw, 
 
 class UsageFailure(click.ClickException):
     exit_code = 2
-
-
-@contextmanager
-def staged_output(out: Path):
-    """Write into a temporary folder beside ``out`` and replace ``out`` only on success."""
-    out = out.resolve()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    try:
-        yield tmp
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    if out.exists():
-        shutil.rmtree(out)
-    tmp.rename(out)
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -57,41 +38,48 @@ def scenarios_cmd() -> None:
 @main.command("run")
 @click.argument("scenario", default="l24-ct")
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), default=None,
-              help="output folder (default: runs/<scenario name>)")
+              help="output folder (default: runs/<name>-seed<seed>-<hash of the resolved scenario>)")
+@click.option("--overwrite", is_flag=True,
+              help="replace an earlier run in --out (only the files its manifest.json lists)")
 @click.option("--seed", type=int, default=None, help="override the scenario's seed")
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
               help="override a scenario key, e.g. --set network.topology=full (repeatable)")
 @click.option("--no-plots", is_flag=True, help="skip the PNG figures")
-def run_cmd(scenario: str, out: Path | None, seed: int | None, overrides: tuple[str, ...], no_plots: bool) -> None:
+def run_cmd(scenario: str, out: Path | None, overwrite: bool, seed: int | None, overrides: tuple[str, ...],
+            no_plots: bool) -> None:
     """Run one closed-loop simulation of SCENARIO (a built-in name or a YAML file).
 
     Writes scenario.yaml (resolved), metrics.json, recording/ (Parquet; load it with
-    swarmtrack.sim.recorder.Recording.load) and, unless --no-plots, PNG figures."""
+    swarmtrack.sim.recorder.Recording.load), manifest.json and, unless --no-plots, PNG figures. An existing
+    non-empty --out is refused unless it holds an earlier run and --overwrite is given."""
     from rich.progress import Progress
 
     from swarmtrack.analysis.metrics import summary
     from swarmtrack.analysis.report import format_rmse_table
+    from swarmtrack.analysis.reproduce import run_key
     from swarmtrack.estimation.information import FilterDivergence
+    from swarmtrack.outputs import OutputError, Terminated, dump_json, run_folder, version
     from swarmtrack.sim.engine import simulate
 
     try:
         scn = load_scenario(scenario, list(overrides), seed)
-        out = out or Path("runs") / scn.name
-        with staged_output(out) as tmp:
+        out = out or Path("runs") / f"{scn.name}-seed{scn.seed}-{run_key(scn)[:8]}"
+        with run_folder(out, overwrite) as tmp:
             with Progress(transient=True, disable=not sys.stderr.isatty()) as bar:
                 task = bar.add_task(f"simulating {scn.name}", total=1.0)
                 rec = simulate(scn, progress=lambda done: bar.update(task, completed=done),
                                record_to=tmp / "recording")
-            metrics = summary(rec)
-            (tmp / "scenario.yaml").write_text(yaml.safe_dump(scn.model_dump(mode="json"), sort_keys=False))
-            (tmp / "metrics.json").write_text(json.dumps(metrics, indent=2))
+            metrics = {**summary(rec), "written_by": version()}
+            (tmp / "scenario.yaml").write_text(f"# resolved by {version()}\n"
+                                               + yaml.safe_dump(scn.model_dump(mode="json"), sort_keys=False))
+            (tmp / "metrics.json").write_text(dump_json(metrics))
             if not no_plots:
                 from swarmtrack.analysis.plots import save_run_figures
 
                 save_run_figures(rec, tmp)
-    except (ScenarioError, FilterDivergence) as exc:
+    except (ScenarioError, FilterDivergence, OutputError) as exc:
         raise UsageFailure(str(exc)) from None
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, Terminated):
         click.echo("interrupted; nothing was written", err=True)
         sys.exit(130)
     if "rmse" in metrics:  # a Gaussian estimator following one target (capability 1)

@@ -1,10 +1,16 @@
 import json
+import signal
+import subprocess
+import sys
+import time
 
 import pyarrow.parquet as pq
+import pytest
 from click.testing import CliRunner
 
 from swarmtrack.analysis.metrics import summary
 from swarmtrack.cli import main
+from swarmtrack.outputs import finite
 from swarmtrack.sim.recorder import Recording
 
 SHORT = ["--set", "duration=6", "--set", "target.profile=l23"]
@@ -16,12 +22,13 @@ def test_run_writes_resolved_scenario_metrics_timeseries_and_figures(tmp_path):
     assert res.exit_code == 0, res.output
     assert "RMSE" in res.output
     assert {p.name for p in out.iterdir()} >= {"scenario.yaml", "metrics.json", "recording", "estimates.png",
-                                                "inter_agent_distances.png"}
+                                                "inter_agent_distances.png", "manifest.json"}
     metrics = json.loads((out / "metrics.json").read_text())
     assert set(metrics["rmse"]["total"]) == {"x", "y", "vx", "vy"}
     rec = Recording.load(out / "recording")
     assert rec.estimate.shape == (120, 3, 4) and rec.uav.shape == (120, 3, 4) and rec.target.shape == (120, 4)
-    assert summary(rec) == metrics  # the metrics are those of the recording on disk
+    assert finite(summary(rec)) == {k: v for k, v in metrics.items() if k != "written_by"}  # the recording's
+    assert metrics["written_by"].startswith("swarmtrack ")
     rows = pq.read_table(out / "recording" / "uavs.parquet")
     assert rows.num_rows == 3 * 120 and {"step", "uav", "estimate", "covariance"} <= set(rows.column_names)
     assert "seed: 4" in (out / "scenario.yaml").read_text()
@@ -68,3 +75,73 @@ def test_a_run_that_never_chases_still_reports(tmp_path):
     res = CliRunner().invoke(main, ["run", "l24-cv", "--out", str(tmp_path / "o"), "--no-plots",
                                     "--set", "duration=3", "--set", "controller.chase_after_steps=1000000"])
     assert res.exit_code == 0, res.output
+
+
+def _run(*args):
+    return CliRunner().invoke(main, ["run", "l24-cv", "--no-plots", "--set", "duration=1", *args])
+
+
+def test_an_existing_folder_is_never_wiped(tmp_path):
+    mine = tmp_path / "notes.txt"
+    mine.write_text("my thesis")
+    res = _run("--out", str(tmp_path))
+    assert res.exit_code == 2 and "not empty" in res.output and "Traceback" not in res.output
+    assert mine.read_text() == "my thesis" and sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
+
+
+def test_overwrite_replaces_only_the_files_of_the_earlier_run(tmp_path):
+    out = tmp_path / "run"
+    assert _run("--out", str(out)).exit_code == 0
+    (out / "notes.txt").write_text("mine")
+    again = _run("--out", str(out))
+    assert again.exit_code == 2 and "--overwrite" in again.output
+    assert _run("--out", str(out), "--overwrite", "--seed", "7").exit_code == 0
+    assert (out / "notes.txt").read_text() == "mine"
+    assert "seed: 7" in (out / "scenario.yaml").read_text()
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert "recording/uavs.parquet" in manifest["files"] and "notes.txt" not in manifest["files"]
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no staging folder left
+
+
+def test_without_out_each_run_gets_its_own_folder(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert _run().exit_code == 0 and _run("--seed", "2").exit_code == 0
+    assert _run("--set", "swarm.n_uavs=2").exit_code == 0
+    folders = sorted(p.name for p in (tmp_path / "runs").iterdir())
+    assert len(folders) == 3 and all(f.startswith("l24-cv-seed") for f in folders)
+    assert _run().exit_code == 2  # the same resolved scenario again: its folder holds that run
+
+
+@pytest.mark.parametrize("name", ["..", ".", "", "/tmp/x", "a/b"])
+def test_a_scenario_name_is_a_label_not_a_path(tmp_path, monkeypatch, name):
+    monkeypatch.chdir(tmp_path)
+    res = _run("--set", f"name={name!r}" if name else "name=''")
+    assert res.exit_code == 2 and "name" in res.output
+    assert not any(tmp_path.iterdir())
+
+
+def test_sigterm_leaves_nothing_half_written(tmp_path):
+    out = tmp_path / "run"
+    proc = subprocess.Popen([sys.executable, "-m", "swarmtrack.cli", "run", "l24-fs", "--out", str(out), "--no-plots"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 60
+    while time.time() < deadline and not any(p.name.endswith(".partial") for p in tmp_path.iterdir()):
+        time.sleep(0.05)  # wait until the run is writing into its staging folder
+    time.sleep(0.5)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130 and "nothing was written" in err
+    assert list(tmp_path.iterdir()) == []  # no staging folder, no partial run
+
+
+def test_metrics_json_is_strict_json_with_null_for_undefined_numbers(tmp_path):
+    out = tmp_path / "run"
+    res = _run("--out", str(out), "--set", "swarm.n_uavs=2", "--set", "swarm.initial_positions=[[0, 0], [90, 0]]",
+               "--set", "controller.chase_after_steps=100000")  # two UAVs that never become neighbours
+    assert res.exit_code == 0, res.output
+
+    def refuse(constant):
+        raise AssertionError(f"{constant} in metrics.json")
+
+    metrics = json.loads((out / "metrics.json").read_text(), parse_constant=refuse)
+    assert metrics["inter_agent_distance"]["offset"] is None  # no neighbour pair: undefined, not NaN

@@ -236,7 +236,8 @@ class RatesSpec(_Strict):
 
 
 class Scenario(_Strict):
-    name: str = "custom"
+    name: str = Field("custom", pattern=r"^[A-Za-z0-9_.-]+$", description=(
+        "a label (letters, digits, '-', '_', '.'; not '.' or '..'), never a path"))
     description: str = ""
     seed: int = Field(0, ge=0)
     duration: float | None = Field(None, gt=0, description="s; default: the longest driven member's profile")
@@ -268,6 +269,13 @@ class Scenario(_Strict):
                 section = data.pop(old)
                 data[new] = convert(section) if isinstance(section, dict) else section
         return data
+
+    @field_validator("name")
+    @classmethod
+    def _name_is_a_label(cls, v: str) -> str:
+        if v in (".", ".."):
+            raise ValueError(f"{v!r} is not a label (it names a folder)")
+        return v
 
     @field_validator("estimator", mode="before")
     @classmethod

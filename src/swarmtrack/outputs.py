@@ -1,0 +1,152 @@
+"""Writing results without ever destroying a user's files.
+
+* A run's folder is written into a hidden staging folder beside it and moved into place only when complete;
+  an interruption (Ctrl-C, SIGTERM, an error) removes the staging folder and leaves nothing half-written.
+* An existing non-empty folder is refused unless ``overwrite``; even then only the files an earlier swarmtrack
+  run listed in its ``manifest.json`` are replaced: the tool deletes only what it created.
+* JSON is strict (``null``, never ``NaN``) and every output names the swarmtrack version that wrote it.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import signal
+import subprocess
+import tempfile
+from contextlib import contextmanager
+from pathlib import Path
+
+MANIFEST = "manifest.json"
+
+
+class OutputError(ValueError):
+    """An output folder that cannot be used, with a message naming it and why."""
+
+
+def version() -> str:
+    """``swarmtrack X.Y.Z``, plus the git commit when run from a checkout with one."""
+    from swarmtrack.analysis.reproduce import package_version
+
+    text = f"swarmtrack {package_version()}"
+    here = Path(__file__).resolve().parent
+    try:
+        commit = subprocess.run(["git", "-C", str(here), "rev-parse", "--short", "HEAD"], capture_output=True,
+                                text=True, timeout=5)
+    except (OSError, subprocess.SubprocessError):
+        return text
+    if commit.returncode == 0 and commit.stdout.strip():
+        text += f" (git {commit.stdout.strip()})"
+    return text
+
+
+def finite(value):
+    """``value`` with every non-finite float replaced by None (JSON ``null``), recursively."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: finite(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [finite(v) for v in value]
+    return value
+
+
+def dump_json(value) -> str:
+    """Strict JSON text (``allow_nan=False`` after :func:`finite`)."""
+    return json.dumps(finite(value), indent=2, allow_nan=False)
+
+
+class Terminated(BaseException):
+    """SIGTERM, raised like a KeyboardInterrupt so that cleanup runs."""
+
+
+@contextmanager
+def terminate_as_exception():
+    """Turn SIGTERM into :class:`Terminated` while the block runs (main thread only)."""
+    def handler(signum, frame):
+        raise Terminated()
+
+    try:
+        previous = signal.signal(signal.SIGTERM, handler)
+    except ValueError:  # not the main thread: leave signals alone
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def check_destination(out: Path, overwrite: bool) -> None:
+    """Refuse ``out`` when it cannot receive a run: a file, a non-empty folder that is not an earlier run (or
+    is one and ``overwrite`` is off), or a place the user cannot write to."""
+    if out.exists() and not out.is_dir():
+        raise OutputError(f"--out {out}: a file is there, not a folder")
+    if out.is_dir() and any(out.iterdir()):
+        if not (out / MANIFEST).is_file():
+            raise OutputError(f"--out {out}: the folder is not empty and holds no swarmtrack run "
+                              f"({MANIFEST}); choose another folder")
+        if not overwrite:
+            raise OutputError(f"--out {out}: holds an earlier run; add --overwrite to replace its files "
+                              "(only those its manifest lists)")
+    parent = _existing_parent(out)
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise OutputError(f"--out {out}: cannot write in {parent}")
+
+
+def _existing_parent(path: Path) -> Path:
+    path = path.absolute()
+    while not path.exists():
+        path = path.parent
+    return path
+
+
+@contextmanager
+def run_folder(out: Path, overwrite: bool = False):
+    """Stage a run's files in a hidden sibling of ``out`` and move them into ``out`` when the block ends
+    normally; on any interruption the staging folder is removed. Yields the staging folder; files written
+    there are listed in ``out/manifest.json``."""
+    out = out.absolute()
+    check_destination(out, overwrite)
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".partial", dir=out.parent))
+    except OSError as exc:
+        raise OutputError(f"--out {out}: {exc.strerror or exc}") from None
+    try:
+        with terminate_as_exception():
+            yield tmp
+            files = sorted(str(p.relative_to(tmp)) for p in tmp.rglob("*") if p.is_file())
+            (tmp / MANIFEST).write_text(dump_json({"written_by": version(), "files": files}))
+            blocked = {signal.SIGINT, signal.SIGTERM}
+            signal.pthread_sigmask(signal.SIG_BLOCK, blocked)  # the move is not interrupted halfway
+            try:
+                _move_into_place(tmp, out)
+            finally:
+                signal.pthread_sigmask(signal.SIG_UNBLOCK, blocked)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _move_into_place(tmp: Path, out: Path) -> None:
+    if not out.exists() or not any(out.iterdir()):
+        if out.exists():
+            out.rmdir()
+        tmp.rename(out)
+        return
+    old = json.loads((out / MANIFEST).read_text()).get("files", [])  # checked by check_destination
+    for rel in old:  # only the earlier run's own files
+        target = (out / rel).resolve()
+        if target.is_relative_to(out.resolve()) and target.is_file():
+            target.unlink()
+    for rel in sorted({str(Path(r).parent) for r in old} - {"."}, key=len, reverse=True):
+        folder = out / rel
+        if folder.is_dir() and not any(folder.iterdir()):
+            folder.rmdir()
+    for src in sorted(tmp.rglob("*")):
+        if src.is_file():
+            dst = out / src.relative_to(tmp)
+            dst.parent.mkdir(parents=True, exist_ok=True)
+            os.replace(src, dst)

@@ -95,16 +95,25 @@ def run_cmd(scenario: str, out: Path | None, overwrite: bool, seed: int | None, 
               help="output folder (default: runs/reproduce-<paper>)")
 @click.option("--runs", type=click.IntRange(min=1), default=10, show_default=True, help="seeds per experiment")
 @click.option("--workers", type=click.IntRange(min=1), default=None, help="parallel processes (default: cores)")
-def reproduce_cmd(paper: str, out: Path | None, runs: int, workers: int | None) -> None:
-    """Run a paper's experiments over several seeds and check its claims."""
+@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
+              help="override a key of every experiment's scenario, e.g. --set sensor.latency=0 (repeatable)")
+@click.option("--no-figures", is_flag=True, help="skip the paper's figures")
+def reproduce_cmd(paper: str, out: Path | None, runs: int, workers: int | None, overrides: tuple[str, ...],
+                  no_figures: bool) -> None:
+    """Run a paper's experiments over several seeds and check its claims.
+
+    Every finished run is kept in OUT/runs and reused next time (keyed by its resolved scenario and the
+    swarmtrack version); Ctrl-C stops at once; the two reports are written together or not at all."""
     from swarmtrack.analysis.reproduce import reproduce
+    from swarmtrack.outputs import Terminated, terminate_as_exception
 
     out = out or Path("runs") / f"reproduce-{paper}"
     try:
-        reproduce(paper, out, runs=runs, workers=workers)
+        with terminate_as_exception():
+            reproduce(paper, out, runs=runs, workers=workers, figures=not no_figures, overrides=overrides)
     except ScenarioError as exc:
         raise UsageFailure(str(exc)) from None
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, Terminated):
         click.echo(f"interrupted; finished runs are kept in {out / 'runs'} and reused next time", err=True)
         sys.exit(130)
 

@@ -58,6 +58,25 @@ def dump_json(value) -> str:
     return json.dumps(finite(value), indent=2, allow_nan=False)
 
 
+def write_together(texts: dict[Path, str]) -> None:
+    """Write several files so that they appear together or not at all: each goes to a hidden temporary sibling
+    first, then all are renamed with Ctrl-C and SIGTERM held back."""
+    partial = {path: path.with_name(f".{path.name}.partial") for path in texts}
+    try:
+        for path, text in texts.items():
+            partial[path].write_text(text)
+        blocked = {signal.SIGINT, signal.SIGTERM}
+        signal.pthread_sigmask(signal.SIG_BLOCK, blocked)
+        try:
+            for path, tmp in partial.items():
+                os.replace(tmp, path)
+        finally:
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, blocked)
+    finally:
+        for tmp in partial.values():
+            tmp.unlink(missing_ok=True)
+
+
 class Terminated(BaseException):
     """SIGTERM, raised like a KeyboardInterrupt so that cleanup runs."""
 

@@ -10,6 +10,7 @@ so when lines were left out. For pairs, the min-max envelope over *all* pairs is
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -73,7 +74,12 @@ def _new_figure(figsize: tuple[float, float]) -> Figure:
 def _save(fig: Figure, path: str | Path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=DPI, format="png")
+    partial = path.with_name(f".{path.name}.partial")  # an interrupted save leaves no half-written figure
+    try:
+        fig.savefig(partial, dpi=DPI, format="png")
+        os.replace(partial, path)
+    finally:
+        partial.unlink(missing_ok=True)
     fig.clear()  # Figure objects are not registered with pyplot: clearing + dropping the reference closes it
     return path
 

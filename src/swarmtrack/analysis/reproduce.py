@@ -14,13 +14,16 @@ from __future__ import annotations
 
 import hashlib
 import json
+import multiprocessing
+import os
+import signal
 import sys
-from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from swarmtrack.analysis.metrics import summary
 from swarmtrack.analysis.papers import PAPERS, Claim
+from swarmtrack.outputs import dump_json, version, write_together
 from swarmtrack.scenarios import Scenario, load_scenario
 
 __all__ = ["CACHE_FORMAT", "Claim", "cache_path", "package_version", "read_cached", "reproduce", "run_all",
@@ -107,15 +110,28 @@ def run_one(scenario: Scenario) -> dict:
         return {"diverged": str(exc)}
 
 
+def _worker_signals() -> None:
+    """Workers leave Ctrl-C to the parent, which stops them at once (:func:`run_all`), and die quietly on the
+    parent's SIGTERM (not with the handler a forked worker inherits)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+def _run_indexed(item: tuple[int, Scenario]) -> tuple[int, dict]:
+    return item[0], run_one(item[1])
+
+
 def run_all(jobs: list[Job], cache: Path, workers: int | None, on_done: Callable[[], None] | None = None,
-            warn: Callable[[str], None] = warn_stderr) -> dict[Job, dict]:
+            warn: Callable[[str], None] = warn_stderr, overrides: Sequence[str] = ()) -> dict[Job, dict]:
     """Metrics of every ``(scenario name, seed)`` job, from the cache where valid, else run (in parallel).
 
-    Every job is resolved (:func:`load_scenario`) before anything runs, so a broken scenario fails early.
+    Every job is resolved (:func:`load_scenario`, with ``overrides``) before anything runs, so a broken scenario
+    fails early. Each finished run is cached at once; an interruption (Ctrl-C, SIGTERM) terminates the worker
+    processes at once, so it loses only the runs in progress.
     """
     cache.mkdir(parents=True, exist_ok=True)
     version = package_version()
-    resolved = {job: load_scenario(job[0], seed=job[1]) for job in jobs}
+    resolved = {job: load_scenario(job[0], overrides, seed=job[1]) for job in jobs}
     results: dict[Job, dict] = {}
     todo: list[tuple[Job, Scenario, str, Path]] = []
     for job, scenario in resolved.items():
@@ -149,16 +165,18 @@ def run_all(jobs: list[Job], cache: Path, workers: int | None, on_done: Callable
         for item in todo:
             keep(*item, run_one(item[1]))
     else:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            futures = {pool.submit(run_one, item[1]): item for item in todo}
-            for fut in as_completed(futures):
-                keep(*futures[fut], fut.result())
+        # a multiprocessing pool (not concurrent.futures): terminate() stops running workers at once, where an
+        # executor lets them finish their runs (30-40 s after Ctrl-C) and throws the results away
+        with multiprocessing.Pool(workers or os.cpu_count(), _worker_signals) as pool:
+            for k, metrics in pool.imap_unordered(_run_indexed, [(k, item[1]) for k, item in enumerate(todo)]):
+                keep(*todo[k], metrics)
     return results
 
 
 def reproduce(paper: str, out: Path, runs: int = 10, workers: int | None = None, quiet: bool = False,
-              figures: bool = True) -> dict:
-    """Run, compare, check claims; writes ``reproduction.json`` and ``reproduction.md`` into ``out``."""
+              figures: bool = True, overrides: Sequence[str] = ()) -> dict:
+    """Run, compare, check claims; writes ``reproduction.json`` and ``reproduction.md`` into ``out``, together
+    or not at all. ``overrides`` (``dotted.key=value``) apply to every experiment's scenario."""
     from rich.console import Console
     from rich.progress import Progress
 
@@ -167,21 +185,22 @@ def reproduce(paper: str, out: Path, runs: int = 10, workers: int | None = None,
     console = Console(quiet=quiet)
     with Progress(console=console, transient=True, disable=quiet) as progress:
         task = progress.add_task(f"reproduce {paper}", total=len(jobs))
-        results = run_all(jobs, out / "runs", workers, on_done=lambda: progress.advance(task))
+        results = run_all(jobs, out / "runs", workers, on_done=lambda: progress.advance(task), overrides=overrides)
     by_scenario = {name: [results[(name, s)] for s in range(1, runs + 1)] for name in spec.experiments}
     diverged = {name: sum("diverged" in r for r in rs) for name, rs in by_scenario.items()}
     claims, table_md, numbers = spec.analyse(by_scenario)
-    report = {"paper": paper, "runs": runs, "diverged": diverged, "numbers": numbers,
-              "claims": [c.as_dict() for c in claims]}
-    (out / "reproduction.json").write_text(json.dumps(report, indent=2))
+    report = {"paper": paper, "runs": runs, "overrides": list(overrides), "written_by": version(),
+              "diverged": diverged, "numbers": numbers, "claims": [c.as_dict() for c in claims]}
     lines = [f"# Reproduction of {paper.upper()} ({runs} seeds per experiment)", "", table_md, "", "## Claims", ""]
     lines += [f"- **{'holds' if c.holds else 'does NOT hold'}** `{c.id}`: {c.text}. Paper: {_fmt(c.paper)}; "
               f"project: {_fmt(c.project)}." for c in claims]
     if any(diverged.values()):
         lines += ["", f"Diverged runs (left out of the statistics): {diverged}"]
+    if overrides:
+        lines += ["", "Overrides: " + ", ".join(f"`{o}`" for o in overrides)]
     if figures:
-        lines += ["", "Figures (seed 1): " + ", ".join(p.name for p in spec.figures(out))]
-    (out / "reproduction.md").write_text("\n".join(lines) + "\n")
+        lines += ["", "Figures (seed 1): " + ", ".join(p.name for p in spec.figures(out, overrides))]
+    write_together({out / "reproduction.json": dump_json(report), out / "reproduction.md": "\n".join(lines) + "\n"})
     console.print("\n".join(lines))
     return report
 

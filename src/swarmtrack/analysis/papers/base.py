@@ -21,7 +21,7 @@ class Paper:
     title: str
     experiments: tuple[str, ...]  #: built-in scenario names, each run over seeds 1..runs
     analyse: Analyse
-    figures: Callable[[Path], list[Path]]  #: writes the paper's figures (seed 1) into a folder
+    figures: Callable[..., list[Path]]  #: ``figures(out, overrides)``: the paper's figures (seed 1) into a folder
 
 
 @dataclass

@@ -7,6 +7,7 @@ Figure: Fig. 1, inter-agent distances under standard, integral and tailored floc
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 from swarmtrack.analysis.metrics import COMPONENTS
@@ -54,13 +55,13 @@ def analyse(by_scenario: dict[str, list[dict]]) -> tuple[list[Claim], str, dict]
     return claims, md, {"spread": spread, "flocking": flock, "open_chains": chains}
 
 
-def figures(out: Path) -> list[Path]:
+def figures(out: Path, overrides: Sequence[str] = ()) -> list[Path]:
     """Fig. 1: inter-agent distances of the three flocking variants side by side (seed 1)."""
     from swarmtrack.analysis import plots
     from swarmtrack.scenarios import load_scenario
     from swarmtrack.sim.engine import simulate
 
-    recs = {v: simulate(load_scenario(f"l23-flocking-{v}", seed=1)) for v in FLOCKING}
+    recs = {v: simulate(load_scenario(f"l23-flocking-{v}", overrides, seed=1)) for v in FLOCKING}
     return [plots.plot_flocking_comparison(recs, out / "l23_fig1_flocking.png")]
 
 

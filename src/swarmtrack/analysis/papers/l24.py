@@ -6,6 +6,7 @@ metres and m/s here). Claims: Sec. 4's comparison of the three models. Figures: 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 from swarmtrack.analysis.metrics import COMPONENTS
@@ -72,7 +73,7 @@ def analyse(by_scenario: dict[str, list[dict]]) -> tuple[list[Claim], str, dict]
     return claims, md, {"rmse": table}
 
 
-def figures(out: Path) -> list[Path]:
+def figures(out: Path, overrides: Sequence[str] = ()) -> list[Path]:
     """Figs. 2-4 (estimates), 5 (trajectories), 6 (target distances), 7 (inter-agent distances) per model."""
     from swarmtrack.analysis import plots
     from swarmtrack.scenarios import load_scenario
@@ -80,7 +81,7 @@ def figures(out: Path) -> list[Path]:
 
     paths = []
     for name in EXPERIMENTS:
-        rec = simulate(load_scenario(name, seed=1))
+        rec = simulate(load_scenario(name, overrides, seed=1))
         paths += [plots.plot_estimates(rec, out / f"{name}_estimates.png"),
                   plots.plot_trajectories(rec, out / f"{name}_trajectories.png"),
                   plots.plot_target_distances(rec, out / f"{name}_target_distances.png"),

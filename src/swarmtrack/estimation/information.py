@@ -166,7 +166,9 @@ class InformationEstimator:
         if fake_vz_sigma is not None and hasattr(model, "VZ_INDEX"):
             self._vz = (model.VZ_INDEX, 1.0 / fake_vz_sigma**2)
         self._own = None
-        self.probes = (Probe("estimate", (model.dim,)), Probe("covariance", (model.dim, model.dim)))
+        self._detected = np.zeros(n_uavs)
+        self.probes = (Probe("estimate", (model.dim,)), Probe("covariance", (model.dim, model.dim)),
+                       Probe("detected", ()))
 
     def share(self, t: float, nav: np.ndarray, own) -> dict:
         """Predict (L24 Sec. 3.1) and compute this UAV's own contribution (L24 eq. 6) for broadcast; a UAV that
@@ -189,6 +191,7 @@ class InformationEstimator:
             I[~seen] = 0.0
             i[~seen] = 0.0
         self._own = {"info_matrix": I, "info_vector": i, "z": z, "sensor_pos": pos, "seen": seen}
+        self._detected = seen.astype(float)
         return self._own if self.share_mode == "information" or self.centralized else {
             "z": z, "sensor_pos": pos, "seen": seen}
 
@@ -246,4 +249,4 @@ class InformationEstimator:
 
     def sample(self) -> dict[str, np.ndarray]:
         x, P = self.estimates()
-        return {"estimate": x, "covariance": P}
+        return {"estimate": x, "covariance": P, "detected": self._detected}

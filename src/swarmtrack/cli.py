@@ -118,5 +118,28 @@ def reproduce_cmd(paper: str, out: Path | None, runs: int, workers: int | None, 
         sys.exit(130)
 
 
+@main.command("validate")
+@click.argument("scenario")
+@click.option("--seed", type=int, default=None, help="override the scenario's seed")
+@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
+              help="override a scenario key, e.g. --set network.topology=full (repeatable)")
+def validate_cmd(scenario: str, seed: int | None, overrides: tuple[str, ...]) -> None:
+    """Check SCENARIO (a built-in name or a YAML file) and print it fully resolved, as run writes scenario.yaml."""
+    try:
+        scn = load_scenario(scenario, list(overrides), seed)
+    except ScenarioError as exc:
+        raise UsageFailure(str(exc)) from None
+    click.echo(yaml.safe_dump(scn.model_dump(mode="json"), sort_keys=False), nl=False)
+
+
+@main.command("schema")
+@click.option("--format", "fmt", type=click.Choice(["text", "markdown"]), default="text", show_default=True)
+def schema_cmd(fmt: str) -> None:
+    """Every scenario key: dotted path, type, default, allowed values and unit (docs/scenarios.md)."""
+    from swarmtrack.scenarios import reference
+
+    click.echo(reference.markdown() if fmt == "markdown" else reference.text(), nl=False)
+
+
 if __name__ == "__main__":  # pragma: no cover
     main()

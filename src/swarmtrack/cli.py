@@ -45,8 +45,9 @@ def scenarios_cmd() -> None:
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
               help="override a scenario key, e.g. --set network.topology=full (repeatable)")
 @click.option("--no-plots", is_flag=True, help="skip the PNG figures")
+@click.option("--strict", is_flag=True, help="exit with code 3 when the run has warnings (lost target, ...)")
 def run_cmd(scenario: str, out: Path | None, overwrite: bool, seed: int | None, overrides: tuple[str, ...],
-            no_plots: bool) -> None:
+            no_plots: bool, strict: bool) -> None:
     """Run one closed-loop simulation of SCENARIO (a built-in name or a YAML file).
 
     Writes scenario.yaml (resolved), metrics.json, recording/ (Parquet; load it with
@@ -87,6 +88,11 @@ def run_cmd(scenario: str, out: Path | None, overwrite: bool, seed: int | None, 
         click.echo(f"NEES {metrics['nees']:.2f} (4 if consistent)")
     offset = metrics["inter_agent_distance"]["offset"]
     click.echo(f"spacing offset {'n/a' if offset is None else f'{offset:.3f} m'} | written to {out}")
+    for w in metrics["warnings"]:
+        click.echo(f"warning: {w['message']}", err=True)
+    if strict and metrics["warnings"]:
+        click.echo(f"--strict: {len(metrics['warnings'])} warning(s)", err=True)
+        sys.exit(3)
 
 
 @main.command("reproduce", epilog="\b\nPapers:\n" + "\n".join(f"  {k}  {p.title}" for k, p in sorted(PAPERS.items())))

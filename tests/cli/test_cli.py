@@ -145,3 +145,20 @@ def test_metrics_json_is_strict_json_with_null_for_undefined_numbers(tmp_path):
 
     metrics = json.loads((out / "metrics.json").read_text(), parse_constant=refuse)
     assert metrics["inter_agent_distance"]["offset"] is None  # no neighbour pair: undefined, not NaN
+
+
+def test_a_run_that_never_sees_the_target_warns_and_strict_fails_it(tmp_path):
+    args = ["--set", "sensor.max_range=0.5", "--set", "duration=4", "--set", "sensor.latency=0"]
+    res = CliRunner().invoke(main, ["run", "l24-cv", "--no-plots", "--out", str(tmp_path / "a"), *args])
+    assert res.exit_code == 0 and "warning: no UAV ever detected the target" in res.output
+    metrics = json.loads((tmp_path / "a" / "metrics.json").read_text())
+    assert [w["kind"] for w in metrics["warnings"]][:1] == ["never_detected"]
+    strict = CliRunner().invoke(main, ["run", "l24-cv", "--no-plots", "--strict", "--out", str(tmp_path / "b"), *args])
+    assert strict.exit_code == 3 and (tmp_path / "b" / "metrics.json").is_file()  # the run is kept, and flagged
+
+
+def test_a_healthy_run_has_no_warnings(tmp_path):
+    res = CliRunner().invoke(main, ["run", "l24-cv", "--no-plots", "--strict", "--out", str(tmp_path / "a"), "--set",
+                                    "duration=30", "--set", "sensor.latency=0"])
+    assert res.exit_code == 0, res.output
+    assert json.loads((tmp_path / "a" / "metrics.json").read_text())["warnings"] == []

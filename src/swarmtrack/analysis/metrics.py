@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from swarmtrack.analysis.health import check
 from swarmtrack.sim.recorder import Chunk, Recording
 
 COMPONENTS = ("x", "y", "vx", "vy")
@@ -276,12 +277,14 @@ class _TargetDistance:
 
 def summary(rec: Recording) -> dict:
     """All scalar metrics of one run, JSON-ready, in one pass over the recording (and one over its truth for the
-    spacing). The estimation metrics need a followed target and the ``estimate`` and ``covariance`` probes of a
-    Gaussian estimator (capability 1's); a run whose estimator records others gets the rest."""
+    spacing), with the run's ``warnings`` (:func:`swarmtrack.analysis.health.check`). The estimation metrics
+    need a followed target and the ``estimate`` and ``covariance`` probes of a Gaussian estimator (capability
+    1's); a run whose estimator records others gets the rest."""
     accs = {}
     if rec.tracked is not None:
         if {"estimate", "covariance"} <= set(rec.meta["probes"]):
             accs = {"rmse": _Rmse(rec), "spread": _Spread(rec), "reported_std": _ReportedStd(rec),
                     "nees": _Nees(rec)}
         accs["target_distance"] = _TargetDistance(rec)
-    return {**dict(zip(accs, _scan(rec, list(accs.values())), strict=True)), "inter_agent_distance": spacing(rec)}
+    return {**dict(zip(accs, _scan(rec, list(accs.values())), strict=True)), "inter_agent_distance": spacing(rec),
+            "warnings": check(rec)}

@@ -85,7 +85,9 @@ def run_cmd(scenario: str, out: Path | None, overwrite: bool, seed: int | None, 
         sys.exit(130)
     if "rmse" in metrics:  # a Gaussian estimator following one target (capability 1)
         click.echo(format_rmse_table(metrics["rmse"], f"{scn.name}: RMSE (mean over UAVs), cm and cm/s"))
-        click.echo(f"NEES {metrics['nees']:.2f} (4 if consistent)")
+        phases = metrics["consistency"].items()
+        click.echo("NEES [x, y, vx, vy] per phase (95 % band of a consistent filter): " + ", ".join(
+            f"{ph} {c['nees']:.2f} [{c['band'][0]:.2f}, {c['band'][1]:.2f}]" for ph, c in phases))
     offset = metrics["inter_agent_distance"]["offset"]
     click.echo(f"spacing offset {'n/a' if offset is None else f'{offset:.3f} m'} | written to {out}")
     for w in metrics["warnings"]:

@@ -55,3 +55,22 @@ def test_overshoot_counts_only_after_the_first_crossing():
 
     rec = _rec(N=2, K=400, edit_uav=approach)
     assert abs(metrics.spacing_overshoot(rec) - 1.0) < 0.03
+
+
+def test_consistency_per_phase_shows_what_the_run_wide_nees_averages_away():
+    from swarmtrack.scenarios import load_scenario
+    from swarmtrack.sim.engine import simulate
+
+    table = metrics.summary(simulate(load_scenario("l24-cv", ["sensor.latency=0"])))["consistency"]
+    below, above = table["linear"], table["circular"]
+    assert below["nees"] < below["band"][0]  # CV with L24's Q is too cautious on the straight line
+    assert above["nees"] > above["band"][1]  # and overconfident on the circle
+    assert abs(table["total"]["nees"] - 4) < abs(above["nees"] - 4)  # the total hides both
+    assert set(below["components"]) == set(metrics.COMPONENTS)
+
+
+def test_consistency_bands_contain_a_consistent_filter():
+    table = metrics.summary(_rec())["consistency"]
+    for row in table.values():
+        lo, hi = row["band"]
+        assert lo < row["nees"] < hi

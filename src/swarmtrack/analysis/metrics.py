@@ -134,6 +134,41 @@ class _Nees:
         return self.total / self.n
 
 
+class _Consistency:
+    """NEES of ``[x, y, vx, vy]`` and of each component per phase, with the 95 % band of a consistent filter's
+    average: ``χ²_{d·n}(0.025, 0.975) / n`` for n (step, UAV) samples of dimension d. The band treats the samples
+    as independent; successive steps are correlated, so it is narrower than the truth (a screening test)."""
+
+    def __init__(self, rec: Recording):
+        self.rec = rec
+        self.full = np.zeros(len(rec.phase_names) + 1)
+        self.comp = np.zeros((len(rec.phase_names) + 1, 4))
+        self.count = np.zeros(len(rec.phase_names) + 1)
+
+    def add(self, c: Chunk, keep: np.ndarray, err: np.ndarray) -> None:
+        cov = c.probes["covariance"][keep][..., :4, :4]
+        full = np.sum(err * np.linalg.solve(cov, err[..., None])[..., 0], axis=-1)  # (k, N)
+        comp = err**2 / np.diagonal(cov, axis1=-2, axis2=-1)  # (k, N, 4)
+        phase = c.phase[keep, self.rec.tracked]
+        for p in [*np.unique(phase), -1]:
+            sel = phase == p if p >= 0 else slice(None)
+            self.full[p] += full[sel].sum()
+            self.comp[p] += comp[sel].sum(axis=(0, 1))
+            self.count[p] += full[sel].size
+
+    def result(self) -> dict:
+        from scipy.stats import chi2
+
+        out = {}
+        for p, name in enumerate([*self.rec.phase_names, "total"]):
+            n = self.count[p]
+            if n:
+                out[name] = {"nees": self.full[p] / n, "band": (chi2.ppf([0.025, 0.975], 4 * n) / n).tolist(),
+                             "components": dict(zip(COMPONENTS, (self.comp[p] / n).tolist(), strict=True)),
+                             "component_band": (chi2.ppf([0.025, 0.975], n) / n).tolist()}
+        return out
+
+
 def _scan(rec: Recording, metrics: list) -> list:
     """One pass over the recording's chunks feeding every accumulator the chase-window errors."""
     for c in rec.chunks():
@@ -284,7 +319,7 @@ def summary(rec: Recording) -> dict:
     if rec.tracked is not None:
         if {"estimate", "covariance"} <= set(rec.meta["probes"]):
             accs = {"rmse": _Rmse(rec), "spread": _Spread(rec), "reported_std": _ReportedStd(rec),
-                    "nees": _Nees(rec)}
+                    "nees": _Nees(rec), "consistency": _Consistency(rec)}
         accs["target_distance"] = _TargetDistance(rec)
     return {**dict(zip(accs, _scan(rec, list(accs.values())), strict=True)), "inter_agent_distance": spacing(rec),
             "warnings": check(rec)}

@@ -179,6 +179,8 @@ def build(scenario: Scenario) -> Simulation:
         "tracked": tracked,
         "phase_names": [] if followed is None else
         list(scenario.targets.members[followed - 1].velocity_profile().phase_names),
+        "object_phases": [list(m.velocity_profile().phase_names) for m in scenario.targets.members]
+        + [list(m.velocity_profile().phase_names) for m in scenario.decoys.members] + [[]] * n,
         # what capability 1's metrics and figures read: the flocking's d, when the chase starts, the filter model
         "d": getattr(scenario.controller, "d", float("nan")),
         "chase_start": getattr(scenario.controller, "chase_after_steps", 0) * dt_est,

@@ -35,6 +35,36 @@ class Chunk:
     probes: dict[str, np.ndarray]
 
 
+def _tables(meta: dict, c: Chunk) -> dict:
+    """The chunk as the two Parquet tables (pyarrow): ``objects`` with the truth of every world object (its
+    ``group``, 1-based ``member``, ``phase`` by name) and ``uavs`` with the probes of every UAV (1-based ``uav``);
+    multi-dimensional probes are fixed-size lists of their flattened values."""
+    import pyarrow as pa
+
+    k, m, n = len(c.t), meta["n_objects"], meta["n_uavs"]
+    group, member = np.empty(m, dtype=object), np.empty(m, dtype=np.int32)
+    for name, (start, stop) in meta["groups"].items():
+        group[start:stop] = name
+        member[start:stop] = np.arange(1, stop - start + 1)
+    names = meta.get("object_phases") or [[] for _ in range(m)]
+    offset = np.cumsum([0] + [len(p) for p in names])[:-1]
+    dictionary = pa.array([p for obj in names for p in obj], type=pa.string())
+    code = np.where(c.phase >= 0, offset[None, :] + c.phase, -1).ravel()
+    phase = pa.DictionaryArray.from_arrays(pa.array(code, mask=code < 0, type=pa.int32()), dictionary)
+    objects = {"step": np.repeat(np.arange(c.k0, c.k0 + k, dtype=np.int32), m), "t": np.repeat(c.t, m),
+               "group": pa.array(np.tile(group, k), type=pa.string()).dictionary_encode(),
+               "member": np.tile(member, k),
+               **{col: c.truth[..., j].ravel() for j, col in enumerate(("x", "y", "vx", "vy"))},
+               "phase_index": c.phase.ravel(), "phase": phase}
+    uavs = {"step": np.repeat(np.arange(c.k0, c.k0 + k, dtype=np.int32), n), "t": np.repeat(c.t, n),
+            "uav": np.tile(np.arange(1, n + 1, dtype=np.int32), k)}
+    for name, shape in meta["probes"].items():
+        flat = c.probes[name].reshape(k * n, -1)
+        uavs[name] = (pa.array(flat[:, 0]) if not shape else
+                      pa.FixedSizeListArray.from_arrays(pa.array(flat.ravel()), int(np.prod(shape))))
+    return {"objects": pa.table(objects), "uavs": pa.table(uavs)}
+
+
 class Recorder:
     """Collects one row per step; ``probes`` maps each recorded UAV quantity to its shape per UAV."""
 
@@ -73,28 +103,15 @@ class Recorder:
             self._write(chunk)
 
     def _write(self, c: Chunk) -> None:
-        import pyarrow as pa
         import pyarrow.parquet as pq
 
-        k, m, n = len(c.t), self.n_objects, self.n_uavs
-        objects = {"step": np.repeat(np.arange(c.k0, c.k0 + k, dtype=np.int32), m),
-                   "t": np.repeat(c.t, m),
-                   "object": np.tile(np.arange(m, dtype=np.int32), k),
-                   **{col: c.truth[..., j].ravel() for j, col in enumerate(("x", "y", "vx", "vy"))},
-                   "phase": c.phase.ravel()}
-        uavs = {"step": np.repeat(np.arange(c.k0, c.k0 + k, dtype=np.int32), n),
-                "uav": np.tile(np.arange(n, dtype=np.int32), k)}
-        for name, shape in self.probes.items():
-            flat = c.probes[name].reshape(k * n, -1)
-            size = int(np.prod(shape))
-            uavs[name] = (pa.array(flat[:, 0]) if shape == () else
-                          pa.FixedSizeListArray.from_arrays(pa.array(flat.ravel()), size))
-        tables = {"objects": pa.table(objects), "uavs": pa.table(uavs)}
+        tables = _tables(self.meta, c)
         if self._writers is None:
             self.path.mkdir(parents=True, exist_ok=True)
             # float columns are noise-like: no dictionary encoding, statistics only where a reader filters
             self._writers = {name: pq.ParquetWriter(self.path / f"{name}.parquet", table.schema,
-                                                    use_dictionary=["step", "object", "uav", "phase"],
+                                                    use_dictionary=["step", "group", "member", "uav", "phase_index",
+                                                                    "phase"],
                                                     write_statistics=["step"])
                              for name, table in tables.items()}
         for name, table in tables.items():
@@ -138,6 +155,7 @@ class Recording:
         phases = np.full(truth.shape[:2], -1, dtype=np.int16)
         phases[:, 0] = phase
         full = {"dt": float(t[1] - t[0]) if len(t) > 1 else 0.0, "groups": {"targets": [0, 1], "uavs": [1, 1 + n]},
+                "object_phases": [list(phase_names)] + [[]] * n,
                 "tracked": 0, "phase_names": list(phase_names), "d": d, "r_comm": r_comm, "chase_start": chase_start,
                 "format": FORMAT, "n_objects": n + 1, "n_uavs": n, "n_steps": len(t),
                 "t_last": float(t[-1]) if len(t) else 0.0, "probes": {"estimate": [4], "covariance": [4, 4]},
@@ -178,8 +196,38 @@ class Recording:
                 flat = col.to_numpy() if not shape else col.flatten().to_numpy()
                 probes[name] = flat.reshape(k, n, *shape)
             yield Chunk(k0, o.column("t").to_numpy()[::m].copy(), truth,
-                        o.column("phase").to_numpy().reshape(k, m), probes)
+                        o.column("phase_index").to_numpy().reshape(k, m), probes)
             k0 += k
+
+    # --- tables -----------------------------------------------------------------------------------------
+    def frame(self, table: str = "uavs"):
+        """``objects`` or ``uavs`` as a pandas DataFrame (one row per step and object / UAV; see :func:`_tables`).
+        The whole table in memory: for runs that fit."""
+        import pyarrow as pa
+
+        if self.path is not None:
+            import pyarrow.parquet as pq
+
+            return pq.read_table(self.path / f"{table}.parquet").to_pandas()
+        return pa.concat_tables([_tables(self.meta, c)[table] for c in self.chunks()]).to_pandas()
+
+    def write_csv(self, folder: Path) -> list[Path]:
+        """Both tables as CSV (``objects.csv``, ``uavs.csv``), list probes spread over columns ``name_1`` …"""
+        folder = Path(folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        paths = []
+        for table in ("objects", "uavs"):
+            df = self.frame(table)
+            for name, shape in self.meta["probes"].items() if table == "uavs" else ():
+                if shape:
+                    values = np.stack(df.pop(name).to_numpy())
+                    labels = ["_".join(str(i + 1) for i in idx) for idx in np.ndindex(*shape)]
+                    for j, label in enumerate(labels):
+                        df[f"{name}_{label}"] = values[:, j]
+            df.drop(columns=[c for c in ("phase_index",) if c in df], inplace=True)
+            paths.append(folder / f"{table}.csv")
+            df.to_csv(paths[-1], index=False)
+        return paths
 
     def _gather(self, key: str, pick) -> np.ndarray:
         if key not in self._cache:

@@ -3,9 +3,10 @@
 import os
 
 import pytest
+import yaml
 
-from swarmtrack.scenarios import ScenarioError, load_scenario
-from swarmtrack.scenarios.loader import apply_override, load_raw
+from swarmtrack.scenarios import ScenarioError, builtin_names, load_scenario
+from swarmtrack.scenarios.loader import apply_override, load_raw, validate
 
 
 def _file(tmp_path, content: bytes | str, name: str = "s.yaml") -> str:
@@ -81,3 +82,116 @@ def test_override_values_get_the_same_checks():
         apply_override({}, "swarm={n_uavs: 3, n_uavs: 4}")
     with pytest.raises(ScenarioError, match="nested more than"):
         apply_override({}, "estimator.q=" + "[" * 5000 + "]" * 5000)
+
+
+# --- values --------------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("override, message", [
+    (["swarm.n_uavs=true"], "swarm.n_uavs: true/false is not a number"),
+    (["seed=false"], "seed: true/false is not a number"),
+    (["controller.d=true"], "controller.d: true/false is not a number"),
+    (["target.start=[true, 0]"], "target.start: true/false is not a number"),
+    (["controller.gains.K_d=true"], "controller.gains: true/false is not a number"),
+    (["rates.physics=true"], "rates.physics: true/false is not a number"),
+    (["estimator.q=[1, true, 1, 1]"], "estimator.q: true/false is not a number"),
+    (["swarm.initial_positions=[[0, 0], [5, 0], [10, false]]"], "swarm.initial_positions: true/false"),
+])
+def test_booleans_are_not_numbers(override, message):
+    with pytest.raises(ScenarioError, match=message.replace("[", r"\[")):
+        load_scenario("l24-cv", override)
+
+
+@pytest.mark.parametrize("override, message", [
+    (["network.topology=edges", "network.edges=[[1, 1]]"], r"network.edges: \[1, 1\] is a self-loop"),
+    (["network.topology=edges", "network.edges=[[1, 2], [3, 3]]"], r"network.edges: \[3, 3\] is a self-loop"),
+    (["network.topology=edges", "network.edges=[[0, 2]]"], "network.edges names UAV 0, but the swarm has UAVs 1..3"),
+])
+def test_edges_are_reported_as_written(override, message):
+    with pytest.raises(ScenarioError, match=message):
+        load_scenario("l24-cv", override)
+
+
+@pytest.mark.parametrize("override, message", [
+    (["controller.d=1e160"], "controller.d: 1e+160 m is beyond the limit of 1e6 m"),
+    (["controller.gains.K_d=1e300"], "controller.gains.K_d: 1e+300 is beyond the limit of 1e6"),
+    (["controller.gains.D_dt=-1e300"], "controller.gains.D_dt: -1e+300 is beyond"),
+    (["target.start=[1e300, 0]"], r"target.start\[0\]: 1e\+300 m is beyond the limit of 1e6 m"),
+    (["target.profile=custom", "target.phases=[{name: a, duration: 5, omega: [1e308, 0]}]"],
+     r"target.phases\[0\].omega\[0\]: 1e\+308 rad/s is beyond the limit of 1e3 rad/s"),
+    (["target.profile=custom", "target.phases=[{name: a, duration: 5, c: [0, -2e3]}]"],
+     r"target.phases\[0\].c\[1\]: -2000 m/s is beyond the limit of 1e3 m/s"),
+    (["swarm.spawn_center=[0, 1e7]"], r"swarm.spawn_center\[1\]: 1e\+07 m"),
+    (["network.r_comm=1e200"], "network.r_comm: 1e+200 m"),
+    (["sensor.sigma_range=1e9"], "sensor.sigma_range: 1e+09 m"),
+    (["rates.physics=1e300"], "rates.physics: 1e+300 Hz is beyond the limit of 1e4 Hz"),
+    (["duration=1e9"], "duration: 1e+09 s is beyond the limit of 1e7 s"),
+    (["controller.chase_after_steps=1e30"], "controller.chase_after_steps"),
+])
+def test_huge_finite_values_are_refused_with_their_unit(override, message):
+    with pytest.raises(ScenarioError, match=message.replace("+", r"\+") if "\\" not in message else message):
+        load_scenario("l24-cv", override)
+
+
+def test_values_at_the_bounds_are_accepted():
+    scn = load_scenario("l24-cv", ["controller.d=1e6", "controller.gains.K_d=1e6", "target.start=[-1e6, 1e6]",
+                                   "rates.physics=1e4", "rates.estimation=1e4", "rates.control=1e4",
+                                   "duration=0.5"])
+    assert scn.controller.d == 1e6 and scn.targets.members[0].start == (-1e6, 1e6)
+
+
+# --- keys the chosen option ignores ------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("override, message", [
+    (["network.edges=[[1, 2]]"], "network.edges: given, but network.topology is 'line'"),
+    (["network.topology=full", "network.edges=[[1, 2]]"], "network.edges: given, but network.topology is 'full'"),
+    (["target.phases=[{name: a, duration: 5}]"], "target.phases: given, but profile is 'l24'"),
+    (["target.hover_duration=5"], "target.hover_duration: given, but profile is 'l24'"),
+    (["target.profile=custom", "target.phases=[{name: a, duration: 5}]", "target.hover_duration=5"],
+     "target.hover_duration: given, but profile is 'custom'"),
+    (["swarm.initial_positions=[[0, 0], [5, 0], [10, 0]]", "swarm.spawn_center=[1, 1]"],
+     "swarm.spawn_center: given, but swarm.initial_positions places the UAVs"),
+    (["swarm.initial_positions=[[0, 0], [5, 0], [10, 0]]", "swarm.spawn_half_width=9"], "swarm.spawn_half_width"),
+    (["swarm.initial_positions=[[0, 0], [5, 0], [10, 0]]", "swarm.min_separation=2"], "swarm.min_separation"),
+])
+def test_keys_the_chosen_option_ignores_are_errors(override, message):
+    with pytest.raises(ScenarioError, match=message):
+        load_scenario("l24-cv", override)
+
+
+def test_ignored_keys_are_named_in_the_groups_too():
+    data = {"targets": {"members": [{"profile": "hover", "hover_duration": 9},
+                                    {"profile": "l23", "phases": [{"name": "a", "duration": 5}]}]}}
+    with pytest.raises(ScenarioError, match=r"targets.members\[1\].phases: given, but profile is 'l23'"):
+        validate(data)
+    data = {"decoys": {"members": [{"profile": "l24", "hover_duration": 9}]}}
+    with pytest.raises(ScenarioError, match=r"decoys.members\[0\].hover_duration: given"):
+        validate(data)
+
+
+def test_the_flocking_shorthand_is_named_as_written():
+    with pytest.raises(ScenarioError, match="flocking.d: 1e"):
+        validate({"flocking": {"d": 1e9}})
+    with pytest.raises(ScenarioError, match="target.velocity_gain: true/false"):
+        validate({"target": {"velocity_gain": True}})
+
+
+def test_options_that_use_the_keys_still_take_them():
+    scn = load_scenario("l24-cv", ["network.topology=edges", "network.edges=[[1, 3]]", "target.profile=hover",
+                                   "target.hover_duration=5"])
+    assert scn.network.edges == [(1, 3)] and scn.targets.members[0].hover_duration == 5
+    scn = load_scenario("l24-cv", ["swarm.initial_positions=[[0, 0], [5, 0], [10, 0]]", "duration=2"])
+    assert scn.swarm.initial_positions == [(0, 0), (5, 0), (10, 0)]
+
+
+@pytest.mark.parametrize("name, extra", [(name, []) for name in builtin_names()] + [
+    ("l24-cv", ["network.topology=edges", "network.edges=[[1, 3]]"]),
+    ("l24-cv", ["target.profile=custom", "target.phases=[{name: a, duration: 5, c: [0.5, 0]}]"]),
+    ("l24-cv", ["target.profile=hover", "target.hover_duration=5"]),
+    ("l24-cv", ["swarm.initial_positions=[[0, 0], [5, 0], [10, 0]]"]),
+])
+def test_a_resolved_scenario_loads_again(name, extra):
+    """``run`` writes the resolved scenario (every default spelled out, ignored keys included); rerunning it
+    must still validate, so an ignored key at its default value is let through."""
+    scn = load_scenario(name, extra)
+    again = validate(yaml.safe_load(yaml.safe_dump(scn.model_dump(mode="json"))))
+    assert again == scn

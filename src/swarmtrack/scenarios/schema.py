@@ -6,27 +6,100 @@ Every value a paper leaves open has a default here that says where it came from.
 from __future__ import annotations
 
 import math
-from typing import Literal
+import typing
+from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, SerializeAsAny, ValidationInfo, field_validator, model_validator
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    ConfigDict,
+    Field,
+    SerializeAsAny,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
+
+
+def _is_numeric(annotation) -> bool:
+    """Whether a field's type holds numbers anywhere (``float``, ``tuple[float, float]``, ``dict[str, float]``)."""
+    return annotation in (int, float) or any(_is_numeric(a) for a in typing.get_args(annotation))
+
+
+def _holds_bool(value) -> bool:
+    if isinstance(value, bool):
+        return True
+    if isinstance(value, (list, tuple)):
+        return any(_holds_bool(v) for v in value)
+    if isinstance(value, dict):
+        return any(_holds_bool(v) for v in value.values())
+    return False
 
 
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
+    @field_validator("*", mode="before")
+    @classmethod
+    def _no_booleans_for_numbers(cls, v, info: ValidationInfo):
+        """pydantic reads ``true`` as 1 in an int or float field (``n_uavs: true`` would fly one UAV)."""
+        if _is_numeric(cls.model_fields[info.field_name].annotation) and _holds_bool(v):
+            raise ValueError("true/false is not a number")
+        return v
 
-Vec2 = tuple[float, float]
+
+# Upper bounds on physical quantities. Each is far beyond any small-UAV scenario, yet small enough that the
+# squares and products the simulation forms (d², K·d, ω·t, rate x duration) stay finite in float64, so absurd
+# input is refused here, naming its field, instead of overflowing mid-run ("estimator diverged", inf RMSE).
+MAX_LENGTH = 1e6  #: m: 1000 km, beyond any radio or sensor range of a UAV swarm
+MAX_SPEED = 1e3  #: m/s: about Mach 3
+MAX_ACCELERATION = 1e3  #: m/s²: about 100 g
+MAX_ANGULAR_RATE = 1e3  #: rad/s: about 160 turns a second
+MAX_ANGLE = 1e3  #: rad: about 160 turns
+MAX_TIME = 1e7  #: s: about four months
+MAX_RATE = 1e4  #: Hz: ten times a fast attitude loop
+MAX_GAIN = 1e6  #: any gain or noise intensity (s⁻¹, s⁻², m²/s³, 1/m²)
+
+
+def _limit_text(limit: float) -> str:
+    return f"{limit:.0e}".replace("e+0", "e").replace("e+", "e")
+
+
+def _at_most(limit: float, unit: str) -> AfterValidator:
+    """Refuse a value larger than ``limit`` in magnitude, naming the unit."""
+    u = f" {unit}" if unit else ""
+
+    def check(v: float) -> float:
+        if abs(v) > limit:
+            raise ValueError(f"{v:g}{u} is beyond the limit of {_limit_text(limit)}{u} in magnitude")
+        return v
+
+    return AfterValidator(check)
+
+
+Length = Annotated[float, _at_most(MAX_LENGTH, "m")]
+Speed = Annotated[float, _at_most(MAX_SPEED, "m/s")]
+Acceleration = Annotated[float, _at_most(MAX_ACCELERATION, "m/s²")]
+AngularRate = Annotated[float, _at_most(MAX_ANGULAR_RATE, "rad/s")]
+Angle = Annotated[float, _at_most(MAX_ANGLE, "rad")]
+Time = Annotated[float, _at_most(MAX_TIME, "s")]
+Rate = Annotated[float, _at_most(MAX_RATE, "Hz")]
+Gain = Annotated[float, _at_most(MAX_GAIN, "")]
+
+Position = tuple[Length, Length]
+Velocity = tuple[Speed, Speed]
 
 
 class PhaseSpec(_Strict):
     """One phase of the target's velocity profile; each axis flies ``c + A·sin(ω·τ + φ)``, τ from phase start."""
 
     name: str
-    duration: float = Field(gt=0, description="s")
-    c: Vec2 = Field((0.0, 0.0), description="constant velocity term, m/s")
-    amplitude: Vec2 = Field((0.0, 0.0), description="sinusoid amplitude, m/s")
-    omega: Vec2 = Field((0.0, 0.0), description="sinusoid angular frequency, rad/s")
-    phi: Vec2 = Field((0.0, 0.0), description="sinusoid phase, rad")
+    duration: Time = Field(gt=0, description="s (at most 1e7 s: about four months)")
+    c: Velocity = Field((0.0, 0.0), description="constant velocity term, m/s (at most 1e3 m/s: about Mach 3)")
+    amplitude: Velocity = Field((0.0, 0.0), description="sinusoid amplitude, m/s (at most 1e3 m/s)")
+    omega: tuple[AngularRate, AngularRate] = Field((0.0, 0.0), description=(
+        "sinusoid angular frequency, rad/s (at most 1e3 rad/s: far above any flyable manoeuvre)"))
+    phi: tuple[Angle, Angle] = Field((0.0, 0.0), description="sinusoid phase, rad (at most 1e3 rad)")
 
 
 class MemberSpec(_Strict):
@@ -35,8 +108,21 @@ class MemberSpec(_Strict):
     profile: Literal["l24", "l23", "hover", "custom"] = Field(
         "l24", description="l24: linear, sinusoidal, circular (SPEC durations 40, 62.8, 50.3 s); l23: sinusoidal")
     phases: list[PhaseSpec] = Field(default_factory=list, description="with profile: custom")
-    hover_duration: float = Field(60.0, gt=0, description="s, with profile: hover")
-    start: Vec2 = Field((0.0, 0.0), description="initial position, m")
+    hover_duration: Time = Field(60.0, gt=0, description="s, with profile: hover (at most 1e7 s)")
+    start: Position = Field((0.0, 0.0), description=(
+        "initial position, m (at most 1e6 m from the origin per axis: 1000 km, beyond any radio range)"))
+
+    @field_validator("phases", "hover_duration")
+    @classmethod
+    def _used_by_profile(cls, v, info: ValidationInfo):
+        """A key the chosen profile ignores is a mistake (a custom profile without ``profile: custom`` would
+        silently fly l24); the default value is let through, so a resolved scenario.yaml loads again."""
+        needs = {"phases": "custom", "hover_duration": "hover"}[info.field_name]
+        profile = info.data.get("profile")
+        if profile is not None and profile != needs and v != cls.model_fields[info.field_name].get_default(
+                call_default_factory=True):
+            raise ValueError(f"given, but profile is {profile!r}; {info.field_name} is used only with profile: {needs}")
+        return v
 
     @model_validator(mode="after")
     def _phases_for_custom(self):
@@ -64,8 +150,9 @@ class GroupSpec(_Strict):
 
     vehicle: Literal["quadrotor", "double_integrator"] = Field(
         "quadrotor", description="quadrotor: Iris-like, attitude loop and tilt limits (L24); double_integrator")
-    velocity_gain: float = Field(1.5, gt=0, description="autopilot velocity-loop gain, 1/s (chosen)")
-    wind_std: float = Field(0.05, ge=0, description="random acceleration disturbance std, m/s² (chosen)")
+    velocity_gain: Gain = Field(1.5, gt=0, description="autopilot velocity-loop gain, 1/s (chosen; at most 1e6)")
+    wind_std: Acceleration = Field(0.05, ge=0, description=(
+        "random acceleration disturbance std, m/s² (chosen; at most 1e3 m/s²: about 100 g)"))
     members: list[MemberSpec] = Field(default_factory=list)
 
 
@@ -83,12 +170,24 @@ def _one_target(target: dict) -> dict:
 class SwarmSpec(_Strict):
     n_uavs: int = Field(3, ge=1, le=100_000, description="number of UAVs")
     vehicle: Literal["quadrotor", "double_integrator"] = "quadrotor"
-    initial_positions: list[Vec2] | None = Field(None, description="m; default: seeded random in the spawn box")
-    spawn_center: Vec2 = Field((-2.0, -6.0), description="m (chosen: the papers give no initial positions)")
-    spawn_half_width: float = Field(3.0, gt=0, description="m")
-    min_separation: float = Field(1.0, ge=0, description="m, between spawned UAVs")
-    nav_position_std: float = Field(0.02, ge=0, description="noise on a UAV's own position estimate, m")
-    nav_velocity_std: float = Field(0.02, ge=0, description="noise on a UAV's own velocity estimate, m/s")
+    initial_positions: list[Position] | None = Field(None, description=(
+        "m (at most 1e6 m per axis); default: seeded random in the spawn box"))
+    spawn_center: Position = Field((-2.0, -6.0), description=(
+        "m (chosen: the papers give no initial positions; at most 1e6 m per axis)"))
+    spawn_half_width: Length = Field(3.0, gt=0, description="m (at most 1e6 m)")
+    min_separation: Length = Field(1.0, ge=0, description="m, between spawned UAVs (at most 1e6 m)")
+    nav_position_std: Length = Field(0.02, ge=0, description="noise on a UAV's own position estimate, m (≤ 1e6 m)")
+    nav_velocity_std: Speed = Field(0.02, ge=0, description=(
+        "noise on a UAV's own velocity estimate, m/s (at most 1e3 m/s)"))
+
+    @field_validator("spawn_center", "spawn_half_width", "min_separation")
+    @classmethod
+    def _spawn_box_unused(cls, v, info: ValidationInfo):
+        """The spawn box is not used when ``initial_positions`` is given (its default value is let through, so a
+        resolved scenario.yaml loads again)."""
+        if info.data.get("initial_positions") is not None and v != cls.model_fields[info.field_name].default:
+            raise ValueError("given, but swarm.initial_positions places the UAVs; the spawn box is not used")
+        return v
 
     @model_validator(mode="after")
     def _positions_match(self):
@@ -100,11 +199,12 @@ class SwarmSpec(_Strict):
 
 class SensorSpec(_Strict):
     kind: Literal["range_bearing"] = "range_bearing"
-    sigma_range: float = Field(0.08, gt=0, description="m (L24: 0.08, L23: 0.4)")
-    sigma_bearing: float = Field(0.02, gt=0, description="rad (L24: 0.02, L23: 0.1)")
+    sigma_range: Length = Field(0.08, gt=0, description="m (L24: 0.08, L23: 0.4; at most 1e6 m)")
+    sigma_bearing: Angle = Field(0.02, gt=0, description="rad (L24: 0.02, L23: 0.1; at most 1e3 rad)")
     update: Literal["position", "polar"] = Field(
         "position", description="position: converted measurement with the paper's R_i; polar: EKF on [ρ, β]")
-    max_range: float | None = Field(None, gt=0, description="m; a UAV farther from the target measures nothing")
+    max_range: Length | None = Field(None, gt=0, description=(
+        "m (at most 1e6 m); a UAV farther from the target measures nothing"))
     latency: float = Field(0.0, ge=0, le=5.0, description=(
         "s, age of a measurement when the filter uses it as current (sensing and middleware delay; "
         "rounded to the physics step)"))
@@ -113,8 +213,19 @@ class SensorSpec(_Strict):
 class NetworkSpec(_Strict):
     topology: Literal["none", "line", "ring", "full", "proximity", "edges"] = "line"
     edges: list[tuple[int, int]] = Field(default_factory=list, description="1-based UAV pairs, with topology: edges")
-    r_comm: float = Field(4.8, gt=0, description="communication range, m (L24, L23)")
+    r_comm: Length = Field(4.8, gt=0, description="communication range, m (L24, L23; at most 1e6 m)")
     loss_probability: float = Field(0.0, ge=0, lt=1, description="independent loss of each message")
+
+    @field_validator("edges")
+    @classmethod
+    def _edges_for_edges_topology(cls, v, info: ValidationInfo):
+        topology = info.data.get("topology")
+        if v and topology is not None and topology != "edges":
+            raise ValueError(f"given, but network.topology is {topology!r}; edges are used only with topology: edges")
+        for a, b in v:
+            if a == b:
+                raise ValueError(f"[{a}, {b}] is a self-loop (a UAV does not link to itself)")
+        return v
 
 
 class EstimatorSpec(_Strict):
@@ -141,9 +252,12 @@ class FilterSpec(EstimatorSpec):
     share: Literal["information", "measurements"] = Field(
         "information", description="information: neighbours send I_j, i_j (L24 eq. 6); measurements: z_j and pose")
     model: Literal["cv", "ca", "ct", "fs"] = "ct"
-    q: list[float] | None = Field(None, description="diagonal of Q; default: the paper's (L24 Sec. 4)")
-    initial_information: float = Field(1e-6, gt=0, description="εI, the near-zero initial information")
-    fake_vz_sigma: float = Field(0.05, gt=0, description="FS model: std of the fake vz = 0 measurement, m/s")
+    q: list[float] | None = Field(None, description=(
+        "diagonal of Q; default: the paper's (L24 Sec. 4). Not bounded above: tests/sim drive the filter to "
+        "divergence with q = 1.7e308"))
+    initial_information: Gain = Field(1e-6, gt=0, description="εI, the near-zero initial information (at most 1e6)")
+    fake_vz_sigma: Speed = Field(0.05, gt=0, description=(
+        "FS model: std of the fake vz = 0 measurement, m/s (at most 1e3 m/s)"))
     target: int = Field(1, ge=1, description="which member of the targets group the filter follows (1-based)")
 
     def followed_target(self) -> int | None:
@@ -180,11 +294,14 @@ class CentralizedSpec(FilterSpec):
 class FlockingSpec(ControllerSpec):
     kind: Literal["flocking"] = "flocking"
     variant: Literal["standard", "integral", "tailored"] = "tailored"
-    d: float = Field(4.0, gt=0, description="desired inter-agent distance, m")
-    chase_after_steps: int = Field(20, ge=0, description="estimation steps before the UAVs start chasing (L24)")
+    d: Length = Field(4.0, gt=0, description="desired inter-agent distance, m (at most 1e6 m)")
+    chase_after_steps: int = Field(20, ge=0, le=10**12, description=(
+        "estimation steps before the UAVs start chasing (L24)"))
     follow: Literal["estimate", "truth"] = Field(
         "estimate", description="what the target term follows; truth wires an oracle (not onboard) to the controller")
-    gains: dict[str, float] = Field(default_factory=dict, description="overrides of FlockingGains fields")
+    gains: dict[str, Gain] = Field(default_factory=dict, description=(
+        "overrides of FlockingGains fields (each at most 1e6 in magnitude: gains in s⁻¹ or s⁻², D_dt in m, "
+        "accel_limit in m/s²)"))
 
     @field_validator("gains")
     @classmethod
@@ -222,9 +339,9 @@ def _by_kind(value, kinds: dict, default: str, base: type):
 
 
 class RatesSpec(_Strict):
-    physics: float = Field(100.0, gt=0, description="Hz")
-    estimation: float = Field(20.0, gt=0, description="Hz (L24, L23)")
-    control: float = Field(20.0, gt=0, description="Hz")
+    physics: Rate = Field(100.0, gt=0, description="Hz (at most 1e4 Hz: ten times a fast attitude loop)")
+    estimation: Rate = Field(20.0, gt=0, description="Hz (L24, L23; at most 1e4 Hz)")
+    control: Rate = Field(20.0, gt=0, description="Hz (at most 1e4 Hz)")
 
     @model_validator(mode="after")
     def _divides(self):
@@ -240,7 +357,8 @@ class Scenario(_Strict):
         "a label (letters, digits, '-', '_', '.'; not '.' or '..'), never a path"))
     description: str = ""
     seed: int = Field(0, ge=0)
-    duration: float | None = Field(None, gt=0, description="s; default: the longest driven member's profile")
+    duration: Time | None = Field(None, gt=0, description=(
+        "s (at most 1e7 s: about four months); default: the longest driven member's profile"))
     rates: RatesSpec = Field(default_factory=RatesSpec)
     targets: GroupSpec = Field(default_factory=lambda: GroupSpec(members=[MemberSpec()]), description=(
         "the objects the swarm tracks; ``target: {...}`` is the shorthand for one quadrotor target"))

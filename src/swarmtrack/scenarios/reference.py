@@ -195,6 +195,8 @@ def _literals(annotation) -> tuple:
 
 def _type_name(annotation) -> str:
     origin, args = typing.get_origin(annotation), _args(annotation)
+    if origin is typing.Annotated:  # a bounded number: its validators are described in the limits column
+        return _type_name(args[0])
     if annotation in _SCALARS:
         return _SCALARS[annotation]
     if origin is Literal:

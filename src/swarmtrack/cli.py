@@ -46,8 +46,10 @@ def scenarios_cmd() -> None:
               help="override a scenario key, e.g. --set network.topology=full (repeatable)")
 @click.option("--no-plots", is_flag=True, help="skip the PNG figures")
 @click.option("--strict", is_flag=True, help="exit with code 3 when the run has warnings (lost target, ...)")
+@click.option("--format", "formats", type=click.Choice(["parquet", "csv"]), multiple=True, default=("parquet",),
+              show_default=True, help="time series formats: the Parquet recording always, csv adds timeseries/*.csv")
 def run_cmd(scenario: str, out: Path | None, overwrite: bool, seed: int | None, overrides: tuple[str, ...],
-            no_plots: bool, strict: bool) -> None:
+            no_plots: bool, strict: bool, formats: tuple[str, ...]) -> None:
     """Run one closed-loop simulation of SCENARIO (a built-in name or a YAML file).
 
     Writes scenario.yaml (resolved), metrics.json, recording/ (Parquet; load it with
@@ -74,6 +76,8 @@ def run_cmd(scenario: str, out: Path | None, overwrite: bool, seed: int | None, 
             (tmp / "scenario.yaml").write_text(f"# resolved by {version()}\n"
                                                + yaml.safe_dump(scn.model_dump(mode="json"), sort_keys=False))
             (tmp / "metrics.json").write_text(dump_json(metrics))
+            if "csv" in formats:
+                rec.write_csv(tmp / "timeseries")
             if not no_plots:
                 from swarmtrack.analysis.plots import save_run_figures
 

@@ -162,3 +162,22 @@ def test_a_healthy_run_has_no_warnings(tmp_path):
                                     "duration=30", "--set", "sensor.latency=0"])
     assert res.exit_code == 0, res.output
     assert json.loads((tmp_path / "a" / "metrics.json").read_text())["warnings"] == []
+
+
+def test_a_run_loads_back_with_one_based_uavs_and_phase_names(tmp_path):
+    import swarmtrack
+
+    out = tmp_path / "run"
+    res = CliRunner().invoke(main, ["run", "l24-cv", "--no-plots", "--out", str(out), "--format", "csv", *SHORT])
+    assert res.exit_code == 0, res.output
+    rec = swarmtrack.load_run(out)
+    uavs, objects = rec.frame("uavs"), rec.frame("objects")
+    assert sorted(uavs["uav"].unique()) == [1, 2, 3] and len(uavs) == 3 * 120
+    target = objects[objects["group"] == "targets"]
+    assert set(target["phase"]) == {"sinusoidal"} and set(target["member"]) == {1}
+    assert objects[objects["group"] == "uavs"]["phase"].isna().all()
+    csv_uavs = (out / "timeseries" / "uavs.csv").read_text().splitlines()
+    header = csv_uavs[0].split(",")
+    assert {"t", "uav", "estimate_1", "covariance_4_4"} <= set(header) and len(csv_uavs) == 1 + 3 * 120
+    assert {"group", "member", "phase", "x"} <= set((out / "timeseries" / "objects.csv").read_text().split("\n")[0]
+                                                     .split(","))

@@ -224,7 +224,7 @@ class Recording:
                     labels = ["_".join(str(i + 1) for i in idx) for idx in np.ndindex(*shape)]
                     for j, label in enumerate(labels):
                         df[f"{name}_{label}"] = values[:, j]
-            df.drop(columns=[c for c in ("phase_index",) if c in df], inplace=True)
+            df = df.drop(columns=[c for c in ("phase_index",) if c in df])
             paths.append(folder / f"{table}.csv")
             df.to_csv(paths[-1], index=False)
         return paths

@@ -111,6 +111,8 @@ def check_destination(out: Path, overwrite: bool) -> None:
             raise OutputError(f"--out {out}: holds an earlier run; add --overwrite to replace its files "
                               "(only those its manifest lists)")
     parent = _existing_parent(out)
+    if not parent.is_dir():
+        raise OutputError(f"--out {out}: {parent} is a file, so no folder can be made inside it")
     if not os.access(parent, os.W_OK | os.X_OK):
         raise OutputError(f"--out {out}: cannot write in {parent}")
 

@@ -181,3 +181,13 @@ def test_a_run_loads_back_with_one_based_uavs_and_phase_names(tmp_path):
     assert {"t", "uav", "estimate_1", "covariance_4_4"} <= set(header) and len(csv_uavs) == 1 + 3 * 120
     assert {"group", "member", "phase", "x"} <= set((out / "timeseries" / "objects.csv").read_text().split("\n")[0]
                                                      .split(","))
+
+
+@pytest.mark.parametrize("where, why", [("/proc/swarmtrack-run", "/proc"), ("{file}/x", "is a file"),
+                                        ("{file}", "is a file")])
+def test_an_impossible_out_is_one_clear_error(tmp_path, where, why):
+    a_file = tmp_path / "a_file"
+    a_file.write_text("keep me")
+    res = _run("--out", where.format(file=a_file))
+    assert res.exit_code == 2 and why in res.output and "Traceback" not in res.output
+    assert a_file.read_text() == "keep me"

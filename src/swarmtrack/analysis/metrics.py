@@ -135,8 +135,9 @@ class _Nees:
 
 
 class _Consistency:
-    """NEES of ``[x, y, vx, vy]`` and of each component per phase, with the 95 % band of a consistent filter's
-    average: ``χ²_{d·n}(0.025, 0.975) / n`` for n (step, UAV) samples of dimension d. The band treats the samples
+    """NEES of ``[x, y, vx, vy]`` and of each component per phase, and the NIS of each UAV's own measurement
+    (2 dof), with the 95 % band of a consistent filter's average: ``χ²_{d·n}(0.025, 0.975) / n`` for n samples of
+    dimension d. The band treats the samples
     as independent; successive steps are correlated, so it is narrower than the truth (a screening test)."""
 
     def __init__(self, rec: Recording):
@@ -144,6 +145,8 @@ class _Consistency:
         self.full = np.zeros(len(rec.phase_names) + 1)
         self.comp = np.zeros((len(rec.phase_names) + 1, 4))
         self.count = np.zeros(len(rec.phase_names) + 1)
+        self.nis = np.zeros(len(rec.phase_names) + 1)
+        self.nis_count = np.zeros(len(rec.phase_names) + 1)
 
     def add(self, c: Chunk, keep: np.ndarray, err: np.ndarray) -> None:
         cov = c.probes["covariance"][keep][..., :4, :4]
@@ -155,6 +158,10 @@ class _Consistency:
             self.full[p] += full[sel].sum()
             self.comp[p] += comp[sel].sum(axis=(0, 1))
             self.count[p] += full[sel].size
+            if "nis" in c.probes:  # each UAV's own measurement, where it had one
+                nis = c.probes["nis"][keep][sel]
+                self.nis[p] += np.nansum(nis)
+                self.nis_count[p] += np.isfinite(nis).sum()
 
     def result(self) -> dict:
         from scipy.stats import chi2
@@ -166,6 +173,9 @@ class _Consistency:
                 out[name] = {"nees": self.full[p] / n, "band": (chi2.ppf([0.025, 0.975], 4 * n) / n).tolist(),
                              "components": dict(zip(COMPONENTS, (self.comp[p] / n).tolist(), strict=True)),
                              "component_band": (chi2.ppf([0.025, 0.975], n) / n).tolist()}
+                m = self.nis_count[p]
+                if m:
+                    out[name].update(nis=self.nis[p] / m, nis_band=(chi2.ppf([0.025, 0.975], 2 * m) / m).tolist())
         return out
 
 

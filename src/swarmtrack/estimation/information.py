@@ -167,8 +167,9 @@ class InformationEstimator:
             self._vz = (model.VZ_INDEX, 1.0 / fake_vz_sigma**2)
         self._own = None
         self._detected = np.zeros(n_uavs)
+        self._nis = np.full(n_uavs, np.nan)
         self.probes = (Probe("estimate", (model.dim,)), Probe("covariance", (model.dim, model.dim)),
-                       Probe("detected", ()))
+                       Probe("detected", ()), Probe("nis", ()))
 
     def share(self, t: float, nav: np.ndarray, own) -> dict:
         """Predict (L24 Sec. 3.1) and compute this UAV's own contribution (L24 eq. 6) for broadcast; a UAV that
@@ -187,6 +188,7 @@ class InformationEstimator:
             if self.centralized:  # the fusion centre linearises everything at its own prediction
                 x_pos = np.broadcast_to(x_pos, pos.shape)
             I, i = self.update_rule.contributions(x_pos, pos, z)
+        self._nis = self._own_nis(z, pos, I)
         if not seen.all():  # unseen rows are NaN
             I[~seen] = 0.0
             i[~seen] = 0.0
@@ -194,6 +196,18 @@ class InformationEstimator:
         self._detected = seen.astype(float)
         return self._own if self.share_mode == "information" or self.centralized else {
             "z": z, "sensor_pos": pos, "seen": seen}
+
+    def _own_nis(self, z: np.ndarray, pos: np.ndarray, I: np.ndarray) -> np.ndarray:
+        """Normalised innovation squared of each UAV's own measurement (N,), in position form whatever the update:
+        ``ν = q(z) − x̂(k|k−1)[:2]``, ``S = I⁻¹ + P(k|k−1)[:2, :2]`` with ``I`` the measurement's position-block
+        information (``R⁻¹`` of the converted measurement; ``HᵀR⁻¹H`` of the polar one, equal to first order).
+        χ²(2) for a consistent filter; NaN where the UAV saw nothing."""
+        with np.errstate(all="ignore"):
+            F = self.model.jacobian(self.x)[..., :2, :]
+            P_pred = F @ self.P @ np.swapaxes(F, -1, -2) + self.model.Q[:2, :2]
+            S = _inv2(I) + P_pred
+            nu = to_position(z, pos) - self._x_pred[..., :2]
+            return np.einsum("...a,...a->...", nu, np.linalg.solve(S, nu[..., None])[..., 0])
 
     def fuse(self, t: float, own, inbox) -> None:
         """Update (L24 eq. 7): own information plus what the links delivered."""
@@ -249,4 +263,4 @@ class InformationEstimator:
 
     def sample(self) -> dict[str, np.ndarray]:
         x, P = self.estimates()
-        return {"estimate": x, "covariance": P, "detected": self._detected}
+        return {"estimate": x, "covariance": P, "detected": self._detected, "nis": self._nis}

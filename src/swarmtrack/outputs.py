@@ -78,24 +78,28 @@ def write_together(texts: dict[Path, str]) -> None:
 
 
 class Terminated(BaseException):
-    """SIGTERM, raised like a KeyboardInterrupt so that cleanup runs."""
+    """SIGTERM or SIGINT (Ctrl-C), raised as an exception so that cleanup runs."""
 
 
 @contextmanager
 def terminate_as_exception():
-    """Turn SIGTERM into :class:`Terminated` while the block runs (main thread only)."""
+    """Turn SIGTERM and SIGINT into :class:`Terminated` while the block runs (main thread only). SIGINT is taken
+    too, rather than left to Python's KeyboardInterrupt: CPython remembers a KeyboardInterrupt that crossed
+    certain C code and then ends the process by SIGINT whatever exit code the program chose (seen here now and
+    then as a return code of −2 instead of 130)."""
     def handler(signum, frame):
         raise Terminated()
 
     try:
-        previous = signal.signal(signal.SIGTERM, handler)
+        previous = {sig: signal.signal(sig, handler) for sig in (signal.SIGTERM, signal.SIGINT)}
     except ValueError:  # not the main thread: leave signals alone
         yield
         return
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for sig, old in previous.items():
+            signal.signal(sig, old)
 
 
 def check_destination(out: Path, overwrite: bool) -> None:

@@ -120,7 +120,8 @@ def test_a_scenario_name_is_a_label_not_a_path(tmp_path, monkeypatch, name):
     assert not any(tmp_path.iterdir())
 
 
-def test_sigterm_leaves_nothing_half_written(tmp_path):
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_an_interrupted_run_leaves_nothing_half_written(tmp_path, sig):
     out = tmp_path / "run"
     proc = subprocess.Popen([sys.executable, "-m", "swarmtrack.cli", "run", "l24-fs", "--out", str(out), "--no-plots"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -128,9 +129,9 @@ def test_sigterm_leaves_nothing_half_written(tmp_path):
     while time.time() < deadline and not any(p.name.endswith(".partial") for p in tmp_path.iterdir()):
         time.sleep(0.05)  # wait until the run is writing into its staging folder
     time.sleep(0.5)
-    proc.send_signal(signal.SIGTERM)
+    proc.send_signal(sig)
     _, err = proc.communicate(timeout=60)
-    assert proc.returncode == 130 and "nothing was written" in err
+    assert proc.returncode == 130 and "nothing was written" in err, (proc.returncode, err[-3000:])
     assert list(tmp_path.iterdir()) == []  # no staging folder, no partial run
 
 

@@ -65,6 +65,8 @@ def test_compiled_cv_kernels_give_the_same_run_as_numpy(name, extra):
     np.testing.assert_allclose(fast.target, ref.target, rtol=0, atol=1e-7)
     np.testing.assert_allclose(fast.estimate, ref.estimate, rtol=0, atol=1e-7)
     np.testing.assert_allclose(fast.covariance, ref.covariance, rtol=1e-7, atol=1e-12)
+    nis = [np.concatenate([c.probes["nis"] for c in rec.chunks()]) for rec in (ref, fast)]
+    np.testing.assert_allclose(nis[1], nis[0], rtol=1e-6, atol=1e-9)  # estimation.kernels.position_nis
     assert not np.array_equal(fast.uav[-1], fast.uav[0])  # the swarm did move (chasing starts at 1 s)
 
 

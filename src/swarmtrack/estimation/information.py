@@ -168,6 +168,8 @@ class InformationEstimator:
         self._own = None
         self._detected = np.zeros(n_uavs)
         self._nis = np.full(n_uavs, np.nan)
+        self._F2 = model.F[:2] if getattr(model, "linear", False) else None  # the NIS's prediction, linear models
+        self._Q2 = model.Q[:2, :2]
         self.probes = (Probe("estimate", (model.dim,)), Probe("covariance", (model.dim, model.dim)),
                        Probe("detected", ()), Probe("nis", ()))
 
@@ -188,7 +190,12 @@ class InformationEstimator:
             if self.centralized:  # the fusion centre linearises everything at its own prediction
                 x_pos = np.broadcast_to(x_pos, pos.shape)
             I, i = self.update_rule.contributions(x_pos, pos, z)
-        self._nis = self._own_nis(z, pos, I)
+        if self.compiled:
+            from swarmtrack.estimation import kernels
+
+            self._nis = kernels.position_nis(z, pos, self._x_pred[:, :2], self.P, self._F2, self._Q2, I)
+        else:
+            self._nis = self._own_nis(z, pos, I)
         if not seen.all():  # unseen rows are NaN
             I[~seen] = 0.0
             i[~seen] = 0.0
@@ -201,13 +208,20 @@ class InformationEstimator:
         """Normalised innovation squared of each UAV's own measurement (N,), in position form whatever the update:
         ``ν = q(z) − x̂(k|k−1)[:2]``, ``S = I⁻¹ + P(k|k−1)[:2, :2]`` with ``I`` the measurement's position-block
         information (``R⁻¹`` of the converted measurement; ``HᵀR⁻¹H`` of the polar one, equal to first order).
-        χ²(2) for a consistent filter; NaN where the UAV saw nothing."""
-        with np.errstate(all="ignore"):
-            F = self.model.jacobian(self.x)[..., :2, :]
-            P_pred = F @ self.P @ np.swapaxes(F, -1, -2) + self.model.Q[:2, :2]
-            S = _inv2(I) + P_pred
-            nu = to_position(z, pos) - self._x_pred[..., :2]
-            return np.einsum("...a,...a->...", nu, np.linalg.solve(S, nu[..., None])[..., 0])
+        χ²(2) for a consistent filter; NaN where the UAV saw nothing. Closed-form 2 x 2 algebra: it runs every
+        step for every UAV."""
+        F = self._F2 if self._F2 is not None else self.model.jacobian(self.x)[..., :2, :]
+        P_pred = F @ self.P @ np.swapaxes(F, -1, -2)  # position block of F P Fᵀ + Q
+        a = I[..., 0, 0]
+        b = I[..., 0, 1]
+        d = I[..., 1, 1]
+        det_i = a * d - b * b
+        s00 = d / det_i + P_pred[..., 0, 0] + self._Q2[0, 0]  # S = I⁻¹ + P(k|k−1)[:2, :2]
+        s01 = -b / det_i + P_pred[..., 0, 1] + self._Q2[0, 1]
+        s11 = a / det_i + P_pred[..., 1, 1] + self._Q2[1, 1]
+        nu = to_position(z, pos) - self._x_pred[..., :2]
+        n0, n1 = nu[..., 0], nu[..., 1]
+        return (n0 * n0 * s11 - 2.0 * n0 * n1 * s01 + n1 * n1 * s00) / (s00 * s11 - s01 * s01)
 
     def fuse(self, t: float, own, inbox) -> None:
         """Update (L24 eq. 7): own information plus what the links delivered."""

@@ -378,6 +378,39 @@ def cv_information_cycle(Y, y, dt, q, I, i, x=None, P=None):
     return Y, y, x, P, flags
 
 
+@numba.njit(cache=True, fastmath=False)
+def position_nis(z, sensor_pos, x_pred_pos, P, F2, Q2, I):
+    """Compiled twin of :meth:`swarmtrack.estimation.information.InformationEstimator._own_nis` for a linear
+    model: the NIS (N,) of each agent's own converted range-bearing measurement, ``νᵀ S⁻¹ ν`` with
+    ``ν = q(z) − x̂(k|k−1)[:2]`` and ``S = I⁻¹ + (F P Fᵀ + Q)[:2, :2]`` (``F2 = F[:2]``, ``Q2 = Q[:2, :2]``)."""
+    n, dim = P.shape[0], P.shape[1]
+    out = np.empty(n)
+    for k in range(n):
+        p00 = 0.0
+        p01 = 0.0
+        p11 = 0.0
+        for a in range(dim):  # (F2 P F2ᵀ), symmetric 2 x 2
+            fa0 = 0.0
+            fa1 = 0.0
+            for b in range(dim):
+                fa0 += P[k, a, b] * F2[0, b]
+                fa1 += P[k, a, b] * F2[1, b]
+            p00 += F2[0, a] * fa0
+            p01 += F2[0, a] * fa1
+            p11 += F2[1, a] * fa1
+        a_ = I[k, 0, 0]
+        b_ = I[k, 0, 1]
+        d_ = I[k, 1, 1]
+        det_i = a_ * d_ - b_ * b_
+        s00 = d_ / det_i + p00 + Q2[0, 0]
+        s01 = -b_ / det_i + p01 + Q2[0, 1]
+        s11 = a_ / det_i + p11 + Q2[1, 1]
+        n0 = sensor_pos[k, 0] + z[k, 0] * math.cos(z[k, 1]) - x_pred_pos[k, 0]
+        n1 = sensor_pos[k, 1] + z[k, 0] * math.sin(z[k, 1]) - x_pred_pos[k, 1]
+        out[k] = (n0 * n0 * s11 - 2.0 * n0 * n1 * s01 + n1 * n1 * s00) / (s00 * s11 - s01 * s01)
+    return out
+
+
 def check_flags(flags, t: float) -> None:
     """Raise the reference's ``FilterDivergence`` naming the agents whose kernel flag is set."""
     flags = np.asarray(flags)
@@ -401,4 +434,5 @@ __all__ = [
     "cv_position_contributions",
     "cv_predicted_position",
     "cv_recover",
+    "position_nis",
 ]

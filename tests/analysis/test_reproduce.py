@@ -69,6 +69,7 @@ def test_a_cached_run_is_reused_and_carries_its_key(tmp_path, runs, capsys):
     path = entry_path(tmp_path)
     entry = json.loads(path.read_text())
     key = run_key(load_scenario("l24-cv", seed=1))
+    assert entry.pop("written_by").startswith(f"swarmtrack {package_version()}")  # and the git commit if any
     assert entry == {"format": CACHE_FORMAT, "version": package_version(), "key": key, "scenario": "l24-cv",
                      "seed": 1, "metrics": {"seed": 1, "duration": None}}
     assert path.name == f"l24-cv-seed1-{entry['key'][:12]}.json"

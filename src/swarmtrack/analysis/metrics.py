@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from swarmtrack.analysis.health import check
+from swarmtrack.analysis.health import check, chi2_mean_band
 from swarmtrack.sim.recorder import Chunk, Recording
 
 COMPONENTS = ("x", "y", "vx", "vy")
@@ -164,18 +164,16 @@ class _Consistency:
                 self.nis_count[p] += np.isfinite(nis).sum()
 
     def result(self) -> dict:
-        from scipy.stats import chi2
-
         out = {}
         for p, name in enumerate([*self.rec.phase_names, "total"]):
             n = self.count[p]
             if n:
-                out[name] = {"nees": self.full[p] / n, "band": (chi2.ppf([0.025, 0.975], 4 * n) / n).tolist(),
+                out[name] = {"nees": self.full[p] / n, "band": chi2_mean_band(4, n),
                              "components": dict(zip(COMPONENTS, (self.comp[p] / n).tolist(), strict=True)),
-                             "component_band": (chi2.ppf([0.025, 0.975], n) / n).tolist()}
+                             "component_band": chi2_mean_band(1, n)}
                 m = self.nis_count[p]
                 if m:
-                    out[name].update(nis=self.nis[p] / m, nis_band=(chi2.ppf([0.025, 0.975], 2 * m) / m).tolist())
+                    out[name].update(nis=self.nis[p] / m, nis_band=chi2_mean_band(2, m))
         return out
 
 

@@ -21,6 +21,7 @@ import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
+from swarmtrack import outputs
 from swarmtrack.analysis.metrics import summary
 from swarmtrack.analysis.papers import PAPERS, Claim
 from swarmtrack.outputs import dump_json, version, write_together
@@ -130,7 +131,7 @@ def run_all(jobs: list[Job], cache: Path, workers: int | None, on_done: Callable
     processes at once, so it loses only the runs in progress.
     """
     cache.mkdir(parents=True, exist_ok=True)
-    version = package_version()
+    version, written_by = package_version(), outputs.version()
     resolved = {job: load_scenario(job[0], overrides, seed=job[1]) for job in jobs}
     results: dict[Job, dict] = {}
     todo: list[tuple[Job, Scenario, str, Path]] = []
@@ -153,10 +154,10 @@ def run_all(jobs: list[Job], cache: Path, workers: int | None, on_done: Callable
 
     def keep(job: Job, scenario: Scenario, key: str, path: Path, metrics: dict) -> None:
         results[job] = metrics
-        entry = {"format": CACHE_FORMAT, "version": version, "key": key, "scenario": scenario.name,
-                 "seed": scenario.seed, "metrics": metrics}
+        entry = {"format": CACHE_FORMAT, "version": version, "written_by": written_by, "key": key,
+                 "scenario": scenario.name, "seed": scenario.seed, "metrics": metrics}
         tmp = path.with_suffix(".tmp")
-        tmp.write_text(json.dumps(entry))
+        tmp.write_text(outputs.dump_json(entry))
         tmp.replace(path)
         if on_done:
             on_done()

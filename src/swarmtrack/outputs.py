@@ -9,6 +9,7 @@
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import os
@@ -26,6 +27,7 @@ class OutputError(ValueError):
     """An output folder that cannot be used, with a message naming it and why."""
 
 
+@functools.lru_cache(maxsize=1)
 def version() -> str:
     """``swarmtrack X.Y.Z``, plus the git commit when run from a checkout with one."""
     from swarmtrack.analysis.reproduce import package_version

@@ -37,3 +37,13 @@ def test_a_uav_out_of_range_is_named_with_how_long_it_saw_nothing():
                                             "swarm.initial_positions=[[1, 0], [5, 0], [9, 0]]"]))
     gaps = {w["uav"]: w for w in check(rec) if w["kind"] == "no_detection"}
     assert set(gaps) == {2, 3} and "never detected" in gaps[3]["message"]
+
+
+def test_the_chi2_band_matches_scipy():
+    from scipy.stats import chi2
+
+    from swarmtrack.analysis.health import chi2_mean_band
+
+    for dim, n in ((4, 10), (2, 100), (1, 40), (4, 6000)):
+        exact = chi2.ppf([0.025, 0.975], dim * n) / n
+        assert np.allclose(chi2_mean_band(dim, n), exact, rtol=1e-3)

@@ -60,23 +60,43 @@ def dump_json(value) -> str:
     return json.dumps(finite(value), indent=2, allow_nan=False)
 
 
-def write_together(texts: dict[Path, str]) -> None:
-    """Write several files so that they appear together or not at all: each goes to a hidden temporary sibling
-    first, then all are renamed with Ctrl-C and SIGTERM held back."""
-    partial = {path: path.with_name(f".{path.name}.partial") for path in texts}
+@contextmanager
+def signals_held():
+    """Ctrl-C and SIGTERM wait until the block has run (a rename of several files is not cut halfway)."""
+    blocked = {signal.SIGINT, signal.SIGTERM}
+    signal.pthread_sigmask(signal.SIG_BLOCK, blocked)
     try:
-        for path, text in texts.items():
-            partial[path].write_text(text)
-        blocked = {signal.SIGINT, signal.SIGTERM}
-        signal.pthread_sigmask(signal.SIG_BLOCK, blocked)
-        try:
-            for path, tmp in partial.items():
-                os.replace(tmp, path)
-        finally:
-            signal.pthread_sigmask(signal.SIG_UNBLOCK, blocked)
+        yield
     finally:
-        for tmp in partial.values():
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, blocked)
+
+
+@contextmanager
+def partial_files(paths: list[Path]):
+    """One fresh hidden temporary file beside each of ``paths`` (``mkstemp``: never an existing file), to write
+    in the block; afterwards they replace ``paths`` together (signals held), or, on an error, are removed.
+    Only files this function created are ever deleted."""
+    made = []
+    try:
+        for path in paths:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
+            os.close(fd)
+            made.append(Path(name))
+        yield made
+        with signals_held():
+            for tmp, path in zip(made, paths, strict=True):
+                os.replace(tmp, path)
+    finally:
+        for tmp in made:
             tmp.unlink(missing_ok=True)
+
+
+def write_together(texts: dict[Path, str]) -> None:
+    """Write several text files so that they appear together or not at all."""
+    with partial_files(list(texts)) as tmps:
+        for tmp, text in zip(tmps, texts.values(), strict=True):
+            tmp.write_text(text)
 
 
 class Terminated(BaseException):
@@ -110,9 +130,9 @@ def check_destination(out: Path, overwrite: bool) -> None:
     if out.exists() and not out.is_dir():
         raise OutputError(f"--out {out}: a file is there, not a folder")
     if out.is_dir() and any(out.iterdir()):
-        if not (out / MANIFEST).is_file():
+        if earlier_run_files(out) is None:
             raise OutputError(f"--out {out}: the folder is not empty and holds no swarmtrack run "
-                              f"({MANIFEST}); choose another folder")
+                              f"(no {MANIFEST} written by swarmtrack); choose another folder")
         if not overwrite:
             raise OutputError(f"--out {out}: holds an earlier run; add --overwrite to replace its files "
                               "(only those its manifest lists)")
@@ -121,6 +141,21 @@ def check_destination(out: Path, overwrite: bool) -> None:
         raise OutputError(f"--out {out}: {parent} is a file, so no folder can be made inside it")
     if not os.access(parent, os.W_OK | os.X_OK):
         raise OutputError(f"--out {out}: cannot write in {parent}")
+
+
+def earlier_run_files(out: Path) -> list[str] | None:
+    """The files a swarmtrack run wrote in ``out``, from its manifest; None when ``out`` holds no manifest that
+    swarmtrack wrote (another tool's ``manifest.json`` is not ours to act on). Entries that would leave ``out``
+    (absolute, ``..``) are never listed."""
+    try:
+        manifest = json.loads((out / MANIFEST).read_text())
+    except (OSError, UnicodeDecodeError, ValueError):
+        return None
+    if not (isinstance(manifest, dict) and str(manifest.get("written_by", "")).startswith("swarmtrack ")
+            and isinstance(manifest.get("files"), list)):
+        return None
+    return [f for f in manifest["files"] if isinstance(f, str) and not Path(f).is_absolute()
+            and ".." not in Path(f).parts]
 
 
 def _existing_parent(path: Path) -> Path:
@@ -147,33 +182,36 @@ def run_folder(out: Path, overwrite: bool = False):
             yield tmp
             files = sorted(str(p.relative_to(tmp)) for p in tmp.rglob("*") if p.is_file())
             (tmp / MANIFEST).write_text(dump_json({"written_by": version(), "files": files}))
-            blocked = {signal.SIGINT, signal.SIGTERM}
-            signal.pthread_sigmask(signal.SIG_BLOCK, blocked)  # the move is not interrupted halfway
-            try:
-                _move_into_place(tmp, out)
-            finally:
-                signal.pthread_sigmask(signal.SIG_UNBLOCK, blocked)
+            with signals_held():  # the move is not interrupted halfway
+                _move_into_place(tmp, out, files)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
 
-def _move_into_place(tmp: Path, out: Path) -> None:
+def _move_into_place(tmp: Path, out: Path, files: list[str]) -> None:
+    """Move the staged run into ``out``: a rename when ``out`` is new or empty; else the earlier run's files
+    (and only those, regular files, not links) are deleted and the new ones moved in. A new file whose place is
+    taken by something the earlier run did not write is refused before anything changes."""
     if not out.exists() or not any(out.iterdir()):
         if out.exists():
-            out.rmdir()
+            out.rmdir()  # empty: nothing to lose
         tmp.rename(out)
         return
-    old = json.loads((out / MANIFEST).read_text()).get("files", [])  # checked by check_destination
-    for rel in old:  # only the earlier run's own files
-        target = (out / rel).resolve()
-        if target.is_relative_to(out.resolve()) and target.is_file():
+    old = earlier_run_files(out) or []  # checked by check_destination
+    ours = set(old) | {MANIFEST}
+    taken = [f for f in files if f not in ours and (out / f).exists()]
+    if taken:
+        raise OutputError(f"--out {out}: {taken[0]} is there and was not written by the earlier run; "
+                          "move it or choose another folder")
+    for rel in old:
+        target = out / rel
+        if target.is_file() and not target.is_symlink():
             target.unlink()
     for rel in sorted({str(Path(r).parent) for r in old} - {"."}, key=len, reverse=True):
         folder = out / rel
-        if folder.is_dir() and not any(folder.iterdir()):
-            folder.rmdir()
-    for src in sorted(tmp.rglob("*")):
-        if src.is_file():
-            dst = out / src.relative_to(tmp)
-            dst.parent.mkdir(parents=True, exist_ok=True)
-            os.replace(src, dst)
+        if folder.is_dir() and not folder.is_symlink() and not any(folder.iterdir()):
+            folder.rmdir()  # a folder the earlier run made and left empty
+    for rel in [*files, MANIFEST]:
+        dst = out / rel
+        dst.parent.mkdir(parents=True, exist_ok=True)
+        os.replace(tmp / rel, dst)

@@ -192,3 +192,22 @@ def test_an_impossible_out_is_one_clear_error(tmp_path, where, why):
     res = _run("--out", where.format(file=a_file))
     assert res.exit_code == 2 and why in res.output and "Traceback" not in res.output
     assert a_file.read_text() == "keep me"
+
+
+def test_another_tools_manifest_is_not_a_licence_to_delete(tmp_path):
+    (tmp_path / "manifest.json").write_text(json.dumps({"files": ["thesis.tex"]}))
+    (tmp_path / "thesis.tex").write_text("mine")
+    res = _run("--out", str(tmp_path), "--overwrite")
+    assert res.exit_code == 2 and "holds no swarmtrack run" in res.output
+    assert (tmp_path / "thesis.tex").read_text() == "mine"
+
+
+def test_overwrite_refuses_to_replace_a_file_the_earlier_run_did_not_write(tmp_path):
+    out = tmp_path / "run"
+    assert _run("--out", str(out)).exit_code == 0
+    (out / "timeseries").mkdir()
+    (out / "timeseries" / "uavs.csv").write_text("my own table")
+    res = _run("--out", str(out), "--overwrite", "--format", "csv")
+    assert res.exit_code == 2 and "timeseries/uavs.csv" in res.output and "not written by the earlier run" in res.output
+    assert (out / "timeseries" / "uavs.csv").read_text() == "my own table"
+    assert (out / "metrics.json").is_file() and not [p for p in tmp_path.iterdir() if p.name.startswith(".")]

@@ -10,7 +10,6 @@ so when lines were left out. For pairs, the min-max envelope over *all* pairs is
 
 from __future__ import annotations
 
-import os
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -21,6 +20,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from swarmtrack.analysis import metrics
+from swarmtrack.outputs import partial_files
 from swarmtrack.sim.recorder import Recording
 
 __all__ = [
@@ -73,13 +73,8 @@ def _new_figure(figsize: tuple[float, float]) -> Figure:
 
 def _save(fig: Figure, path: str | Path) -> Path:
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    partial = path.with_name(f".{path.name}.partial")  # an interrupted save leaves no half-written figure
-    try:
+    with partial_files([path]) as (partial,):  # an interrupted save leaves no half-written figure
         fig.savefig(partial, dpi=DPI, format="png")
-        os.replace(partial, path)
-    finally:
-        partial.unlink(missing_ok=True)
     fig.clear()  # Figure objects are not registered with pyplot: clearing + dropping the reference closes it
     return path
 

@@ -22,6 +22,8 @@ GAP_S = 1.0
 WINDOW_S = 2.0
 #: How far above its 95 % band the windowed NEES must be to be called inconsistent.
 FAR = 3.0
+#: How many UAVs without detections are named one by one.
+LISTED = 10
 #: Median position error over the UAVs beyond which the swarm has lost its target, m.
 LOST_M = 5.0
 
@@ -73,19 +75,34 @@ def check(rec: Recording) -> list[dict]:
             warnings.append({"kind": "never_detected", "message": "no UAV ever detected the target",
                              "t_start": float(t[0]), "t_end": float(t[-1])})
         else:
-            for i in range(seen.shape[1]):
-                for a, b in _spans(~seen[:, i], t, GAP_S):
-                    never = not seen[:, i].any()
-                    warnings.append({"kind": "no_detection", "uav": i + 1, "t_start": a, "t_end": b,
-                                     "message": f"UAV {i + 1} never detected the target" if never else
-                                     f"UAV {i + 1} had no detection of the target for {b - a:.1f} s "
-                                     f"(t = {a:.1f}-{b:.1f} s)"})
+            warnings += _gaps(seen, t)
     warnings += _inconsistent(rec, t, nees)
     for a, b in _spans(~(error <= LOST_M), t, GAP_S):  # NaN errors count as lost
         warnings.append({"kind": "lost_target", "t_start": a, "t_end": b,
                          "message": f"the swarm lost the target at t = {a:.1f} s (median estimation error above "
                                     f"{LOST_M:g} m until t = {b:.1f} s)"})
     return warnings
+
+
+def _gaps(seen: np.ndarray, t: np.ndarray) -> list[dict]:
+    """``no_detection`` warnings for the UAVs with gaps of at least :data:`GAP_S` (the first :data:`LISTED` named,
+    the rest counted in one more warning). Only UAVs missing that many steps in all are examined one by one."""
+    dt = t[1] - t[0] if len(t) > 1 else 1.0
+    suspects = np.flatnonzero((~seen).sum(axis=0) * dt >= GAP_S - 1e-9)
+    out, named = [], 0
+    for i in suspects:
+        spans = _spans(~seen[:, i], t, GAP_S)
+        if spans and named == LISTED:
+            out.append({"kind": "no_detection", "uav": None, "t_start": float(t[0]), "t_end": float(t[-1]),
+                        "message": f"and up to {len(suspects) - LISTED} more UAVs had gaps of {GAP_S:g} s or more"})
+            break
+        named += bool(spans)
+        never = not seen[:, i].any()
+        for a, b in spans:
+            out.append({"kind": "no_detection", "uav": int(i) + 1, "t_start": a, "t_end": b,
+                        "message": f"UAV {i + 1} never detected the target" if never else
+                        f"UAV {i + 1} had no detection of the target for {b - a:.1f} s (t = {a:.1f}-{b:.1f} s)"})
+    return out
 
 
 def _inconsistent(rec: Recording, t: np.ndarray, nees: np.ndarray) -> list[dict]:

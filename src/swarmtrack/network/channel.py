@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from swarmtrack.network.links import Links, drop, neighbour_sum, proximity_links, static_links
+from swarmtrack.network.links import Links, drop, proximity_links, static_links
 
 
 @dataclass
@@ -58,8 +58,3 @@ class Channel:
             self._near = proximity_links(positions, self.r_comm, sparse=self.sparse)
             self._near_at = np.array(positions, dtype=float, copy=True)
         return self._near
-
-    @staticmethod
-    def sum_received(links: Links, payload: np.ndarray) -> np.ndarray:
-        """Inbox sum ``Σ_{j ∈ N_i} payload_j`` for every i (L24 eq. 7): ``links (N, N) @ payload (N, ...)``."""
-        return neighbour_sum(links, payload)

@@ -36,6 +36,12 @@ def _holds_bool(value) -> bool:
     return False
 
 
+def _is_default(model: type[BaseModel], field: str, value) -> bool:
+    """Whether ``value`` is ``field``'s default: a key the chosen option ignores is let through at its default, so
+    that a resolved scenario.yaml (every default spelled out) loads again."""
+    return value == model.model_fields[field].get_default(call_default_factory=True)
+
+
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
@@ -119,8 +125,7 @@ class MemberSpec(_Strict):
         silently fly l24); the default value is let through, so a resolved scenario.yaml loads again."""
         needs = {"phases": "custom", "hover_duration": "hover"}[info.field_name]
         profile = info.data.get("profile")
-        if profile is not None and profile != needs and v != cls.model_fields[info.field_name].get_default(
-                call_default_factory=True):
+        if profile is not None and profile != needs and not _is_default(cls, info.field_name, v):
             raise ValueError(f"given, but profile is {profile!r}; {info.field_name} is used only with profile: {needs}")
         return v
 
@@ -185,7 +190,7 @@ class SwarmSpec(_Strict):
     def _spawn_box_unused(cls, v, info: ValidationInfo):
         """The spawn box is not used when ``initial_positions`` is given (its default value is let through, so a
         resolved scenario.yaml loads again)."""
-        if info.data.get("initial_positions") is not None and v != cls.model_fields[info.field_name].default:
+        if info.data.get("initial_positions") is not None and not _is_default(cls, info.field_name, v):
             raise ValueError("given, but swarm.initial_positions places the UAVs; the spawn box is not used")
         return v
 
@@ -424,10 +429,13 @@ class Scenario(_Strict):
             for v in e:
                 if not 1 <= v <= n:
                     raise ValueError(f"network.edges names UAV {v}, but the swarm has UAVs 1..{n}")
+        from swarmtrack.sim.clock import Clock
+
         r = self.rates
-        step = round(r.physics / r.estimation) / r.physics
-        if round(self.run_duration() / step) < 1:
-            raise ValueError(f"duration {self.run_duration():g} s is shorter than one estimation step ({step:g} s)")
+        clock = Clock.from_rates(r.physics, r.estimation, r.control, self.run_duration())
+        if clock.steps < 1:
+            raise ValueError(f"duration {self.run_duration():g} s is shorter than one estimation step "
+                             f"({clock.dt_estimation:g} s)")
         followed = self.estimator.followed_target()
         if followed is not None and not 1 <= followed <= len(self.targets.members):
             raise ValueError(f"estimator.target is {followed}, but targets has {len(self.targets.members)} member(s)")

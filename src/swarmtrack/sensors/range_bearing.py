@@ -48,16 +48,19 @@ def measure(
     sensor_pos: np.ndarray,
     sigma_range: float | np.ndarray,
     sigma_bearing: float | np.ndarray,
-    rng: np.random.Generator,
+    rng: np.random.Generator | None = None,
+    noise: np.ndarray | None = None,
 ) -> np.ndarray:
     """Noisy ``[range, bearing]`` (..., 2) of the target from the sensor (L24 Sec. 3.2).
 
-    Noise is additive Gaussian, drawn from ``rng`` only; the bearing is wrapped to ``(−π, π]``. The range is
-    not clipped, so at ranges comparable to ``sigma_range`` it can come out negative (as the model says).
+    Noise is additive Gaussian: standard normal draws from ``rng``, or the given ``noise`` (..., 2); the bearing
+    is wrapped to ``(−π, π]``. The range is not clipped, so at ranges comparable to ``sigma_range`` it can come
+    out negative (as the model says).
     """
     dx, dy, rho = _range_bearing(target_pos, sensor_pos)
     beta = np.arctan2(dy, dx)
-    noise = rng.standard_normal(rho.shape + (2,))
+    if noise is None:
+        noise = rng.standard_normal(rho.shape + (2,))
     z_rho = rho + np.asarray(sigma_range, dtype=float) * noise[..., 0]
     z_beta = wrap_angle(beta + np.asarray(sigma_bearing, dtype=float) * noise[..., 1])
     return np.stack(np.broadcast_arrays(z_rho, z_beta), axis=-1)
@@ -145,15 +148,12 @@ def sense(
     from swarmtrack.sensors.detections import Detections
 
     n, m = len(uavs), len(objects)
-    d = objects[None, :, :] - uavs[:, None, :]
-    z = np.empty((n, m, 2))
-    z[..., 0] = np.hypot(d[..., 0], d[..., 1]) + sigma_range * noise[..., 0]
-    z[..., 1] = wrap_angle(np.arctan2(d[..., 1], d[..., 0]) + sigma_bearing * noise[..., 1])
+    z = measure(objects[None, :, :], uavs[:, None, :], sigma_range, sigma_bearing, noise=noise)  # (N, M, 2)
     owner, source = _grid(n, m)
     z = z.reshape(n * m, 2)
     grid = m
     if max_range is not None:
-        inside = np.hypot(*(objects[source] - uavs[owner]).T) <= max_range
+        inside = _range_bearing(objects[source], uavs[owner])[2] <= max_range
         owner, source, z = owner[inside], source[inside], z[inside]
         grid = None
     return Detections(owner, z, stamped[owner], source, n, grid), source

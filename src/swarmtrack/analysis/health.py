@@ -52,36 +52,60 @@ def _spans(flags: np.ndarray, t: np.ndarray, shortest: float) -> list[tuple[floa
     return out
 
 
-def check(rec: Recording) -> list[dict]:
-    """The warnings of one run (empty: nothing looked wrong)."""
-    if rec.tracked is None or "estimate" not in rec.meta["probes"]:
-        return []
-    t, nees, error, detected = [], [], [], []
-    for c in rec.chunks():
-        err = c.probes["estimate"][..., :4] - c.truth[:, rec.tracked, None, :4]
+class Health:
+    """Accumulator of the per-step series the warnings need (O(steps) scalars plus the (steps, N) detection
+    flags), fed chunk by chunk: :func:`swarmtrack.analysis.metrics.summary` feeds it in its own pass over the
+    recording, :func:`check` on its own."""
+
+    def __init__(self, rec: Recording):
+        self.rec = rec
+        self.t, self.nees, self.error, self.detected = [], [], [], []
+
+    def add(self, c, keep=None, err=None) -> None:
+        """Every step of chunk ``c`` (the warnings look at the whole run, not the chase window)."""
+        err = c.probes["estimate"][..., :4] - c.truth[:, self.rec.tracked, None, :4]
         cov = c.probes["covariance"][..., :4, :4]
         with np.errstate(all="ignore"):
             sol = np.linalg.solve(cov, err[..., None])[..., 0]
-        t.append(c.t)
-        nees.append(np.sum(err * sol, axis=-1).mean(axis=1))
-        error.append(np.median(np.linalg.norm(err[..., :2], axis=-1), axis=1))
+        self.t.append(c.t)
+        self.nees.append(np.sum(err * sol, axis=-1).mean(axis=1))
+        self.error.append(np.median(np.linalg.norm(err[..., :2], axis=-1), axis=1))
         if "detected" in c.probes:
-            detected.append(c.probes["detected"] > 0.5)
-    t, nees, error = np.concatenate(t), np.concatenate(nees), np.concatenate(error)
-    warnings = []
-    if detected:
-        seen = np.concatenate(detected)  # (K, N): O(steps × N) booleans, one byte each
-        if not seen.any():
-            warnings.append({"kind": "never_detected", "message": "no UAV ever detected the target",
-                             "t_start": float(t[0]), "t_end": float(t[-1])})
-        else:
-            warnings += _gaps(seen, t)
-    warnings += _inconsistent(rec, t, nees)
-    for a, b in _spans(~(error <= LOST_M), t, GAP_S):  # NaN errors count as lost
-        warnings.append({"kind": "lost_target", "t_start": a, "t_end": b,
-                         "message": f"the swarm lost the target at t = {a:.1f} s (median estimation error above "
-                                    f"{LOST_M:g} m until t = {b:.1f} s)"})
-    return warnings
+            self.detected.append(c.probes["detected"] > 0.5)
+
+    def result(self) -> list[dict]:
+        if not self.t:
+            return []
+        t, nees, error = np.concatenate(self.t), np.concatenate(self.nees), np.concatenate(self.error)
+        warnings = []
+        if self.detected:
+            seen = np.concatenate(self.detected)  # (K, N): O(steps × N) booleans, one byte each
+            if not seen.any():
+                warnings.append({"kind": "never_detected", "message": "no UAV ever detected the target",
+                                 "t_start": float(t[0]), "t_end": float(t[-1])})
+            else:
+                warnings += _gaps(seen, t)
+        warnings += _inconsistent(self.rec, t, nees)
+        for a, b in _spans(~(error <= LOST_M), t, GAP_S):  # NaN errors count as lost
+            warnings.append({"kind": "lost_target", "t_start": a, "t_end": b,
+                             "message": f"the swarm lost the target at t = {a:.1f} s (median estimation error "
+                                        f"above {LOST_M:g} m until t = {b:.1f} s)"})
+        return warnings
+
+
+def applies(rec: Recording) -> bool:
+    """The checks need a followed target and a Gaussian estimate."""
+    return rec.tracked is not None and {"estimate", "covariance"} <= set(rec.meta["probes"])
+
+
+def check(rec: Recording) -> list[dict]:
+    """The warnings of one run (empty: nothing looked wrong)."""
+    if not applies(rec):
+        return []
+    health = Health(rec)
+    for c in rec.chunks():
+        health.add(c)
+    return health.result()
 
 
 def _gaps(seen: np.ndarray, t: np.ndarray) -> list[dict]:

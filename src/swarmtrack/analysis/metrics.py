@@ -14,7 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from swarmtrack.analysis.health import check, chi2_mean_band
+from swarmtrack.analysis import health
+from swarmtrack.analysis.health import chi2_mean_band
 from swarmtrack.sim.recorder import Chunk, Recording
 
 COMPONENTS = ("x", "y", "vx", "vy")
@@ -310,12 +311,12 @@ def summary(rec: Recording) -> dict:
     need a followed target and the ``estimate`` and ``covariance`` probes of a Gaussian estimator (capability
     1's); a run whose estimator records others gets the rest."""
     accs = {}
+    if health.applies(rec):
+        accs = {"rmse": _Rmse(rec), "spread": _Spread(rec), "reported_std": _ReportedStd(rec),
+                "consistency": _Consistency(rec), "warnings": health.Health(rec)}
     if rec.tracked is not None:
-        if {"estimate", "covariance"} <= set(rec.meta["probes"]):
-            accs = {"rmse": _Rmse(rec), "spread": _Spread(rec), "reported_std": _ReportedStd(rec),
-                    "consistency": _Consistency(rec)}
         accs["target_distance"] = _TargetDistance(rec)
-    out = dict(zip(accs, _scan(rec, list(accs.values())), strict=True))
+    out = {"warnings": [], **dict(zip(accs, _scan(rec, list(accs.values())), strict=True))}
     if "consistency" in out:
         out["nees"] = out["consistency"]["total"]["nees"]  # the run-wide figure, kept for comparison
-    return {**out, "inter_agent_distance": spacing(rec), "warnings": check(rec)}
+    return {**out, "inter_agent_distance": spacing(rec)}

@@ -1,10 +1,11 @@
 """Piecewise-sinusoidal velocity profiles that the target quadrotor is commanded to fly.
 
-Each phase prescribes, per planar axis, ``v(τ) = c + A·sin(ω·τ + φ)`` with ``τ`` measured from the phase
-start (L24 Sec. 4, "linear", "sinusoidal" and "circular" phases; L23 Sec. 4 uses the sinusoidal phase
-alone). The phase durations are not given by the papers; the project defaults (SPEC.md, Capability 1) are
-40 s linear, 62.8 s sinusoidal (one period of ``sin(0.1τ)``) and 50.3 s circular (two loops of
-``ω = 0.25 rad/s``).
+Each phase prescribes, per planar axis, ``v(τ) = c + a·τ + A·sin(ω·τ + φ)`` with ``τ`` measured from the
+phase start (L24 Sec. 4, "linear", "sinusoidal" and "circular" phases; L23 Sec. 4 uses the sinusoidal
+phase alone). The constant-acceleration term ``a·τ`` (zero by default) gives the constant-acceleration
+segments of a target that switches among CV, CA and CT motion (W20 Ch. 4). The phase durations are not
+given by the papers; the project defaults (SPEC.md, Capability 1) are 40 s linear, 62.8 s sinusoidal (one
+period of ``sin(0.1τ)``) and 50.3 s circular (two loops of ``ω = 0.25 rad/s``).
 
 The velocity is discontinuous at a phase boundary when the paper specifies it so (e.g. the circular phase
 starts with ``vy = 2`` m/s while the sinusoidal one ends near 0): the vehicle's own controller smooths it.
@@ -30,10 +31,11 @@ def _pair(value, name: str) -> Pair:
 
 @dataclass(frozen=True)
 class Phase:
-    """One phase of a velocity profile: per axis ``v(τ) = c + amplitude·sin(omega·τ + phi)``.
+    """One phase of a velocity profile: per axis ``v(τ) = c + accel·τ + amplitude·sin(omega·τ + phi)``.
 
-    ``duration`` in s; ``c`` and ``amplitude`` in m/s; ``omega`` in rad/s; ``phi`` in rad; each of the
-    four is a length-2 tuple for the x and y axes (L24 Sec. 4).
+    ``duration`` in s; ``c`` and ``amplitude`` in m/s; ``omega`` in rad/s; ``phi`` in rad (L24 Sec. 4);
+    ``accel`` in m/s² (a constant-acceleration segment, W20 Ch. 4; 0 by default); each of the five is a
+    length-2 tuple for the x and y axes. ``accel`` comes last so the positional order of the others is kept.
     """
 
     name: str
@@ -42,12 +44,13 @@ class Phase:
     amplitude: Pair = (0.0, 0.0)
     omega: Pair = (0.0, 0.0)
     phi: Pair = (0.0, 0.0)
+    accel: Pair = (0.0, 0.0)
 
     def __post_init__(self) -> None:
         if not self.duration > 0.0:
             raise ValueError(f"phase {self.name!r}: duration must be > 0, got {self.duration}")
         object.__setattr__(self, "duration", float(self.duration))
-        for attr in ("c", "amplitude", "omega", "phi"):
+        for attr in ("c", "amplitude", "omega", "phi", "accel"):
             object.__setattr__(self, attr, _pair(getattr(self, attr), attr))
 
 
@@ -56,7 +59,8 @@ class VelocityProfile:
     """A sequence of :class:`Phase` flown back to back from ``t = 0``.
 
     Times before 0 are evaluated in the first phase and times beyond the end stay in the last phase
-    (its sinusoids simply continue).
+    (its sinusoids simply continue; so does its ``accel·τ`` term, so a last phase with ``accel ≠ 0`` keeps
+    speeding up, or slowing down and then reversing, beyond the end).
     """
 
     phases: tuple[Phase, ...]
@@ -71,8 +75,8 @@ class VelocityProfile:
         object.__setattr__(self, "phases", phases)
         durations = np.array([p.duration for p in phases])
         starts = np.concatenate(([0.0], np.cumsum(durations)[:-1]))
-        # coef[k] = (4, 2): rows c, A, omega, phi of phase k.
-        coef = np.array([[p.c, p.amplitude, p.omega, p.phi] for p in phases], dtype=float)
+        # coef[k] = (5, 2): rows c, A, omega, phi, accel of phase k.
+        coef = np.array([[p.c, p.amplitude, p.omega, p.phi, p.accel] for p in phases], dtype=float)
         # Displacement accumulated at the start of each phase (relative to the profile start).
         full = self._integral(coef, durations[:, None])  # (P, 2)
         disp = np.concatenate((np.zeros((1, 2)), np.cumsum(full, axis=0)[:-1]), axis=0)
@@ -114,29 +118,29 @@ class VelocityProfile:
         t = np.asarray(t, dtype=float)
         idx = self.phase_index(t)
         tau = (t - self._starts[idx])[..., None]
-        coef = self._coef[idx]  # (..., 4, 2)
-        return idx, tau, coef[..., 0, :], coef[..., 1, :], coef[..., 2, :], coef[..., 3, :]
+        coef = self._coef[idx]  # (..., 5, 2)
+        return idx, tau, coef[..., 0, :], coef[..., 1, :], coef[..., 2, :], coef[..., 3, :], coef[..., 4, :]
 
     # ------------------------------------------------------------------ kinematics
     def velocity(self, t) -> np.ndarray:
-        """Commanded velocity ``c + A·sin(ωτ + φ)`` at time(s) ``t``, shape ``(..., 2)`` [m/s]."""
-        _, tau, c, a, w, ph = self._locate(t)
-        return c + a * np.sin(w * tau + ph)
+        """Commanded velocity ``c + accel·τ + A·sin(ωτ + φ)`` at time(s) ``t``, shape ``(..., 2)`` [m/s]."""
+        _, tau, c, a, w, ph, acc = self._locate(t)
+        return c + acc * tau + a * np.sin(w * tau + ph)
 
     def acceleration(self, t) -> np.ndarray:
-        """Analytic derivative ``A·ω·cos(ωτ + φ)`` of :meth:`velocity`, shape ``(..., 2)`` [m/s²].
+        """Analytic derivative ``accel + A·ω·cos(ωτ + φ)`` of :meth:`velocity`, shape ``(..., 2)`` [m/s²].
 
         At a phase boundary the acceleration of the phase that starts there is returned (the velocity jump
         itself is a Dirac that is not represented).
         """
-        _, tau, _, a, w, ph = self._locate(t)
-        return a * w * np.cos(w * tau + ph)
+        _, tau, _, a, w, ph, acc = self._locate(t)
+        return acc + a * w * np.cos(w * tau + ph)
 
     def position(self, t, start=(0.0, 0.0)) -> np.ndarray:
         """Exact integral of :meth:`velocity` from 0 to ``t`` plus ``start``, shape ``(..., 2)`` [m].
 
-        Per phase ``∫₀^τ c + A sin(ωs + φ) ds = cτ + (A/ω)(cos φ − cos(ωτ + φ))`` (``A·sin φ·τ`` when
-        ω = 0), summed over the completed phases.
+        Per phase ``∫₀^τ c + a·s + A sin(ωs + φ) ds = cτ + a·τ²/2 + (A/ω)(cos φ − cos(ωτ + φ))`` (the
+        sinusoid's part is ``A·sin φ·τ`` when ω = 0), summed over the completed phases.
         """
         idx, tau, *_ = self._locate(t)
         coef = self._coef[idx]
@@ -144,11 +148,11 @@ class VelocityProfile:
 
     @staticmethod
     def _integral(coef: np.ndarray, tau: np.ndarray) -> np.ndarray:
-        c, a, w, ph = coef[..., 0, :], coef[..., 1, :], coef[..., 2, :], coef[..., 3, :]
+        c, a, w, ph, acc = coef[..., 0, :], coef[..., 1, :], coef[..., 2, :], coef[..., 3, :], coef[..., 4, :]
         small = np.abs(w) < 1e-12
         w_safe = np.where(small, 1.0, w)
         osc = np.where(small, a * np.sin(ph) * tau, a / w_safe * (np.cos(ph) - np.cos(w_safe * tau + ph)))
-        return c * tau + osc
+        return c * tau + 0.5 * acc * tau * tau + osc
 
 
 # ---------------------------------------------------------------------- paper profiles

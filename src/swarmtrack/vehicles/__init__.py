@@ -1,5 +1,6 @@
 """True vehicle dynamics the world integrates (batched over vehicles): quadrotor, double integrator,
-and the velocity profiles the target flies (L24 Sec. 2 and Sec. 4; SPEC.md Capability 1).
+and the velocity profiles the target flies (L24 Sec. 2 and Sec. 4; SPEC.md Capability 1), including a ground
+robot's CV/CA/CT segments (W20 Ch. 4).
 
 This package depends on nothing else in swarmtrack (in particular not on ``swarmtrack.sim`` or
 ``swarmtrack.estimation``). :mod:`swarmtrack.vehicles.kernels` is the compiled (numba) fast path of the
@@ -7,7 +8,15 @@ physics; it is not imported here, so using the reference does not pay for import
 """
 
 from . import double_integrator, profile, quadrotor
-from .profile import Phase, VelocityProfile, l23_profile, l24_profile
+from .profile import (
+    Phase,
+    Segment,
+    VelocityProfile,
+    evasive_segments,
+    ground_robot_profile,
+    l23_profile,
+    l24_profile,
+)
 from .quadrotor import (
     QuadrotorParams,
     achieved_acceleration,
@@ -18,9 +27,12 @@ from .quadrotor import (
 __all__ = [
     "Phase",
     "QuadrotorParams",
+    "Segment",
     "VelocityProfile",
     "achieved_acceleration",
     "double_integrator",
+    "evasive_segments",
+    "ground_robot_profile",
     "hover_state",
     "l23_profile",
     "l24_profile",

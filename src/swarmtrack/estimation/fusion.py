@@ -256,6 +256,8 @@ def imm_mix(mu: np.ndarray, rho: np.ndarray, x: np.ndarray, P: np.ndarray, valid
     M, d = x.shape[-2], x.shape[-1]
     x_in, P_in = x, P
     mu_src = mu
+    if valid is not None and _check_valid(valid, mu.shape).all():
+        valid = None  # nothing to exclude: skip the masked copies
     if valid is not None:
         valid = _check_valid(valid, mu.shape)
         x = np.where(valid[..., None], x, 0.0)

@@ -10,7 +10,10 @@ with a leading ``(B, M)`` and a boolean ``valid (B, M)`` (candidate m is availab
 unavailable candidates may hold anything, NaN included; they never reach a result. In the simulator
 ``B = M = N`` (receiver i's candidates are all N UAVs, masked by the links). There is no Python loop over B
 (``ml_fuse`` loops over the small candidate axis M), no matrix inverse (solves and Cholesky factors), and every
-covariance returned is symmetrised.
+covariance returned is symmetric. ``imm_mix`` and ``moment_combine`` read only the upper triangle of the input
+covariances and return exactly symmetric ones (upper triangle mirrored); ``log_gaussian`` reads the lower
+triangle. ``imm_mix`` holds O(B M² d²) numbers (every destination mixes every source), fine for the dense
+``B = M = N`` of a simulator of tens of UAVs.
 
 The fusion rules (W20 Sec. 4.3):
 

@@ -22,13 +22,15 @@ test: $(STAMP)
 	$(VENV)/bin/python -m pytest
 
 # bench: the default speed figures (about 1.5 min); bench-large adds 10,000 UAVs and the peak-memory runs
-# (tens of minutes, see benchmarks/bench_sim.py). Both scripts take --json and --quick.
+# (tens of minutes, see benchmarks/bench_sim.py). All scripts take --json and --quick.
 bench: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_filters.py
+	$(VENV)/bin/python benchmarks/bench_fusion.py
 	$(VENV)/bin/python benchmarks/bench_sim.py
 
 bench-large: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_filters.py
+	$(VENV)/bin/python benchmarks/bench_fusion.py
 	$(VENV)/bin/python benchmarks/bench_sim.py --large
 
 clean:

@@ -68,14 +68,15 @@ def test_ttest_breaks_ties_to_the_lowest_index():
 # --- log-likelihood ------------------------------------------------------------------------------------------
 
 
-def test_log_gaussian_equals_scipy_and_marks_non_pd_rows_nan():
+@pytest.mark.parametrize("m", [1, 2, 3, 4, 6])  # unrolled Cholesky up to 4, LAPACK above
+def test_log_gaussian_equals_scipy_and_marks_non_pd_rows_nan(m):
     rng = np.random.default_rng(1)
-    S = _spd(rng, 6, d=2)
-    nu = rng.standard_normal((6, 2))
+    S = _spd(rng, 6, d=m)
+    nu = rng.standard_normal((6, m))
     expected = [multivariate_normal.logpdf(nu[k], cov=S[k]) for k in range(6)]
     np.testing.assert_allclose(log_gaussian(nu, S), expected, rtol=1e-12)
     S_bad = S.copy()
-    S_bad[2] = [[1.0, 2.0], [2.0, 1.0]]  # indefinite
+    S_bad[2] = -np.eye(m)  # not positive definite
     S_bad[4, 0, 0] = np.nan
     out = log_gaussian(nu, S_bad)
     assert np.isnan(out[[2, 4]]).all()

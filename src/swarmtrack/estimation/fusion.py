@@ -10,7 +10,10 @@ with a leading ``(B, M)`` and a boolean ``valid (B, M)`` (candidate m is availab
 unavailable candidates may hold anything, NaN included; they never reach a result. In the simulator
 ``B = M = N`` (receiver i's candidates are all N UAVs, masked by the links). There is no Python loop over B
 (``ml_fuse`` loops over the small candidate axis M), no matrix inverse (solves and Cholesky factors), and every
-covariance returned is symmetrised.
+covariance returned is symmetric. ``imm_mix`` and ``moment_combine`` read only the upper triangle of the input
+covariances and return exactly symmetric ones (upper triangle mirrored); ``log_gaussian`` reads the lower
+triangle. ``imm_mix`` holds O(B M² d²) numbers (every destination mixes every source), fine for the dense
+``B = M = N`` of a simulator of tens of UAVs.
 
 The fusion rules (W20 Sec. 4.3):
 
@@ -46,6 +49,25 @@ def _check_valid(valid, shape) -> np.ndarray:
     if valid.shape != tuple(shape):
         raise ValueError(f"valid has shape {valid.shape}, expected {tuple(shape)}")
     return valid
+
+
+def _triangle(d: int):
+    """Flat indices of the upper triangle of a d x d matrix, and for every flat entry its triangle position."""
+    iu0, iu1 = np.triu_indices(d)
+    pos = np.empty((d, d), dtype=np.intp)
+    pos[iu0, iu1] = pos[iu1, iu0] = np.arange(iu0.size)
+    return iu0, iu1, iu0 * d + iu1, pos.ravel()
+
+
+def _upper(P: np.ndarray, upper_flat: np.ndarray) -> np.ndarray:
+    """The upper triangles ``(..., d(d+1)/2)`` of ``P (..., d, d)``."""
+    d = P.shape[-1]
+    return np.take(P.reshape(P.shape[:-2] + (d * d,)), upper_flat, axis=-1)
+
+
+def _full(vals: np.ndarray, full_of: np.ndarray, d: int) -> np.ndarray:
+    """Symmetric ``(..., d, d)`` matrices from their upper triangles (exactly symmetric by construction)."""
+    return np.take(vals, full_of, axis=-1).reshape(vals.shape[:-1] + (d, d))
 
 
 # --- T-test selection (W20 eqs. 4.23-4.28) -------------------------------------------------------------------
@@ -97,6 +119,8 @@ def log_gaussian(nu: np.ndarray, S: np.ndarray) -> np.ndarray:
     m = nu.shape[-1]
     batch = np.broadcast_shapes(nu.shape[:-1], S.shape[:-2])
     nu, S = np.broadcast_to(nu, batch + (m,)), np.broadcast_to(S, batch + (m, m))
+    if m <= _SMALL:
+        return _log_gaussian_small(nu, S)
     finite = np.isfinite(S).all(axis=(-1, -2)) & np.isfinite(nu).all(axis=-1)
     eye = np.eye(m)
     if not finite.all():
@@ -114,6 +138,33 @@ def log_gaussian(nu: np.ndarray, S: np.ndarray) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         out = -0.5 * (m * _LOG_2PI + 2.0 * np.log(diag).sum(axis=-1) + (y * y).sum(axis=-1))
     return np.where(bad, np.nan, out)
+
+
+_SMALL = 4  # measurement dimensions up to this use the unrolled Cholesky below
+
+
+def _log_gaussian_small(nu: np.ndarray, S: np.ndarray) -> np.ndarray:
+    """``log_gaussian`` for small m: the Cholesky factor and the forward substitution unrolled over the
+    m(m+1)/2 entries, each step vectorised over the batch (LAPACK's per-matrix call overhead dominates for
+    2 x 2). Reads the lower triangle of ``S``, as ``np.linalg.cholesky`` does."""
+    m = nu.shape[-1]
+    L = [[None] * m for _ in range(m)]
+    y = [None] * m
+    ok = np.ones(nu.shape[:-1], dtype=bool)
+    logdet = maha = 0.0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        for j in range(m):
+            pivot = S[..., j, j] - sum(L[j][k] * L[j][k] for k in range(j))
+            ok &= pivot > 0  # False for NaN too
+            ljj = np.sqrt(np.where(ok, pivot, 1.0))
+            L[j][j] = ljj
+            for i in range(j + 1, m):
+                L[i][j] = (S[..., i, j] - sum(L[i][k] * L[j][k] for k in range(j))) / ljj
+            y[j] = (nu[..., j] - sum(L[j][k] * y[k] for k in range(j))) / ljj
+            logdet = logdet + np.log(ljj)
+            maha = maha + y[j] * y[j]
+        out = -0.5 * (m * _LOG_2PI + 2.0 * logdet + maha)
+    return np.where(ok & np.isfinite(out), out, np.nan)
 
 
 def imm_predict(mu: np.ndarray, rho: np.ndarray) -> np.ndarray:
@@ -170,16 +221,20 @@ def moment_combine(w: np.ndarray, x: np.ndarray, P: np.ndarray):
         raise ValueError("moment_combine: negative weight")
     use = w > 0
     d = x.shape[-1]
+    iu0, iu1, upper_flat, full_of = _triangle(d)
     with np.errstate(invalid="ignore", divide="ignore"):
         wn = np.where(use, w, 0.0)
-        wn = wn / wn.sum(axis=-1, keepdims=True)
-    xs = np.where(use[..., None], x, 0.0)
-    Ps = np.where(use[..., None, None], P, 0.0)
-    xbar = (wn[..., None, :] @ xs)[..., 0, :]
-    dx = xs - xbar[..., None, :]
-    Pbar = (wn[..., None, :] @ Ps.reshape(Ps.shape[:-2] + (d * d,)))[..., 0, :].reshape(xbar.shape + (d,))
-    Pbar = Pbar + _swap(dx * wn[..., None]) @ dx
-    return xbar, symmetrize(Pbar)
+        wn = (wn / wn.sum(axis=-1, keepdims=True))[..., None, :]  # (B, 1, M)
+    if not use.all():
+        x = np.where(use[..., None], x, 0.0)
+        P = np.where(use[..., None, None], P, 0.0)
+    xbar = wn @ x  # (B, 1, d)
+    dx = x - xbar
+    # Σ w (P + dx dxᵀ) on the upper triangles only, then mirrored: exactly symmetric
+    vals = _upper(P, upper_flat)
+    vals += np.take(dx, iu0, axis=-1) * np.take(dx, iu1, axis=-1)
+    vals = wn @ vals
+    return xbar[..., 0, :], _full(vals[..., 0, :], full_of, d)
 
 
 def imm_mix(mu: np.ndarray, rho: np.ndarray, x: np.ndarray, P: np.ndarray, valid: np.ndarray | None = None):
@@ -201,24 +256,39 @@ def imm_mix(mu: np.ndarray, rho: np.ndarray, x: np.ndarray, P: np.ndarray, valid
     P = np.asarray(P, dtype=float)
     mu_pred = imm_predict(mu, rho)
     rho = np.asarray(rho, dtype=float)
-    d = x.shape[-1]
-    if valid is None:
-        xs, Ps, A = x, P, mu[..., :, None] * rho
-    else:
+    M, d = x.shape[-2], x.shape[-1]
+    x_in, P_in = x, P
+    mu_src = mu
+    if valid is not None and _check_valid(valid, mu.shape).all():
+        valid = None  # nothing to exclude: skip the masked copies
+    if valid is not None:
         valid = _check_valid(valid, mu.shape)
-        xs = np.where(valid[..., None], x, 0.0)
-        Ps = np.where(valid[..., None, None], P, 0.0)
-        A = np.where(valid, mu, 0.0)[..., :, None] * rho
-    cbar = A.sum(axis=-2)  # (B, M_j)
+        x = np.where(valid[..., None], x, 0.0)
+        P = np.where(valid[..., None, None], P, 0.0)
+        mu_src = np.where(valid, mu, 0.0)
+    A = mu_src[..., :, None] * rho
+    cbar = mu_src @ rho if valid is not None else mu_pred  # Σ over the valid sources i of ρ_ij μ_i, (B, M_j)
     mixed = cbar > 0
-    W = _swap(A / np.where(mixed, cbar, 1.0)[..., None, :])  # W[b, j, i] = μ_{i|j}
-    x0 = W @ xs  # (B, M_j, d)
-    dx = xs[..., None, :, :] - x0[..., :, None, :]  # (B, M_j, M_i, d)
-    P0 = (W @ Ps.reshape(Ps.shape[:-2] + (d * d,))).reshape(x0.shape + (d,))
-    P0 = symmetrize(P0 + _swap(dx * W[..., None]) @ dx)
+    W = np.swapaxes(A / np.where(mixed, cbar, 1.0)[..., None, :], -1, -2)  # W[b, j, i] = μ_{i|j}
+    x0 = W @ x  # (B, M_j, d)
+    # Σ_i W_ji (x_i − x0_j)(x_i − x0_j)ᵀ = Σ_{i<k} W_ji W_jk (x_i − x_k)(x_i − x_k)ᵀ (the weights of a column sum
+    # to 1): the pairwise spreads do not depend on j and need no x0, and every term is positive semi-definite.
+    # One product of the weights with [upper triangles of P_i; pairwise spreads], mirrored at the end, so P0 is
+    # exactly symmetric. Written into preallocated blocks: fewer large temporaries.
+    iu0, iu1, upper_flat, full_of = _triangle(d)
+    ia, ka = np.triu_indices(M, 1)
+    lead, pairs, nt = x.shape[:-2], ia.size, iu0.size
+    terms = np.empty(lead + (M + pairs, nt))
+    np.take(P.reshape(lead + (M, d * d)), upper_flat, axis=-1, out=terms[..., :M, :], mode="clip")
+    dxp = x[..., ia, :] - x[..., ka, :]  # (B, pairs, d)
+    np.multiply(np.take(dxp, iu0, axis=-1), np.take(dxp, iu1, axis=-1), out=terms[..., M:, :])
+    weights = np.empty(lead + (M, M + pairs))
+    weights[..., :M] = W
+    np.multiply(W[..., ia], W[..., ka], out=weights[..., M:])
+    P0 = _full(weights @ terms, full_of, d)
     if not mixed.all():
-        x0 = np.where(mixed[..., None], x0, x)
-        P0 = np.where(mixed[..., None, None], P0, P)
+        x0 = np.where(mixed[..., None], x0, x_in)
+        P0 = np.where(mixed[..., None, None], P0, P_in)
     return x0, P0, mu_pred
 
 

@@ -64,17 +64,25 @@ class _Moments:
         return np.sqrt(self.m2 / self.n)
 
 
+def _phase_groups(rec: Recording) -> tuple[list[str], np.ndarray]:
+    """The distinct phase names in order of first appearance and, per phase index, its name's position: phases
+    of one name are one row of the per-phase tables (a ground robot's many ``ct`` segments are one motion type)."""
+    names = list(dict.fromkeys(rec.phase_names))
+    return names, np.asarray([names.index(p) for p in rec.phase_names] or [0], dtype=np.int64)
+
+
 class _Rmse:
     """Squared errors per phase, UAV and component (L24 Tables 1-3)."""
 
     def __init__(self, rec: Recording):
         self.rec = rec
-        self.sq = np.zeros((len(rec.phase_names) + 1, rec.n_agents, 4))
-        self.count = np.zeros(len(rec.phase_names) + 1)
+        self.names, self.group = _phase_groups(rec)
+        self.sq = np.zeros((len(self.names) + 1, rec.n_agents, 4))
+        self.count = np.zeros(len(self.names) + 1)
 
     def add(self, c: Chunk, keep: np.ndarray, err: np.ndarray) -> None:
         e2 = err ** 2
-        phase = c.phase[keep, self.rec.tracked]
+        phase = self.group[c.phase[keep, self.rec.tracked]]
         for p in np.unique(phase):
             sel = phase == p
             self.sq[p] += e2[sel].sum(axis=0)
@@ -84,7 +92,7 @@ class _Rmse:
 
     def result(self) -> dict[str, dict[str, float]]:
         table = {}
-        for p, name in enumerate([*self.rec.phase_names, "total"]):
+        for p, name in enumerate([*self.names, "total"]):
             if self.count[p]:
                 per_uav = np.sqrt(self.sq[p] / self.count[p])  # (N, 4)
                 table[name] = dict(zip(COMPONENTS, per_uav.mean(axis=0).tolist(), strict=True))
@@ -127,17 +135,16 @@ class _Consistency:
 
     def __init__(self, rec: Recording):
         self.rec = rec
-        self.full = np.zeros(len(rec.phase_names) + 1)
-        self.comp = np.zeros((len(rec.phase_names) + 1, 4))
-        self.count = np.zeros(len(rec.phase_names) + 1)
-        self.nis = np.zeros(len(rec.phase_names) + 1)
-        self.nis_count = np.zeros(len(rec.phase_names) + 1)
+        self.names, self.group = _phase_groups(rec)
+        k = len(self.names) + 1
+        self.full, self.comp, self.count = np.zeros(k), np.zeros((k, 4)), np.zeros(k)
+        self.nis, self.nis_count = np.zeros(k), np.zeros(k)
 
     def add(self, c: Chunk, keep: np.ndarray, err: np.ndarray) -> None:
         cov = c.probes["covariance"][keep][..., :4, :4]
         full = np.sum(err * np.linalg.solve(cov, err[..., None])[..., 0], axis=-1)  # (k, N)
         comp = err**2 / np.diagonal(cov, axis1=-2, axis2=-1)  # (k, N, 4)
-        phase = c.phase[keep, self.rec.tracked]
+        phase = self.group[c.phase[keep, self.rec.tracked]]
         for p in [*np.unique(phase), -1]:
             sel = phase == p if p >= 0 else slice(None)
             self.full[p] += full[sel].sum()
@@ -150,7 +157,7 @@ class _Consistency:
 
     def result(self) -> dict:
         out = {}
-        for p, name in enumerate([*self.rec.phase_names, "total"]):
+        for p, name in enumerate([*self.names, "total"]):
             n = self.count[p]
             if n:
                 out[name] = {"nees": self.full[p] / n, "band": chi2_mean_band(4, n),
@@ -305,6 +312,49 @@ class _TargetDistance:
         return {"mean": self.total / self.n, "max": self.far}
 
 
+class _MeanError:
+    """W20 eq. 4.41 (with the truth it omits): the mean distance between each UAV's estimate and the target's
+    position, mean over UAVs; also over the steps where no UAV detected the target (W20 Table 4.5's occlusions)."""
+
+    def __init__(self, rec: Recording):
+        self.total, self.n, self.occluded, self.n_occluded, self.steps_occluded = 0.0, 0, 0.0, 0, 0
+
+    def add(self, c: Chunk, keep: np.ndarray, err: np.ndarray) -> None:
+        dist = np.hypot(err[..., 0], err[..., 1])  # (k, N)
+        self.total += float(dist.sum())
+        self.n += dist.size
+        if "detected" in c.probes:
+            blind = ~(c.probes["detected"][keep] > 0).any(axis=1)
+            self.occluded += float(dist[blind].sum())
+            self.n_occluded += int(dist[blind].size)
+            self.steps_occluded += int(blind.sum())
+
+    def result(self) -> dict:
+        return {"all": self.total / self.n if self.n else None,
+                "occluded": self.occluded / self.n_occluded if self.n_occluded else None,
+                "occluded_steps": self.steps_occluded}
+
+
+class _ModelUse:
+    """Which team member's estimate each UAV's output used (the ``winner`` probe: T-test winner, or the most
+    probable filter): the share of steps per member and the count of switches per UAV (W20 Fig. 4.9 counts 36)."""
+
+    def __init__(self, rec: Recording):
+        self.counts = np.zeros(rec.n_agents)
+        self.switches = 0.0
+
+    def add(self, c: Chunk, keep: np.ndarray, err) -> None:
+        winner = c.probes["winner"][keep].astype(np.int64)  # 1-based, 0: none
+        self.counts += np.bincount(winner.ravel(), minlength=len(self.counts) + 1)[1:len(self.counts) + 1]
+        if len(winner):
+            self.switches = float(c.probes["switches"][keep][-1].mean())
+
+    def result(self) -> dict:
+        total = self.counts.sum()
+        share = (self.counts / total).tolist() if total else []
+        return {"share": share, "switches": self.switches}
+
+
 def summary(rec: Recording) -> dict:
     """All scalar metrics of one run, JSON-ready, in one pass over the recording (and one over its truth for the
     spacing), with the run's ``warnings`` (:func:`swarmtrack.analysis.health.check`). The estimation metrics
@@ -313,7 +363,9 @@ def summary(rec: Recording) -> dict:
     accs = {}
     if health.applies(rec):
         accs = {"rmse": _Rmse(rec), "spread": _Spread(rec), "reported_std": _ReportedStd(rec),
-                "consistency": _Consistency(rec), "warnings": health.Health(rec)}
+                "consistency": _Consistency(rec), "mean_error": _MeanError(rec), "warnings": health.Health(rec)}
+        if "winner" in rec.meta["probes"]:
+            accs["model_use"] = _ModelUse(rec)
     if rec.tracked is not None:
         accs["target_distance"] = _TargetDistance(rec)
     out = {"warnings": [], **dict(zip(accs, _scan(rec, list(accs.values())), strict=True))}

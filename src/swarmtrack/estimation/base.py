@@ -1,11 +1,13 @@
 """The estimator role: what every onboard estimator offers the simulator, whatever its family.
 
-An estimator object holds the filters of the whole swarm as arrays (row i is UAV i's computer) and is driven by
-the engine's step loop (sense → share → deliver → fuse → record): :meth:`Estimator.share` predicts and returns
-what each UAV broadcasts; the channel delivers it; :meth:`Estimator.fuse` updates row i from UAV i's own
-detections and its inbox only. Controllers read :meth:`Estimator.view`; the recorder samples the declared
+An estimator object holds the filters of the whole swarm as arrays (row i is UAV i's computer) and is driven by the
+engine's step loop (sense → share → deliver → fuse → publish → deliver → combine → record): :meth:`Estimator.share`
+predicts and returns what each UAV broadcasts; the channel delivers it; :meth:`Estimator.fuse` updates row i from
+UAV i's own detections and its inbox only; an estimator that fuses estimates across UAVs publishes its posteriors
+and combines what arrives. Controllers read :meth:`Estimator.view`; the recorder samples the declared
 :attr:`Estimator.probes`. Implementations: :mod:`swarmtrack.estimation.information` (decentralized information
-filter and the centralized baseline); registered for scenarios in :mod:`swarmtrack.sim.build`.
+filter and the centralized baseline), :mod:`swarmtrack.estimation.multimodel` (W20's multi-model distributed EKF);
+registered for scenarios in :mod:`swarmtrack.sim.build`.
 """
 
 from __future__ import annotations
@@ -42,6 +44,13 @@ class Estimator(Protocol):
 
     def fuse(self, t: float, own: Detections, inbox: Inbox) -> None:
         """Update every UAV's estimate from its own detections and what its links delivered."""
+
+    def publish(self, t: float) -> Outbox:
+        """Optional: a second broadcast after the update (e.g. posteriors, for fusion across models; W20 Sec.
+        4.3.4), or ``{}``; the engine delivers it over this step's links. An estimator without it has none."""
+
+    def combine(self, t: float, inbox: Inbox) -> None:
+        """Fuse what :meth:`publish` delivered into each UAV's output (called only when it published)."""
 
     def view(self) -> TargetView:
         """The estimates controllers follow."""

@@ -106,38 +106,86 @@ class PhaseSpec(_Strict):
     omega: tuple[AngularRate, AngularRate] = Field((0.0, 0.0), description=(
         "sinusoid angular frequency, rad/s (at most 1e3 rad/s: far above any flyable manoeuvre)"))
     phi: tuple[Angle, Angle] = Field((0.0, 0.0), description="sinusoid phase, rad (at most 1e3 rad)")
+    accel: tuple[Acceleration, Acceleration] = Field((0.0, 0.0), description=(
+        "constant acceleration term, m/s² (v = c + accel·τ + A·sin(ωτ + φ); at most 1e3 m/s²)"))
+
+
+class SegmentSpec(_Strict):
+    """One segment of a ground robot's drive (unicycle): ``cv`` keeps speed and heading, ``ca`` accelerates by
+    ``value`` m/s² along the heading, ``ct`` turns at ``value`` rad/s at constant speed."""
+
+    kind: Literal["cv", "ca", "ct"]
+    duration: Time = Field(gt=0, description="s")
+    value: float = Field(0.0, ge=-MAX_ANGULAR_RATE, le=MAX_ANGULAR_RATE, description=(
+        "ca: m/s²; ct: rad/s; cv: unused"))
+
+
+class EvasiveSpec(_Strict):
+    """Frequent random manoeuvres of a ground robot, drawn from the scenario's seed (stream
+    ``manoeuvres/<group>/<member>``): segments of random kind and length that keep it inside a square."""
+
+    duration: Time = Field(60.0, gt=0, description="s")
+    half_width: Length = Field(1.0, gt=0, description="m, the robot stays in |x|, |y| <= half_width (W20: ~4 m²)")
+    segment_range: tuple[Time, Time] = Field((0.5, 2.0), description="s, shortest and longest segment")
+    speed_range: tuple[Speed, Speed] = Field((0.1, 0.3), description="m/s")
+    turn_rate_max: AngularRate = Field(1.0, gt=0, description="rad/s")
+    accel_max: Acceleration = Field(0.1, gt=0, description="m/s²")
 
 
 class MemberSpec(_Strict):
     """One driven vehicle (a target or a decoy): where it starts and the velocity profile its autopilot flies."""
 
-    profile: Literal["l24", "l23", "hover", "custom"] = Field(
-        "l24", description="l24: linear, sinusoidal, circular (SPEC durations 40, 62.8, 50.3 s); l23: sinusoidal")
+    profile: Literal["l24", "l23", "hover", "custom", "ground", "evasive"] = Field(
+        "l24", description=("l24: linear, sinusoidal, circular (SPEC durations 40, 62.8, 50.3 s); l23: sinusoidal; "
+                            "ground: a ground robot's cv/ca/ct segments; evasive: random ground-robot manoeuvres"))
     phases: list[PhaseSpec] = Field(default_factory=list, description="with profile: custom")
     hover_duration: Time = Field(60.0, gt=0, description="s, with profile: hover (at most 1e7 s)")
+    segments: list[SegmentSpec] = Field(default_factory=list, description="with profile: ground")
+    evasive: EvasiveSpec = Field(default_factory=EvasiveSpec, description="with profile: evasive")
+    heading: Angle = Field(0.0, description="rad, initial heading of a ground or evasive profile")
+    speed: Speed = Field(0.0, ge=0, description="m/s, initial speed of a ground or evasive profile")
     start: Position = Field((0.0, 0.0), description=(
         "initial position, m (at most 1e6 m from the origin per axis: 1000 km, beyond any radio range)"))
 
-    @field_validator("phases", "hover_duration")
+    @field_validator("phases", "hover_duration", "segments", "evasive", "heading", "speed")
     @classmethod
     def _used_by_profile(cls, v, info: ValidationInfo):
         """A key the chosen profile ignores is a mistake (a custom profile without ``profile: custom`` would
         silently fly l24); the default value is let through, so a resolved scenario.yaml loads again."""
-        needs = {"phases": "custom", "hover_duration": "hover"}[info.field_name]
+        needs = {"phases": ("custom",), "hover_duration": ("hover",), "segments": ("ground",),
+                 "evasive": ("evasive",), "heading": ("ground", "evasive"), "speed": ("ground", "evasive")}
+        needs = needs[info.field_name]
         profile = info.data.get("profile")
-        if profile is not None and profile != needs and not _is_default(cls, info.field_name, v):
-            raise ValueError(f"given, but profile is {profile!r}; {info.field_name} is used only with profile: {needs}")
+        if profile is not None and profile not in needs and not _is_default(cls, info.field_name, v):
+            raise ValueError(f"given, but profile is {profile!r}; {info.field_name} is used only with profile: "
+                             + " or ".join(needs))
         return v
 
     @model_validator(mode="after")
     def _phases_for_custom(self):
         if self.profile == "custom" and not self.phases:
             raise ValueError("phases must list at least one phase when profile is 'custom'")
+        if self.profile == "ground":
+            if not self.segments:
+                raise ValueError("segments must list at least one segment when profile is 'ground'")
+            self.velocity_profile()  # a segment that would drive backwards is refused here, naming it
         return self
 
-    def velocity_profile(self):
-        """The :class:`~swarmtrack.vehicles.profile.VelocityProfile` this member flies."""
-        from swarmtrack.vehicles.profile import Phase, VelocityProfile, l23_profile, l24_profile
+    def duration(self) -> float:
+        """Length of the profile, s (without drawing an evasive one)."""
+        return self.evasive.duration if self.profile == "evasive" else self.velocity_profile().total_duration
+
+    def velocity_profile(self, rng=None):
+        """The :class:`~swarmtrack.vehicles.profile.VelocityProfile` this member flies; an evasive one draws its
+        manoeuvres from ``rng`` (a ``numpy.random.Generator``)."""
+        from swarmtrack.vehicles.profile import (
+            Phase,
+            VelocityProfile,
+            evasive_segments,
+            ground_robot_profile,
+            l23_profile,
+            l24_profile,
+        )
 
         if self.profile == "l24":
             return l24_profile()
@@ -145,8 +193,20 @@ class MemberSpec(_Strict):
             return l23_profile()
         if self.profile == "hover":
             return VelocityProfile((Phase("hover", self.hover_duration),))
+        if self.profile == "ground":
+            return ground_robot_profile([(s.kind, s.duration, s.value) for s in self.segments], self.heading,
+                                        self.speed)
+        if self.profile == "evasive":
+            e = self.evasive
+            if rng is None:
+                raise ValueError("an evasive profile draws its manoeuvres from a random stream: pass rng")
+            segments = evasive_segments(rng, e.duration, start=tuple(self.start), heading=self.heading,
+                                        speed=self.speed, half_width=e.half_width, segment_range=tuple(e.segment_range),
+                                        speed_range=tuple(e.speed_range), turn_rate_max=e.turn_rate_max,
+                                        accel_max=e.accel_max)
+            return ground_robot_profile(segments, self.heading, self.speed)
         return VelocityProfile(tuple(Phase(p.name, p.duration, tuple(p.c), tuple(p.amplitude), tuple(p.omega),
-                                           tuple(p.phi)) for p in self.phases))
+                                           tuple(p.phi), accel=tuple(p.accel)) for p in self.phases))
 
 
 class GroupSpec(_Strict):
@@ -203,6 +263,20 @@ class SwarmSpec(_Strict):
 
 
 class SensorSpec(_Strict):
+    """Base of every sensor's settings; ``kind`` picks the sensor (see :data:`SENSOR_KINDS`)."""
+
+    kind: str
+    latency: float = Field(0.0, ge=0, le=5.0, description=(
+        "s, age of a measurement when the filter uses it as current (sensing and middleware delay; "
+        "rounded to the physics step)"))
+
+    def check(self, scenario: Scenario) -> None:
+        """Checks against the rest of the scenario (raise ValueError naming the field)."""
+
+
+class RangeBearingSpec(SensorSpec):
+    """Range and bearing from each UAV to every object (L24 Sec. 3.2)."""
+
     kind: Literal["range_bearing"] = "range_bearing"
     sigma_range: Length = Field(0.08, gt=0, description="m (L24: 0.08, L23: 0.4; at most 1e6 m)")
     sigma_bearing: Angle = Field(0.02, gt=0, description="rad (L24: 0.02, L23: 0.1; at most 1e3 rad)")
@@ -210,9 +284,54 @@ class SensorSpec(_Strict):
         "position", description="position: converted measurement with the paper's R_i; polar: EKF on [ρ, β]")
     max_range: Length | None = Field(None, gt=0, description=(
         "m (at most 1e6 m); a UAV farther from the target measures nothing"))
-    latency: float = Field(0.0, ge=0, le=5.0, description=(
-        "s, age of a measurement when the filter uses it as current (sensing and middleware delay; "
-        "rounded to the physics step)"))
+
+
+class OccluderSpec(_Strict):
+    """Hides the target from some UAVs (all when ``uavs`` is empty) inside a ground region, during a time window, or
+    inside the region during the window."""
+
+    region: tuple[Length, Length, Length, Length] | None = Field(None, description="[x0, y0, x1, y1], m")
+    window: tuple[Time, Time] | None = Field(None, description="[t0, t1), s")
+    uavs: list[int] = Field(default_factory=list, description="1-based UAVs it hides the target from; empty: all")
+
+    @model_validator(mode="after")
+    def _something(self):
+        if self.region is None and self.window is None:
+            raise ValueError("an occluder needs a region, a window or both")
+        if self.region is not None and not (self.region[0] < self.region[2] and self.region[1] < self.region[3]):
+            raise ValueError(f"region {list(self.region)} must be [x0, y0, x1, y1] with x0 < x1 and y0 < y1")
+        if self.window is not None and not 0 <= self.window[0] < self.window[1]:
+            raise ValueError(f"window {list(self.window)} must be [t0, t1) with 0 <= t0 < t1")
+        return self
+
+
+class CameraSpec(SensorSpec):
+    """Gimballed camera reporting the target's metric position in its frame (W20 eqs. 4.14-4.16), aimed at its
+    UAV's latest estimate; the target is on flat ground."""
+
+    kind: Literal["camera"] = "camera"
+    sigma: Length = Field(0.0316, gt=0, description=(
+        "m, camera-frame noise per axis (chosen: √(10 cm²), W20 Table 4.1's R = 10 read in cm²; at most 1e6 m)"))
+    height: Length = Field(1.5, gt=0, description="m, camera height above the ground (W20 Sec. 3.2.2.2: at most 1.5)")
+    footprint: tuple[Length, Length] = Field((1.2, 0.9), description=(
+        "m, field of view (width, height) at footprint_range (W20 Sec. 3.2.2.2: 1.2 x 0.9 at 1.5 m)"))
+    footprint_range: Length = Field(1.5, gt=0, description="m, distance at which the footprint is measured")
+    home: Position = Field((0.0, 0.0), description="m, where gimbals aim before their UAV has an estimate")
+    occluders: list[OccluderSpec] = Field(default_factory=list)
+
+    @field_validator("footprint")
+    @classmethod
+    def _positive(cls, v):
+        if min(v) <= 0:
+            raise ValueError(f"{list(v)} must be positive")
+        return v
+
+    def check(self, scenario: Scenario) -> None:
+        n = scenario.swarm.n_uavs
+        for k, occ in enumerate(self.occluders):
+            for u in occ.uavs:
+                if not 1 <= u <= n:
+                    raise ValueError(f"sensor.occluders[{k}].uavs names UAV {u}, but the swarm has UAVs 1..{n}")
 
 
 class NetworkSpec(_Strict):
@@ -242,6 +361,13 @@ class EstimatorSpec(_Strict):
         """The member of ``targets`` (1-based) this estimator follows, which the recording's capability-1 metrics
         and ``controller.follow: truth`` refer to; None: it follows no single target."""
         return None
+
+    def warmup_steps(self) -> int:
+        """Estimation steps the estimator needs before its output is judged (metrics start after them)."""
+        return 0
+
+    def check(self, scenario: Scenario) -> None:
+        """Checks against the rest of the scenario (raise ValueError naming the field)."""
 
 
 class ControllerSpec(_Strict):
@@ -296,6 +422,79 @@ class CentralizedSpec(FilterSpec):
     kind: Literal["centralized"] = "centralized"
 
 
+W20_MODELS = ("cv", "ca", "ct")
+
+
+class MultiModelSpec(EstimatorSpec):
+    """W20's multi-model distributed EKF: one covariance EKF per UAV with its own model, stacked neighbour
+    measurements, fusion of the models' estimates (W20 Ch. 4). Defaults: W20 Tables 4.1 and 4.3, with Q, R and P0
+    read in centimetre units (see docs/multi-model.md)."""
+
+    kind: Literal["multimodel"] = "multimodel"
+    models: list[Literal["cv", "ca", "ct"]] = Field(["cv", "ca", "ct"], description=(
+        "one target model per UAV, in UAV order (W20 Table 4.1: cv, ca, ct); also 'cv,ca,ct'"))
+    fusion: Literal["ttest", "imm-thesis", "imm", "ml", "none"] = Field("ttest", description=(
+        "ttest: T-test selection (eqs. 4.23-4.28); imm-thesis: IMM weighting without mixing (4.29-4.35); imm: "
+        "standard IMM with mixing; ml: max-likelihood fusion (4.36-4.37); none: each UAV its own estimate"))
+    occlusion: Literal["last", "trace", "eigenvalue"] = Field("last", description=(
+        "T-test output when nobody measured: last winner (4.38), least position trace (4.39), smallest largest "
+        "position eigenvalue (4.40)"))
+    window: int = Field(10, ge=2, le=10_000, description="T-test residual window n (Table 4.1)")
+    solo_steps: int = Field(100, ge=0, le=10**9, description=(
+        "steps each UAV uses its own measurements alone before sharing (W20 Fig. 4.11)"))
+    q: Gain = Field(5e-6, gt=0, description=(
+        "per-step process-noise variance of every position, velocity and acceleration state (Table 4.1's "
+        "Q = 0.05 I read in cm units: 5e-6 m²)"))
+    q_turn_rate: Gain = Field(1e-4, gt=0, description="(rad/s)² per step, CT's ω (chosen)")
+    r: Gain = Field(1e-3, gt=0, description=(
+        "m², camera measurement variance per axis (Table 4.1's R = 10 read in cm²); range-bearing uses its sigmas"))
+    p0: Gain = Field(5e-5, gt=0, description="initial variance of the kinematic states (Table 4.1's P0 = 0.5 I in cm²)")
+    p0_turn_rate: Gain = Field(0.25, gt=0, description="(rad/s)², initial variance of CT's ω (chosen)")
+    markov: list[list[float]] | None = Field(None, description=(
+        "IMM switching matrix, one row and column per UAV (rows sum to 1); default 0.99 on the diagonal"))
+    target: int = Field(1, ge=1, description="which member of the targets group the filters follow (1-based)")
+
+    @field_validator("models", mode="before")
+    @classmethod
+    def _comma_list(cls, v):
+        return [m.strip() for m in v.split(",")] if isinstance(v, str) else v
+
+    @field_validator("markov")
+    @classmethod
+    def _stochastic(cls, v):
+        if v is None:
+            return v
+        for k, row in enumerate(v):
+            if len(row) != len(v):
+                raise ValueError(f"must be square: row {k + 1} has {len(row)} entries for {len(v)} rows")
+            if any(not math.isfinite(x) or x < 0 for x in row):
+                raise ValueError(f"row {k + 1} has a negative or non-finite entry: {row}")
+            if abs(sum(row) - 1.0) > 1e-9:
+                raise ValueError(f"row {k + 1} sums to {sum(row):.6g}, not 1: {row}")
+        return v
+
+    def followed_target(self) -> int | None:
+        return self.target
+
+    def warmup_steps(self) -> int:
+        """W20 Fig. 4.6: the first moments (the solo steps) are initialisation and not considered."""
+        return self.solo_steps
+
+    def check(self, scenario: Scenario) -> None:
+        n = scenario.swarm.n_uavs
+        if len(self.models) != n:
+            raise ValueError(f"estimator.models lists {len(self.models)} model(s) for {n} UAVs; give one per UAV")
+        if self.markov is not None and len(self.markov) != n:
+            raise ValueError(f"estimator.markov is {len(self.markov)} x {len(self.markov)}; the swarm has {n} UAVs")
+
+
+class StaticSpec(ControllerSpec):
+    """UAVs hold their initial positions (W20 Sec. 4.6.1: hung from the ceiling, estimation decoupled from
+    flight)."""
+
+    kind: Literal["static"] = "static"
+
+
 class FlockingSpec(ControllerSpec):
     kind: Literal["flocking"] = "flocking"
     variant: Literal["standard", "integral", "tailored"] = "tailored"
@@ -326,8 +525,10 @@ class FlockingSpec(ControllerSpec):
 #: ``kind`` → settings class of every estimator and controller the scenario can pick; the simulator's builders
 #: are registered beside them (:func:`swarmtrack.sim.build.register`), so a new capability adds an entry here,
 #: not a branch in the engine.
-ESTIMATOR_KINDS: dict[str, type[EstimatorSpec]] = {"information": InformationSpec, "centralized": CentralizedSpec}
-CONTROLLER_KINDS: dict[str, type[ControllerSpec]] = {"flocking": FlockingSpec}
+ESTIMATOR_KINDS: dict[str, type[EstimatorSpec]] = {"information": InformationSpec, "centralized": CentralizedSpec,
+                                                  "multimodel": MultiModelSpec}
+CONTROLLER_KINDS: dict[str, type[ControllerSpec]] = {"flocking": FlockingSpec, "static": StaticSpec}
+SENSOR_KINDS: dict[str, type[SensorSpec]] = {"range_bearing": RangeBearingSpec, "camera": CameraSpec}
 
 
 def _by_kind(value, kinds: dict, default: str, base: type):
@@ -369,7 +570,7 @@ class Scenario(_Strict):
         "the objects the swarm tracks; ``target: {...}`` is the shorthand for one quadrotor target"))
     decoys: GroupSpec = Field(default_factory=GroupSpec, description="objects a sensor may confuse with targets")
     swarm: SwarmSpec = Field(default_factory=SwarmSpec)
-    sensor: SensorSpec = Field(default_factory=SensorSpec)
+    sensor: SerializeAsAny[SensorSpec] = Field(default_factory=RangeBearingSpec)
     network: NetworkSpec = Field(default_factory=NetworkSpec)
     estimator: SerializeAsAny[EstimatorSpec] = Field(default_factory=InformationSpec)
     controller: SerializeAsAny[ControllerSpec] = Field(default_factory=FlockingSpec)
@@ -410,12 +611,17 @@ class Scenario(_Strict):
     def _controller_kind(cls, v):
         return _by_kind(v, CONTROLLER_KINDS, "flocking", ControllerSpec)
 
+    @field_validator("sensor", mode="before")
+    @classmethod
+    def _sensor_kind(cls, v):
+        return _by_kind(v, SENSOR_KINDS, "range_bearing", SensorSpec)
+
     def run_duration(self) -> float:
         """Simulated time, s: ``duration`` or the length of the longest driven member's profile."""
         if self.duration is not None:
             return self.duration
         members = self.targets.members + self.decoys.members
-        return max((m.velocity_profile().total_duration for m in members), default=60.0)
+        return max((m.duration() for m in members), default=60.0)
 
     @model_validator(mode="after")
     def _cross_checks(self):
@@ -441,4 +647,6 @@ class Scenario(_Strict):
             raise ValueError(f"estimator.target is {followed}, but targets has {len(self.targets.members)} member(s)")
         if getattr(self.controller, "follow", None) == "truth" and followed is None:
             raise ValueError("controller.follow: truth needs an estimator that follows one target")
+        self.estimator.check(self)
+        self.sensor.check(self)
         return self

@@ -29,6 +29,9 @@ class Detections:
     #: When every UAV detected each of ``grid`` objects (rows UAV-major, labels ``0..grid-1`` in order), so that
     #: per-UAV lookups are reshapes; None otherwise.
     grid: int | None = None
+    #: A sensor whose measurement is affine in the object's ground position, ``z = A p + b``, stamps ``[A | b]``
+    #: (M, 2, 3) as the UAV's own devices give it (the camera: W20 eq. 4.16); None for other sensors.
+    frame: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.owner)
@@ -49,3 +52,10 @@ class Detections:
         seen = np.zeros(n, dtype=bool)
         seen[owners] = True
         return z, pos, seen
+
+    def frame_of_label(self, label: int) -> np.ndarray:
+        """Per-UAV ``[A | b]`` (N, 2, 3) of the detection labelled ``label`` (NaN where none; needs ``frame``)."""
+        out = np.full((self.n_uavs, 2, 3), np.nan)
+        pick = self.label == label
+        out[self.owner[pick]] = self.frame[pick]
+        return out

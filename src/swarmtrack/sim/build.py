@@ -14,7 +14,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from swarmtrack.control.flocking import FlockingController, FlockingGains
+from swarmtrack.control.static import StaticController
 from swarmtrack.estimation.information import InformationEstimator, RangeBearingUpdate
+from swarmtrack.estimation.measurements import CameraFrameMeasurement, RangeBearingMeasurement
+from swarmtrack.estimation.multimodel import MultiModelEstimator
 from swarmtrack.models import make_model
 from swarmtrack.network.channel import Channel
 from swarmtrack.network.links import edge_list, proximity_links
@@ -22,18 +25,21 @@ from swarmtrack.scenarios.loader import ScenarioError
 from swarmtrack.scenarios.schema import (
     CONTROLLER_KINDS,
     ESTIMATOR_KINDS,
+    CameraSpec,
     ControllerSpec,
     EstimatorSpec,
     FilterSpec,
     FlockingSpec,
     GroupSpec,
+    MultiModelSpec,
+    RangeBearingSpec,
     Scenario,
 )
 from swarmtrack.sim.agent import OnboardStack
 from swarmtrack.sim.clock import Clock
 from swarmtrack.sim.oracle import TruthOracle
 from swarmtrack.sim.streams import stream
-from swarmtrack.sim.world import Group, ProfileDriver, RangeBearingSensor, World
+from swarmtrack.sim.world import CameraSensor, Group, Occluder, ProfileDriver, RangeBearingSensor, World
 
 
 @dataclass(frozen=True)
@@ -59,6 +65,27 @@ def _information(spec: FilterSpec, ctx: Context) -> InformationEstimator:
         fake_vz_sigma=spec.fake_vz_sigma, compiled=ctx.compiled)
 
 
+#: W20 Table 4.1: x̂0 = [h⁻¹(z0); 0], with CT's turn rate ω0 = 1e-5 rad/s.
+W20_HIDDEN_START = {"cv": (0.0, 0.0), "ca": (0.0,) * 4, "ct": (0.0, 0.0, 1e-5)}
+
+
+def _multimodel(spec: MultiModelSpec, ctx: Context) -> MultiModelEstimator:
+    """W20 Ch. 4: one model per UAV with Q = q I (ω: q_turn_rate), P0 = p0 I (ω: p0_turn_rate)."""
+    def diag(name: str, value: float, turn: float) -> list[float]:
+        dim = make_model(name, ctx.dt_estimation).dim
+        return [value] * 4 + ([turn] if name == "ct" else [value] * (dim - 4))
+
+    models = [make_model(m, ctx.dt_estimation, diag(m, spec.q, spec.q_turn_rate)) for m in spec.models]
+    s = ctx.scenario.sensor
+    measurement = CameraFrameMeasurement(spec.r) if isinstance(s, CameraSpec) else \
+        RangeBearingMeasurement(s.sigma_range, s.sigma_bearing)
+    return MultiModelEstimator(
+        models, measurement, label=ctx.label_of("targets", spec.target - 1), fusion_rule=spec.fusion,
+        occlusion=spec.occlusion, window=spec.window, solo_steps=spec.solo_steps, markov=spec.markov,
+        P0={m: np.diag(diag(m, spec.p0, spec.p0_turn_rate)) for m in set(spec.models)},
+        x0_hidden={m: np.asarray(W20_HIDDEN_START[m]) for m in set(spec.models)})
+
+
 def flocking_gains(spec: FlockingSpec, r_comm: float) -> FlockingGains:
     """The scenario's flocking gains (names checked by the schema) with its d and r_comm."""
     return dataclasses.replace(FlockingGains(), **spec.gains, d=spec.d, r_comm=r_comm)
@@ -70,9 +97,24 @@ def _flocking(spec: FlockingSpec, ctx: Context) -> FlockingController:
 
 
 #: ``kind`` → builder ``(settings, Context) -> Estimator``.
-ESTIMATORS: dict[str, Callable] = {"information": _information, "centralized": _information}
+ESTIMATORS: dict[str, Callable] = {"information": _information, "centralized": _information,
+                                   "multimodel": _multimodel}
 #: ``kind`` → builder ``(settings, Context) -> Controller``.
-CONTROLLERS: dict[str, Callable] = {"flocking": _flocking}
+CONTROLLERS: dict[str, Callable] = {"flocking": _flocking, "static": lambda spec, ctx: StaticController(ctx.n_uavs)}
+
+
+def _range_bearing(s: RangeBearingSpec) -> RangeBearingSensor:
+    return RangeBearingSensor(s.sigma_range, s.sigma_bearing, s.max_range, s.latency)
+
+
+def _camera(s: CameraSpec) -> CameraSensor:
+    tan_half = (0.5 * s.footprint[0] / s.footprint_range, 0.5 * s.footprint[1] / s.footprint_range)
+    occluders = tuple(Occluder(o.region, o.window, tuple(u - 1 for u in o.uavs)) for o in s.occluders)
+    return CameraSensor(s.sigma, s.height, tan_half, tuple(s.home), occluders, s.latency)
+
+
+#: sensor ``kind`` → builder of the world's (truth-side) sensor.
+SENSORS: dict[str, Callable] = {"range_bearing": _range_bearing, "camera": _camera}
 
 
 def register(role: str, spec: type, builder: Callable) -> None:
@@ -128,10 +170,16 @@ def _too_close(pos: np.ndarray, min_sep: float) -> np.ndarray:
     return close
 
 
-def _group(name: str, spec: GroupSpec) -> Group:
+def profiles(scenario: Scenario, group: str) -> tuple:
+    """The velocity profile of each member of a driven group (random manoeuvres from the stream
+    ``manoeuvres/<group>/<member>``)."""
+    return tuple(m.velocity_profile(stream(scenario.seed, f"manoeuvres/{group}/{k}"))
+                 for k, m in enumerate(getattr(scenario, group).members))
+
+
+def _group(name: str, spec: GroupSpec, flown: tuple) -> Group:
     starts = np.asarray([m.start for m in spec.members], dtype=float).reshape(-1, 2)
-    driver = ProfileDriver(tuple(m.velocity_profile() for m in spec.members), spec.velocity_gain, spec.wind_std)
-    return Group(name, spec.vehicle, starts, driver)
+    return Group(name, spec.vehicle, starts, ProfileDriver(flown, spec.velocity_gain, spec.wind_std))
 
 
 @dataclass
@@ -154,10 +202,10 @@ def build(scenario: Scenario) -> Simulation:
     compiled = scenario.kernels != "numpy"  # one decision for every compiled fast path
     n = scenario.swarm.n_uavs
     seed = scenario.seed
-    groups = [_group("targets", scenario.targets), _group("decoys", scenario.decoys),
+    flown = {g: profiles(scenario, g) for g in ("targets", "decoys")}
+    groups = [_group("targets", scenario.targets, flown["targets"]), _group("decoys", scenario.decoys, flown["decoys"]),
               Group("uavs", scenario.swarm.vehicle, spawn_positions(scenario, stream(seed, "spawn")))]
-    s = scenario.sensor
-    world = World(groups, RangeBearingSensor(s.sigma_range, s.sigma_bearing, s.max_range, s.latency),
+    world = World(groups, SENSORS[scenario.sensor.kind](scenario.sensor),
                   dt=dt_phys, ticks=clock.steps * clock.ticks_estimation,
                   nav_std=(scenario.swarm.nav_position_std, scenario.swarm.nav_velocity_std),
                   streams=lambda purpose: stream(seed, purpose), compiled=compiled)
@@ -177,13 +225,13 @@ def build(scenario: Scenario) -> Simulation:
         "scenario": scenario.name, "seed": seed, "dt": dt_est, "topology": net.topology, "r_comm": net.r_comm,
         "groups": {name: [sl.start, sl.stop] for name, sl in world.slices.items()},
         "tracked": tracked,
-        "phase_names": [] if followed is None else
-        list(scenario.targets.members[followed - 1].velocity_profile().phase_names),
-        "object_phases": [list(m.velocity_profile().phase_names) for m in scenario.targets.members]
-        + [list(m.velocity_profile().phase_names) for m in scenario.decoys.members] + [[]] * n,
+        "phase_names": [] if followed is None else list(flown["targets"][followed - 1].phase_names),
+        "object_phases": [list(p.phase_names) for p in flown["targets"] + flown["decoys"]] + [[]] * n,
         # what capability 1's metrics and figures read: the flocking's d, when the chase starts, the filter model
         "d": getattr(scenario.controller, "d", float("nan")),
-        "chase_start": getattr(scenario.controller, "chase_after_steps", 0) * dt_est,
+        # the metrics judge the run from here: when the chase starts, or when the estimator's warm-up ends
+        "chase_start": max(getattr(scenario.controller, "chase_after_steps", 0),
+                           scenario.estimator.warmup_steps()) * dt_est,
         "model": getattr(scenario.estimator, "model", None),
         "estimator": scenario.estimator.model_dump(mode="json"),
         "controller": scenario.controller.model_dump(mode="json"),

@@ -1,9 +1,9 @@
 """The engine: one clock, and the same step loop for every capability.
 
-Per estimation step: sense → share → deliver → fuse → record; then, per control step until the next estimation
-step: broadcast → deliver → command → advance. What is sensed, shared, fused and commanded is the business of
-the components the builder (:mod:`swarmtrack.sim.build`) wired from the scenario; this loop has no branch per
-capability. It is the only place where truth (for the recorder) and onboard state meet.
+Per estimation step: sense → share → deliver → fuse → (publish → deliver → combine) → record; then, per control
+step until the next estimation step: broadcast → deliver → command → advance. What is sensed, shared, fused and
+commanded is the business of the components the builder (:mod:`swarmtrack.sim.build`) wired from the scenario; this
+loop has no branch per capability. It is the only place where truth (for the recorder) and onboard state meet.
 """
 
 from __future__ import annotations
@@ -29,15 +29,21 @@ def simulate(scenario: Scenario, progress: Callable[[float], None] | None = None
     uavs = world.slices["uavs"]
     u = np.zeros((scenario.swarm.n_uavs, 2))
     report_every = max(1, clock.steps // 100)
+    publish = getattr(stack.estimator, "publish", None)  # the optional second round (Estimator.publish)
     for k in range(clock.steps):
         t = k * clock.dt_estimation
         truth = world.truth()
         positions = truth[uavs, :2]
         nav = world.navigation()
-        detections, _sources = world.sense()  # sources: the world's, never onboard
+        # sources: the world's, never onboard; a gimballed sensor aims at its UAV's latest estimate
+        detections, _sources = world.sense(aim=stack.estimator.view().state[:, :2])
         with np.errstate(over="ignore", invalid="ignore"):  # a diverging filter is reported by fuse()
             outbox = stack.estimator.share(t, nav, detections)
-            stack.estimator.fuse(t, detections, Inbox(channel.links(positions), outbox))
+            links = channel.links(positions)
+            stack.estimator.fuse(t, detections, Inbox(links, outbox))
+            posteriors = publish(t) if publish is not None else None
+            if posteriors:  # the second message of the step travels over the links that carried the first
+                stack.estimator.combine(t, Inbox(links, posteriors))
         recorder.record(t, truth, world.phase_index(), stack.sample())
         view = stack.guide.view()
         offset = 0  # physics ticks since the estimation step

@@ -57,6 +57,65 @@ class RangeBearingSensor:
     max_range: float | None = None
     latency: float = 0.0
     sensed: tuple[str, ...] = ("targets", "decoys")
+    name = "range_bearing"
+
+    def detect(self, objects, uavs, stamped, noise, t: float, aim):
+        return range_bearing.sense(objects, uavs, stamped, self.sigma_range, self.sigma_bearing, noise,
+                                   self.max_range)
+
+
+@dataclass(frozen=True)
+class Occluder:
+    """Hides the sensed objects from the UAVs ``uavs`` (0-based; empty: every UAV) while an object is inside
+    ``region`` ``(x0, y0, x1, y1)`` (None: anywhere) during ``window`` ``(t0, t1)`` s (None: always)."""
+
+    region: tuple[float, float, float, float] | None = None
+    window: tuple[float, float] | None = None
+    uavs: tuple[int, ...] = ()
+
+    def hides(self, objects: np.ndarray, n_uavs: int, t: float) -> np.ndarray:
+        """(N, M) the (UAV, object) pairs this occluder hides at time ``t``."""
+        hidden = np.ones((n_uavs, len(objects)), dtype=bool)
+        if self.window is not None and not self.window[0] <= t < self.window[1]:
+            return ~hidden
+        if self.region is not None:
+            x0, y0, x1, y1 = self.region
+            inside = (objects[:, 0] >= x0) & (objects[:, 0] <= x1) & (objects[:, 1] >= y0) & (objects[:, 1] <= y1)
+            hidden &= inside[None, :]
+        if self.uavs:
+            mask = np.zeros(n_uavs, dtype=bool)
+            mask[list(self.uavs)] = True
+            hidden &= mask[:, None]
+        return hidden
+
+
+@dataclass(frozen=True)
+class CameraSensor:
+    """Truth side of the gimballed camera-frame position sensor (W20 Sec. 3.2, eqs. 4.14-4.16,
+    :mod:`swarmtrack.sensors.camera`): cameras ``height`` m above the ground, a rectangular field of view with
+    half-angle tangents ``tan_half``, noise ``sigma`` m per camera-frame axis, gimbals aimed at each UAV's latest
+    estimate (``home`` before it has one), ``occluders`` hiding objects; streams ``sensor/camera/<group>/<k>``."""
+
+    sigma: float
+    height: float
+    tan_half: tuple[float, float]
+    home: tuple[float, float] = (0.0, 0.0)
+    occluders: tuple[Occluder, ...] = ()
+    latency: float = 0.0
+    sensed: tuple[str, ...] = ("targets", "decoys")
+    name = "camera"
+
+    def detect(self, objects, uavs, stamped, noise, t: float, aim):
+        from swarmtrack.sensors import camera
+
+        n = len(uavs)
+        aim = np.broadcast_to(self.home, (n, 2)) if aim is None else np.asarray(aim, dtype=float)
+        aim = np.where(np.isfinite(aim).all(axis=-1, keepdims=True), aim, self.home)  # no estimate yet: home
+        hidden = None
+        for occ in self.occluders:
+            h = occ.hides(objects, n, t)
+            hidden = h if hidden is None else hidden | h
+        return camera.sense(objects, uavs, stamped, self.height, aim, self.tan_half, self.sigma, noise, hidden)
 
 
 @dataclass
@@ -72,7 +131,7 @@ class _Layout:
 class World:
     """Truth of every group; :meth:`advance` integrates them together (one batched step per vehicle kind)."""
 
-    def __init__(self, groups: list[Group], sensor: RangeBearingSensor, *, dt: float, ticks: int,
+    def __init__(self, groups: list[Group], sensor: RangeBearingSensor | CameraSensor, *, dt: float, ticks: int,
                  nav_std: tuple[float, float], streams: Callable[[str], np.random.Generator],
                  compiled: bool = False):
         names = [g.name for g in groups]
@@ -96,7 +155,7 @@ class World:
         self._sensed = np.concatenate([np.arange(self.slices[n].start, self.slices[n].stop, dtype=np.int64)
                                        for n in sensor.sensed if n in self.slices] or [np.zeros(0, np.int64)])
         names = [(g.name, k) for g in groups for k in range(g.size)]
-        self._sensor_rngs = [streams("sensor/range_bearing/{}/{}".format(*names[o])) for o in self._sensed]
+        self._sensor_rngs = [streams("sensor/{}/{}/{}".format(sensor.name, *names[o])) for o in self._sensed]
         # physics layout and the drivers' profiles, gusts and gains sampled once for each of the run's ``ticks``
         ticks = ticks + 2
         grid = np.arange(ticks) * dt
@@ -193,10 +252,11 @@ class World:
             nav += self._nav_rng.standard_normal(nav.shape) * self._nav_std
         return nav
 
-    def sense(self):
+    def sense(self, aim: np.ndarray | None = None):
         """Every UAV's detections, ``sensor.latency`` old, and (for the recorder and metrics only) the object
         each came from. The navigation position stamped on a detection is also that old, with its own error,
-        so an onboard filter that takes the packet as current sees objects where they were."""
+        so an onboard filter that takes the packet as current sees objects where they were. ``aim`` (N, 2): where
+        each UAV points a gimballed sensor (its latest estimate; NaN rows: none yet); others ignore it."""
         lagged = len(self._history) > 1
         then = self._history[(self._tick + 1) % len(self._history)] if lagged else self._all_truth()[:, :2]
         uavs = then[self.slices["uavs"]]
@@ -204,12 +264,10 @@ class World:
         stamped = uavs.copy()
         if self._nav_std[0] > 0:
             stamped += self._nav_rng.standard_normal(stamped.shape) * self._nav_std[0]
-        s = self.sensor
         noise = np.empty((len(uavs), len(sensed), 2))
         for j, rng in enumerate(self._sensor_rngs):
             noise[:, j] = rng.standard_normal((len(uavs), 2))
-        det, source = range_bearing.sense(then[sensed], uavs, stamped, s.sigma_range, s.sigma_bearing, noise,
-                                          s.max_range)
+        det, source = self.sensor.detect(then[sensed], uavs, stamped, noise, self.t, aim)
         return det, sensed[source]
 
     # --- physics -----------------------------------------------------------------------------------------

@@ -1,0 +1,332 @@
+"""Multi-model distributed EKF: one covariance-form EKF per UAV, each with its own target model, and fusion of the
+models' estimates across the team (W20 Ch. 4).
+
+Per estimation step every UAV i
+1. predicts with its own model (W20 eqs. 4.7-4.9) and broadcasts its raw measurement with its pose data;
+2. stacks its own and its neighbours' measurements (block-diagonal R, their number changing every step; W20 eqs.
+   4.17-4.22) and updates (eqs. 4.10-4.13). The update is computed through the sum of the measurements'
+   position-block information (the second lines of W20 eqs. 4.3-4.4): equal to the stacked update, at a cost that
+   does not grow with the number of measurements. It yields the innovation, its covariance, the likelihood of the
+   stacked innovation (eq. 4.31, m the stacked dimension) and the posterior residual (eq. 4.28);
+3. broadcasts its posterior on the states every model shares, ``[x, y, vx, vy]``, its likelihood and its last n
+   residuals (W20 Sec. 4.3.4), and fuses what it received into its output (:mod:`swarmtrack.estimation.fusion`):
+   T-test selection, the thesis' IMM weighting, the standard IMM with mixing, or max-likelihood fusion. Except with
+   mixing, each UAV keeps its own posterior for its next step (W20 Sec. 4.3.4).
+
+A filter starts from its first measurement (``x̂0 = [h⁻¹(z0); 0]``, CT ``ω0 = 1e-5``, ``P0``; W20 Table 4.1) and uses
+its own measurements alone for the first ``solo_steps`` steps (W20 Fig. 4.11) before sharing. When no UAV a UAV
+hears from measured the target, the T-test has no residual (W20 Sec. 4.5): the output follows the occlusion policy
+(the last T-test winner, eq. 4.38; the least trace of the position covariance, 4.39; or the smallest largest
+eigenvalue of it, 4.40).
+
+Residuals are normalised per measurement: ``ε = (1/η) Σ_l ν⁺_lᵀ R_l⁻¹ ν⁺_l`` over the η measurements a UAV stacked.
+With W20's ``R = r I`` this is the thesis' ``‖z − h(x̂⁺)‖²`` divided by ``r η``: the same ranking between
+candidates that stacked the same number of measurements, comparable between those that did not, and unit-free for a
+range-bearing sensor.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from swarmtrack.estimation import fusion
+from swarmtrack.estimation.base import Probe, TargetView
+from swarmtrack.estimation.information import FilterDivergence, symmetrize
+from swarmtrack.estimation.kalman import ekf_predict
+from swarmtrack.models.base import MotionModel
+
+FUSIONS = ("ttest", "imm-thesis", "imm", "ml", "none")
+OCCLUSION_POLICIES = ("last", "trace", "eigenvalue")
+COMMON = 4  #: the states every model shares, [x, y, vx, vy]
+_LOG_2PI = float(np.log(2.0 * np.pi))
+
+
+def default_markov(n: int, stay: float = 0.99) -> np.ndarray:
+    """Model-switching matrix for n filters: ``stay`` on the diagonal, the rest spread evenly (W20 Table 4.3's
+    diagonal)."""
+    if n == 1:
+        return np.ones((1, 1))
+    rho = np.full((n, n), (1.0 - stay) / (n - 1))
+    np.fill_diagonal(rho, stay)
+    return rho
+
+
+class _Bank:
+    """The filters of the UAVs ``idx`` that share one model: ``x`` (n, d), ``P`` (n, d, d)."""
+
+    def __init__(self, model: MotionModel, idx: np.ndarray, P0: np.ndarray, x0_hidden: np.ndarray):
+        self.model, self.idx = model, idx
+        self.P0, self.x0_hidden = P0, x0_hidden
+        self.x = np.zeros((len(idx), model.dim))
+        self.P = np.broadcast_to(P0, (len(idx), model.dim, model.dim)).copy()
+
+
+class MultiModelEstimator:
+    """W20's multi-model distributed EKF for the target labelled ``label``.
+
+    ``models``: one motion model per UAV (any assignment); ``measurement``: a model of
+    :mod:`swarmtrack.estimation.measurements`; ``fusion`` one of :data:`FUSIONS`; ``occlusion`` one of
+    :data:`OCCLUSION_POLICIES`; ``window`` the T-test's n; ``markov`` the (N, N) switching matrix of the IMM kinds
+    (rows sum to 1); ``P0`` per model name, (d, d); ``x0_hidden`` per model name, the initial states after
+    ``[x, y]`` (zeros, CT's ω0 = 1e-5).
+    """
+
+    def __init__(self, models: list[MotionModel], measurement, *, label: int = 0, fusion_rule: str = "ttest",
+                 occlusion: str = "last", window: int = 10, solo_steps: int = 100, markov: np.ndarray | None = None,
+                 P0: dict[str, np.ndarray], x0_hidden: dict[str, np.ndarray] | None = None):
+        if fusion_rule not in FUSIONS:
+            raise ValueError(f"unknown fusion {fusion_rule!r}; expected one of {FUSIONS}")
+        if occlusion not in OCCLUSION_POLICIES:
+            raise ValueError(f"unknown occlusion policy {occlusion!r}; expected one of {OCCLUSION_POLICIES}")
+        n = len(models)
+        self.n, self.label, self.measurement = n, label, measurement
+        self.fusion, self.occlusion, self.window, self.solo_steps = fusion_rule, occlusion, window, solo_steps
+        self.model_names = [m.name for m in models]
+        self.rho = default_markov(n) if markov is None else np.asarray(markov, dtype=float)
+        x0_hidden = x0_hidden or {}
+        self._banks = []
+        for name in dict.fromkeys(self.model_names):
+            idx = np.flatnonzero([m == name for m in self.model_names])
+            model = models[idx[0]]
+            hidden = np.asarray(x0_hidden.get(name, np.zeros(model.dim - 2)), dtype=float)
+            self._banks.append(_Bank(model, idx, np.asarray(P0[name], dtype=float), hidden))
+        self._k = 0
+        self.initialised = np.zeros(n, dtype=bool)
+        self._x_pos = np.zeros((n, 2))  # each filter's predicted position, where measurements are linearised
+        self._windows = np.full((n, window + 1), np.nan)  # eq. 4.24 sums n + 1 residuals
+        self._loglik = np.full(n, np.nan)
+        self._nis = np.full(n, np.nan)
+        self._measured = np.zeros(n, dtype=bool)
+        self._detected = np.zeros(n)
+        self._mu = np.full((n, n), 1.0 / n)  # UAV i's probabilities of the team's n filters
+        self._winner = np.full(n, -1)
+        self.switches = np.zeros(n, dtype=np.int64)
+        self.out_x = np.full((n, COMMON), np.nan)
+        self.out_P = np.full((n, COMMON, COMMON), np.nan)
+        self._own = None
+        self.probes = (Probe("estimate", (COMMON,)), Probe("covariance", (COMMON, COMMON)),
+                       Probe("own_estimate", (COMMON,)), Probe("detected", ()), Probe("measured", ()),
+                       Probe("nis", ()), Probe("winner", ()), Probe("switches", ()))
+        if fusion_rule in ("imm-thesis", "imm"):
+            self.probes += (Probe("probability", (n,)),)
+
+    # --- the steps the engine drives -------------------------------------------------------------------------
+    def share(self, t: float, nav: np.ndarray, own) -> dict:
+        """Predict every filter (W20 eqs. 4.7-4.9) and broadcast this UAV's raw measurement and pose data (after the
+        first ``solo_steps`` steps; before, nobody shares)."""
+        self._k += 1
+        for bank in self._banks:
+            bank.x, bank.P = ekf_predict(bank.model, bank.x, bank.P)
+            self._x_pos[bank.idx] = bank.x[:, :2]
+        self._own = self.measurement.payload(own, self.label)
+        self._detected = self._own["seen"].astype(float)
+        if self._sharing:
+            return self._own
+        return {**self._own, "seen": np.zeros(self.n, dtype=bool)}
+
+    @property
+    def _sharing(self) -> bool:
+        return self._k > self.solo_steps
+
+    def fuse(self, t: float, own, inbox) -> None:
+        """Stack own and delivered measurements and update (W20 eqs. 4.3-4.4, 4.10-4.13); start filters that have
+        none from their first measurement (Table 4.1)."""
+        mine, got = self._own, inbox.payloads
+        recv, send = inbox.edges()
+        keep = got["seen"][send]
+        recv, send = recv[keep], send[keep]
+        own_rows = np.flatnonzero(mine["seen"])
+        has = np.zeros(self.n, dtype=bool)
+        has[own_rows] = True
+        has[recv] = True
+        fresh = has & ~self.initialised
+        if fresh.any():
+            self._start(fresh, mine, own_rows, got, recv, send)
+        upd = has & ~fresh
+        self._loglik[:] = np.nan
+        self._nis[:] = np.nan
+        self._measured = upd
+        if upd.any():
+            self._update(upd, mine, own_rows, got, recv, send, t)
+
+    def _start(self, fresh, mine, own_rows, got, recv, send) -> None:
+        """``x̂0 = [h⁻¹(z0); 0]``, ``P0`` from each fresh filter's first measurement, its own before a neighbour's."""
+        pos = np.full((self.n, 2), np.nan)
+        nb = fresh[recv]
+        first = np.unique(recv[nb], return_index=True)  # lowest-index sender of each receiver
+        pos[first[0]] = self.measurement.position(got, send[nb][first[1]])
+        mine_fresh = own_rows[fresh[own_rows]]
+        pos[mine_fresh] = self.measurement.position(mine, mine_fresh)
+        for bank in self._banks:
+            rows = np.flatnonzero(fresh[bank.idx])
+            if len(rows):
+                bank.x[rows] = np.concatenate([pos[bank.idx[rows]], np.broadcast_to(
+                    bank.x0_hidden, (len(rows), len(bank.x0_hidden)))], axis=1)
+                bank.P[rows] = bank.P0
+        self.initialised |= fresh
+
+    def _update(self, upd, mine, own_rows, got, recv, send, t) -> None:
+        n = self.n
+        own_rows = own_rows[upd[own_rows]]
+        pick = upd[recv]
+        recv, send = recv[pick], send[pick]
+        parts = [(own_rows, self.measurement.terms(self._x_pos[own_rows], mine, own_rows)),
+                 (recv, self.measurement.terms(self._x_pos[recv], got, send))]
+        I = np.zeros((n, 2, 2))  # Σ Hᵀ R⁻¹ H
+        b = np.zeros((n, 2))  # Σ Hᵀ R⁻¹ ν
+        s = np.zeros(n)  # Σ νᵀ R⁻¹ ν
+        logdet_r = np.zeros(n)
+        count = np.zeros(n)
+        for rows, (nu, H, Rinv, ld) in parts:
+            HtRi = np.swapaxes(H, -1, -2) @ Rinv
+            np.add.at(I, rows, HtRi @ H)
+            np.add.at(b, rows, np.einsum("eab,eb->ea", HtRi, nu))
+            np.add.at(s, rows, np.einsum("ea,eab,eb->e", nu, Rinv, nu))
+            np.add.at(logdet_r, rows, ld)
+            np.add.at(count, rows, 1.0)
+        rows = np.flatnonzero(upd)
+        I, b, s, logdet_r, count = I[rows], b[rows], s[rows], logdet_r[rows], count[rows]
+        # the measurements' sufficient statistic in position space: ν_pos = I⁻¹ b with covariance I⁻¹
+        sol = np.linalg.solve(I, np.concatenate([b[..., None], np.broadcast_to(np.eye(2), I.shape)], axis=-1))
+        nu_pos, R_pos = sol[..., 0], symmetrize(sol[..., 1:])
+        for bank in self._banks:
+            mine_rows = upd[bank.idx]
+            if not mine_rows.any():
+                continue
+            local = np.flatnonzero(mine_rows)
+            at = np.searchsorted(rows, bank.idx[local])
+            x, P = bank.x[local], bank.P[local]
+            S = symmetrize(P[:, :2, :2] + R_pos[at])  # innovation covariance Υ (eq. 4.30), position form
+            K = np.swapaxes(np.linalg.solve(S, P[:, :2, :]), -1, -2)  # eq. 4.10 by a solve
+            nu = nu_pos[at]
+            x_new = x + np.einsum("nab,nb->na", K, nu)  # eq. 4.12
+            A = np.broadcast_to(np.eye(bank.model.dim), P.shape).copy()
+            A[:, :, :2] -= K
+            P_new = symmetrize(A @ P @ np.swapaxes(A, -1, -2) + K @ R_pos[at] @ np.swapaxes(K, -1, -2))  # Joseph
+            self._check(bank, local, x_new, P_new, t)
+            bank.x[local], bank.P[local] = x_new, P_new
+            uav = bank.idx[local]
+            m = 2.0 * count[at]
+            Ia = I[at]
+            self._nis[uav] = np.einsum("na,na->n", nu, np.linalg.solve(S, nu[..., None])[..., 0])
+            # eq. 4.31 for the stacked innovation, from its position-space statistic (see the module docstring)
+            self._loglik[uav] = (fusion.log_gaussian(nu, S) - 0.5 * (s[at] - np.einsum("na,nab,nb->n", nu, Ia, nu))
+                                 + (1.0 - 0.5 * m) * _LOG_2PI - 0.5 * np.linalg.slogdet(Ia)[1] - 0.5 * logdet_r[at])
+            d = x_new[:, :2] - x[:, :2]  # posterior residuals ν⁺ = ν − H δ (eq. 4.28), summed in R⁻¹ weight
+            eps = s[at] - 2.0 * np.einsum("na,na->n", d, b[at]) + np.einsum("na,nab,nb->n", d, Ia, d)
+            w = self._windows
+            w[uav, :-1] = w[uav, 1:]
+            w[uav, -1] = eps / count[at]
+
+    def _check(self, bank: _Bank, local: np.ndarray, x: np.ndarray, P: np.ndarray, t: float) -> None:
+        bad = ~(np.isfinite(x).all(axis=-1) & np.isfinite(P).all(axis=(-1, -2)))
+        if not bad.any():
+            try:
+                np.linalg.cholesky(P)
+                return
+            except np.linalg.LinAlgError:
+                bad = np.linalg.eigvalsh(P)[:, 0] <= 0.0
+        uavs = bank.idx[local[bad]]
+        raise FilterDivergence(uavs, t, f"the {bank.model.name.upper()} filter's covariance is not positive "
+                                        "definite or not finite")
+
+    def publish(self, t: float) -> dict:
+        """Broadcast the posterior on ``[x, y, vx, vy]``, the likelihood and the residual window (W20 Sec. 4.3.4)."""
+        x, P = self._common()
+        if not self._sharing or self.fusion == "none":
+            self.out_x, self.out_P = x, P
+            self._winner = np.where(self.initialised, np.arange(self.n), -1)
+            return {}
+        return {"x": x, "P": P, "loglik": self._loglik.copy(), "measured": self._measured.copy(),
+                "started": self.initialised.copy(), "window": self._windows.copy()}
+
+    def _common(self) -> tuple[np.ndarray, np.ndarray]:
+        x = np.full((self.n, COMMON), np.nan)
+        P = np.full((self.n, COMMON, COMMON), np.nan)
+        for bank in self._banks:
+            ok = self.initialised[bank.idx]
+            x[bank.idx[ok]] = bank.x[ok, :COMMON]
+            P[bank.idx[ok]] = bank.P[ok, :COMMON, :COMMON]
+        return x, P
+
+    def combine(self, t: float, inbox) -> None:
+        """Fuse the candidates each UAV received (itself and the neighbours whose messages arrived) into its output."""
+        got = inbox.payloads
+        n = self.n
+        recv, send = inbox.edges()
+        valid = np.zeros((n, n), dtype=bool)
+        valid[recv, send] = got["started"][send]
+        valid[np.arange(n), np.arange(n)] = self.initialised
+        X = np.broadcast_to(got["x"], (n, n, COMMON))
+        P = np.broadcast_to(got["P"], (n, n, COMMON, COMMON))
+        evidence = valid & got["measured"][None, :]
+        if self.fusion == "ttest":
+            winner = self._select(valid, evidence, got)
+            self._set_output(winner, got["x"], got["P"])
+            return
+        if self.fusion == "ml":
+            live = np.flatnonzero(self.initialised)
+            self.out_x[live], self.out_P[live] = fusion.ml_fuse(X[live], P[live], valid[live], live)
+            self._winner = np.where(self.initialised, np.arange(n), -1)
+            return
+        # IMM: probabilities (eqs. 4.32-4.34), combination (4.35); with mixing, each filter restarts from its mix
+        mu_pred = fusion.imm_predict(self._mu, self.rho)
+        loglik = np.broadcast_to(got["loglik"], (n, n))
+        self._mu = fusion.imm_update(mu_pred, loglik, evidence)
+        live = np.flatnonzero(self.initialised)
+        w = np.where(valid, self._mu, 0.0)
+        self.out_x[live], self.out_P[live] = fusion.moment_combine(w[live], X[live], P[live])
+        self._winner = np.where(self.initialised, np.argmax(w, axis=1), -1)
+        if self.fusion == "imm":
+            self._mix(valid, X, P)
+
+    def _select(self, valid, evidence, got) -> np.ndarray:
+        """T-test winner (eqs. 4.23-4.28); where no candidate measured this step, the occlusion policy (4.38-4.40)."""
+        score = np.broadcast_to(fusion.window_score(got["window"]), valid.shape)
+        winner = fusion.ttest_select(score, valid)
+        occluded = self.initialised & ~evidence.any(axis=1)
+        if occluded.any():
+            rows = np.flatnonzero(occluded)
+            if self.occlusion == "last":
+                last = self._winner[rows]
+                keep = (last >= 0) & valid[rows, np.maximum(last, 0)]
+                winner[rows[keep]] = last[keep]
+            else:
+                Ppos = np.broadcast_to(got["P"][:, :2, :2], (len(rows), self.n, 2, 2))
+                pick = fusion.select_least_trace if self.occlusion == "trace" else fusion.select_least_max_eigenvalue
+                winner[rows] = pick(Ppos, valid[rows])
+        return winner
+
+    def _set_output(self, winner: np.ndarray, x: np.ndarray, P: np.ndarray) -> None:
+        switched = (winner >= 0) & (self._winner >= 0) & (winner != self._winner)
+        self.switches += switched
+        self._winner = winner
+        ok = winner >= 0
+        self.out_x = np.where(ok[:, None], x[np.maximum(winner, 0)], np.nan)
+        self.out_P = np.where(ok[:, None, None], P[np.maximum(winner, 0)], np.nan)
+
+    def _mix(self, valid, X, P) -> None:
+        """Standard IMM interaction: each UAV's filter restarts from the mix of the team's posteriors on the common
+        states, the states its model adds carried by their conditional on them (:func:`fusion.extend_to_model`)."""
+        x0, P0, _ = fusion.imm_mix(self._mu, self.rho, X, P, valid)
+        diag = np.arange(self.n)
+        x0, P0 = x0[diag, diag], P0[diag, diag]  # UAV i mixes for its own filter only
+        for bank in self._banks:
+            rows = np.flatnonzero(self.initialised[bank.idx])
+            if len(rows):
+                uav = bank.idx[rows]
+                bank.x[rows], bank.P[rows] = fusion.extend_to_model(bank.x[rows], bank.P[rows], x0[uav], P0[uav])
+
+    # --- what controllers, the gimbal and the recorder read ------------------------------------------------------
+    def view(self) -> TargetView:
+        """Each UAV's output estimate ``[x, y, vx, vy]`` (NaN before its filter started)."""
+        return TargetView(self.out_x)
+
+    def sample(self) -> dict[str, np.ndarray]:
+        own = self._common()[0]
+        out = {"estimate": self.out_x, "covariance": self.out_P, "own_estimate": own, "detected": self._detected,
+               "measured": self._measured.astype(float), "nis": self._nis, "winner": self._winner + 1.0,
+               "switches": self.switches.astype(float)}
+        if self.fusion in ("imm-thesis", "imm"):
+            out["probability"] = self._mu
+        return out

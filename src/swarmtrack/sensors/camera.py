@@ -1,0 +1,97 @@
+"""Gimballed camera that reports a ground target's *metric* position in its camera frame (W20 Secs. 3.1-3.2, 4.3.1).
+
+W20's UAVs carry a pan-tilt unit that keeps the target centred, and a marker detector that returns the marker's
+metric position in the camera frame (W20 Sec. 3.1.2.4): the measurement is a rigid transform of the target's
+world position, not a pixel projection. With the target on flat ground (``z_w = 0``) the first two camera-frame
+coordinates are an affine function of the target's planar position (W20 eqs. 4.15-4.16):
+
+``z = S (C_c^w p_w + t_c^w) = A p + b``, ``A = C[:2, :2]``, ``b = t[:2]``, ``t = −C c``
+
+with ``C`` the world-to-camera rotation and ``c`` the camera's world position. The camera frame follows the usual
+convention and W20's gimbal: the camera's yaw points it at the aim point (W20 eq. 3.32), its tilt from the nadir
+puts the aim point on the optical axis (the pan-tilt unit of eqs. 3.15, 3.21); camera ``x`` is horizontal to the
+right of the line of sight, camera ``z`` is the optical axis and ``y = z × x`` (down in the image). The gimbal aims
+at the UAV's own latest estimate (its onboard view), so a target that moves faster than the estimate can leave the
+field of view. All functions broadcast over leading batch axes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: W20 Sec. 3.2.2.2: the field of view is 1.2 m x 0.9 m at 1.5 m.
+W20_FOOTPRINT = (1.2, 0.9)
+W20_FOOTPRINT_RANGE = 1.5
+
+
+def rotation(camera_xy: np.ndarray, height: float, aim: np.ndarray) -> np.ndarray:
+    """World-to-camera rotation ``C`` (..., 3, 3) of a camera at ``(x, y, height)`` aimed at the ground point ``aim``.
+
+    Rows are the camera axes in world coordinates: ``x`` right of the line of sight, ``y = z × x``, ``z`` along
+    the optical axis. Yaw ``ψ = atan2(Δy, Δx)`` toward the aim point (W20 eq. 3.32; ``ψ = 0`` when the aim point
+    is straight below, so the image's width then spans the world's y axis), tilt from the nadir
+    ``θ = atan2(‖Δ‖, height)``. The footprint's height lies along the line of sight, its width across it.
+    """
+    d = np.asarray(aim, dtype=float) - np.asarray(camera_xy, dtype=float)
+    psi = np.arctan2(d[..., 1], d[..., 0])
+    theta = np.arctan2(np.hypot(d[..., 0], d[..., 1]), height)
+    cp, sp, ct, st = np.cos(psi), np.sin(psi), np.cos(theta), np.sin(theta)
+    zero = np.zeros_like(cp)
+    right = np.stack([sp, -cp, zero], axis=-1)
+    axis = np.stack([st * cp, st * sp, -ct], axis=-1)  # forward-and-down
+    down = np.cross(axis, right)
+    return np.stack([right, down, axis], axis=-2)
+
+
+def ground_affine(C: np.ndarray, camera_xy: np.ndarray, height: float) -> np.ndarray:
+    """``[A | b]`` (..., 2, 3) with ``z = A p + b`` for a ground point ``p`` (W20 eq. 4.16, ``z_w = 0``)."""
+    c = np.concatenate([np.asarray(camera_xy, dtype=float),
+                        np.full(np.shape(camera_xy)[:-1] + (1,), float(height))], axis=-1)
+    t = -np.einsum("...ab,...b->...a", C, c)
+    return np.concatenate([C[..., :2, :2], t[..., :2, None]], axis=-1)
+
+
+def camera_frame(points: np.ndarray, C: np.ndarray, camera_xy: np.ndarray, height: float) -> np.ndarray:
+    """Camera-frame coordinates (..., 3) of ground points (..., 2) (W20 eq. 4.15 before the projection ``S``)."""
+    xy = np.asarray(points, dtype=float) - camera_xy
+    rel = np.concatenate([xy, np.full(xy.shape[:-1] + (1,), -float(height))], axis=-1)
+    return np.einsum("...ab,...b->...a", C, rel)
+
+
+def in_view(pc: np.ndarray, tan_half: tuple[float, float]) -> np.ndarray:
+    """Whether camera-frame points (..., 3) lie in front of the camera and inside its rectangular field of view,
+    ``|x/z| ≤ tan(half width)``, ``|y/z| ≤ tan(half height)``."""
+    z = pc[..., 2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return (z > 0) & (np.abs(pc[..., 0]) <= tan_half[0] * z) & (np.abs(pc[..., 1]) <= tan_half[1] * z)
+
+
+def invert(frame: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """``h⁻¹``: the ground point (..., 2) whose measurement is ``z`` under ``[A | b]`` (W20 Table 4.1's
+    ``x̂0 = [h⁻¹(z0); 0]``), by solving ``A p = z − b``."""
+    return np.linalg.solve(frame[..., :2], (np.asarray(z, dtype=float) - frame[..., 2])[..., None])[..., 0]
+
+
+def sense(objects: np.ndarray, uavs: np.ndarray, stamped: np.ndarray, height: float, aim: np.ndarray,
+          tan_half: tuple[float, float], sigma: float, noise: np.ndarray, hidden: np.ndarray | None = None):
+    """One sensing step of every UAV's camera toward every labelled object (truth side).
+
+    ``objects`` (M, 2) and ``uavs`` (N, 2) are true positions, ``stamped`` (N, 2) the navigation positions, ``aim``
+    (N, 2) the ground points the gimbals aim at, ``noise`` (N, M, 2) standard normal draws for every pair (drawn
+    whether seen or not, so the draws do not depend on the geometry), ``hidden`` (N, M) pairs an occluder hides.
+    The gimbal angles are set from the UAV's own navigation position, so the true camera pose and the one the UAV
+    stamps on its detection (``frame``, from ``stamped``) differ by the navigation error. An object is detected when
+    it lies in the field of view and is not hidden; its label is its index (a marker the detector reads).
+    Returns the :class:`~swarmtrack.sensors.detections.Detections` and the index of the object each came from.
+    """
+    from swarmtrack.sensors.detections import Detections
+
+    C = rotation(stamped, height, aim)  # (N, 3, 3)
+    pc = camera_frame(objects[None, :, :], C[:, None], uavs[:, None, :], height)  # (N, M, 3), true pose
+    seen = in_view(pc, tan_half)
+    if hidden is not None:
+        seen &= ~hidden
+    owner, source = np.nonzero(seen)
+    z = pc[owner, source, :2] + sigma * noise[owner, source]
+    frame = ground_affine(C, stamped, height)[owner]
+    return Detections(owner, z, stamped[owner], source, len(uavs), frame=frame), source

@@ -7,6 +7,7 @@ folder is staged and moved into place only when complete, and never replaces wha
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 
@@ -92,8 +93,15 @@ def run_cmd(scenario: str, out: Path | None, overwrite: bool, seed: int | None, 
         phases = metrics["consistency"].items()
         click.echo("NEES [x, y, vx, vy] per phase (95 % band of a consistent filter): " + ", ".join(
             f"{ph} {c['nees']:.2f} [{c['band'][0]:.2f}, {c['band'][1]:.2f}]" for ph, c in phases))
+    facts = []
+    if metrics.get("mean_error", {}).get("all") is not None:  # W20 eq. 4.41
+        facts.append(f"mean error {100 * metrics['mean_error']['all']:.2f} cm")
+    if "model_use" in metrics:
+        facts.append(f"{metrics['model_use']['switches']:.0f} model switches per UAV")
     offset = metrics["inter_agent_distance"]["offset"]
-    click.echo(f"spacing offset {'n/a' if offset is None else f'{offset:.3f} m'} | written to {out}")
+    if offset is not None and math.isfinite(offset):
+        facts.append(f"spacing offset {offset:.3f} m")
+    click.echo(" | ".join([*facts, f"written to {out}"]))
     for w in metrics["warnings"]:
         click.echo(f"warning: {w['message']}", err=True)
     if strict and metrics["warnings"]:

@@ -267,7 +267,7 @@ class MultiModelEstimator:
         if self.fusion == "ml":
             live = np.flatnonzero(self.initialised)
             self.out_x[live], self.out_P[live] = fusion.ml_fuse(X[live], P[live], valid[live], live)
-            self._winner = np.where(self.initialised, np.arange(n), -1)
+            self._note(np.where(self.initialised, np.arange(n), -1))
             return
         # IMM: probabilities (eqs. 4.32-4.34), combination (4.35); with mixing, each filter restarts from its mix
         mu_pred = fusion.imm_predict(self._mu, self.rho)
@@ -276,7 +276,7 @@ class MultiModelEstimator:
         live = np.flatnonzero(self.initialised)
         w = np.where(valid, self._mu, 0.0)
         self.out_x[live], self.out_P[live] = fusion.moment_combine(w[live], X[live], P[live])
-        self._winner = np.where(self.initialised, np.argmax(w, axis=1), -1)
+        self._note(np.where(self.initialised, np.argmax(w, axis=1), -1))
         if self.fusion == "imm":
             self._mix(valid, X, P)
 
@@ -297,10 +297,14 @@ class MultiModelEstimator:
                 winner[rows] = pick(Ppos, valid[rows])
         return winner
 
-    def _set_output(self, winner: np.ndarray, x: np.ndarray, P: np.ndarray) -> None:
-        switched = (winner >= 0) & (self._winner >= 0) & (winner != self._winner)
-        self.switches += switched
+    def _note(self, winner: np.ndarray) -> None:
+        """The filter each UAV's output uses now (T-test winner, most probable filter, or its own), and the count
+        of changes (W20 Fig. 4.9)."""
+        self.switches += (winner >= 0) & (self._winner >= 0) & (winner != self._winner)
         self._winner = winner
+
+    def _set_output(self, winner: np.ndarray, x: np.ndarray, P: np.ndarray) -> None:
+        self._note(winner)
         ok = winner >= 0
         self.out_x = np.where(ok[:, None], x[np.maximum(winner, 0)], np.nan)
         self.out_P = np.where(ok[:, None, None], P[np.maximum(winner, 0)], np.nan)

@@ -6,7 +6,8 @@ Goals (issue 2 and the big-swarm work; the goal is printed beside each figure), 
 measured in the same run:
 
 - ``l24-cv`` >= 500x and ``l24-fs`` >= 200x real time in the simulation core (``simulate``), and the whole
-  ``swarmtrack run l24-cv --no-plots`` process >= 100x (no regression is the goal);
+  ``swarmtrack run l24-cv --no-plots`` process >= 100x (no regression is the goal); ``w20-switching`` (W20's
+  multi-model distributed EKF, 30 Hz) >= 200x real time in the simulation core;
 - 1,000 UAVs (proximity topology, CV information filter, tailored flocking, hovering target, 5 s):
   >= 300 estimation steps/s;
 - ``--large`` only: 10,000 UAVs, same set-up at the same density (spawn half-width 60 * sqrt(10) ~ 190 m,
@@ -208,7 +209,7 @@ def steps_in_process(overrides: list[str]) -> tuple[float, str]:
 
 def measure(large: bool, repeat: int, progress) -> list[Figure]:
     figs = []
-    for name, goal in (("l24-cv", 500), ("l24-fs", 200)):
+    for name, goal in (("l24-cv", 500), ("l24-fs", 200), ("w20-switching", 200)):
         res = {}
         for kernels in ("auto", "numpy"):
             progress(f"{name} simulation core, kernels={kernels}")

@@ -208,10 +208,16 @@ class MultiModelEstimator:
             uav = bank.idx[local]
             m = 2.0 * count[at]
             Ia = I[at]
-            self._nis[uav] = np.einsum("na,na->n", nu, np.linalg.solve(S, nu[..., None])[..., 0])
+            # ν_posᵀ S⁻¹ ν_pos and det S in closed form (2 x 2): the NIS and log N(ν_pos; 0, S)
+            s00, s01, s11 = S[:, 0, 0], S[:, 0, 1], S[:, 1, 1]
+            det_s = s00 * s11 - s01 * s01
+            quad = (nu[:, 0] ** 2 * s11 - 2.0 * nu[:, 0] * nu[:, 1] * s01 + nu[:, 1] ** 2 * s00) / det_s
+            self._nis[uav] = quad
+            det_i = Ia[:, 0, 0] * Ia[:, 1, 1] - Ia[:, 0, 1] * Ia[:, 1, 0]
             # eq. 4.31 for the stacked innovation, from its position-space statistic (see the module docstring)
-            self._loglik[uav] = (fusion.log_gaussian(nu, S) - 0.5 * (s[at] - np.einsum("na,nab,nb->n", nu, Ia, nu))
-                                 + (1.0 - 0.5 * m) * _LOG_2PI - 0.5 * np.linalg.slogdet(Ia)[1] - 0.5 * logdet_r[at])
+            self._loglik[uav] = (-0.5 * quad - 0.5 * np.log(det_s) - _LOG_2PI
+                                 - 0.5 * (s[at] - np.einsum("na,nab,nb->n", nu, Ia, nu))
+                                 + (1.0 - 0.5 * m) * _LOG_2PI - 0.5 * np.log(det_i) - 0.5 * logdet_r[at])
             d = x_new[:, :2] - x[:, :2]  # posterior residuals ν⁺ = ν − H δ (eq. 4.28), summed in R⁻¹ weight
             eps = s[at] - 2.0 * np.einsum("na,na->n", d, b[at]) + np.einsum("na,nab,nb->n", d, Ia, d)
             w = self._windows

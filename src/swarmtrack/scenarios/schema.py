@@ -488,6 +488,61 @@ class MultiModelSpec(EstimatorSpec):
             raise ValueError(f"estimator.markov is {len(self.markov)} x {len(self.markov)}; the swarm has {n} UAVs")
 
 
+class IMMSpec(EstimatorSpec):
+    """A bank of information filters per UAV, one per model, combined by an IMM with mixing through the common block
+    [x, y, vx, vy] (L24's future work; swarmtrack.estimation.imm). Other keys as in the information estimator."""
+
+    kind: Literal["imm"] = "imm"
+    share: Literal["information", "measurements"] = Field("information", description=(
+        "information: one I_j, i_j per UAV, linearised at its combined prediction; measurements: z_j and pose, "
+        "each model linearises at its own prediction"))
+    models: list[Literal["cv", "ct", "fs"]] = Field(["cv", "ct", "fs"], min_length=1, description=(
+        "the bank every UAV runs, one information filter per model"))
+    markov: list[list[float]] | None = Field(None, description=(
+        "M x M model-switching matrix over models (rows sum to 1); default 0.98 on the diagonal, the rest even"))
+    q: list[list[float] | None] | None = Field(None, description=(
+        "diagonal of Q per model (null: that model's default, L24 Sec. 4)"))
+    initial_information: Gain = Field(1e-6, gt=0, description="εI, the near-zero initial information (at most 1e6)")
+    fake_vz_sigma: Speed = Field(0.05, gt=0, description="FS member: std of the fake vz = 0 measurement, m/s")
+    target: int = Field(1, ge=1, description="which member of the targets group the filters follow (1-based)")
+
+    @field_validator("models", mode="before")
+    @classmethod
+    def _comma_list(cls, v):
+        return [m.strip() for m in v.split(",")] if isinstance(v, str) else v
+
+    @field_validator("markov")
+    @classmethod
+    def _markov_over_models(cls, v, info: ValidationInfo):
+        m = len(info.data.get("models") or [])
+        if v is not None:
+            MultiModelSpec._stochastic(v)
+            if m and len(v) != m:
+                raise ValueError(f"is {len(v)} x {len(v)}; models lists {m} model(s)")
+        return v
+
+    @field_validator("q")
+    @classmethod
+    def _q_per_model(cls, v, info: ValidationInfo):
+        models = info.data.get("models")
+        if v is not None and models is not None:
+            if len(v) != len(models):
+                raise ValueError(f"has {len(v)} entries; models lists {len(models)} model(s)")
+            from swarmtrack.models import make_model
+
+            for name, q in zip(models, v, strict=True):
+                if q is not None:
+                    make_model(name, 0.05, q)  # length and positivity, its ValueError names the model
+        return v
+
+    def followed_target(self) -> int | None:
+        return self.target
+
+    def check(self, scenario: Scenario) -> None:
+        if scenario.sensor.kind != "range_bearing":
+            raise ValueError(f"estimator.kind imm needs a range_bearing sensor, not {scenario.sensor.kind!r}")
+
+
 class StaticSpec(ControllerSpec):
     """UAVs hold their initial positions (W20 Sec. 4.6.1: hung from the ceiling, estimation decoupled from
     flight)."""
@@ -526,7 +581,7 @@ class FlockingSpec(ControllerSpec):
 #: are registered beside them (:func:`swarmtrack.sim.build.register`), so a new capability adds an entry here,
 #: not a branch in the engine.
 ESTIMATOR_KINDS: dict[str, type[EstimatorSpec]] = {"information": InformationSpec, "centralized": CentralizedSpec,
-                                                  "multimodel": MultiModelSpec}
+                                                  "multimodel": MultiModelSpec, "imm": IMMSpec}
 CONTROLLER_KINDS: dict[str, type[ControllerSpec]] = {"flocking": FlockingSpec, "static": StaticSpec}
 SENSOR_KINDS: dict[str, type[SensorSpec]] = {"range_bearing": RangeBearingSpec, "camera": CameraSpec}
 

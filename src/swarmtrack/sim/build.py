@@ -15,6 +15,7 @@ import numpy as np
 
 from swarmtrack.control.flocking import FlockingController, FlockingGains
 from swarmtrack.control.static import StaticController
+from swarmtrack.estimation.imm import IMMInformationEstimator
 from swarmtrack.estimation.information import InformationEstimator, RangeBearingUpdate
 from swarmtrack.estimation.measurements import CameraFrameMeasurement, RangeBearingMeasurement
 from swarmtrack.estimation.multimodel import MultiModelEstimator
@@ -31,6 +32,7 @@ from swarmtrack.scenarios.schema import (
     FilterSpec,
     FlockingSpec,
     GroupSpec,
+    IMMSpec,
     MultiModelSpec,
     RangeBearingSpec,
     Scenario,
@@ -63,6 +65,16 @@ def _information(spec: FilterSpec, ctx: Context) -> InformationEstimator:
         ctx.n_uavs, label=ctx.label_of("targets", spec.target - 1), share=spec.share,
         centralized=spec.kind == "centralized", initial_info=spec.initial_information,
         fake_vz_sigma=spec.fake_vz_sigma, compiled=ctx.compiled)
+
+
+def _imm(spec: IMMSpec, ctx: Context) -> IMMInformationEstimator:
+    s = ctx.scenario.sensor
+    qs = spec.q or [None] * len(spec.models)
+    return IMMInformationEstimator(
+        [make_model(m, ctx.dt_estimation, q) for m, q in zip(spec.models, qs, strict=True)],
+        RangeBearingUpdate(s.sigma_range, s.sigma_bearing, s.update), ctx.n_uavs,
+        label=ctx.label_of("targets", spec.target - 1), share=spec.share, markov=spec.markov,
+        initial_info=spec.initial_information, fake_vz_sigma=spec.fake_vz_sigma)
 
 
 #: W20 Table 4.1: x̂0 = [h⁻¹(z0); 0], with CT's turn rate ω0 = 1e-5 rad/s.
@@ -98,7 +110,7 @@ def _flocking(spec: FlockingSpec, ctx: Context) -> FlockingController:
 
 #: ``kind`` → builder ``(settings, Context) -> Estimator``.
 ESTIMATORS: dict[str, Callable] = {"information": _information, "centralized": _information,
-                                   "multimodel": _multimodel}
+                                   "multimodel": _multimodel, "imm": _imm}
 #: ``kind`` → builder ``(settings, Context) -> Controller``.
 CONTROLLERS: dict[str, Callable] = {"flocking": _flocking, "static": lambda spec, ctx: StaticController(ctx.n_uavs)}
 

@@ -40,6 +40,20 @@ from swarmtrack.estimation.information import symmetrize
 _LOG_2PI = float(np.log(2.0 * np.pi))
 
 
+#: The states every target model shares, first in each: ``[x, y, vx, vy]``; fusion across models works on them.
+COMMON = 4
+
+
+def default_markov(n: int, stay: float) -> np.ndarray:
+    """A switching matrix over ``n`` models or filters: ``stay`` on the diagonal, the rest of each row spread evenly
+    over the others (rows sum to 1)."""
+    if n == 1:
+        return np.ones((1, 1))
+    rho = np.full((n, n), (1.0 - stay) / (n - 1))
+    np.fill_diagonal(rho, stay)
+    return rho
+
+
 def _swap(A: np.ndarray) -> np.ndarray:
     return np.swapaxes(A, -1, -2)
 

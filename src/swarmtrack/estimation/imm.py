@@ -50,24 +50,17 @@ from swarmtrack.estimation.information import (
 from swarmtrack.models.base import MotionModel
 from swarmtrack.sensors.range_bearing import to_position
 
-COMMON = 4  #: the states every model shares, [x, y, vx, vy]
-
-
-def default_markov(m: int, stay: float = 0.98) -> np.ndarray:
-    """``stay`` on the diagonal, the rest of each row spread evenly over the other models."""
-    if m == 1:
-        return np.ones((1, 1))
-    rho = np.full((m, m), (1.0 - stay) / (m - 1))
-    np.fill_diagonal(rho, stay)
-    return rho
+COMMON = fusion.COMMON
+#: The probability that the target keeps its motion model from one step to the next (chosen: 0.98).
+STAY = 0.98
 
 
 class IMMInformationEstimator:
     """A bank of information filters per UAV, one per model in ``models``, combined by an IMM (module docstring).
 
     ``markov`` (M, M): ``markov[i, j]`` is the probability of switching from model i to model j (rows sum to 1);
-    default :func:`default_markov`. ``share``, ``initial_info`` and ``fake_vz_sigma`` as in
-    :class:`~swarmtrack.estimation.information.InformationEstimator`.
+    default: ``STAY`` on the diagonal (:func:`fusion.default_markov`). ``share``, ``initial_info`` and
+    ``fake_vz_sigma`` as in :class:`~swarmtrack.estimation.information.InformationEstimator`.
     """
 
     def __init__(self, models: list[MotionModel], update: RangeBearingUpdate, n_uavs: int, *, label: int = 0,
@@ -78,7 +71,7 @@ class IMMInformationEstimator:
         M = len(models)
         if M < 1:
             raise ValueError("an IMM needs at least one model")
-        rho = default_markov(M) if markov is None else np.asarray(markov, dtype=float)
+        rho = fusion.default_markov(M, STAY) if markov is None else np.asarray(markov, dtype=float)
         if rho.shape != (M, M) or not np.isfinite(rho).all() or (rho < 0).any() \
                 or not np.allclose(rho.sum(axis=1), 1.0, atol=1e-9):
             raise ValueError(f"markov must be {M} x {M}, non-negative, with rows summing to 1; got {rho.tolist()}")

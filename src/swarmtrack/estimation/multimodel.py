@@ -37,18 +37,10 @@ from swarmtrack.models.base import MotionModel
 
 FUSIONS = ("ttest", "imm-thesis", "imm", "ml", "none")
 OCCLUSION_POLICIES = ("last", "trace", "eigenvalue")
-COMMON = 4  #: the states every model shares, [x, y, vx, vy]
+COMMON = fusion.COMMON
 _LOG_2PI = float(np.log(2.0 * np.pi))
-
-
-def default_markov(n: int, stay: float = 0.99) -> np.ndarray:
-    """Model-switching matrix for n filters: ``stay`` on the diagonal, the rest spread evenly (W20 Table 4.3's
-    diagonal)."""
-    if n == 1:
-        return np.ones((1, 1))
-    rho = np.full((n, n), (1.0 - stay) / (n - 1))
-    np.fill_diagonal(rho, stay)
-    return rho
+#: W20 Table 4.3's diagonal: the probability that a filter stays the best.
+W20_STAY = 0.99
 
 
 class _Bank:
@@ -82,7 +74,7 @@ class MultiModelEstimator:
         self.n, self.label, self.measurement = n, label, measurement
         self.fusion, self.occlusion, self.window, self.solo_steps = fusion_rule, occlusion, window, solo_steps
         self.model_names = [m.name for m in models]
-        self.rho = default_markov(n) if markov is None else np.asarray(markov, dtype=float)
+        self.rho = fusion.default_markov(n, W20_STAY) if markov is None else np.asarray(markov, dtype=float)
         x0_hidden = x0_hidden or {}
         self._banks = []
         for name in dict.fromkeys(self.model_names):

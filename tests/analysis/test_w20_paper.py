@@ -76,9 +76,10 @@ def test_the_tables_hold_the_thesis_numbers_beside_ours():
         assert f"| {cm} |" in md
     assert "1.00 ± 0.00" in md  # the mixed team, 1.0 cm in every seed (to 0.1 %)
     assert f"Fig. 4.9 counts {w20.TRANSITIONS}" in md and "40.0 ± 0.0" in md
-    assert "n/a (weighted output)" in md  # the IMM kinds count no output switches
+    assert "n/a (weighted output)" in md and "n/a (covariance fusion of all)" in md  # no output switches
     ttest = next(c for c in claims if c.id == "w20-ttest-lowest")
-    assert ttest.paper == {"T-test": 0.183, "max-likelihood": 0.194, "IMM-DEKF (thesis, no mixing)": 0.199}
+    assert ttest.paper == pytest.approx({"T-test": 18.3, "max-likelihood": 19.4, "IMM-DEKF (thesis, no mixing)": 19.9})
+    assert ttest.project["T-test"] == pytest.approx(2.0, rel=0.01)  # cm
     assert numbers["mean_error_occluded"]["w20-occlusion"]["ci95"][0] < 0.1 < \
         numbers["mean_error_occluded"]["w20-occlusion"]["ci95"][1] + 1e-3
 

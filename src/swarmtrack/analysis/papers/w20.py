@@ -35,7 +35,10 @@ TRANSITIONS = 36
 CLOSE = 0.05
 
 EXPERIMENTS = (*TEAMS, *FUSION, *OCCLUSION)
-_IMM = ("w20-evasive-imm-thesis", "w20-evasive-imm")  # weighted outputs: no output-model switches are counted
+#: outputs that combine the filters rather than pick one: no output-model switches are counted (and ML's winner
+#: probe is always the UAV's own filter, the start of its fusion, so its shares say nothing either)
+_COMBINED = {"w20-evasive-imm-thesis": "n/a (weighted output)", "w20-evasive-imm": "n/a (weighted output)",
+             "w20-evasive-ml": "n/a (covariance fusion of all)"}
 
 
 def _per_seed(runs: list[dict], key: str = "all") -> dict[int, float]:
@@ -88,9 +91,10 @@ def _claim(cid: str, text: str, paper, means: dict[str, float | None], labels: d
     ok, n = _seeds_holding(per, names, test)
     fractions[cid] = {"holds": ok, "seeds": n, "fraction": ok / n if n else None}
     defined = all(means[k] is not None for k in names)
-    project = {labels[k]: means[k] for k in names}
+    project = {labels[k]: None if means[k] is None else 100 * means[k] for k in names}
     project["seeds where it holds"] = f"{ok}/{n}"
-    return Claim(cid, text, paper, project, defined and bool(test(means)))
+    paper = {k: 100 * v for k, v in paper.items()}
+    return Claim(cid, f"{text}; mean errors in cm", paper, project, defined and bool(test(means)))
 
 
 def analyse(by_scenario: dict[str, list[dict]]) -> tuple[list[Claim], str, dict]:
@@ -160,19 +164,21 @@ def analyse(by_scenario: dict[str, list[dict]]) -> tuple[list[Claim], str, dict]
         runs = [r for r in converged(by_scenario[name]) if "model_use" in r]
         shares = [r["model_use"]["share"] for r in runs if len(r["model_use"]["share"])]
         use[name] = {"share": np.mean(shares, axis=0).tolist() if shares else None,
-                     "switches": None if name in _IMM else _summary([r["model_use"]["switches"] for r in runs]),
+                     "switches": None if name in _COMBINED else _summary([r["model_use"]["switches"] for r in runs]),
                      "occluded_steps": _summary([r["mean_error"]["occluded_steps"] for r in runs
                                                  if "mean_error" in r])}
     use_rows = []
     for name in EXPERIMENTS:
         u, sw = use[name], use[name]["switches"]
-        share = " / ".join(f"{100 * s:.0f}" for s in u["share"]) if u["share"] else "—"
-        switches = ("n/a (weighted output)" if sw is None else
+        share = ("—" if not u["share"] or name == "w20-evasive-ml" else
+                 " / ".join(f"{100 * s:.0f}" for s in u["share"]))
+        switches = (_COMBINED[name] if sw is None else
                     "—" if sw["mean"] is None else f"{sw['mean']:.1f} ± {sw['std']:.1f}")
         occ_steps = u["occluded_steps"]["mean"]
         use_rows.append([f"`{name}`", share, switches, "—" if occ_steps is None else f"{occ_steps:.0f}"])
-    md += ["", f"### Model use: share of outputs that used UAV 1's / 2's / 3's filter (%), output-model switches per "
-           f"UAV (Fig. 4.9 counts {TRANSITIONS} on the evasive path), steps with no detection", "",
+    md += ["", "### Model use: share of outputs that used UAV 1's / 2's / 3's filter (%; the most probable one for "
+           f"the IMM kinds), output-model switches per UAV (Fig. 4.9 counts {TRANSITIONS} on the evasive path), "
+           "steps with no detection", "",
            markdown_table(["scenario", "share (%)", "switches per UAV", "occluded steps"], use_rows)]
     numbers = {"mean_error": stat, "mean_error_occluded": stat_occ, "model_use": use, "seeds_holding": fractions,
                "thesis": {"table_4_2": {v[0]: v[1] for v in TEAMS.values()},

@@ -10,6 +10,9 @@ GOOD = {"w20-switching": 0.010, "w20-switching-cv": 0.012, "w20-switching-ca": 0
         "w20-evasive": 0.020, "w20-evasive-ml": 0.022, "w20-evasive-imm-thesis": 0.024, "w20-evasive-imm": 0.021,
         "w20-occlusion": 0.0300, "w20-occlusion-trace": 0.0302, "w20-occlusion-eigenvalue": 0.0304}
 GOOD_OCCLUDED = {"w20-occlusion": 0.10, "w20-occlusion-trace": 0.12, "w20-occlusion-eigenvalue": 0.13}
+# total RMSE [x, y, vx, vy] of the information-form IMM and the single-model L24 runs, the IMM best in each
+GOOD_RMSE = {"l24-imm": [0.142, 0.184, 0.090, 0.130], "l24-cv": [0.143, 0.186, 0.224, 0.274],
+             "l24-ct": [0.143, 0.185, 0.095, 0.134], "l24-fs": [0.143, 0.185, 0.244, 0.236]}
 
 
 def metrics(all_: float, occluded: float | None = None, switches: float = 40.0) -> dict:
@@ -17,12 +20,17 @@ def metrics(all_: float, occluded: float | None = None, switches: float = 40.0) 
             "model_use": {"share": [0.2, 0.3, 0.5], "switches": switches}}
 
 
-def by_scenario(seeds: int = 3, change: dict | None = None, change_occluded: dict | None = None) -> dict:
+def by_scenario(seeds: int = 3, change: dict | None = None, change_occluded: dict | None = None,
+                change_rmse: dict | None = None) -> dict:
     """Every seed has the GOOD numbers (times 1 + 0.001 * seed), with ``change`` overriding some experiments."""
     values = {**GOOD, **(change or {})}
     occluded = {**GOOD_OCCLUDED, **(change_occluded or {})}
-    return {name: [metrics(values[name] * (1 + 0.001 * s), occluded.get(name)) for s in range(seeds)]
-            for name in w20.EXPERIMENTS}
+    out = {name: [metrics(values[name] * (1 + 0.001 * s), occluded.get(name)) for s in range(seeds)]
+           for name in w20.EXPERIMENTS if name not in GOOD_RMSE}
+    for name, rmse in {**GOOD_RMSE, **(change_rmse or {})}.items():
+        out[name] = [{**metrics(0.1), "rmse": {"total": dict(zip(("x", "y", "vx", "vy"), rmse, strict=True))}}
+                     for _ in range(seeds)]
+    return out
 
 
 def verdicts(data: dict) -> dict[str, bool]:
@@ -31,7 +39,7 @@ def verdicts(data: dict) -> dict[str, bool]:
 
 
 IDS = ["w20-mixed-team-best", "w20-ttest-lowest", "w20-ml-beats-imm", "w20-last-model-best-occluded",
-       "w20-policies-close-overall"]
+       "w20-policies-close-overall", "l24-imm-no-worse"]
 
 
 def test_every_claim_holds_on_favourable_numbers():
@@ -52,6 +60,14 @@ def test_every_claim_holds_on_favourable_numbers():
 def test_each_claim_flips_with_its_numbers(change, change_occluded, broken):
     got = verdicts(by_scenario(change=change, change_occluded=change_occluded))
     assert {k for k, v in got.items() if not v} == broken
+
+
+@pytest.mark.parametrize("component", [0, 1, 2, 3])
+def test_the_information_imm_claim_fails_when_one_component_is_worse_than_a_single_model(component):
+    worse = list(GOOD_RMSE["l24-imm"])
+    worse[component] = GOOD_RMSE["l24-ct"][component] + 0.001
+    got = verdicts(by_scenario(change_rmse={"l24-imm": worse}))
+    assert {k for k, v in got.items() if not v} == {"l24-imm-no-worse"}
 
 
 def test_the_standard_imm_extra_is_not_part_of_the_ttest_claim():
@@ -92,7 +108,7 @@ def test_a_claim_without_any_occlusion_does_not_hold():
 
 def test_the_paper_is_registered_with_builtin_scenarios():
     paper = PAPERS["w20-estimation"]
-    assert paper is w20.PAPER and len(paper.experiments) == 11
+    assert paper is w20.PAPER and len(paper.experiments) == 15  # 11 W20 experiments, the IMM and its 3 peers
     assert set(paper.experiments) <= set(builtin_names())
 
 

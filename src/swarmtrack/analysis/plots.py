@@ -361,10 +361,12 @@ RUN_FIGURES = (
 
 
 def save_run_figures(rec: Recording, out_dir: str | Path) -> list[Path]:
-    """Write every single-run figure into ``out_dir`` (created if needed); return their paths."""
+    """Write every single-run figure into ``out_dir`` (created if needed), and the figures of the probes the run
+    recorded (:data:`PROBE_FIGURES`); return their paths."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    return [fn(rec, out_dir / name) for name, fn in RUN_FIGURES]
+    figures = [*RUN_FIGURES, *((name, fn) for probe, name, fn in PROBE_FIGURES if probe in rec.meta["probes"])]
+    return [fn(rec, out_dir / name) for name, fn in figures]
 
 
 # --------------------------------------------------------------------------------------------- W20 Ch. 4
@@ -569,3 +571,10 @@ def plot_occlusion_errors(results: Mapping[str, Recording], path: str | Path) ->
 
 __all__ += ["plot_w20_path", "plot_w20_xy_time", "plot_model_selection", "plot_model_probabilities",
             "plot_covariance_trace", "plot_occlusion_errors"]
+
+
+#: Figures a single run gets when it recorded the probe they read: ``(probe, file name, function)``.
+PROBE_FIGURES = (("own_estimate", "model_estimates_path.png", plot_w20_path),
+                 ("own_estimate", "model_estimates.png", plot_w20_xy_time),
+                 ("winner", "model_selection.png", plot_model_selection),
+                 ("probability", "model_probabilities.png", plot_model_probabilities))

@@ -186,3 +186,30 @@ def test_divergence_names_the_uav_its_model_and_the_time():
     est._banks[1].P[0] = -np.eye(6)
     with pytest.raises(FilterDivergence, match=r"t = 2\.00 s on UAV 2: the CA filter"):
         _step(est, _detections([0.0, 0.0]), FULL, t=2.0)
+
+
+@pytest.mark.parametrize("fusion", ["ttest", "imm"])
+def test_the_compiled_update_equals_the_numpy_reference(fusion):
+    """multimodel_kernels.stacked_update gives the numpy reference's numbers (to rounding)."""
+    rng = np.random.default_rng(7)
+    ref, fast = _estimator(fusion=fusion, solo=5), _estimator(fusion=fusion, solo=5, compiled=True)
+    for k in range(60):
+        target = [0.4 * np.sin(0.5 * k * DT), 0.2 * k * DT]
+        det = _detections(target, seen=(True, k % 3 > 0, True), rng=rng)
+        _step(ref, det, FULL, t=k * DT)
+        _step(fast, det, FULL, t=k * DT)
+        for a, b in zip(ref._banks, fast._banks, strict=True):
+            np.testing.assert_allclose(b.x, a.x, rtol=1e-10, atol=1e-13)
+            np.testing.assert_allclose(b.P, a.P, rtol=1e-8, atol=1e-16)
+        np.testing.assert_allclose(fast._loglik, ref._loglik, rtol=1e-9)
+        np.testing.assert_allclose(fast._nis, ref._nis, rtol=1e-8, atol=1e-12)
+        np.testing.assert_allclose(fast._windows, ref._windows, rtol=1e-6, atol=1e-12)
+    np.testing.assert_array_equal(fast._winner, ref._winner)
+
+
+def test_the_compiled_update_names_a_diverged_filter_too():
+    est = _estimator(compiled=True)
+    _step(est, _detections([0.0, 0.0]), FULL)
+    est._banks[2].P[0] = -np.eye(5)
+    with pytest.raises(FilterDivergence, match=r"UAV 3: the CT filter"):
+        _step(est, _detections([0.0, 0.0]), FULL, t=1.0)

@@ -43,6 +43,16 @@ _LOG_2PI = float(np.log(2.0 * np.pi))
 W20_STAY = 0.99
 
 
+def _positive_definite(P: np.ndarray) -> np.ndarray:
+    """(n,) whether each covariance is finite and positive definite (a Cholesky factor exists)."""
+    good = np.isfinite(P).all(axis=(-1, -2))
+    try:
+        np.linalg.cholesky(np.where(good[:, None, None], P, np.eye(P.shape[-1])))
+        return good
+    except np.linalg.LinAlgError:
+        return good & (np.linalg.eigvalsh(np.where(good[:, None, None], P, np.eye(P.shape[-1])))[:, 0] > 0.0)
+
+
 class _Bank:
     """The filters of the UAVs ``idx`` that share one model: ``x`` (n, d), ``P`` (n, d, d)."""
 
@@ -60,12 +70,13 @@ class MultiModelEstimator:
     :mod:`swarmtrack.estimation.measurements`; ``fusion`` one of :data:`FUSIONS`; ``occlusion`` one of
     :data:`OCCLUSION_POLICIES`; ``window`` the T-test's n; ``markov`` the (N, N) switching matrix of the IMM kinds
     (rows sum to 1); ``P0`` per model name, (d, d); ``x0_hidden`` per model name, the initial states after
-    ``[x, y]`` (zeros, CT's ω0 = 1e-5).
+    ``[x, y]`` (zeros, CT's ω0 = 1e-5); ``compiled``: the numba stacked update
+    (:mod:`swarmtrack.estimation.multimodel_kernels`) instead of its numpy reference.
     """
 
     def __init__(self, models: list[MotionModel], measurement, *, label: int = 0, fusion_rule: str = "ttest",
                  occlusion: str = "last", window: int = 10, solo_steps: int = 100, markov: np.ndarray | None = None,
-                 P0: dict[str, np.ndarray], x0_hidden: dict[str, np.ndarray] | None = None):
+                 P0: dict[str, np.ndarray], x0_hidden: dict[str, np.ndarray] | None = None, compiled: bool = False):
         if fusion_rule not in FUSIONS:
             raise ValueError(f"unknown fusion {fusion_rule!r}; expected one of {FUSIONS}")
         if occlusion not in OCCLUSION_POLICIES:
@@ -74,6 +85,7 @@ class MultiModelEstimator:
         self.n, self.label, self.measurement = n, label, measurement
         self.fusion, self.occlusion, self.window, self.solo_steps = fusion_rule, occlusion, window, solo_steps
         self.model_names = [m.name for m in models]
+        self.compiled = compiled  # the numba stacked update (multimodel_kernels), same numbers as the numpy one
         self.rho = fusion.default_markov(n, W20_STAY) if markov is None else np.asarray(markov, dtype=float)
         x0_hidden = x0_hidden or {}
         self._banks = []
@@ -182,51 +194,58 @@ class MultiModelEstimator:
         sol = np.linalg.solve(I, np.concatenate([b[..., None], np.broadcast_to(np.eye(2), I.shape)], axis=-1))
         nu_pos, R_pos = sol[..., 0], symmetrize(sol[..., 1:])
         for bank in self._banks:
-            mine_rows = upd[bank.idx]
-            if not mine_rows.any():
+            local = np.flatnonzero(upd[bank.idx])
+            if not len(local):
                 continue
-            local = np.flatnonzero(mine_rows)
             at = np.searchsorted(rows, bank.idx[local])
-            x, P = bank.x[local], bank.P[local]
-            S = symmetrize(P[:, :2, :2] + R_pos[at])  # innovation covariance Υ (eq. 4.30), position form
-            K = np.swapaxes(np.linalg.solve(S, P[:, :2, :]), -1, -2)  # eq. 4.10 by a solve
-            nu = nu_pos[at]
-            x_new = x + np.einsum("nab,nb->na", K, nu)  # eq. 4.12
-            A = np.broadcast_to(np.eye(bank.model.dim), P.shape).copy()
-            A[:, :, :2] -= K
-            P_new = symmetrize(A @ P @ np.swapaxes(A, -1, -2) + K @ R_pos[at] @ np.swapaxes(K, -1, -2))  # Joseph
-            self._check(bank, local, x_new, P_new, t)
-            bank.x[local], bank.P[local] = x_new, P_new
+            update = self._compiled_update if self.compiled else self._bank_update
+            loglik, nis, eps = update(bank, local, at, nu_pos, R_pos, I, b, s, logdet_r, count, t)
             uav = bank.idx[local]
-            m = 2.0 * count[at]
-            Ia = I[at]
-            # ν_posᵀ S⁻¹ ν_pos and det S in closed form (2 x 2): the NIS and log N(ν_pos; 0, S)
-            s00, s01, s11 = S[:, 0, 0], S[:, 0, 1], S[:, 1, 1]
-            det_s = s00 * s11 - s01 * s01
-            quad = (nu[:, 0] ** 2 * s11 - 2.0 * nu[:, 0] * nu[:, 1] * s01 + nu[:, 1] ** 2 * s00) / det_s
-            self._nis[uav] = quad
-            det_i = Ia[:, 0, 0] * Ia[:, 1, 1] - Ia[:, 0, 1] * Ia[:, 1, 0]
-            # eq. 4.31 for the stacked innovation, from its position-space statistic (see the module docstring)
-            self._loglik[uav] = (-0.5 * quad - 0.5 * np.log(det_s) - _LOG_2PI
-                                 - 0.5 * (s[at] - np.einsum("na,nab,nb->n", nu, Ia, nu))
-                                 + (1.0 - 0.5 * m) * _LOG_2PI - 0.5 * np.log(det_i) - 0.5 * logdet_r[at])
-            d = x_new[:, :2] - x[:, :2]  # posterior residuals ν⁺ = ν − H δ (eq. 4.28), summed in R⁻¹ weight
-            eps = s[at] - 2.0 * np.einsum("na,na->n", d, b[at]) + np.einsum("na,nab,nb->n", d, Ia, d)
+            self._loglik[uav], self._nis[uav] = loglik, nis
             w = self._windows
             w[uav, :-1] = w[uav, 1:]
-            w[uav, -1] = eps / count[at]
+            w[uav, -1] = eps
 
-    def _check(self, bank: _Bank, local: np.ndarray, x: np.ndarray, P: np.ndarray, t: float) -> None:
-        bad = ~(np.isfinite(x).all(axis=-1) & np.isfinite(P).all(axis=(-1, -2)))
-        if not bad.any():
-            try:
-                np.linalg.cholesky(P)
-                return
-            except np.linalg.LinAlgError:
-                bad = np.linalg.eigvalsh(P)[:, 0] <= 0.0
-        uavs = bank.idx[local[bad]]
-        raise FilterDivergence(uavs, t, f"the {bank.model.name.upper()} filter's covariance is not positive "
-                                        "definite or not finite")
+    def _bank_update(self, bank, local, at, nu_pos, R_pos, I, b, s, logdet_r, count, t):
+        """Update the filters ``local`` of ``bank`` from their rows ``at`` of the position-space statistic (the
+        numpy reference of :func:`~swarmtrack.estimation.multimodel_kernels.stacked_update`). Returns the stacked
+        log-likelihood (eq. 4.31), the NIS and the per-measurement posterior residual (eq. 4.28) of each."""
+        x, P = bank.x[local], bank.P[local]
+        R_pos, nu, Ia = R_pos[at], nu_pos[at], I[at]
+        S = symmetrize(P[:, :2, :2] + R_pos)  # innovation covariance Υ (eq. 4.30), position form
+        K = np.swapaxes(np.linalg.solve(S, P[:, :2, :]), -1, -2)  # eq. 4.10 by a solve
+        x_new = x + np.einsum("nab,nb->na", K, nu)  # eq. 4.12
+        A = np.broadcast_to(np.eye(bank.model.dim), P.shape).copy()
+        A[:, :, :2] -= K
+        P_new = symmetrize(A @ P @ np.swapaxes(A, -1, -2) + K @ R_pos @ np.swapaxes(K, -1, -2))  # Joseph form
+        self._check(bank, local, np.isfinite(x_new).all(axis=-1) & _positive_definite(P_new), t)
+        bank.x[local], bank.P[local] = x_new, P_new
+        # ν_posᵀ S⁻¹ ν_pos and det S in closed form (2 x 2): the NIS and log N(ν_pos; 0, S)
+        s00, s01, s11 = S[:, 0, 0], S[:, 0, 1], S[:, 1, 1]
+        det_s = s00 * s11 - s01 * s01
+        quad = (nu[:, 0] ** 2 * s11 - 2.0 * nu[:, 0] * nu[:, 1] * s01 + nu[:, 1] ** 2 * s00) / det_s
+        det_i = Ia[:, 0, 0] * Ia[:, 1, 1] - Ia[:, 0, 1] * Ia[:, 1, 0]
+        m = 2.0 * count[at]
+        # eq. 4.31 for the stacked innovation, from its position-space statistic (see the module docstring)
+        loglik = (-0.5 * quad - 0.5 * np.log(det_s) - _LOG_2PI - 0.5 * (s[at] - np.einsum("na,nab,nb->n", nu, Ia, nu))
+                  + (1.0 - 0.5 * m) * _LOG_2PI - 0.5 * np.log(det_i) - 0.5 * logdet_r[at])
+        d = x_new[:, :2] - x[:, :2]  # posterior residuals ν⁺ = ν − H δ (eq. 4.28), summed in R⁻¹ weight
+        eps = s[at] - 2.0 * np.einsum("na,na->n", d, b[at]) + np.einsum("na,nab,nb->n", d, Ia, d)
+        return loglik, quad, eps / count[at]
+
+    def _compiled_update(self, bank, local, at, nu_pos, R_pos, I, b, s, logdet_r, count, t):
+        from swarmtrack.estimation.multimodel_kernels import stacked_update
+
+        loglik, nis, eps, ok = stacked_update(bank.x, bank.P, local, at, nu_pos, R_pos, I, b, s, logdet_r, count)
+        self._check(bank, local, ok & np.isfinite(bank.x[local]).all(axis=-1), t)
+        return loglik, nis, eps
+
+    def _check(self, bank: _Bank, local: np.ndarray, ok: np.ndarray, t: float) -> None:
+        """Raise :class:`FilterDivergence` naming the UAVs, the model and the time where ``ok`` is False."""
+        if ok.all():
+            return
+        raise FilterDivergence(bank.idx[local[~ok]], t, f"the {bank.model.name.upper()} filter's covariance is not "
+                                                        "positive definite or not finite")
 
     def publish(self, t: float) -> dict:
         """Broadcast the posterior on ``[x, y, vx, vy]``, the likelihood and the residual window (W20 Sec. 4.3.4)."""

@@ -36,11 +36,11 @@ def rotation(camera_xy: np.ndarray, height: float, aim: np.ndarray) -> np.ndarra
     psi = np.arctan2(d[..., 1], d[..., 0])
     theta = np.arctan2(np.hypot(d[..., 0], d[..., 1]), height)
     cp, sp, ct, st = np.cos(psi), np.sin(psi), np.cos(theta), np.sin(theta)
-    zero = np.zeros_like(cp)
-    right = np.stack([sp, -cp, zero], axis=-1)
-    axis = np.stack([st * cp, st * sp, -ct], axis=-1)  # forward-and-down
-    down = np.cross(axis, right)
-    return np.stack([right, down, axis], axis=-2)
+    C = np.empty(cp.shape + (3, 3))
+    C[..., 0, 0], C[..., 0, 1], C[..., 0, 2] = sp, -cp, 0.0  # right of the line of sight
+    C[..., 1, 0], C[..., 1, 1], C[..., 1, 2] = -ct * cp, -ct * sp, -st  # axis × right
+    C[..., 2, 0], C[..., 2, 1], C[..., 2, 2] = st * cp, st * sp, -ct  # the optical axis, forward and down
+    return C
 
 
 def ground_affine(C: np.ndarray, camera_xy: np.ndarray, height: float) -> np.ndarray:

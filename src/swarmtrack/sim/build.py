@@ -95,7 +95,7 @@ def _multimodel(spec: MultiModelSpec, ctx: Context) -> MultiModelEstimator:
         models, measurement, label=ctx.label_of("targets", spec.target - 1), fusion_rule=spec.fusion,
         occlusion=spec.occlusion, window=spec.window, solo_steps=spec.solo_steps, markov=spec.markov,
         P0={m: np.diag(diag(m, spec.p0, spec.p0_turn_rate)) for m in set(spec.models)},
-        x0_hidden={m: np.asarray(W20_HIDDEN_START[m]) for m in set(spec.models)})
+        x0_hidden={m: np.asarray(W20_HIDDEN_START[m]) for m in set(spec.models)}, compiled=ctx.compiled)
 
 
 def flocking_gains(spec: FlockingSpec, r_comm: float) -> FlockingGains:

@@ -12,6 +12,7 @@ from typing import Annotated, Literal
 from pydantic import (
     AfterValidator,
     BaseModel,
+    BeforeValidator,
     ConfigDict,
     Field,
     SerializeAsAny,
@@ -93,6 +94,14 @@ Rate = Annotated[float, _at_most(MAX_RATE, "Hz")]
 Gain = Annotated[float, _at_most(MAX_GAIN, "")]
 
 Position = tuple[Length, Length]
+
+
+def _split_commas(v):
+    """``"cv,ca,ct"`` (handy with ``--set``) as ``["cv", "ca", "ct"]``; anything else unchanged."""
+    return [m.strip() for m in v.split(",")] if isinstance(v, str) else v
+
+
+_COMMA_LIST = BeforeValidator(_split_commas)
 Velocity = tuple[Speed, Speed]
 
 
@@ -431,7 +440,7 @@ class MultiModelSpec(EstimatorSpec):
     read in centimetre units (see docs/multi-model.md)."""
 
     kind: Literal["multimodel"] = "multimodel"
-    models: list[Literal["cv", "ca", "ct"]] = Field(["cv", "ca", "ct"], description=(
+    models: Annotated[list[Literal["cv", "ca", "ct"]], _COMMA_LIST] = Field(["cv", "ca", "ct"], description=(
         "one target model per UAV, in UAV order (W20 Table 4.1: cv, ca, ct); also 'cv,ca,ct'"))
     fusion: Literal["ttest", "imm-thesis", "imm", "ml", "none"] = Field("ttest", description=(
         "ttest: T-test selection (eqs. 4.23-4.28); imm-thesis: IMM weighting without mixing (4.29-4.35); imm: "
@@ -453,11 +462,6 @@ class MultiModelSpec(EstimatorSpec):
     markov: list[list[float]] | None = Field(None, description=(
         "IMM switching matrix, one row and column per UAV (rows sum to 1); default 0.99 on the diagonal"))
     target: int = Field(1, ge=1, description="which member of the targets group the filters follow (1-based)")
-
-    @field_validator("models", mode="before")
-    @classmethod
-    def _comma_list(cls, v):
-        return [m.strip() for m in v.split(",")] if isinstance(v, str) else v
 
     @field_validator("markov")
     @classmethod
@@ -496,8 +500,8 @@ class IMMSpec(EstimatorSpec):
     share: Literal["information", "measurements"] = Field("information", description=(
         "information: one I_j, i_j per UAV, linearised at its combined prediction; measurements: z_j and pose, "
         "each model linearises at its own prediction"))
-    models: list[Literal["cv", "ct", "fs"]] = Field(["cv", "ct", "fs"], min_length=1, description=(
-        "the bank every UAV runs, one information filter per model"))
+    models: Annotated[list[Literal["cv", "ct", "fs"]], _COMMA_LIST] = Field(
+        ["cv", "ct", "fs"], min_length=1, description="the bank every UAV runs, one information filter per model")
     markov: list[list[float]] | None = Field(None, description=(
         "M x M model-switching matrix over models (rows sum to 1); default 0.98 on the diagonal, the rest even"))
     q: list[list[float] | None] | None = Field(None, description=(
@@ -505,11 +509,6 @@ class IMMSpec(EstimatorSpec):
     initial_information: Gain = Field(1e-6, gt=0, description="εI, the near-zero initial information (at most 1e6)")
     fake_vz_sigma: Speed = Field(0.05, gt=0, description="FS member: std of the fake vz = 0 measurement, m/s")
     target: int = Field(1, ge=1, description="which member of the targets group the filters follow (1-based)")
-
-    @field_validator("models", mode="before")
-    @classmethod
-    def _comma_list(cls, v):
-        return [m.strip() for m in v.split(",")] if isinstance(v, str) else v
 
     @field_validator("markov")
     @classmethod

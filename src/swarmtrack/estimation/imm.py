@@ -125,11 +125,7 @@ class IMMInformationEstimator:
             i = self._own["info_vector"] + inbox.sum("info_vector")
         else:
             got = inbox.payloads
-            recv, send = inbox.edges()
-            recv = np.concatenate([np.arange(self.n), recv])  # own measurement first
-            send = np.concatenate([np.arange(self.n), send])
-            keep = got["seen"][send]
-            recv, send = recv[keep], send[keep]
+            recv, send = inbox.heard()  # own measurement first
         M = len(self.models)
         loglik = np.full((self.n, M), np.nan)
         for m, (model, (Y, y, x_pred, P_pos)) in enumerate(zip(self.models, self._pred, strict=True)):

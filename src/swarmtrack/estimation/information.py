@@ -252,11 +252,7 @@ class InformationEstimator:
         """Raw measurements: each UAV linearises its own and every delivered measurement at its own prediction
         and sums their information (per link, then per receiver)."""
         got = inbox.payloads
-        recv, send = inbox.edges()
-        recv = np.concatenate([np.arange(self.n), recv])  # own measurement first
-        send = np.concatenate([np.arange(self.n), send])
-        keep = got["seen"][send]
-        recv, send = recv[keep], send[keep]
+        recv, send = inbox.heard()  # own measurement first
         Ipair, ipair = self.update_rule.contributions(self._x_pred[recv, :2], got["sensor_pos"][send],
                                                       got["z"][send])
         I = np.zeros((self.n, 2, 2))

@@ -29,3 +29,12 @@ class Inbox:
     def edges(self) -> tuple[np.ndarray, np.ndarray]:
         """``(receivers, senders)`` of every link that carried a message, receiver-major."""
         return edge_list(self.links)
+
+    def heard(self, seen: str = "seen") -> tuple[np.ndarray, np.ndarray]:
+        """``(receivers, senders)`` of every payload a UAV has this step whose flag ``seen`` is set: its own first
+        (``i, i`` for every UAV, as if it had sent to itself), then what its links delivered, receiver-major."""
+        recv, send = self.edges()
+        own = np.arange(len(self.payloads[seen]))
+        recv, send = np.concatenate([own, recv]), np.concatenate([own, send])
+        keep = self.payloads[seen][send]
+        return recv[keep], send[keep]

@@ -279,3 +279,53 @@ def test_divergence_flags():
     assert np.flatnonzero(f2).tolist() == [2] and f2[2] == POSTERIOR_NOT_PD and np.isnan(P2[2]).all()
     *_, f3 = cv_information_cycle(Ybad, yn, DT, qd, np.zeros((N, 2, 2)), np.zeros((N, 2)))
     assert np.flatnonzero(f3).tolist() == [2]
+
+
+def test_fs_cycle_matches_the_reference_over_60_cycles():
+    """The compiled FS cycle (12 states, nonlinear f, fake vz = 0 measurement; covariance form) equals the
+    information-form reference predict → add_position_information → the fake vz → recover, one cycle from the
+    reference's state each time."""
+    from swarmtrack.estimation.kernels import fs_cycle
+
+    model = make_model("fs", DT)
+    qd = np.ascontiguousarray(np.diag(model.Q))
+    w_vz = 1.0 / 0.05**2
+    rng = np.random.default_rng(5)
+    n = 40
+    x = model.initial_state() + np.zeros((n, 12))
+    x[:, :4] = rng.normal(0.0, 1.0, (n, 4))
+    x[:, 5:7] = rng.normal(0.0, 0.05, (n, 2))
+    A = rng.standard_normal((n, 12, 12))
+    P = 0.01 * A @ np.swapaxes(A, -1, -2) + np.diag(np.r_[0.1 * np.ones(4), 0.01 * np.ones(8)])
+    for _ in range(60):
+        Yp, yp, xp = predict(model, x, P)
+        I = np.broadcast_to(np.diag([400.0, 300.0]), (n, 2, 2)).copy()
+        i = np.einsum("nab,nb->na", I, xp[:, :2] + rng.normal(0.0, 0.05, (n, 2)))
+        Yn, yn = add_position_information(Yp, yp, I, i)
+        Yn[:, 4, 4] += w_vz
+        xn, Pn = recover(Yn, yn)
+        x1, P1 = x.copy(), P.copy()
+        assert not fs_cycle(x1, P1, DT, qd, I, i, model.mass, model.Ixx, model.Iyy, model.g, w_vz).any()
+        np.testing.assert_allclose(x1, xn, rtol=1e-8, atol=1e-10)
+        np.testing.assert_allclose(P1, Pn, rtol=1e-7, atol=1e-12)
+        x, P = xn, Pn
+
+
+def test_fs_cycle_flags_a_covariance_that_is_not_positive_definite():
+    from swarmtrack.estimation.kernels import PREDICT_NOT_PD, fs_cycle
+
+    model = make_model("fs", DT)
+    x = model.initial_state()[None].copy()
+    P = -np.eye(12)[None].copy()
+    flags = fs_cycle(x, P, DT, np.ascontiguousarray(np.diag(model.Q)), np.zeros((1, 2, 2)),
+                     np.zeros((1, 2)), model.mass, model.Ixx, model.Iyy, model.g, 0.0)
+    assert flags[0] == PREDICT_NOT_PD and np.isnan(x).all()
+
+
+def test_the_compiled_fs_estimator_equals_the_numpy_one_in_the_loop():
+    from swarmtrack.scenarios import load_scenario
+    from swarmtrack.sim.engine import simulate
+
+    runs = {k: simulate(load_scenario("l24-fs", [f"kernels={k}", "duration=15"], seed=2)) for k in ("auto", "numpy")}
+    np.testing.assert_allclose(np.asarray(runs["auto"].estimate), np.asarray(runs["numpy"].estimate),
+                               rtol=1e-7, atol=1e-9)

@@ -17,6 +17,8 @@ from swarmtrack.models.base import MotionModel
 from swarmtrack.sensors.range_bearing import polar_model, position_covariance, to_position, wrap_angle
 
 UPDATES = ("position", "polar")
+#: Models with a compiled cycle in :mod:`swarmtrack.estimation.kernels` (with the ``position`` update).
+COMPILED_MODELS = ("cv", "fs")
 
 
 class FilterDivergence(RuntimeError):
@@ -144,8 +146,8 @@ class InformationEstimator:
 
     ``share: information``: each UAV broadcasts its own contribution ``I_i, i_i`` (L24 eq. 6) and adds what its
     links deliver (eq. 7). ``share: measurements``: each UAV broadcasts its raw measurement and the position it
-    was taken from, and linearises every received one at its own prediction. ``compiled``: the numba CV kernels
-    (:mod:`swarmtrack.estimation.kernels`, same numbers as the numpy reference) for the CV model with the
+    was taken from, and linearises every received one at its own prediction. ``compiled``: the numba kernels
+    (:mod:`swarmtrack.estimation.kernels`, same numbers as the numpy reference) for the CV and FS models with the
     position update.
     """
 
@@ -157,7 +159,7 @@ class InformationEstimator:
         n_filters = 1 if centralized else n_uavs
         Y, y = initial_information(model, n_filters, initial_info)
         self.x, self.P = recover(Y, y)
-        self.compiled = compiled and model.name == "cv" and update.mode == "position" and not centralized
+        self.compiled = compiled and model.name in COMPILED_MODELS and update.mode == "position" and not centralized
         if self.compiled:
             self._Y, self._y, self._q = Y, y, np.ascontiguousarray(np.diag(model.Q))
         self._x_pred = self.x
@@ -168,7 +170,10 @@ class InformationEstimator:
         self._own = None
         self._detected = np.zeros(n_uavs)
         self._nis = np.full(n_uavs, np.nan)
-        self._F2 = model.F[:2] if getattr(model, "linear", False) else None  # the NIS's prediction, linear models
+        # the rows of F that predict the position, for the NIS: constant for the linear models and for FS (whose
+        # position rows are x' = x + dt·vx, y' = y + dt·vy); CT's depend on the state
+        self._F2 = model.F[:2] if getattr(model, "linear", False) else \
+            model.jacobian(model.initial_state())[:2] if model.name == "fs" else None
         self._Q2 = model.Q[:2, :2]
         self.probes = (Probe("estimate", (model.dim,)), Probe("covariance", (model.dim, model.dim)),
                        Probe("detected", ()), Probe("nis", ()))
@@ -237,8 +242,12 @@ class InformationEstimator:
         if self.compiled:
             from swarmtrack.estimation import kernels
 
-            flags = kernels.cv_cycle(self._Y, self._y, self.x, self.P, self.model.dt, self._q,
-                                     np.ascontiguousarray(I), np.ascontiguousarray(i))
+            I, i, m = np.ascontiguousarray(I), np.ascontiguousarray(i), self.model
+            if m.name == "fs":
+                w_vz = 0.0 if self._vz is None else self._vz[1]
+                flags = kernels.fs_cycle(self.x, self.P, m.dt, self._q, I, i, m.mass, m.Ixx, m.Iyy, m.g, w_vz)
+            else:
+                flags = kernels.cv_cycle(self._Y, self._y, self.x, self.P, m.dt, self._q, I, i)
             kernels.check_flags(flags, t)
             return
         Y, y = add_position_information(self._Y_pred, self._y_pred, I, i)

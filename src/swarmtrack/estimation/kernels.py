@@ -411,6 +411,184 @@ def position_nis(z, sensor_pos, x_pred_pos, P, F2, Q2, I):
     return out
 
 
+@numba.njit(cache=True, fastmath=False)
+def fs_cycle(x, P, dt, q, I, i, mass, Ixx, Iyy, g, w_vz):
+    """One full-state (FS) quadrotor filter cycle for N agents, **in place** on ``x, P`` (12 states,
+    :class:`~swarmtrack.models.fs.FullStateQuadrotor`); returns flags (N,) as :func:`cv_cycle`.
+
+    The same cycle as the information-form reference (``predict`` → ``add_position_information`` → the fake
+    ``vz = 0`` measurement → ``recover``), written in covariance form so that no 12 x 12 matrix is inverted:
+
+        x⁻ = f(x),  P⁻ = F P Fᵀ + Q     (F = I + E: E's 14 entries only)
+        M = U Λ Uᵀ,  U = [e_x, e_y, e_vz],  Λ = blockdiag(I, w_vz)     (the added information, rank ≤ 3)
+        P = P⁻ − P⁻ U (I₃ + Λ Uᵀ P⁻ U)⁻¹ Λ Uᵀ P⁻ = (P⁻⁻¹ + M)⁻¹       (Woodbury)
+        x = x⁻ + P (u − M x⁻),  u = [i, 0, …]                         (x = P (Y⁻ x⁻ + u))
+
+    ``I, i`` are linearised at ``cv_predicted_position(x, dt)`` (FS's position rows are CV's). A flag is set when
+    ``P⁻`` or ``P`` is not positive definite (a Cholesky pivot ≤ 0) or not finite; that agent's ``x, P`` are NaN.
+    """
+    n = x.shape[0]
+    d = 12
+    flags = np.zeros(n, np.uint8)
+    G = np.empty((d, d))
+    A = np.empty((d, d))
+    xp = np.empty(d)
+    PU = np.empty((d, 3))
+    W = np.empty((d, 3))
+    C = np.empty((3, 3))
+    D = np.empty((3, 3))
+    M6 = np.empty((3, 6))
+    Lam = np.zeros((3, 3))
+    Ei = np.empty(14, np.int64)
+    Ej = np.empty(14, np.int64)
+    Ev = np.empty(14)
+    L = np.empty((d, d))
+    u_idx = (0, 1, 4)
+    for k in range(n):
+        phi, theta, thrust = x[k, 5], x[k, 6], x[k, 11]
+        sphi, cphi, sth, cth = math.sin(phi), math.cos(phi), math.sin(theta), math.cos(theta)
+        for a in range(d):
+            xp[a] = x[k, a]
+        xp[0] += dt * x[k, 2]
+        xp[1] += dt * x[k, 3]
+        xp[2] += dt * thrust / mass * sth
+        xp[3] -= dt * thrust / mass * sphi * cth
+        xp[4] += dt * (-g + cphi * cth * thrust / mass)
+        xp[5] += dt * x[k, 7]
+        xp[6] += dt * x[k, 8]
+        xp[7] += dt * x[k, 9] / Ixx
+        xp[8] += dt * x[k, 10] / Iyy
+        # E = F − I (models/fs.py: jacobian)
+        Ei[0], Ej[0], Ev[0] = 0, 2, dt
+        Ei[1], Ej[1], Ev[1] = 1, 3, dt
+        Ei[2], Ej[2], Ev[2] = 2, 6, dt * thrust / mass * cth
+        Ei[3], Ej[3], Ev[3] = 2, 11, dt / mass * sth
+        Ei[4], Ej[4], Ev[4] = 3, 5, -dt * thrust / mass * cphi * cth
+        Ei[5], Ej[5], Ev[5] = 3, 6, dt * thrust / mass * sphi * sth
+        Ei[6], Ej[6], Ev[6] = 3, 11, -dt / mass * sphi * cth
+        Ei[7], Ej[7], Ev[7] = 4, 5, -dt * thrust / mass * sphi * cth
+        Ei[8], Ej[8], Ev[8] = 4, 6, -dt * thrust / mass * cphi * sth
+        Ei[9], Ej[9], Ev[9] = 4, 11, dt / mass * cphi * cth
+        Ei[10], Ej[10], Ev[10] = 5, 7, dt
+        Ei[11], Ej[11], Ev[11] = 6, 8, dt
+        Ei[12], Ej[12], Ev[12] = 7, 9, dt / Ixx
+        Ei[13], Ej[13], Ev[13] = 8, 10, dt / Iyy
+        for a in range(d):  # G = F P (symmetric part of P)
+            for b in range(d):
+                G[a, b] = 0.5 * (P[k, a, b] + P[k, b, a])
+        for e in range(14):
+            r, c, v = Ei[e], Ej[e], Ev[e]
+            for b in range(d):
+                G[r, b] += v * 0.5 * (P[k, c, b] + P[k, b, c])
+        for a in range(d):  # A = G Fᵀ
+            for b in range(d):
+                A[a, b] = G[a, b]
+        for e in range(14):
+            r, c, v = Ei[e], Ej[e], Ev[e]
+            for a in range(d):
+                A[a, r] += v * G[a, c]
+        for a in range(d):  # symmetrise, add Q
+            for b in range(a):
+                s_ab = 0.5 * (A[a, b] + A[b, a])
+                A[a, b] = s_ab
+                A[b, a] = s_ab
+            A[a, a] += q[a]
+        if not _cholesky_ok(A, L):
+            flags[k] = _PREDICT
+            _fill_nan(x, P, k)
+            continue
+        # Woodbury with U = [e_x, e_y, e_vz], Λ = blockdiag(I, w_vz)
+        Lam[0, 0] = I[k, 0, 0]
+        Lam[1, 1] = I[k, 1, 1]
+        Lam[0, 1] = Lam[1, 0] = 0.5 * (I[k, 0, 1] + I[k, 1, 0])
+        Lam[2, 2] = w_vz
+        for a in range(d):
+            for c in range(3):
+                PU[a, c] = A[a, u_idx[c]]
+        for r in range(3):  # C = I₃ + Λ Uᵀ P⁻ U
+            for c in range(3):
+                acc = 1.0 if r == c else 0.0
+                for m in range(3):
+                    acc += Lam[r, m] * PU[u_idx[m], c]
+                C[r, c] = acc
+        # D = C⁻¹ Λ (3 x 3) by Gaussian elimination with partial pivoting on [C | Λ]
+        _solve3(C, Lam, M6, D)
+        # innovation in information units: u − M x⁻ on the U coordinates
+        r0 = i[k, 0] - (Lam[0, 0] * xp[0] + Lam[0, 1] * xp[1])
+        r1 = i[k, 1] - (Lam[1, 0] * xp[0] + Lam[1, 1] * xp[1])
+        r2 = -w_vz * xp[4]
+        for a in range(d):  # W = PU D
+            for c in range(3):
+                W[a, c] = PU[a, 0] * D[0, c] + PU[a, 1] * D[1, c] + PU[a, 2] * D[2, c]
+        for a in range(d):  # P = P⁻ − W PUᵀ; x = x⁻ + P U r (r on the U coordinates)
+            for b in range(a + 1):
+                v = A[a, b] - 0.5 * (W[a, 0] * PU[b, 0] + W[a, 1] * PU[b, 1] + W[a, 2] * PU[b, 2]
+                                     + W[b, 0] * PU[a, 0] + W[b, 1] * PU[a, 1] + W[b, 2] * PU[a, 2])
+                P[k, a, b] = v
+                P[k, b, a] = v
+        for a in range(d):
+            x[k, a] = xp[a] + P[k, a, 0] * r0 + P[k, a, 1] * r1 + P[k, a, 4] * r2
+        if not _cholesky_ok(P[k], L):
+            flags[k] = _POSTERIOR
+            _fill_nan(x, P, k)
+    return flags
+
+
+@numba.njit(cache=True, fastmath=False)
+def _cholesky_ok(A, L):
+    """Whether the symmetric ``A`` (lower triangle read) has a Cholesky factor with finite positive pivots."""
+    n = A.shape[0]
+    for j in range(n):
+        for r in range(j, n):
+            acc = A[r, j]
+            for k in range(j):
+                acc -= L[r, k] * L[j, k]
+            if r == j:
+                if not (acc > 0.0 and acc < _INF):
+                    return False
+                L[j, j] = math.sqrt(acc)
+            else:
+                L[r, j] = acc / L[j, j]
+                if not math.isfinite(L[r, j]):
+                    return False
+    return True
+
+
+@numba.njit(cache=True, fastmath=False)
+def _solve3(C, B, M, X):
+    """``X = C⁻¹ B`` for 3 x 3 matrices, Gaussian elimination with partial pivoting (``M`` (3, 6) scratch)."""
+    for r in range(3):
+        for c in range(3):
+            M[r, c] = C[r, c]
+            M[r, 3 + c] = B[r, c]
+    for col in range(3):
+        piv = col
+        for r in range(col + 1, 3):
+            if abs(M[r, col]) > abs(M[piv, col]):
+                piv = r
+        if piv != col:
+            for c in range(6):
+                M[col, c], M[piv, c] = M[piv, c], M[col, c]
+        for r in range(col + 1, 3):
+            f = M[r, col] / M[col, col]
+            for c in range(col, 6):
+                M[r, c] -= f * M[col, c]
+    for c in range(3):
+        for r in range(2, -1, -1):
+            acc = M[r, 3 + c]
+            for m in range(r + 1, 3):
+                acc -= M[r, m] * X[m, c]
+            X[r, c] = acc / M[r, r]
+
+
+@numba.njit(cache=True, fastmath=False)
+def _fill_nan(x, P, k):
+    for a in range(x.shape[1]):
+        x[k, a] = _NAN
+        for b in range(x.shape[1]):
+            P[k, a, b] = _NAN
+
+
 def check_flags(flags, t: float) -> None:
     """Raise the reference's ``FilterDivergence`` naming the agents whose kernel flag is set."""
     flags = np.asarray(flags)
@@ -434,5 +612,6 @@ __all__ = [
     "cv_position_contributions",
     "cv_predicted_position",
     "cv_recover",
+    "fs_cycle",
     "position_nis",
 ]

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import sys
+import time
 from pathlib import Path
 
 import click
@@ -136,6 +137,57 @@ def reproduce_cmd(paper: str, out: Path | None, runs: int, workers: int | None, 
     except (KeyboardInterrupt, Terminated):
         click.echo(f"interrupted; finished runs are kept in {out / 'runs'} and reused next time", err=True)
         sys.exit(130)
+
+
+@main.command("sweep")
+@click.argument("scenario")
+@click.option("--grid", "grid", multiple=True, metavar="KEY=V1,V2,...",
+              help="a scenario key and its values; several --grid give their cross product (repeatable)")
+@click.option("--runs", type=click.IntRange(min=1), default=10, show_default=True, help="seeds per setting")
+@click.option("--workers", type=click.IntRange(min=1), default=None, help="parallel processes (default: cores)")
+@click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), required=True,
+              help="the result store (a folder)")
+@click.option("--resume", is_flag=True, help="run only the runs missing from an existing store")
+@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help="fix a key for every run (repeatable)")
+def sweep_cmd(scenario: str, grid: tuple[str, ...], runs: int, workers: int | None, out: Path, resume: bool,
+              overrides: tuple[str, ...]) -> None:
+    """Run SCENARIO over the cross product of grid values x seeds 1..RUNS, in parallel.
+
+    Each finished run's row (grid values, seed, status, error, wall time, version, metrics) is written to
+    OUT/results at once, so an interrupted sweep loses only the runs in progress; --resume runs only what is
+    missing. A run that fails is stored as failed and the sweep goes on. Read the store with
+    swarmtrack.analysis.sweep.load_results(OUT)."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+    from swarmtrack.analysis.sweep import load_results, parse_grid, sweep
+    from swarmtrack.outputs import Terminated, terminate_as_exception
+
+    try:
+        with terminate_as_exception(), Progress(TextColumn("sweep"), BarColumn(), MofNCompleteColumn(),
+                                                TextColumn("{task.fields[rate]}"), TimeRemainingColumn(),
+                                                transient=True) as progress:
+            task = progress.add_task("sweep", total=None, rate="")
+            start, resumed = time.perf_counter(), []
+
+            def advance(done: int, total: int) -> None:  # the rate counts this session's runs, not resumed ones
+                if not resumed:
+                    resumed.append(done)
+                fresh, wall = done - resumed[0], time.perf_counter() - start
+                progress.update(task, completed=done, total=total,
+                                rate=f"{fresh / wall:.2f} runs/s" if fresh and wall > 0 else "")
+
+            sweep(scenario, parse_grid(grid), runs, out, workers=workers, resume=resume, overrides=overrides,
+                  on_done=advance)
+    except ScenarioError as exc:
+        raise UsageFailure(str(exc)) from None
+    except (KeyboardInterrupt, Terminated):
+        click.echo(f"interrupted; finished runs are kept in {out / 'results'}; --resume runs the rest", err=True)
+        sys.exit(130)
+    table = load_results(out)
+    counts = table["status"].value_counts().to_dict() if len(table) else {}
+    click.echo(f"{len(table)} runs in {out}: " + ", ".join(f"{v} {k}" for k, v in sorted(counts.items())))
+    for _, row in table[table["status"] != "ok"].head(10).iterrows():
+        click.echo(f"  seed {row['seed']} {row['status']}: {row['error']}", err=True)
 
 
 @main.command("validate")

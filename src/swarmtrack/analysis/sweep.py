@@ -1,0 +1,179 @@
+"""``swarmtrack sweep``: one scenario over the cross product of grid values × seeds, in parallel, into a result store.
+
+The store is a folder: ``sweep.json`` (what was asked, the store format) and ``results/``, one Parquet file per
+finished run, written the moment the run finishes (to a temporary name, then renamed), so an interrupted sweep
+loses only the runs in progress and ``resume`` runs only what is missing. A run's file is named by the key of what
+determines its result (the resolved scenario and the version, :func:`~swarmtrack.analysis.reproduce.run_key`), so a
+run is never stored twice. A row holds the grid values, the seed, the status (``ok``, ``diverged``, ``failed``), the
+error, the wall time, the version and the run's scalar metrics; ``load_results(DIR)`` reads them as one table.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import multiprocessing
+import os
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+from swarmtrack import outputs
+from swarmtrack.analysis.reproduce import _worker_signals, package_version, run_key
+from swarmtrack.scenarios import Scenario, load_scenario
+from swarmtrack.scenarios.loader import ScenarioError
+
+#: Layout of the store; a store of another format is refused.
+STORE_FORMAT = 1
+
+
+def parse_grid(specs: Sequence[str]) -> dict[str, list[str]]:
+    """``["key=v1,v2", ...]`` as ``{key: [v1, v2]}``; commas inside brackets or braces belong to one value
+    (``estimator.models=[cv,ca,ct],[ct,ct,ct]``)."""
+    grid: dict[str, list[str]] = {}
+    for spec in specs:
+        key, sep, values = spec.partition("=")
+        key = key.strip()
+        if not sep or not key or not values.strip():
+            raise ScenarioError(f"--grid {spec!r}: expected key=value1,value2,...")
+        if key in grid:
+            raise ScenarioError(f"--grid {key}: given twice")
+        grid[key] = _split_top_level(values)
+    return grid
+
+
+def _split_top_level(text: str) -> list[str]:
+    parts, depth, start = [], 0, 0
+    for k, ch in enumerate(text):
+        depth += ch in "[{"
+        depth -= ch in "]}"
+        if ch == "," and depth == 0:
+            parts.append(text[start:k].strip())
+            start = k + 1
+    parts.append(text[start:].strip())
+    if any(not p for p in parts):
+        raise ScenarioError(f"--grid value list {text!r} has an empty value")
+    return parts
+
+
+def settings(grid: dict[str, list[str]]) -> list[dict[str, str]]:
+    """The cross product of the grid's values, in the order given (the last key varies fastest)."""
+    return [dict(zip(grid, values, strict=True)) for values in itertools.product(*grid.values())]
+
+
+def scalars(metrics: dict) -> dict[str, float | None]:
+    """The scalar metrics of one run's summary, flattened (``rmse_total_x``, ``nees``, ``mean_error_all``, ...)."""
+    out: dict[str, float | None] = {}
+    for c, v in metrics.get("rmse", {}).get("total", {}).items():
+        out[f"rmse_total_{c}"] = v
+    out["nees"] = metrics.get("nees")
+    for k in ("all", "occluded"):
+        out[f"mean_error_{k}"] = metrics.get("mean_error", {}).get(k)
+    out["model_switches"] = metrics.get("model_use", {}).get("switches")
+    out["target_distance_mean"] = metrics.get("target_distance", {}).get("mean")
+    out["spacing_offset"] = metrics.get("inter_agent_distance", {}).get("offset")
+    out["warnings"] = float(len(metrics.get("warnings", [])))
+    return {k: (None if v is None else float(v)) for k, v in out.items()}
+
+
+def _run(item: tuple[int, Scenario]) -> tuple[int, dict]:
+    """One job in a worker: its status, error, wall time and metrics; an exception is a failed run, not a stop."""
+    from swarmtrack.estimation.information import FilterDivergence
+    from swarmtrack.sim.engine import simulate
+
+    from .metrics import summary
+
+    k, scenario = item
+    t0 = time.perf_counter()
+    try:
+        row = {"status": "ok", "error": None, **scalars(summary(simulate(scenario)))}
+    except FilterDivergence as exc:
+        row = {"status": "diverged", "error": str(exc)}
+    except Exception as exc:  # noqa: BLE001 - stored with the run, the sweep goes on
+        row = {"status": "failed", "error": f"{type(exc).__name__}: {exc}"}
+    row["wall_s"] = time.perf_counter() - t0
+    return k, row
+
+
+def sweep(scenario: str, grid: dict[str, list[str]], runs: int, out: Path, workers: int | None = None,
+          resume: bool = False, overrides: Sequence[str] = (), on_done: Callable[[int, int], None] | None = None
+          ) -> Path:
+    """Run every grid setting × seeds 1..``runs`` of ``scenario`` not yet in the store ``out``; return the store.
+
+    Every job is resolved (and so validated: an unknown key, a value of the wrong type) before any runs. An
+    existing store is refused unless ``resume``; a store of another format always."""
+    version = package_version()
+    jobs = []
+    for setting in settings(grid):
+        sets = [*overrides, *(f"{k}={v}" for k, v in setting.items())]
+        for seed in range(1, runs + 1):
+            try:
+                resolved = load_scenario(scenario, sets, seed=seed)
+            except ScenarioError as exc:
+                raise ScenarioError(f"setting {setting}: {exc}") from None
+            jobs.append((setting, seed, resolved, run_key(resolved, version)))
+    manifest = out / "sweep.json"
+    store = out / "results"
+    if manifest.exists():
+        try:
+            fmt = json.loads(manifest.read_text()).get("format")
+        except (OSError, ValueError, AttributeError):
+            fmt = None
+        if fmt != STORE_FORMAT:
+            raise ScenarioError(f"{out}: a result store of format {fmt!r}, this swarmtrack writes format "
+                                f"{STORE_FORMAT}; use another --out")
+        if not resume:
+            raise ScenarioError(f"{out} holds a sweep already; add --resume to run only what is missing, or use "
+                                "another --out")
+    elif out.exists() and any(out.iterdir()):
+        raise ScenarioError(f"{out} exists and is not a sweep's result store; use another --out")
+    store.mkdir(parents=True, exist_ok=True)
+    if not manifest.exists():
+        outputs.write_together({manifest: outputs.dump_json(
+            {"format": STORE_FORMAT, "scenario": scenario, "grid": grid, "runs": runs, "overrides": list(overrides),
+             "written_by": outputs.version()})})
+    todo = [job for job in jobs if not (store / f"{job[3][:24]}.parquet").exists()]
+    done = len(jobs) - len(todo)
+    if on_done:
+        on_done(done, len(jobs))
+
+    def keep(job, row: dict) -> None:
+        nonlocal done
+        setting, seed, _, key = job
+        _write_row(store / f"{key[:24]}.parquet",
+                   {**{f"param.{k}": v for k, v in setting.items()}, "seed": seed, **row, "version": version,
+                    "key": key})
+        done += 1
+        if on_done:
+            on_done(done, len(jobs))
+
+    if workers == 1 or len(todo) <= 1:
+        for k, job in enumerate(todo):
+            keep(job, _run((k, job[2]))[1])
+    else:
+        with multiprocessing.Pool(min(workers or os.cpu_count() or 1, len(todo)), _worker_signals) as pool:
+            for k, row in pool.imap_unordered(_run, [(k, job[2]) for k, job in enumerate(todo)]):
+                keep(todo[k], row)
+    return out
+
+
+def _write_row(path: Path, row: dict) -> None:
+    """One run's row as a Parquet file, written whole or not at all (a temporary name, then a rename)."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pa.table({k: [v] for k, v in row.items()})
+    tmp = path.with_name(f".{path.name}.partial")
+    pq.write_table(table, tmp)
+    tmp.replace(path)
+
+
+def load_results(out: Path):
+    """Every stored run of the sweep in ``out`` as one pandas table (one row per run)."""
+    import pandas as pd
+    import pyarrow.parquet as pq
+
+    files = sorted((Path(out) / "results").glob("*.parquet"))
+    if not files:
+        return pd.DataFrame()
+    return pd.concat([pq.read_table(f).to_pandas() for f in files], ignore_index=True)

@@ -1,0 +1,90 @@
+"""swarmtrack sweep: the cross product x seeds into a per-run Parquet store; resume, failures, bad input."""
+
+import pytest
+from click.testing import CliRunner
+
+from swarmtrack.analysis import sweep as sw
+from swarmtrack.analysis.metrics import summary
+from swarmtrack.cli import main
+from swarmtrack.scenarios import load_scenario
+from swarmtrack.scenarios.loader import ScenarioError
+from swarmtrack.sim.engine import simulate
+
+SHORT = ("duration=4",)
+
+
+def test_grid_values_split_on_top_level_commas_only():
+    grid = sw.parse_grid(["network.topology=line,full", "estimator.models=[cv,ca,ct],[ct,ct,ct]"])
+    assert grid == {"network.topology": ["line", "full"], "estimator.models": ["[cv,ca,ct]", "[ct,ct,ct]"]}
+    assert len(sw.settings(grid)) == 4
+    for bad in (["network.topology"], ["network.topology=line,,full"], ["a=1", "a=2"], ["=1"]):
+        with pytest.raises(ScenarioError):
+            sw.parse_grid(bad)
+
+
+def test_every_setting_and_seed_is_stored_once_with_the_metrics_of_its_run(tmp_path):
+    grid = {"network.topology": ["line", "full"]}
+    sw.sweep("l24-cv", grid, 2, tmp_path / "s", workers=1, overrides=SHORT)
+    table = sw.load_results(tmp_path / "s").sort_values(["param.network.topology", "seed"])
+    assert len(table) == 4 and set(table["status"]) == {"ok"}
+    row = table[(table["param.network.topology"] == "full") & (table["seed"] == 2)].iloc[0]
+    alone = summary(simulate(load_scenario("l24-cv", [*SHORT, "network.topology=full"], seed=2)))
+    assert row["rmse_total_x"] == alone["rmse"]["total"]["x"]  # the same run, bit for bit
+    assert row["version"] and row["wall_s"] > 0
+
+
+def test_resume_runs_only_what_is_missing_and_never_twice(tmp_path):
+    out = tmp_path / "s"
+    sw.sweep("l24-cv", {"network.topology": ["line"]}, 2, out, workers=1, overrides=SHORT)
+    before = {p.name: p.stat().st_mtime_ns for p in (out / "results").iterdir()}
+    with pytest.raises(ScenarioError, match="--resume"):
+        sw.sweep("l24-cv", {"network.topology": ["line"]}, 3, out, workers=1, overrides=SHORT)
+    seen = []
+    sw.sweep("l24-cv", {"network.topology": ["line"]}, 3, out, workers=1, overrides=SHORT, resume=True,
+             on_done=lambda done, total: seen.append((done, total)))
+    assert seen == [(2, 3), (3, 3)]  # two found, one run
+    after = {p.name: p.stat().st_mtime_ns for p in (out / "results").iterdir()}
+    assert len(after) == 3 and all(after[k] == v for k, v in before.items())  # finished rows untouched
+    assert len(sw.load_results(out)) == 3
+
+
+def test_a_run_that_raises_is_stored_as_failed_and_the_sweep_goes_on(tmp_path, monkeypatch):
+    import swarmtrack.sim.engine as engine
+
+    real = engine.simulate
+
+    def flaky(scenario, *a, **k):
+        if scenario.seed == 2:
+            raise RuntimeError("a broken run")
+        return real(scenario, *a, **k)
+
+    monkeypatch.setattr(engine, "simulate", flaky)
+    sw.sweep("l24-cv", {"network.topology": ["line"]}, 3, tmp_path / "s", workers=1, overrides=SHORT)
+    table = sw.load_results(tmp_path / "s").set_index("seed")
+    assert table.loc[2, "status"] == "failed" and "a broken run" in table.loc[2, "error"]
+    assert list(table.loc[[1, 3], "status"]) == ["ok", "ok"]
+
+
+def test_bad_grid_keys_and_values_exit_2_before_anything_is_written(tmp_path):
+    for grid in ("network.topolgy=line", "sensor.latency=abc"):
+        result = CliRunner().invoke(main, ["sweep", "l24-cv", "--grid", grid, "--out", str(tmp_path / "s")])
+        assert result.exit_code == 2, result.output
+        assert grid.split("=")[0] in result.output and "Traceback" not in result.output
+        assert not (tmp_path / "s").exists()
+
+
+def test_a_folder_that_is_not_a_store_is_refused(tmp_path):
+    (tmp_path / "mine.txt").write_text("user data")
+    with pytest.raises(ScenarioError, match="not a sweep"):
+        sw.sweep("l24-cv", {"network.topology": ["line"]}, 1, tmp_path, workers=1, overrides=SHORT)
+    assert (tmp_path / "mine.txt").read_text() == "user data"
+
+
+def test_parallel_workers_give_the_rows_of_one_process(tmp_path):
+    grid = {"sensor.latency": ["0", "0.15"]}
+    sw.sweep("l24-cv", grid, 2, tmp_path / "a", workers=1, overrides=SHORT)
+    sw.sweep("l24-cv", grid, 2, tmp_path / "b", workers=2, overrides=SHORT)
+    cols = ["param.sensor.latency", "seed", "rmse_total_x", "rmse_total_vy", "nees"]
+    a = sw.load_results(tmp_path / "a")[cols].sort_values(cols[:2]).reset_index(drop=True)
+    b = sw.load_results(tmp_path / "b")[cols].sort_values(cols[:2]).reset_index(drop=True)
+    assert a.equals(b)

@@ -190,6 +190,29 @@ def sweep_cmd(scenario: str, grid: tuple[str, ...], runs: int, workers: int | No
         click.echo(f"  seed {row['seed']} {row['status']}: {row['error']}", err=True)
 
 
+@main.command("summarize")
+@click.argument("out", type=click.Path(file_okay=False, path_type=Path))
+@click.option("--no-figures", is_flag=True, help="skip the figures")
+def summarize_cmd(out: Path, no_figures: bool) -> None:
+    """Summarize a sweep's result store OUT: mean ± std and the 95 % interval of each metric per setting (printed,
+    and written to OUT/summary.md and OUT/summary.json together), and each metric against each grid key as figures
+    in OUT/summary/."""
+    from swarmtrack.analysis.sweep import plot_summary, summarize
+    from swarmtrack.outputs import dump_json, write_together
+
+    if not (out / "sweep.json").is_file():
+        raise UsageFailure(f"{out} is not a sweep's result store (no sweep.json)")
+    try:
+        md, numbers = summarize(out)
+    except ScenarioError as exc:
+        raise UsageFailure(str(exc)) from None
+    write_together({out / "summary.md": md + "\n", out / "summary.json": dump_json(numbers)})
+    click.echo(md)
+    if not no_figures:
+        paths = plot_summary(numbers, out / "summary")
+        click.echo(f"{len(paths)} figures in {out / 'summary'}")
+
+
 @main.command("validate")
 @click.argument("scenario")
 @click.option("--seed", type=int, default=None, help="override the scenario's seed")

@@ -88,3 +88,24 @@ def test_parallel_workers_give_the_rows_of_one_process(tmp_path):
     a = sw.load_results(tmp_path / "a")[cols].sort_values(cols[:2]).reset_index(drop=True)
     b = sw.load_results(tmp_path / "b")[cols].sort_values(cols[:2]).reset_index(drop=True)
     assert a.equals(b)
+
+
+def test_summarize_gives_mean_std_and_interval_per_setting_in_the_grid_order(tmp_path):
+    out = tmp_path / "s"
+    sw.sweep("l24-cv", {"sensor.latency": ["0.15", "0"]}, 3, out, workers=1, overrides=SHORT)
+    sw.sweep("l24-cv", {"sensor.latency": ["0.3"]}, 3, out, workers=1, overrides=SHORT, resume=True)
+    md, numbers = sw.summarize(out)
+    assert [e["setting"]["sensor.latency"] for e in numbers["settings"]] == ["0.15", "0", "0.3"]
+    table = sw.load_results(out)
+    x = table[table["param.sensor.latency"] == "0.3"]["rmse_total_x"]
+    got = numbers["settings"][2]["metrics"]["rmse_total_x"]
+    assert got["mean"] == pytest.approx(x.mean()) and got["std"] == pytest.approx(x.std(ddof=1))
+    assert got["ci95"][0] < got["mean"] < got["ci95"][1] and got["n"] == 3
+    assert "| 0.3 | 3/3 |" in md
+    assert len(sw.plot_summary(numbers, tmp_path / "fig")) == len(numbers["metrics"])
+
+
+def test_a_resume_with_another_scenario_is_refused(tmp_path):
+    sw.sweep("l24-cv", {"sensor.latency": ["0"]}, 1, tmp_path / "s", workers=1, overrides=SHORT)
+    with pytest.raises(ScenarioError, match="same scenario"):
+        sw.sweep("l24-ct", {"sensor.latency": ["0"]}, 1, tmp_path / "s", workers=1, overrides=SHORT, resume=True)

@@ -128,10 +128,20 @@ def sweep(scenario: str, grid: dict[str, list[str]], runs: int, out: Path, worke
     elif out.exists() and any(out.iterdir()):
         raise ScenarioError(f"{out} exists and is not a sweep's result store; use another --out")
     store.mkdir(parents=True, exist_ok=True)
-    if not manifest.exists():
-        outputs.write_together({manifest: outputs.dump_json(
-            {"format": STORE_FORMAT, "scenario": scenario, "grid": grid, "runs": runs, "overrides": list(overrides),
-             "written_by": outputs.version()})})
+    asked = {"format": STORE_FORMAT, "scenario": scenario, "grid": grid, "runs": runs,
+             "overrides": list(overrides), "written_by": outputs.version()}
+    if manifest.exists():  # a resumed sweep may widen the grid: keep every value asked for, in the order asked
+        before = json.loads(manifest.read_text())
+        if before.get("scenario") != scenario or before.get("overrides") != list(overrides):
+            raise ScenarioError(f"{out} holds a sweep of {before.get('scenario')!r} with --set "
+                                f"{before.get('overrides')}; resume it with the same scenario and --set, or use "
+                                "another --out")
+        merged = {k: list(v) for k, v in before.get("grid", {}).items()}
+        for k, values in grid.items():
+            merged.setdefault(k, [])
+            merged[k] += [v for v in values if v not in merged[k]]
+        asked.update(grid=merged, runs=max(runs, before.get("runs", 0)))
+    outputs.write_together({manifest: outputs.dump_json(asked)})
     todo = [job for job in jobs if not (store / f"{job[3][:24]}.parquet").exists()]
     done = len(jobs) - len(todo)
     if on_done:
@@ -177,3 +187,83 @@ def load_results(out: Path):
     if not files:
         return pd.DataFrame()
     return pd.concat([pq.read_table(f).to_pandas() for f in files], ignore_index=True)
+
+
+#: The metrics ``summarize`` tabulates first, when a sweep has them.
+HEADLINE = ("rmse_total_x", "rmse_total_y", "rmse_total_vx", "rmse_total_vy", "nees", "mean_error_all",
+            "model_switches", "spacing_offset")
+
+
+def summarize(out: Path) -> tuple[str, dict]:
+    """Mean ± std and the 95 % t-interval of the mean of every headline metric per setting, over the stored runs
+    that finished (``ok``); counts of diverged and failed runs beside. Returns the markdown table and the numbers."""
+    from scipy.stats import t as student
+
+    table = load_results(out)
+    if table.empty:
+        raise ScenarioError(f"{out}: no stored runs (is it a sweep's result store?)")
+    params = [c for c in table.columns if c.startswith("param.")]
+    metrics = [m for m in HEADLINE if m in table.columns and table[m].notna().any()]
+    groups = {(k if isinstance(k, tuple) else (k,)): g for k, g in table.groupby(params)} if params else {(): table}
+    order = {tuple(s.values()): n for n, s in enumerate(settings(json.loads((out / "sweep.json").read_text())["grid"]))}
+    numbers, rows = [], []
+    for key in sorted(groups, key=lambda k: order.get(tuple(k), len(order))):  # the grid's own order
+        runs = groups[key]
+        ok = runs[runs["status"] == "ok"]
+        entry = {"setting": dict(zip((p[6:] for p in params), key, strict=True)), "runs": len(runs),
+                 "ok": len(ok), "diverged": int((runs["status"] == "diverged").sum()),
+                 "failed": int((runs["status"] == "failed").sum()), "metrics": {}}
+        cells = []
+        for m in metrics:
+            v = ok[m].dropna().to_numpy(dtype=float)
+            if len(v) == 0:
+                entry["metrics"][m] = None
+                cells.append("—")
+                continue
+            mean, std = float(v.mean()), float(v.std(ddof=1)) if len(v) > 1 else 0.0
+            half = float(student.ppf(0.975, len(v) - 1) * std / len(v) ** 0.5) if len(v) > 1 else None
+            entry["metrics"][m] = {"mean": mean, "std": std, "n": len(v),
+                                   "ci95": None if half is None else [mean - half, mean + half]}
+            interval = "" if half is None else f" [{mean - half:.4g}, {mean + half:.4g}]"
+            cells.append(f"{mean:.4g} ± {std:.2g}{interval}")
+        numbers.append(entry)
+        rows.append([*(str(k) for k in key), f"{entry['ok']}/{entry['runs']}", *cells])
+    from swarmtrack.analysis.report import markdown_table
+
+    md = markdown_table([*(p[6:] for p in params), "ok runs", *(f"{m} mean ± std [95 % CI]" for m in metrics)], rows)
+    return md, {"settings": numbers, "metrics": metrics, "params": [p[6:] for p in params]}
+
+
+def plot_summary(numbers: dict, folder: Path) -> list[Path]:
+    """Each headline metric against each grid key (mean and 95 % interval; the other keys' settings as lines)."""
+    from swarmtrack.analysis import plots
+
+    paths = []
+    params = numbers["params"]
+    for m in numbers["metrics"]:
+        for p in params:
+            fig = plots._new_figure((6.4, 4.0))
+            ax = fig.add_subplot(1, 1, 1)
+            lines: dict[tuple, list] = {}
+            for e in numbers["settings"]:
+                s = e["setting"]
+                rest = tuple((q, s[q]) for q in params if q != p)
+                if e["metrics"].get(m):
+                    lines.setdefault(rest, []).append((s[p], e["metrics"][m]))
+            for rest, pts in lines.items():
+                xs = [str(x) for x, _ in pts]
+                mean = [v["mean"] for _, v in pts]
+                lo = [v["ci95"][0] if v["ci95"] else v["mean"] for _, v in pts]
+                hi = [v["ci95"][1] if v["ci95"] else v["mean"] for _, v in pts]
+                label = ", ".join(f"{q}={v}" for q, v in rest) or m
+                ax.errorbar(xs, mean, yerr=[[a - b for a, b in zip(mean, lo, strict=True)],
+                                            [b - a for a, b in zip(mean, hi, strict=True)]],
+                            marker="o", capsize=3, label=label)
+            ax.set_xlabel(p)
+            ax.set_ylabel(m)
+            ax.set_title(f"{m} vs {p}: mean, 95 % interval over seeds", fontsize="medium")
+            if len(lines) > 1:
+                ax.legend(fontsize="small")
+            ax.grid(alpha=0.3)
+            paths.append(plots._save(fig, folder / f"{m}_vs_{p.replace('.', '_')}.png"))
+    return paths

@@ -26,11 +26,13 @@ test: $(STAMP)
 bench: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_filters.py
 	$(VENV)/bin/python benchmarks/bench_fusion.py
+	$(VENV)/bin/python benchmarks/bench_sweep.py
 	$(VENV)/bin/python benchmarks/bench_sim.py
 
 bench-large: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_filters.py
 	$(VENV)/bin/python benchmarks/bench_fusion.py
+	$(VENV)/bin/python benchmarks/bench_sweep.py
 	$(VENV)/bin/python benchmarks/bench_sim.py --large
 
 clean:

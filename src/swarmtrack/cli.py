@@ -148,9 +148,11 @@ def reproduce_cmd(paper: str, out: Path | None, runs: int, workers: int | None, 
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), required=True,
               help="the result store (a folder)")
 @click.option("--resume", is_flag=True, help="run only the runs missing from an existing store")
+@click.option("--cluster", default=None, metavar="ADDRESS",
+              help="run on Dask: tcp://HOST:PORT of a running scheduler, or 'local' for a LocalCluster of --workers")
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help="fix a key for every run (repeatable)")
 def sweep_cmd(scenario: str, grid: tuple[str, ...], runs: int, workers: int | None, out: Path, resume: bool,
-              overrides: tuple[str, ...]) -> None:
+              cluster: str | None, overrides: tuple[str, ...]) -> None:
     """Run SCENARIO over the cross product of grid values x seeds 1..RUNS, in parallel.
 
     Each finished run's row (grid values, seed, status, error, wall time, version, metrics) is written to
@@ -177,7 +179,7 @@ def sweep_cmd(scenario: str, grid: tuple[str, ...], runs: int, workers: int | No
                                 rate=f"{fresh / wall:.2f} runs/s" if fresh and wall > 0 else "")
 
             sweep(scenario, parse_grid(grid), runs, out, workers=workers, resume=resume, overrides=overrides,
-                  on_done=advance)
+                  on_done=advance, cluster=cluster)
     except ScenarioError as exc:
         raise UsageFailure(str(exc)) from None
     except (KeyboardInterrupt, Terminated):

@@ -109,3 +109,21 @@ def test_a_resume_with_another_scenario_is_refused(tmp_path):
     sw.sweep("l24-cv", {"sensor.latency": ["0"]}, 1, tmp_path / "s", workers=1, overrides=SHORT)
     with pytest.raises(ScenarioError, match="same scenario"):
         sw.sweep("l24-ct", {"sensor.latency": ["0"]}, 1, tmp_path / "s", workers=1, overrides=SHORT, resume=True)
+
+
+def test_a_dask_local_cluster_gives_the_rows_of_local_processes(tmp_path):
+    grid = {"sensor.latency": ["0", "0.15"]}
+    sw.sweep("l24-cv", grid, 2, tmp_path / "a", workers=1, overrides=SHORT)
+    sw.sweep("l24-cv", grid, 2, tmp_path / "b", workers=2, overrides=SHORT, cluster="local")
+    cols = ["param.sensor.latency", "seed", "status", "rmse_total_x", "rmse_total_vy", "nees", "key"]
+    a = sw.load_results(tmp_path / "a")[cols].sort_values(cols[:2]).reset_index(drop=True)
+    b = sw.load_results(tmp_path / "b")[cols].sort_values(cols[:2]).reset_index(drop=True)
+    assert a.equals(b)
+
+
+def test_an_unreachable_scheduler_exits_2_before_anything_is_written(tmp_path):
+    result = CliRunner().invoke(main, ["sweep", "l24-cv", "--grid", "sensor.latency=0", "--runs", "1",
+                                       "--out", str(tmp_path / "s"), "--cluster", "tcp://127.0.0.1:1"])
+    assert result.exit_code == 2, result.output
+    assert "tcp://127.0.0.1:1" in result.output and "Traceback" not in result.output
+    assert not (tmp_path / "s").exists()

@@ -96,12 +96,14 @@ def _run(item: tuple[int, Scenario]) -> tuple[int, dict]:
 
 
 def sweep(scenario: str, grid: dict[str, list[str]], runs: int, out: Path, workers: int | None = None,
-          resume: bool = False, overrides: Sequence[str] = (), on_done: Callable[[int, int], None] | None = None
-          ) -> Path:
+          resume: bool = False, overrides: Sequence[str] = (), on_done: Callable[[int, int], None] | None = None,
+          cluster: str | None = None) -> Path:
     """Run every grid setting × seeds 1..``runs`` of ``scenario`` not yet in the store ``out``; return the store.
 
     Every job is resolved (and so validated: an unknown key, a value of the wrong type) before any runs. An
-    existing store is refused unless ``resume``; a store of another format always."""
+    existing store is refused unless ``resume``; a store of another format always. ``cluster``: run on Dask, an
+    existing scheduler (``tcp://HOST:PORT``) or ``"local"`` (a LocalCluster of ``workers`` processes); the
+    scheduler is reached before anything is written."""
     version = package_version()
     jobs = []
     for setting in settings(grid):
@@ -112,6 +114,15 @@ def sweep(scenario: str, grid: dict[str, list[str]], runs: int, out: Path, worke
             except ScenarioError as exc:
                 raise ScenarioError(f"setting {setting}: {exc}") from None
             jobs.append((setting, seed, resolved, run_key(resolved, version)))
+    client = _dask_client(cluster, workers) if cluster else None
+    try:
+        return _sweep(scenario, grid, runs, out, workers, resume, overrides, on_done, client, jobs, version)
+    finally:
+        if client is not None:
+            _close(client)
+
+
+def _sweep(scenario, grid, runs, out, workers, resume, overrides, on_done, client, jobs, version) -> Path:
     manifest = out / "sweep.json"
     store = out / "results"
     if manifest.exists():
@@ -157,7 +168,14 @@ def sweep(scenario: str, grid: dict[str, list[str]], runs: int, out: Path, worke
         if on_done:
             on_done(done, len(jobs))
 
-    if workers == 1 or len(todo) <= 1:
+    if client is not None:
+        from distributed import as_completed
+
+        futures = client.map(_run, [(k, job[2]) for k, job in enumerate(todo)], pure=False)
+        for future in as_completed(futures):
+            k, row = future.result()
+            keep(todo[k], row)
+    elif workers == 1 or len(todo) <= 1:
         for k, job in enumerate(todo):
             keep(job, _run((k, job[2]))[1])
     else:
@@ -165,6 +183,31 @@ def sweep(scenario: str, grid: dict[str, list[str]], runs: int, out: Path, worke
             for k, row in pool.imap_unordered(_run, [(k, job[2]) for k, job in enumerate(todo)]):
                 keep(todo[k], row)
     return out
+
+
+def _dask_client(cluster: str, workers: int | None):
+    """A Dask client: of a new LocalCluster (``"local"``, one single-threaded process per worker) or of the
+    scheduler at ``cluster``; an unreachable scheduler is a :class:`ScenarioError` naming the address."""
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:  # pragma: no cover - a dependency
+        raise ScenarioError("--cluster needs dask.distributed (pip install 'dask[distributed]')") from None
+    if cluster == "local":
+        local = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
+                             dashboard_address=None)
+        return Client(local)
+    try:
+        return Client(cluster, timeout="5s")
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise ScenarioError(f"--cluster {cluster}: cannot reach a Dask scheduler there ({type(exc).__name__}: "
+                            f"{exc})") from None
+
+
+def _close(client) -> None:
+    cluster = client.cluster
+    client.close()
+    if cluster is not None:  # the LocalCluster this sweep started, not a shared one
+        cluster.close()
 
 
 def _write_row(path: Path, row: dict) -> None:

@@ -119,8 +119,10 @@ def run_cmd(scenario: str, out: Path | None, overwrite: bool, seed: int | None, 
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
               help="override a key of every experiment's scenario, e.g. --set sensor.latency=0 (repeatable)")
 @click.option("--no-figures", is_flag=True, help="skip the paper's figures")
+@click.option("--cluster", default=None, metavar="ADDRESS",
+              help="run on Dask: tcp://HOST:PORT of a running scheduler, or 'local' for a LocalCluster of --workers")
 def reproduce_cmd(paper: str, out: Path | None, runs: int, workers: int | None, overrides: tuple[str, ...],
-                  no_figures: bool) -> None:
+                  no_figures: bool, cluster: str | None) -> None:
     """Run a paper's experiments over several seeds and check its claims.
 
     Every finished run is kept in OUT/runs and reused next time (keyed by its resolved scenario and the
@@ -131,7 +133,8 @@ def reproduce_cmd(paper: str, out: Path | None, runs: int, workers: int | None, 
     out = out or Path("runs") / f"reproduce-{paper}"
     try:
         with terminate_as_exception():
-            reproduce(paper, out, runs=runs, workers=workers, figures=not no_figures, overrides=overrides)
+            reproduce(paper, out, runs=runs, workers=workers, figures=not no_figures, overrides=overrides,
+                      cluster=cluster)
     except ScenarioError as exc:
         raise UsageFailure(str(exc)) from None
     except (KeyboardInterrupt, Terminated):

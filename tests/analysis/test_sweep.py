@@ -127,3 +127,12 @@ def test_an_unreachable_scheduler_exits_2_before_anything_is_written(tmp_path):
     assert result.exit_code == 2, result.output
     assert "tcp://127.0.0.1:1" in result.output and "Traceback" not in result.output
     assert not (tmp_path / "s").exists()
+
+
+def test_reproduce_runs_through_dask_with_the_same_results(tmp_path):
+    from swarmtrack.analysis.reproduce import run_all
+
+    jobs = [("l23-no-fusion", 1), ("l23-no-fusion", 2)]
+    local = run_all(jobs, tmp_path / "a", workers=1, overrides=SHORT)
+    dask = run_all(jobs, tmp_path / "b", workers=2, overrides=SHORT, cluster="local")
+    assert {j: m["rmse"] for j, m in local.items()} == {j: m["rmse"] for j, m in dask.items()}

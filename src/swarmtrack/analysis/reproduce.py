@@ -123,16 +123,31 @@ def _run_indexed(item: tuple[int, Scenario]) -> tuple[int, dict]:
 
 
 def run_all(jobs: list[Job], cache: Path, workers: int | None, on_done: Callable[[], None] | None = None,
-            warn: Callable[[str], None] = warn_stderr, overrides: Sequence[str] = ()) -> dict[Job, dict]:
+            warn: Callable[[str], None] = warn_stderr, overrides: Sequence[str] = (),
+            cluster: str | None = None) -> dict[Job, dict]:
     """Metrics of every ``(scenario name, seed)`` job, from the cache where valid, else run (in parallel).
 
     Every job is resolved (:func:`load_scenario`, with ``overrides``) before anything runs, so a broken scenario
     fails early. Each finished run is cached at once; an interruption (Ctrl-C, SIGTERM) terminates the worker
-    processes at once, so it loses only the runs in progress.
+    processes at once, so it loses only the runs in progress. ``cluster``: run on Dask instead (as
+    :func:`swarmtrack.analysis.sweep.sweep`), the scheduler reached before any run.
     """
+    resolved = {job: load_scenario(job[0], overrides, seed=job[1]) for job in jobs}
+    client = None
+    if cluster is not None:  # reached before anything is written
+        from swarmtrack.analysis.sweep import _close, _dask_client
+
+        client = _dask_client(cluster, workers)
+    try:
+        return _run_all(resolved, cache, workers, on_done, warn, client)
+    finally:
+        if client is not None:
+            _close(client)
+
+
+def _run_all(resolved: dict, cache: Path, workers: int | None, on_done, warn, client) -> dict[Job, dict]:
     cache.mkdir(parents=True, exist_ok=True)
     version, written_by = package_version(), outputs.version()
-    resolved = {job: load_scenario(job[0], overrides, seed=job[1]) for job in jobs}
     results: dict[Job, dict] = {}
     todo: list[tuple[Job, Scenario, str, Path]] = []
     for job, scenario in resolved.items():
@@ -162,7 +177,14 @@ def run_all(jobs: list[Job], cache: Path, workers: int | None, on_done: Callable
         if on_done:
             on_done()
 
-    if workers == 1 or len(todo) <= 1:
+    if client is not None:
+        from distributed import as_completed
+
+        futures = client.map(_run_indexed, [(k, item[1]) for k, item in enumerate(todo)], pure=False)
+        for future in as_completed(futures):
+            k, metrics = future.result()
+            keep(*todo[k], metrics)
+    elif workers == 1 or len(todo) <= 1:
         for item in todo:
             keep(*item, run_one(item[1]))
     else:
@@ -175,7 +197,7 @@ def run_all(jobs: list[Job], cache: Path, workers: int | None, on_done: Callable
 
 
 def reproduce(paper: str, out: Path, runs: int = 10, workers: int | None = None, quiet: bool = False,
-              figures: bool = True, overrides: Sequence[str] = ()) -> dict:
+              figures: bool = True, overrides: Sequence[str] = (), cluster: str | None = None) -> dict:
     """Run, compare, check claims; writes ``reproduction.json`` and ``reproduction.md`` into ``out``, together
     or not at all. ``overrides`` (``dotted.key=value``) apply to every experiment's scenario."""
     from rich.console import Console
@@ -186,7 +208,8 @@ def reproduce(paper: str, out: Path, runs: int = 10, workers: int | None = None,
     console = Console(quiet=quiet)
     with Progress(console=console, transient=True, disable=quiet) as progress:
         task = progress.add_task(f"reproduce {paper}", total=len(jobs))
-        results = run_all(jobs, out / "runs", workers, on_done=lambda: progress.advance(task), overrides=overrides)
+        results = run_all(jobs, out / "runs", workers, on_done=lambda: progress.advance(task), overrides=overrides,
+                          cluster=cluster)
     by_scenario = {name: [results[(name, s)] for s in range(1, runs + 1)] for name in spec.experiments}
     diverged = {name: sum("diverged" in r for r in rs) for name, rs in by_scenario.items()}
     claims, table_md, numbers = spec.analyse(by_scenario)

@@ -158,6 +158,18 @@ def earlier_run_files(out: Path) -> list[str] | None:
             and ".." not in Path(f).parts]
 
 
+def _no_link_on_the_way(out: Path, rel: str) -> bool:
+    """Whether ``out/rel`` is reached without a symbolic link: neither it nor a folder between ``out`` and it is
+    one, so deleting it cannot reach outside ``out`` (a user may have put a link where the earlier run had a
+    folder)."""
+    path = out
+    for part in Path(rel).parts:
+        path = path / part
+        if path.is_symlink():
+            return False
+    return True
+
+
 def _existing_parent(path: Path) -> Path:
     path = path.absolute()
     while not path.exists():
@@ -203,13 +215,17 @@ def _move_into_place(tmp: Path, out: Path, files: list[str]) -> None:
     if taken:
         raise OutputError(f"--out {out}: {taken[0]} is there and was not written by the earlier run; "
                           "move it or choose another folder")
+    linked = [f for f in files if not _no_link_on_the_way(out, f)]
+    if linked:
+        raise OutputError(f"--out {out}: {linked[0]} would be written through a symbolic link the earlier run "
+                          "did not make; remove the link or choose another folder")
     for rel in old:
         target = out / rel
-        if target.is_file() and not target.is_symlink():
+        if _no_link_on_the_way(out, rel) and target.is_file():
             target.unlink()
     for rel in sorted({str(Path(r).parent) for r in old} - {"."}, key=len, reverse=True):
         folder = out / rel
-        if folder.is_dir() and not folder.is_symlink() and not any(folder.iterdir()):
+        if _no_link_on_the_way(out, rel) and folder.is_dir() and not any(folder.iterdir()):
             folder.rmdir()  # a folder the earlier run made and left empty
     for rel in [*files, MANIFEST]:
         dst = out / rel

@@ -211,3 +211,20 @@ def test_overwrite_refuses_to_replace_a_file_the_earlier_run_did_not_write(tmp_p
     assert res.exit_code == 2 and "timeseries/uavs.csv" in res.output and "not written by the earlier run" in res.output
     assert (out / "timeseries" / "uavs.csv").read_text() == "my own table"
     assert (out / "metrics.json").is_file() and not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
+
+
+def test_overwrite_does_not_follow_a_link_put_where_the_earlier_run_had_a_folder(tmp_path):
+    """The earlier run wrote recording/uavs.parquet; the user replaced recording/ with a link to their own data.
+    --overwrite must not delete through the link (the new run's files then do not fit: a clear refusal)."""
+    out = tmp_path / "run"
+    assert _run("--out", str(out)).exit_code == 0
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    for f in (out / "recording").iterdir():
+        (mine / f.name).write_text("my data")
+        f.unlink()
+    (out / "recording").rmdir()
+    (out / "recording").symlink_to(mine, target_is_directory=True)
+    res = _run("--out", str(out), "--overwrite")
+    assert res.exit_code == 2 and "symbolic link" in res.output and "Traceback" not in res.output
+    assert all(p.read_text() == "my data" for p in mine.iterdir()) and len(list(mine.iterdir())) >= 2

@@ -135,14 +135,16 @@ def run_all(jobs: list[Job], cache: Path, workers: int | None, on_done: Callable
     resolved = {job: load_scenario(job[0], overrides, seed=job[1]) for job in jobs}
     client = None
     if cluster is not None:  # reached before anything is written
-        from swarmtrack.analysis.sweep import _close, _dask_client
+        from swarmtrack.analysis.sweep import dask_client
 
-        client = _dask_client(cluster, workers)
+        client = dask_client(cluster, workers)
     try:
         return _run_all(resolved, cache, workers, on_done, warn, client)
     finally:
         if client is not None:
-            _close(client)
+            from swarmtrack.analysis.sweep import close_client
+
+            close_client(client)
 
 
 def _run_all(resolved: dict, cache: Path, workers: int | None, on_done, warn, client) -> dict[Job, dict]:

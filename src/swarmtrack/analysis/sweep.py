@@ -19,7 +19,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from swarmtrack import outputs
-from swarmtrack.analysis.reproduce import _worker_signals, package_version, run_key
+from swarmtrack.analysis.reproduce import _worker_signals, package_version, run_key, run_one
 from swarmtrack.scenarios import Scenario, load_scenario
 from swarmtrack.scenarios.loader import ScenarioError
 
@@ -77,18 +77,14 @@ def scalars(metrics: dict) -> dict[str, float | None]:
 
 
 def _run(item: tuple[int, Scenario]) -> tuple[int, dict]:
-    """One job in a worker: its status, error, wall time and metrics; an exception is a failed run, not a stop."""
-    from swarmtrack.estimation.information import FilterDivergence
-    from swarmtrack.sim.engine import simulate
-
-    from .metrics import summary
-
+    """One job in a worker (:func:`~swarmtrack.analysis.reproduce.run_one`): its status, error, wall time and
+    metrics; an exception is a failed run, not a stop."""
     k, scenario = item
     t0 = time.perf_counter()
     try:
-        row = {"status": "ok", "error": None, **scalars(summary(simulate(scenario)))}
-    except FilterDivergence as exc:
-        row = {"status": "diverged", "error": str(exc)}
+        metrics = run_one(scenario)
+        row = ({"status": "diverged", "error": metrics["diverged"]} if "diverged" in metrics
+               else {"status": "ok", "error": None, **scalars(metrics)})
     except Exception as exc:  # noqa: BLE001 - stored with the run, the sweep goes on
         row = {"status": "failed", "error": f"{type(exc).__name__}: {exc}"}
     row["wall_s"] = time.perf_counter() - t0
@@ -114,12 +110,12 @@ def sweep(scenario: str, grid: dict[str, list[str]], runs: int, out: Path, worke
             except ScenarioError as exc:
                 raise ScenarioError(f"setting {setting}: {exc}") from None
             jobs.append((setting, seed, resolved, run_key(resolved, version)))
-    client = _dask_client(cluster, workers) if cluster else None
+    client = dask_client(cluster, workers) if cluster else None
     try:
         return _sweep(scenario, grid, runs, out, workers, resume, overrides, on_done, client, jobs, version)
     finally:
         if client is not None:
-            _close(client)
+            close_client(client)
 
 
 def _sweep(scenario, grid, runs, out, workers, resume, overrides, on_done, client, jobs, version) -> Path:
@@ -185,7 +181,7 @@ def _sweep(scenario, grid, runs, out, workers, resume, overrides, on_done, clien
     return out
 
 
-def _dask_client(cluster: str, workers: int | None):
+def dask_client(cluster: str, workers: int | None):
     """A Dask client: of a new LocalCluster (``"local"``, one single-threaded process per worker) or of the
     scheduler at ``cluster``; an unreachable scheduler is a :class:`ScenarioError` naming the address."""
     try:
@@ -203,7 +199,8 @@ def _dask_client(cluster: str, workers: int | None):
                             f"{exc})") from None
 
 
-def _close(client) -> None:
+def close_client(client) -> None:
+    """Close a :func:`dask_client` and the LocalCluster it started (never a shared scheduler)."""
     cluster = client.cluster
     client.close()
     if cluster is not None:  # the LocalCluster this sweep started, not a shared one

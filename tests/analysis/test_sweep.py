@@ -99,7 +99,7 @@ def test_summarize_gives_mean_std_and_interval_per_setting_in_the_grid_order(tmp
     table = sw.load_results(out)
     x = table[table["param.sensor.latency"] == "0.3"]["rmse_total_x"]
     got = numbers["settings"][2]["metrics"]["rmse_total_x"]
-    assert got["mean"] == pytest.approx(x.mean()) and got["std"] == pytest.approx(x.std(ddof=1))
+    assert got["mean"] == pytest.approx(x.mean()) and got["std"] == pytest.approx(x.std(ddof=0))
     assert got["ci95"][0] < got["mean"] < got["ci95"][1] and got["n"] == 3
     assert "| 0.3 | 3/3 |" in md
     assert len(sw.plot_summary(numbers, tmp_path / "fig")) == len(numbers["metrics"])

@@ -237,7 +237,7 @@ HEADLINE = ("rmse_total_x", "rmse_total_y", "rmse_total_vx", "rmse_total_vy", "n
 def summarize(out: Path) -> tuple[str, dict]:
     """Mean ± std and the 95 % t-interval of the mean of every headline metric per setting, over the stored runs
     that finished (``ok``); counts of diverged and failed runs beside. Returns the markdown table and the numbers."""
-    from scipy.stats import t as student
+    from swarmtrack.analysis.papers.base import mean_std_ci
 
     table = load_results(out)
     if table.empty:
@@ -255,17 +255,14 @@ def summarize(out: Path) -> tuple[str, dict]:
                  "failed": int((runs["status"] == "failed").sum()), "metrics": {}}
         cells = []
         for m in metrics:
-            v = ok[m].dropna().to_numpy(dtype=float)
-            if len(v) == 0:
-                entry["metrics"][m] = None
+            st = mean_std_ci(ok[m].dropna().to_numpy(dtype=float))
+            entry["metrics"][m] = st if st["n"] else None
+            if not st["n"]:
                 cells.append("—")
                 continue
-            mean, std = float(v.mean()), float(v.std(ddof=1)) if len(v) > 1 else 0.0
-            half = float(student.ppf(0.975, len(v) - 1) * std / len(v) ** 0.5) if len(v) > 1 else None
-            entry["metrics"][m] = {"mean": mean, "std": std, "n": len(v),
-                                   "ci95": None if half is None else [mean - half, mean + half]}
-            interval = "" if half is None else f" [{mean - half:.4g}, {mean + half:.4g}]"
-            cells.append(f"{mean:.4g} ± {std:.2g}{interval}")
+            ci = st["ci95"]
+            interval = "" if ci is None else f" [{ci[0]:.4g}, {ci[1]:.4g}]"
+            cells.append(f"{st['mean']:.4g} ± {st['std']:.2g}{interval}")
         numbers.append(entry)
         rows.append([*(str(k) for k in key), f"{entry['ok']}/{entry['runs']}", *cells])
     from swarmtrack.analysis.report import markdown_table

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from swarmtrack.analysis.papers.base import Claim, Paper, converged
+from swarmtrack.analysis.papers.base import Claim, Paper, converged, mean_std_ci
 from swarmtrack.analysis.report import markdown_table
 
 #: Table 4.2 (T-test fusion, switching path): scenario -> (team, thesis average mean error [m])
@@ -50,21 +50,6 @@ def _per_seed(runs: list[dict], key: str = "all") -> dict[int, float]:
     """Seed (1-based) -> the converged run's ``mean_error[key]`` (runs without one are left out)."""
     return {k + 1: float(r["mean_error"][key]) for k, r in enumerate(runs)
             if "diverged" not in r and r.get("mean_error", {}).get(key) is not None}
-
-
-def _summary(values: Sequence[float]) -> dict:
-    """Mean, std and the 95 % t-interval of the mean over seeds (None where undefined)."""
-    a = np.asarray(list(values), dtype=float)
-    if a.size == 0:
-        return {"mean": None, "std": None, "ci95": None, "n": 0}
-    mean, std = float(a.mean()), float(a.std())
-    ci = None
-    if a.size > 1:
-        from scipy.stats import t
-
-        half = float(t.ppf(0.975, a.size - 1) * a.std(ddof=1) / np.sqrt(a.size))
-        ci = [mean - half, mean + half]
-    return {"mean": mean, "std": std, "ci95": ci, "n": int(a.size)}
 
 
 def _cm(s: dict) -> tuple[str, str]:
@@ -106,8 +91,8 @@ def analyse(by_scenario: dict[str, list[dict]]) -> tuple[list[Claim], str, dict]
     """Tables 4.2, 4.4 and 4.5 beside the project's mean ± std over seeds, model use, and the orderings."""
     per = {name: _per_seed(by_scenario[name]) for name in EXPERIMENTS}
     occ = {name: _per_seed(by_scenario[name], "occluded") for name in OCCLUSION}
-    stat = {name: _summary(per[name].values()) for name in EXPERIMENTS}
-    stat_occ = {name: _summary(occ[name].values()) for name in OCCLUSION}
+    stat = {name: mean_std_ci(per[name].values()) for name in EXPERIMENTS}
+    stat_occ = {name: mean_std_ci(occ[name].values()) for name in OCCLUSION}
     mean = {name: stat[name]["mean"] for name in EXPERIMENTS}
     fractions: dict = {}
     claims = []
@@ -172,8 +157,8 @@ def analyse(by_scenario: dict[str, list[dict]]) -> tuple[list[Claim], str, dict]
         runs = [r for r in converged(by_scenario[name]) if "model_use" in r]
         shares = [r["model_use"]["share"] for r in runs if len(r["model_use"]["share"])]
         use[name] = {"share": np.mean(shares, axis=0).tolist() if shares else None,
-                     "switches": None if name in _COMBINED else _summary([r["model_use"]["switches"] for r in runs]),
-                     "occluded_steps": _summary([r["mean_error"]["occluded_steps"] for r in runs
+                     "switches": None if name in _COMBINED else mean_std_ci([r["model_use"]["switches"] for r in runs]),
+                     "occluded_steps": mean_std_ci([r["mean_error"]["occluded_steps"] for r in runs
                                                  if "mean_error" in r])}
     use_rows = []
     for name in EXPERIMENTS:

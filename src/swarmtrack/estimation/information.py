@@ -127,17 +127,26 @@ def add_position_information(Y: np.ndarray, y: np.ndarray, I: np.ndarray, i: np.
     return Y, y
 
 
+def positive_definite(M: np.ndarray) -> np.ndarray:
+    """(...,) whether each symmetric matrix of ``M`` (..., n, n) is finite and positive definite (one batched
+    Cholesky; the eigenvalues only when it fails, to find which)."""
+    good = np.isfinite(M).all(axis=(-1, -2))
+    M = np.where(good[..., None, None], M, np.eye(M.shape[-1]))
+    try:
+        np.linalg.cholesky(M)
+        return good
+    except np.linalg.LinAlgError:
+        return good & (np.linalg.eigvalsh(M)[..., 0] > 0.0)
+
+
 def check_information(Y: np.ndarray, y: np.ndarray, t: float) -> None:
     """Raise :class:`FilterDivergence` naming the agents whose information is non-finite or not PD."""
-    bad = ~(np.isfinite(Y).all(axis=(-1, -2)) & np.isfinite(y).all(axis=-1))
-    if not bad.any():
-        try:
-            np.linalg.cholesky(Y)
-            return
-        except np.linalg.LinAlgError:
-            bad = np.linalg.eigvalsh(Y)[..., 0] <= 0.0
-            raise FilterDivergence(np.flatnonzero(bad), t, "information matrix is not positive definite") from None
-    raise FilterDivergence(np.flatnonzero(bad), t, "non-finite information")
+    finite = np.isfinite(Y).all(axis=(-1, -2)) & np.isfinite(y).all(axis=-1)
+    if not finite.all():
+        raise FilterDivergence(np.flatnonzero(~finite), t, "non-finite information")
+    pd = positive_definite(Y)
+    if not pd.all():
+        raise FilterDivergence(np.flatnonzero(~pd), t, "information matrix is not positive definite")
 
 
 class InformationEstimator:

@@ -31,7 +31,7 @@ import numpy as np
 
 from swarmtrack.estimation import fusion
 from swarmtrack.estimation.base import Probe, TargetView
-from swarmtrack.estimation.information import FilterDivergence, symmetrize
+from swarmtrack.estimation.information import FilterDivergence, positive_definite, symmetrize
 from swarmtrack.estimation.kalman import ekf_predict
 from swarmtrack.models.base import MotionModel
 
@@ -41,16 +41,6 @@ COMMON = fusion.COMMON
 _LOG_2PI = float(np.log(2.0 * np.pi))
 #: W20 Table 4.3's diagonal: the probability that a filter stays the best.
 W20_STAY = 0.99
-
-
-def _positive_definite(P: np.ndarray) -> np.ndarray:
-    """(n,) whether each covariance is finite and positive definite (a Cholesky factor exists)."""
-    good = np.isfinite(P).all(axis=(-1, -2))
-    try:
-        np.linalg.cholesky(np.where(good[:, None, None], P, np.eye(P.shape[-1])))
-        return good
-    except np.linalg.LinAlgError:
-        return good & (np.linalg.eigvalsh(np.where(good[:, None, None], P, np.eye(P.shape[-1])))[:, 0] > 0.0)
 
 
 class _Bank:
@@ -108,6 +98,7 @@ class MultiModelEstimator:
         self.out_x = np.full((n, COMMON), np.nan)
         self.out_P = np.full((n, COMMON, COMMON), np.nan)
         self._own = None
+        self._posterior = self._common()
         self.probes = (Probe("estimate", (COMMON,)), Probe("covariance", (COMMON, COMMON)),
                        Probe("own_estimate", (COMMON,)), Probe("detected", ()), Probe("measured", ()),
                        Probe("nis", ()), Probe("winner", ()), Probe("switches", ()))
@@ -218,7 +209,7 @@ class MultiModelEstimator:
         A = np.broadcast_to(np.eye(bank.model.dim), P.shape).copy()
         A[:, :, :2] -= K
         P_new = symmetrize(A @ P @ np.swapaxes(A, -1, -2) + K @ R_pos @ np.swapaxes(K, -1, -2))  # Joseph form
-        self._check(bank, local, np.isfinite(x_new).all(axis=-1) & _positive_definite(P_new), t)
+        self._check(bank, local, np.isfinite(x_new).all(axis=-1) & positive_definite(P_new), t)
         bank.x[local], bank.P[local] = x_new, P_new
         # ν_posᵀ S⁻¹ ν_pos and det S in closed form (2 x 2): the NIS and log N(ν_pos; 0, S)
         s00, s01, s11 = S[:, 0, 0], S[:, 0, 1], S[:, 1, 1]
@@ -249,7 +240,7 @@ class MultiModelEstimator:
 
     def publish(self, t: float) -> dict:
         """Broadcast the posterior on ``[x, y, vx, vy]``, the likelihood and the residual window (W20 Sec. 4.3.4)."""
-        x, P = self._common()
+        x, P = self._posterior = self._common()  # what sample() records as own_estimate (before any mixing)
         if not self._sharing or self.fusion == "none":
             self.out_x, self.out_P = x, P
             self._winner = np.where(self.initialised, np.arange(self.n), -1)
@@ -344,7 +335,7 @@ class MultiModelEstimator:
         return TargetView(self.out_x)
 
     def sample(self) -> dict[str, np.ndarray]:
-        own = self._common()[0]
+        own = self._posterior[0]
         out = {"estimate": self.out_x, "covariance": self.out_P, "own_estimate": own, "detected": self._detected,
                "measured": self._measured.astype(float), "nis": self._nis, "winner": self._winner + 1.0,
                "switches": self.switches.astype(float)}

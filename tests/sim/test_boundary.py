@@ -21,6 +21,8 @@ ONBOARD = [
     "swarmtrack.control.flocking",
     "swarmtrack.control.kernels",
     "swarmtrack.control.static",
+    "swarmtrack.control.position",
+    "swarmtrack.control.identification",
     "swarmtrack.models",
     "swarmtrack.sensors.detections",
     "swarmtrack.network.messages",

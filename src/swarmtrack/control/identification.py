@@ -21,6 +21,7 @@ flies the simulator's quadrotor to make a log, imports it when called.
 
 from __future__ import annotations
 
+import csv
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -364,31 +365,40 @@ def write_log_csv(path, log: Mapping) -> None:
 
 
 def read_log_csv(path) -> dict[str, np.ndarray]:
-    """Read a log CSV (header with at least ``t,x,y,vx,vy,ux,uy``; other columns are ignored). ValueError names
-    the cause: a file that cannot be read or parsed, missing columns (named), values that are not numbers."""
-    import pandas as pd
-
+    """Read a log CSV (header with at least ``t,x,y,vx,vy,ux,uy``; other columns are ignored; blank lines are
+    skipped). Numbers are parsed by Python's ``float``, so a file written by :func:`write_log_csv` reads back exactly
+    (pandas' ``read_csv`` does not round-trip every float, and its ``float_precision`` option is deprecated).
+    ValueError names the cause: a file that cannot be read, missing columns (named), a row of the wrong length,
+    a value that is not a number (column and row)."""
     path = Path(path)
     try:
-        frame = pd.read_csv(path, float_precision="round_trip", skipinitialspace=True)
+        with path.open(newline="", encoding="utf-8") as f:
+            rows = [row for row in csv.reader(f) if any(cell.strip() for cell in row)]
     except FileNotFoundError:
         raise ValueError(f"{path}: no such file") from None
     except IsADirectoryError:
         raise ValueError(f"{path}: is a folder, not a CSV file") from None
-    except (OSError, UnicodeDecodeError, pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
-        raise ValueError(f"{path}: not a readable CSV file ({str(exc).strip() or type(exc).__name__})") from None
-    frame.columns = [str(c).strip() for c in frame.columns]
-    missing = [c for c in COLUMNS if c not in frame.columns]
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: not a UTF-8 text file") from None
+    except (OSError, csv.Error) as exc:
+        raise ValueError(f"{path}: not a readable CSV file ({exc})") from None
+    if not rows:
+        raise ValueError(f"{path}: empty file (expected the header {','.join(COLUMNS)} and one row per sample)")
+    header = [cell.strip() for cell in rows[0]]
+    missing = [c for c in COLUMNS if c not in header]
     if missing:
         raise ValueError(f"{path}: missing column(s) {', '.join(missing)} (the header must hold {','.join(COLUMNS)})")
-    out = {}
-    for c in COLUMNS:
-        values = pd.to_numeric(frame[c], errors="coerce").to_numpy(dtype=float)
-        bad = np.flatnonzero(np.isnan(values) & frame[c].notna().to_numpy())
-        if bad.size:
-            raise ValueError(f"{path}: column {c} holds {frame[c].iloc[bad[0]]!r} at row {bad[0] + 1}, not a number")
-        out[c] = values
-    return out
+    index = {c: header.index(c) for c in COLUMNS}
+    values = np.empty((len(rows) - 1, len(COLUMNS)))
+    for r, row in enumerate(rows[1:], start=1):
+        if len(row) != len(header):
+            raise ValueError(f"{path}: row {r} has {len(row)} values, the header {len(header)}")
+        for j, c in enumerate(COLUMNS):
+            try:
+                values[r - 1, j] = float(row[index[c]])
+            except ValueError:
+                raise ValueError(f"{path}: column {c} holds {row[index[c]]!r} at row {r}, not a number") from None
+    return {c: values[:, j].copy() for j, c in enumerate(COLUMNS)}
 
 
 def _yaml_float(value: float) -> str:

@@ -1,4 +1,4 @@
-"""Command line: ``swarmtrack run | reproduce | scenarios``.
+"""Command line: ``swarmtrack run | reproduce | sweep | summarize | validate | schema | identify | scenarios``.
 
 Bad input (scenario, override, option) prints one message naming the field and exits with code 2; a run's
 folder is staged and moved into place only when complete, and never replaces what the tool did not write
@@ -7,7 +7,9 @@ folder is staged and moved into place only when complete, and never replaces wha
 
 from __future__ import annotations
 
+import functools
 import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -239,6 +241,81 @@ def schema_cmd(fmt: str) -> None:
     from swarmtrack.scenarios import reference
 
     click.echo(reference.markdown() if fmt == "markdown" else reference.text(), nl=False)
+
+
+def _matrix_lines(name: str, M) -> list[str]:
+    rows = [" ".join(f"{v:>11.6g}" for v in row) for row in M]
+    return [f"{name} = [" + rows[0]] + ["     " + r for r in rows[1:-1]] + ["     " + rows[-1] + " ]"]
+
+
+def _free_destination(path: Path, option: str, overwrite: bool) -> None:
+    """Refuse a --out / --save-log that is a folder, or an existing file without --overwrite."""
+    if path.is_dir():
+        raise UsageFailure(f"{option} {path}: is a folder, not a file")
+    if (path.exists() or path.is_symlink()) and not overwrite:
+        raise UsageFailure(f"{option} {path}: the file exists; add --overwrite to replace it")
+    parent = path.absolute().parent
+    while not parent.exists():
+        parent = parent.parent
+    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+        raise UsageFailure(f"{option} {path}: cannot write in {parent}")
+
+
+@main.command("identify")
+@click.argument("log", required=False, type=click.Path(dir_okay=True, path_type=Path))
+@click.option("--simulator", is_flag=True,
+              help="fly the simulator's own quadrotor through setpoint steps and identify that, instead of a LOG")
+@click.option("--save-log", type=click.Path(path_type=Path), default=None,
+              help="with --simulator: also write the generated log as CSV")
+@click.option("--out", "out", type=click.Path(path_type=Path), default=None,
+              help="write the model as YAML (default: print it)")
+@click.option("--overwrite", is_flag=True, help="replace existing --out / --save-log files")
+def identify_cmd(log: Path | None, simulator: bool, save_log: Path | None, out: Path | None,
+                 overwrite: bool) -> None:
+    """Identify the UAV's position-controlled dynamics (W20 eqs. 2.30-2.36, 5.32) from LOG.csv (columns
+    t,x,y,vx,vy,ux,uy at a fixed period; u is the position setpoint), or from the simulator's own quadrotor with
+    --simulator. Prints A, B and the fit on position per axis; the model goes, as YAML for a scenario's
+    controller.model, to --out or to stdout (the summary then goes to stderr). Existing files are not replaced
+    unless --overwrite is given."""
+    from swarmtrack.control import identification as ident
+    from swarmtrack.outputs import write_together
+
+    if simulator == (log is not None):
+        raise UsageFailure("give either a LOG file or --simulator (not both)" if simulator
+                           else "give a LOG file to identify, or --simulator")
+    if save_log is not None and not simulator:
+        raise UsageFailure("--save-log is for --simulator (a LOG file is already saved)")
+    for path, option in ((out, "--out"), (save_log, "--save-log")):
+        if path is not None:
+            _free_destination(path, option, overwrite)
+    if out is not None and save_log is not None and out.absolute() == save_log.absolute():
+        raise UsageFailure(f"--out and --save-log are the same file {out}")
+    try:
+        if simulator:
+            data, source = ident.step_response_log(), "the simulator's quadrotor"
+        else:
+            data, source = ident.read_log_csv(log), str(log)
+        result = ident.identify(data)
+        A, B = ident.rounded_model(result)
+        text = ident.model_yaml(result, source)
+    except ValueError as exc:
+        raise UsageFailure(str(exc)) from None
+    say = functools.partial(click.echo, err=out is None)  # without --out, stdout carries only the YAML
+    say(f"identified from {source}: {result.n_samples} samples, T = {result.T:.6g} s")
+    say(f"fit on position (free run, %): x {result.fits['x']:.2f}, y {result.fits['y']:.2f}")
+    say("state [x, y, vx, vy], input [ux, uy] (position setpoint):")
+    for line in [*_matrix_lines("A", A), *_matrix_lines("B", B)]:
+        say("  " + line)
+    files = {}
+    if out is not None:
+        files[out] = text
+    if save_log is not None:
+        files[save_log] = ident.log_csv_text(data)
+    if files:
+        write_together(files)
+        say("written: " + ", ".join(str(p) for p in files))
+    else:
+        click.echo(text, nl=False)
 
 
 if __name__ == "__main__":  # pragma: no cover

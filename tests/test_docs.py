@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-DOCS = ["docs/tracking-swarm.md", "docs/multi-model.md", "README.md", "docs/scenarios.md"]
+DOCS = ["docs/tracking-swarm.md", "docs/multi-model.md", "README.md", "docs/scenarios.md", "docs/identification.md"]
 
 
 def python_blocks(path: Path) -> list[str]:

@@ -249,15 +249,16 @@ def _matrix_lines(name: str, M) -> list[str]:
 
 
 def _free_destination(path: Path, option: str, overwrite: bool) -> None:
-    """Refuse a --out / --save-log that is a folder, or an existing file without --overwrite."""
+    """Refuse a --out / --save-log that is a folder, an existing file without --overwrite, or a place in a folder
+    that does not exist (none is created) or cannot be written to."""
     if path.is_dir():
         raise UsageFailure(f"{option} {path}: is a folder, not a file")
     if (path.exists() or path.is_symlink()) and not overwrite:
         raise UsageFailure(f"{option} {path}: the file exists; add --overwrite to replace it")
     parent = path.absolute().parent
-    while not parent.exists():
-        parent = parent.parent
-    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+    if not parent.is_dir():
+        raise UsageFailure(f"{option} {path}: no folder {parent}")
+    if not os.access(parent, os.W_OK | os.X_OK):
         raise UsageFailure(f"{option} {path}: cannot write in {parent}")
 
 
@@ -312,7 +313,10 @@ def identify_cmd(log: Path | None, simulator: bool, save_log: Path | None, out: 
     if save_log is not None:
         files[save_log] = ident.log_csv_text(data)
     if files:
-        write_together(files)
+        try:
+            write_together(files)
+        except OSError as exc:
+            raise UsageFailure(f"cannot write {', '.join(str(p) for p in files)}: {exc.strerror or exc}") from None
         say("written: " + ", ".join(str(p) for p in files))
     else:
         click.echo(text, nl=False)

@@ -70,10 +70,11 @@ def test_fit_is_the_free_run_compare_fit_on_position():
     log = synthetic_log()
     A, b = TRUE["x"]
     assert fit_percent(A, b, log["x"], log["vx"], log["ux"]) == pytest.approx(100.0)
-    # a model with the wrong gain does worse, and the mean of x scores 0 by definition
+    # a model with half the input gain does worse; one that stays at the first state scores 100·(1 − ‖p − p0‖/‖p − p̄‖)
     assert fit_percent(A, 0.5 * b, log["x"], log["vx"], log["ux"]) < 90.0
     p = log["x"]
-    assert 100 * (1 - np.linalg.norm(p - p.mean()) / np.linalg.norm(p - p.mean())) == 0.0
+    expected = 100 * (1 - np.linalg.norm(p - p[0]) / np.linalg.norm(p - p.mean()))
+    assert fit_percent(np.eye(2), np.zeros(2), p, np.zeros_like(p), log["ux"]) == pytest.approx(expected)
 
 
 def test_simulator_quadrotor_under_its_position_controller_fits_above_90_percent(quad_log):
@@ -299,3 +300,7 @@ def test_cli_refuses_to_overwrite_an_existing_out_without_overwrite(tmp_path):
     res = CliRunner().invoke(main, ["identify", "--simulator", "--out", str(out), "--overwrite"])
     assert res.exit_code == 0, res.output
     assert "model" in yaml.safe_load(out.read_text())
+
+
+def test_cli_refuses_an_out_in_a_missing_folder_and_creates_none(tmp_path):
+    _bad(["--simulator", "--out", str(tmp_path / "no" / "m.yaml")], tmp_path, "no folder")

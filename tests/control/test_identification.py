@@ -86,6 +86,15 @@ def test_simulator_quadrotor_under_its_position_controller_fits_above_90_percent
     np.testing.assert_allclose(steady, [[1, 0], [0, 1], [0, 0], [0, 0]], atol=0.03)
 
 
+def test_the_named_project_model_is_a_fresh_identification_of_the_quadrotor(quad_log):
+    """``swarmtrack-quadrotor`` (what the MPC scenarios fly) is what the tool identifies today, to its 6 digits."""
+    result = identify(quad_log)
+    model = NAMED_MODELS["swarmtrack-quadrotor"]
+    np.testing.assert_allclose(model.A, result.A, rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(model.B, result.B, rtol=1e-5, atol=1e-7)
+    assert model.T == result.T
+
+
 def test_step_response_log_samples_every_T_with_the_setpoint_held_over_the_next_period(quad_log):
     assert set(quad_log) == set(COLUMNS)
     np.testing.assert_allclose(np.diff(quad_log["t"]), 0.2)
@@ -112,7 +121,8 @@ def test_named_models_are_exactly_the_printed_numbers_and_stable():
     assert W20_PELICAN.A.tolist() == [[0.945, 0, 0.052, 0], [0, 0.943, 0, 0.052], [-0.151, 0, 0.799, 0],
                                       [0, -0.152, 0, 0.853]]
     assert W20_PELICAN.B.tolist() == [[0.00268, 0], [0, 0.00235], [0.123, 0], [0, 0.111]]
-    assert NAMED_MODELS == {"w20-simulator": W20_SIMULATOR, "w20-pelican": W20_PELICAN}
+    assert {k: NAMED_MODELS[k] for k in ("w20-simulator", "w20-pelican")} == {"w20-simulator": W20_SIMULATOR,
+                                                                             "w20-pelican": W20_PELICAN}
     assert spectral_radius(W20_SIMULATOR.A) == pytest.approx(0.9229, abs=1e-4)
     assert spectral_radius(W20_PELICAN.A) == pytest.approx(0.9013, abs=1e-4)
 

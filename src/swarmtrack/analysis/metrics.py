@@ -21,6 +21,8 @@ from swarmtrack.sim.recorder import Chunk, Recording
 COMPONENTS = ("x", "y", "vx", "vy")
 #: Up to this many UAVs the spacing metrics follow every pair (P = N(N−1)/2 accumulators).
 ALL_PAIRS_UP_TO = 64
+#: Two UAVs closer than this (m) have collided: an Iris-sized quadrotor spans about 0.55 m.
+COLLISION_M = 0.5
 
 
 def _window(rec: Recording, t: np.ndarray) -> np.ndarray:
@@ -355,6 +357,53 @@ class _ModelUse:
         return {"share": share, "switches": self.switches}
 
 
+class _Formation:
+    """W20 Ch. 5's tracking error (Tables 5.6, 5.8, 5.11, 5.12): each UAV's true distance to its formation place
+    (the target's true position plus its offset r_r) from the MPC's start on, mean per UAV and per axis; and the
+    MPC's solver statistics (cumulative probes: plans solved, fallbacks, wall time, OSQP iterations)."""
+
+    def __init__(self, rec: Recording):
+        ctrl = rec.meta["controller"]
+        n = rec.n_agents
+        self.rec, self.start = rec, float(ctrl.get("start", 0.0))
+        self.offsets = np.asarray(ctrl.get("offsets") or [(0.0, 0.0)] * n, dtype=float)
+        self.sum, self.sum_axes, self.n = np.zeros(n), np.zeros((n, 2)), 0
+        self.last = None
+
+    def add(self, c: Chunk, keep, err) -> None:
+        after = c.t >= self.start - 1e-9
+        slot = c.truth[after][:, self.rec.tracked, None, :2] + self.offsets
+        off = c.truth[after][:, self.rec.uav_slice, :2] - slot  # (k, N, 2)
+        self.sum += np.linalg.norm(off, axis=-1).sum(axis=0)
+        self.sum_axes += np.abs(off).sum(axis=0)
+        self.n += int(after.sum())
+        if len(c.t):
+            self.last = {k: c.probes[k][-1] for k in ("solves", "fallbacks", "solve_time", "iterations")}
+
+    def result(self) -> dict:
+        n = max(self.n, 1)
+        solves = self.last["solves"]
+        done = np.maximum(solves, 1)
+        return {"tracking_error": (self.sum / n).tolist(), "tracking_error_mean": float(self.sum.mean() / n),
+                "tracking_error_xy": (self.sum_axes / n).tolist(),
+                "solver": {"solves": int(solves.sum()), "fallbacks": self.last["fallbacks"].astype(int).tolist(),
+                           "mean_solve_us": float(1e6 * self.last["solve_time"].sum() / done.sum()),
+                           "mean_iterations": float(self.last["iterations"].sum() / done.sum())}}
+
+
+def _formation_warnings(formation: dict, min_distance: float | None) -> list[dict]:
+    """A plan that fell back (the QP was not solved) and UAVs that came within :data:`COLLISION_M` of each other."""
+    out = []
+    for i, k in enumerate(formation["solver"]["fallbacks"]):
+        if k:
+            out.append({"kind": "solver_fallback", "uav": i + 1, "t_start": None, "t_end": None,
+                        "message": f"UAV {i + 1}'s MPC was not solved {k} time(s): it flew its last setpoint"})
+    if min_distance is not None and min_distance < COLLISION_M:
+        out.append({"kind": "collision", "t_start": None, "t_end": None,
+                    "message": f"two UAVs came {min_distance:.2f} m apart (below {COLLISION_M:g} m: a collision)"})
+    return out
+
+
 def summary(rec: Recording) -> dict:
     """All scalar metrics of one run, JSON-ready, in one pass over the recording (and one over its truth for the
     spacing), with the run's ``warnings`` (:func:`swarmtrack.analysis.health.check`). The estimation metrics
@@ -368,7 +417,12 @@ def summary(rec: Recording) -> dict:
             accs["model_use"] = _ModelUse(rec)
     if rec.tracked is not None:
         accs["target_distance"] = _TargetDistance(rec)
+        if "setpoint" in rec.meta["probes"]:
+            accs["formation"] = _Formation(rec)
     out = {"warnings": [], **dict(zip(accs, _scan(rec, list(accs.values())), strict=True))}
     if "consistency" in out:
         out["nees"] = out["consistency"]["total"]["nees"]  # the run-wide figure, kept for comparison
-    return {**out, "inter_agent_distance": spacing(rec)}
+    out["inter_agent_distance"] = spacing(rec)
+    if "formation" in out:
+        out["warnings"] += _formation_warnings(out["formation"], out["inter_agent_distance"]["min"])
+    return out

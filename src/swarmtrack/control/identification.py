@@ -152,7 +152,19 @@ is position 0.367 m with velocity 0.336 m/s in x and 0.376 m with 0.367 m/s in y
 0.041), so it is not position/velocity of a setpoint-tracking vehicle either, and ``a12 = 0.052`` is not 0.2 s.
 Sample time not stated; ``T = 0.2`` s as for :data:`W20_SIMULATOR`."""
 
-NAMED_MODELS: dict[str, LinearModel] = {"w20-simulator": W20_SIMULATOR, "w20-pelican": W20_PELICAN}
+SWARMTRACK_QUADROTOR = LinearModel(
+    A=[[0.979105, 0.0, 0.170013, 0.0], [0.0, 0.979088, 0.0, 0.16999], [-0.210066, 0.0, 0.688698, 0.0],
+       [0.0, -0.210253, 0.0, 0.688449]],
+    B=[[0.0204696, 0.0], [0.0, 0.0204874], [0.207084, 0.0], [0.0, 0.207276]],
+    T=0.2,
+    source="swarmtrack identify --simulator",
+)
+"""The project's own quadrotor (:mod:`swarmtrack.vehicles.quadrotor`) flown by its position controller
+(:mod:`swarmtrack.control.position`), identified by ``swarmtrack identify --simulator`` (fit 96.0 % on x and y; a
+test holds it equal to a fresh identification). What the project's MPC scenarios use."""
+
+NAMED_MODELS: dict[str, LinearModel] = {"swarmtrack-quadrotor": SWARMTRACK_QUADROTOR, "w20-simulator": W20_SIMULATOR,
+                                        "w20-pelican": W20_PELICAN}
 
 
 def simulate_axis(A, B, state0, u) -> np.ndarray:

@@ -99,6 +99,7 @@ class MultiModelEstimator:
         self.out_P = np.full((n, COMMON, COMMON), np.nan)
         self._own = None
         self._posterior = self._common()
+        self._team_motion = np.zeros((n, 3))  # the [ax, ay, ω] of the filters each UAV heard from (publish/combine)
         self.probes = (Probe("estimate", (COMMON,)), Probe("covariance", (COMMON, COMMON)),
                        Probe("own_estimate", (COMMON,)), Probe("detected", ()), Probe("measured", ()),
                        Probe("nis", ()), Probe("winner", ()), Probe("switches", ()))
@@ -241,12 +242,13 @@ class MultiModelEstimator:
     def publish(self, t: float) -> dict:
         """Broadcast the posterior on ``[x, y, vx, vy]``, the likelihood and the residual window (W20 Sec. 4.3.4)."""
         x, P = self._posterior = self._common()  # what sample() records as own_estimate (before any mixing)
+        self._team_motion = self._motion()
         if not self._sharing or self.fusion == "none":
             self.out_x, self.out_P = x, P
             self._winner = np.where(self.initialised, np.arange(self.n), -1)
             return {}
         return {"x": x, "P": P, "loglik": self._loglik.copy(), "measured": self._measured.copy(),
-                "started": self.initialised.copy(), "window": self._windows.copy()}
+                "started": self.initialised.copy(), "window": self._windows.copy(), "motion": self._team_motion}
 
     def _common(self) -> tuple[np.ndarray, np.ndarray]:
         x = np.full((self.n, COMMON), np.nan)
@@ -257,9 +259,19 @@ class MultiModelEstimator:
             P[bank.idx[ok]] = bank.P[ok, :COMMON, :COMMON]
         return x, P
 
+    def _motion(self) -> np.ndarray:
+        """(N, 3) each filter's states beyond ``[x, y, vx, vy]`` as ``[ax, ay, ω]`` (CA: ax, ay; CT: ω; else 0)."""
+        out = np.zeros((self.n, 3))
+        for bank in self._banks:
+            cols = {"ca": [0, 1], "ct": [2]}.get(bank.model.name)
+            if cols:
+                out[np.ix_(bank.idx, cols)] = bank.x[:, COMMON:COMMON + len(cols)]
+        return out
+
     def combine(self, t: float, inbox) -> None:
         """Fuse the candidates each UAV received (itself and the neighbours whose messages arrived) into its output."""
         got = inbox.payloads
+        self._team_motion = got["motion"]
         n = self.n
         recv, send = inbox.edges()
         valid = np.zeros((n, n), dtype=bool)
@@ -331,8 +343,12 @@ class MultiModelEstimator:
 
     # --- what controllers, the gimbal and the recorder read ------------------------------------------------------
     def view(self) -> TargetView:
-        """Each UAV's output estimate ``[x, y, vx, vy]`` (NaN before its filter started)."""
-        return TargetView(self.out_x)
+        """Each UAV's output estimate ``[x, y, vx, vy]`` (NaN before its filter started), with the model and the
+        extra states of the filter it uses now (T-test winner, most probable filter, or its own)."""
+        ok = self._winner >= 0
+        pick = np.maximum(self._winner, 0)
+        model = np.where(ok, np.asarray(self.model_names, dtype=object)[pick], None)
+        return TargetView(self.out_x, model=model, motion=np.where(ok[:, None], self._team_motion[pick], 0.0))
 
     def sample(self) -> dict[str, np.ndarray]:
         own = self._posterior[0]

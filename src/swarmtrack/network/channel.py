@@ -11,12 +11,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from swarmtrack.network.links import Links, drop, proximity_links, static_links
+from swarmtrack.network.links import Links, cut, drop, proximity_links, static_links
 
 
 @dataclass
 class Channel:
-    """Topology plus independent per-link message loss (probability ``loss_probability`` per message).
+    """Topology plus independent per-link message loss (probability ``loss_probability`` per message), and
+    outages: ``(uavs, (t0, t1))`` pairs (0-based UAVs) that neither send nor receive during ``[t0, t1)``.
 
     Links are dense for small swarms and CSR from :data:`~swarmtrack.network.links.SPARSE_MIN_UAVS` UAVs on
     (``sparse=None``); ``sparse=True``/``False`` forces the form (``full`` is always dense).
@@ -29,6 +30,7 @@ class Channel:
     loss_probability: float = 0.0
     rng: np.random.Generator | None = None
     sparse: bool | None = None
+    outages: tuple = ()
 
     def __post_init__(self) -> None:
         self._static = None
@@ -37,20 +39,29 @@ class Channel:
         self._near_at: np.ndarray | None = None  # positions of the cached proximity graph
         self._near: Links | None = None
 
-    def links(self, positions: np.ndarray) -> Links:
-        """Links that carry an estimation message this step: topology (by true positions, for proximity)
-        minus losses."""
+    def links(self, positions: np.ndarray, t: float = 0.0) -> Links:
+        """Links that carry an estimation message at time ``t``: topology (by true positions, for proximity)
+        minus the UAVs cut off, minus losses."""
         A = self._static if self._static is not None else self._proximity(positions)
-        return drop(A, self.loss_probability, self.rng)
+        return drop(self._cut(A, t), self.loss_probability, self.rng)
 
-    def beacon_links(self, positions: np.ndarray) -> Links:
+    def _cut(self, links: Links, t: float) -> Links:
+        if not self.outages:
+            return links
+        off = np.zeros(self.n, dtype=bool)
+        for uavs, (t0, t1) in self.outages:
+            if t0 <= t < t1:
+                off[list(uavs)] = True
+        return cut(links, off)
+
+    def beacon_links(self, positions: np.ndarray, t: float = 0.0) -> Links:
         """Links that carry a flocking beacon this step: the proximity graph within ``r_comm`` (what the
         flocking weights ``a_ij`` need, L24 Sec. 2, whatever the estimation topology) minus losses.
 
         The losses are a separate draw from the channel's rng; the proximity graph itself is shared with
         :meth:`links` at the same positions (computed once).
         """
-        return drop(self._proximity(positions), self.loss_probability, self.rng)
+        return drop(self._cut(self._proximity(positions), t), self.loss_probability, self.rng)
 
     def _proximity(self, positions: np.ndarray) -> Links:
         """Proximity graph at ``positions``, recomputed only when they changed."""

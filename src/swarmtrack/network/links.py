@@ -127,6 +127,17 @@ def drop(links: Links, probability: float, rng: np.random.Generator | None) -> L
     return _sorted_csr(links.shape[0], receivers[keep], senders[keep])
 
 
+def cut(links: Links, off: np.ndarray) -> Links:
+    """``links`` without every link from or to a UAV where ``off`` (N,) is set (a UAV cut off from the network)."""
+    if not off.any():
+        return links
+    if not is_sparse(links):
+        return links & ~off[:, None] & ~off[None, :]
+    receivers, senders = edge_list(links)
+    keep = ~off[receivers] & ~off[senders]
+    return _sorted_csr(links.shape[0], receivers[keep], senders[keep])
+
+
 def proximity_links(positions: np.ndarray, r_comm: float, *, sparse: bool | None = None) -> Links:
     """UAVs strictly closer than ``r_comm`` hear each other: ``‖q_i − q_j‖² < r_comm²`` (no self-loops).
 

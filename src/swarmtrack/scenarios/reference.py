@@ -98,7 +98,8 @@ def _walk(model: type[BaseModel], prefix: str, section: str, instance: BaseModel
             out.extend(_walk(item, f"{key}[]", section, None))
         elif nested is not None:
             out.append(Key(section, key, "section", "", "", _clean(field.description or _doc(nested))))
-            out.extend(_walk(nested, key, section, value))
+            # a section that may also be given as a name (str | section) has no default instance to read
+            out.extend(_walk(nested, key, section, value if isinstance(value, BaseModel) else None))
         else:
             out.append(_leaf(section, key, field, value))
             if name == "kind" and kinds:

@@ -9,6 +9,7 @@ import math
 import typing
 from typing import Annotated, Literal
 
+import numpy as np
 from pydantic import (
     AfterValidator,
     BaseModel,
@@ -271,30 +272,6 @@ class SwarmSpec(_Strict):
         return self
 
 
-class SensorSpec(_Strict):
-    """Base of every sensor's settings; ``kind`` picks the sensor (see :data:`SENSOR_KINDS`)."""
-
-    kind: str
-    latency: float = Field(0.0, ge=0, le=5.0, description=(
-        "s, age of a measurement when the filter uses it as current (sensing and middleware delay; "
-        "rounded to the physics step)"))
-
-    def check(self, scenario: Scenario) -> None:
-        """Checks against the rest of the scenario (raise ValueError naming the field)."""
-
-
-class RangeBearingSpec(SensorSpec):
-    """Range and bearing from each UAV to every object (L24 Sec. 3.2)."""
-
-    kind: Literal["range_bearing"] = "range_bearing"
-    sigma_range: Length = Field(0.08, gt=0, description="m (L24: 0.08, L23: 0.4; at most 1e6 m)")
-    sigma_bearing: Angle = Field(0.02, gt=0, description="rad (L24: 0.02, L23: 0.1; at most 1e3 rad)")
-    update: Literal["position", "polar"] = Field(
-        "position", description="position: converted measurement with the paper's R_i; polar: EKF on [ρ, β]")
-    max_range: Length | None = Field(None, gt=0, description=(
-        "m (at most 1e6 m); a UAV farther from the target measures nothing"))
-
-
 class OccluderSpec(_Strict):
     """Hides the target from some UAVs (all when ``uavs`` is empty) inside a ground region, during a time window, or
     inside the region during the window."""
@@ -314,6 +291,37 @@ class OccluderSpec(_Strict):
         return self
 
 
+class SensorSpec(_Strict):
+    """Base of every sensor's settings; ``kind`` picks the sensor (see :data:`SENSOR_KINDS`)."""
+
+    kind: str
+    latency: float = Field(0.0, ge=0, le=5.0, description=(
+        "s, age of a measurement when the filter uses it as current (sensing and middleware delay; "
+        "rounded to the physics step)"))
+    occluders: list[OccluderSpec] = Field(default_factory=list, description=(
+        "what hides the target from some UAVs (a region, a time window or both)"))
+
+    def check(self, scenario: Scenario) -> None:
+        """Checks against the rest of the scenario (raise ValueError naming the field)."""
+        n = scenario.swarm.n_uavs
+        for k, occ in enumerate(self.occluders):
+            for u in occ.uavs:
+                if not 1 <= u <= n:
+                    raise ValueError(f"sensor.occluders[{k}].uavs names UAV {u}, but the swarm has UAVs 1..{n}")
+
+
+class RangeBearingSpec(SensorSpec):
+    """Range and bearing from each UAV to every object (L24 Sec. 3.2)."""
+
+    kind: Literal["range_bearing"] = "range_bearing"
+    sigma_range: Length = Field(0.08, gt=0, description="m (L24: 0.08, L23: 0.4; at most 1e6 m)")
+    sigma_bearing: Angle = Field(0.02, gt=0, description="rad (L24: 0.02, L23: 0.1; at most 1e3 rad)")
+    update: Literal["position", "polar"] = Field(
+        "position", description="position: converted measurement with the paper's R_i; polar: EKF on [ρ, β]")
+    max_range: Length | None = Field(None, gt=0, description=(
+        "m (at most 1e6 m); a UAV farther from the target measures nothing"))
+
+
 class CameraSpec(SensorSpec):
     """Gimballed camera reporting the target's metric position in its frame (W20 eqs. 4.14-4.16), aimed at its
     UAV's latest estimate; the target is on flat ground."""
@@ -326,7 +334,6 @@ class CameraSpec(SensorSpec):
         "m, field of view (width, height) at footprint_range (W20 Sec. 3.2.2.2: 1.2 x 0.9 at 1.5 m)"))
     footprint_range: Length = Field(1.5, gt=0, description="m, distance at which the footprint is measured")
     home: Position = Field((0.0, 0.0), description="m, where gimbals aim before their UAV has an estimate")
-    occluders: list[OccluderSpec] = Field(default_factory=list)
 
     @field_validator("footprint")
     @classmethod
@@ -335,12 +342,19 @@ class CameraSpec(SensorSpec):
             raise ValueError(f"{list(v)} must be positive")
         return v
 
-    def check(self, scenario: Scenario) -> None:
-        n = scenario.swarm.n_uavs
-        for k, occ in enumerate(self.occluders):
-            for u in occ.uavs:
-                if not 1 <= u <= n:
-                    raise ValueError(f"sensor.occluders[{k}].uavs names UAV {u}, but the swarm has UAVs 1..{n}")
+
+class OutageSpec(_Strict):
+    """UAVs that neither send nor receive any message during a time window (W20 Sec. 5.4.4.3: "lose communication
+    with the other UAVs")."""
+
+    uavs: list[int] = Field(min_length=1, description="1-based UAVs cut off")
+    window: tuple[Time, Time] = Field(description="[t0, t1), s")
+
+    @model_validator(mode="after")
+    def _ordered(self):
+        if not 0 <= self.window[0] < self.window[1]:
+            raise ValueError(f"window {list(self.window)} must be [t0, t1) with 0 <= t0 < t1")
+        return self
 
 
 class NetworkSpec(_Strict):
@@ -348,6 +362,7 @@ class NetworkSpec(_Strict):
     edges: list[tuple[int, int]] = Field(default_factory=list, description="1-based UAV pairs, with topology: edges")
     r_comm: Length = Field(4.8, gt=0, description="communication range, m (L24, L23; at most 1e6 m)")
     loss_probability: float = Field(0.0, ge=0, lt=1, description="independent loss of each message")
+    outages: list[OutageSpec] = Field(default_factory=list, description="UAVs cut off from the network for a while")
 
     @field_validator("edges")
     @classmethod
@@ -383,6 +398,9 @@ class ControllerSpec(_Strict):
     """Base of every controller's settings; ``kind`` picks the implementation (see :data:`CONTROLLER_KINDS`)."""
 
     kind: str
+
+    def check(self, scenario: Scenario) -> None:
+        """Checks against the rest of the scenario (raise ValueError naming the field)."""
 
 
 class FilterSpec(EstimatorSpec):
@@ -576,12 +594,105 @@ class FlockingSpec(ControllerSpec):
         return v
 
 
+class UAVModelSpec(_Strict):
+    """A UAV's identified linear model ``x(k+1) = A x(k) + B s(k)`` at period ``T``, state ``[x, y, vx, vy]``, input
+    the position setpoint (W20 eq. 5.32); ``swarmtrack identify`` writes one."""
+
+    T: Time = Field(gt=0, description="s, the sample period the model was identified at")
+    A: list[list[float]] = Field(description="4 x 4")
+    B: list[list[float]] = Field(description="4 x 2")
+
+    @model_validator(mode="after")
+    def _stable(self):
+        from swarmtrack.control.identification import check_model
+
+        check_model(np.asarray(self.A, dtype=float), np.asarray(self.B, dtype=float))
+        return self
+
+
+class PositionGainsSpec(_Strict):
+    """The UAV's own position controller ``a = kp (s − p) − kd v`` (:mod:`swarmtrack.control.position`)."""
+
+    kp: Gain = Field(1.44, gt=0, description="s⁻² (chosen: 1.2 rad/s natural frequency)")
+    kd: Gain = Field(2.16, gt=0, description="s⁻¹ (chosen: damping 0.9)")
+    accel_limit: Acceleration = Field(3.0, gt=0, description="m/s², norm clip on the commanded acceleration")
+
+
+class MPCSpec(ControllerSpec):
+    """W20 Ch. 5's distributed MPC: each UAV plans its position setpoints over a horizon to hold its formation place
+    ``offsets`` relative to the target (propagated by the model its estimate follows), sidestepping neighbours
+    closer than ``r_s``; its position controller flies them."""
+
+    kind: Literal["mpc"] = "mpc"
+    model: str | UAVModelSpec = Field("swarmtrack-quadrotor", description=(
+        "the UAVs' identified model: a name (swarmtrack-quadrotor: the project's quadrotor, identified by swarmtrack "
+        "identify --simulator; w20-simulator, w20-pelican: W20 eq. 5.32 and Sec. 5.4.1.2 as printed) or {T, A, B}"))
+    horizon: int = Field(5, ge=1, le=200, description="prediction horizon h, steps (W20: 5)")
+    period: Time = Field(0.2, gt=0, description="s, between plans; the model's T (W20: 0.2)")
+    Q: float = Field(12.0, ge=0, le=1e6, description="position tracking weight (W20: 12)")
+    R: float = Field(0.15, gt=0, le=1e6, description="input weight (W20: 0.15)")
+    Q_s: float = Field(6.0, ge=0, le=1e6, description="separation weight; 0 turns collision avoidance off (W20: 6)")
+    r_s: Length = Field(5.0, gt=0, description="m, separation radius: trigger and side-step offset (W20: 5)")
+    bound: Length = Field(2.0, gt=0, description=(
+        "m, per-axis bound on the setpoint relative to the UAV's position at the plan (W20: ±2, ±10, ±1.5)"))
+    offsets: list[Position] = Field(default_factory=list, description=(
+        "m, each UAV's place relative to the target, r_r (W20 eq. 5.22); default: all over the target"))
+    target_model: Literal["estimate", "cv", "ca", "ct"] = Field("estimate", description=(
+        "the model propagating the target: estimate = the one each UAV's estimate follows (multi-model), or fixed"))
+    start: Time = Field(0.0, ge=0, description="s, before which every UAV holds its position (W20 Table 5.10: 20)")
+    follow: Literal["estimate", "truth"] = Field("estimate", description=(
+        "truth: W20's perfect estimate and model (an oracle, not onboard; blind UAVs keep their last estimate)"))
+    gains: PositionGainsSpec = Field(default_factory=PositionGainsSpec)
+
+    @field_validator("model")
+    @classmethod
+    def _known_model(cls, v):
+        from swarmtrack.control.identification import NAMED_MODELS
+
+        if isinstance(v, str) and v not in NAMED_MODELS:
+            raise ValueError(f"unknown model {v!r}; known: {', '.join(sorted(NAMED_MODELS))}, or give {{T, A, B}}")
+        return v
+
+    @field_validator("offsets")
+    @classmethod
+    def _distinct_slots(cls, v):
+        for i in range(len(v)):
+            for j in range(i):
+                if np.allclose(v[i], v[j]):
+                    raise ValueError(f"UAVs {j + 1} and {i + 1} have the same formation slot {list(v[i])}")
+        return v
+
+    def uav_model(self):
+        """``(T, A, B)`` of the named or given model."""
+        from swarmtrack.control.identification import NAMED_MODELS
+
+        if isinstance(self.model, str):
+            m = NAMED_MODELS[self.model]
+            return m.T, m.A, m.B
+        return self.model.T, np.asarray(self.model.A, dtype=float), np.asarray(self.model.B, dtype=float)
+
+    def check(self, scenario: Scenario) -> None:
+        n = scenario.swarm.n_uavs
+        if self.offsets and len(self.offsets) != n:
+            raise ValueError(f"controller.offsets has {len(self.offsets)} entries for {n} UAVs")
+        if len(self.offsets) < n and n > 1:
+            raise ValueError(f"controller.offsets: {n} UAVs need {n} distinct formation slots (one each)")
+        T = self.uav_model()[0]
+        if abs(T - self.period) > 1e-9:
+            raise ValueError(f"controller.period is {self.period:g} s but the model was identified at T = {T:g} s")
+        ratio = self.period * scenario.rates.control
+        if abs(ratio - round(ratio)) > 1e-9:
+            raise ValueError(f"controller.period {self.period:g} s must be a whole number of control steps "
+                             f"(rates.control = {scenario.rates.control:g} Hz)")
+
+
 #: ``kind`` → settings class of every estimator and controller the scenario can pick; the simulator's builders
 #: are registered beside them (:func:`swarmtrack.sim.build.register`), so a new capability adds an entry here,
 #: not a branch in the engine.
 ESTIMATOR_KINDS: dict[str, type[EstimatorSpec]] = {"information": InformationSpec, "centralized": CentralizedSpec,
                                                   "multimodel": MultiModelSpec, "imm": IMMSpec}
-CONTROLLER_KINDS: dict[str, type[ControllerSpec]] = {"flocking": FlockingSpec, "static": StaticSpec}
+CONTROLLER_KINDS: dict[str, type[ControllerSpec]] = {"flocking": FlockingSpec, "static": StaticSpec,
+                                                    "mpc": MPCSpec}
 SENSOR_KINDS: dict[str, type[SensorSpec]] = {"range_bearing": RangeBearingSpec, "camera": CameraSpec}
 
 
@@ -689,6 +800,10 @@ class Scenario(_Strict):
             for v in e:
                 if not 1 <= v <= n:
                     raise ValueError(f"network.edges names UAV {v}, but the swarm has UAVs 1..{n}")
+        for k, outage in enumerate(self.network.outages):
+            for v in outage.uavs:
+                if not 1 <= v <= n:
+                    raise ValueError(f"network.outages[{k}].uavs names UAV {v}, but the swarm has UAVs 1..{n}")
         from swarmtrack.sim.clock import Clock
 
         r = self.rates
@@ -703,4 +818,5 @@ class Scenario(_Strict):
             raise ValueError("controller.follow: truth needs an estimator that follows one target")
         self.estimator.check(self)
         self.sensor.check(self)
+        self.controller.check(self)
         return self

@@ -135,6 +135,7 @@ def sense(
     sigma_bearing: float,
     noise: np.ndarray,
     max_range: float | None = None,
+    hidden: np.ndarray | None = None,
 ):
     """One range-bearing sensing step of every UAV towards every labelled object (truth side; L24 Sec. 3.2).
 
@@ -143,7 +144,7 @@ def sense(
     in range or not (so the draws do not depend on the geometry). The sensor is a cooperative one (a marker
     it can read), so each detection carries its object's index as its label. Returns the
     :class:`~swarmtrack.sensors.detections.Detections` (UAV-major order) and, for the world only, the index of
-    the object each came from.
+    the object each came from. ``hidden`` (N, M): pairs an occluder hides (no detection).
     """
     from swarmtrack.sensors.detections import Detections
 
@@ -152,8 +153,10 @@ def sense(
     owner, source = _grid(n, m)
     z = z.reshape(n * m, 2)
     grid = m
-    if max_range is not None:
-        inside = _range_bearing(objects[source], uavs[owner])[2] <= max_range
+    if max_range is not None or hidden is not None:
+        inside = np.ones(len(owner), dtype=bool) if hidden is None else ~hidden.reshape(-1)
+        if max_range is not None:
+            inside &= _range_bearing(objects[source], uavs[owner])[2] <= max_range
         owner, source, z = owner[inside], source[inside], z[inside]
         grid = None
     return Detections(owner, z, stamped[owner], source, n, grid), source

@@ -14,6 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from swarmtrack.control.flocking import FlockingController, FlockingGains
+from swarmtrack.control.mpc import MPCController, MPCSettings
+from swarmtrack.control.position import PositionGains
 from swarmtrack.control.static import StaticController
 from swarmtrack.estimation.imm import IMMInformationEstimator
 from swarmtrack.estimation.information import InformationEstimator, RangeBearingUpdate
@@ -33,15 +35,25 @@ from swarmtrack.scenarios.schema import (
     FlockingSpec,
     GroupSpec,
     IMMSpec,
+    MPCSpec,
     MultiModelSpec,
     RangeBearingSpec,
     Scenario,
+    SensorSpec,
 )
 from swarmtrack.sim.agent import OnboardStack
 from swarmtrack.sim.clock import Clock
 from swarmtrack.sim.oracle import TruthOracle
 from swarmtrack.sim.streams import stream
-from swarmtrack.sim.world import CameraSensor, Group, Occluder, ProfileDriver, RangeBearingSensor, World
+from swarmtrack.sim.world import (
+    CameraSensor,
+    Group,
+    Occluder,
+    ProfileDriver,
+    RangeBearingSensor,
+    World,
+    hidden_by,
+)
 
 
 @dataclass(frozen=True)
@@ -108,21 +120,33 @@ def _flocking(spec: FlockingSpec, ctx: Context) -> FlockingController:
                               spec.chase_after_steps * ctx.dt_estimation, compiled=ctx.compiled)
 
 
+def _mpc(spec: MPCSpec, ctx: Context) -> MPCController:
+    _, A, B = spec.uav_model()
+    settings = MPCSettings(spec.horizon, spec.period, spec.Q, spec.R, spec.Q_s, spec.r_s, spec.bound)
+    offsets = np.asarray(spec.offsets or [(0.0, 0.0)] * ctx.n_uavs, dtype=float)
+    return MPCController(A, B, offsets, settings, target_model=None if spec.target_model == "estimate" else
+                         spec.target_model, start=spec.start, gains=PositionGains(**spec.gains.model_dump()))
+
+
 #: ``kind`` → builder ``(settings, Context) -> Estimator``.
 ESTIMATORS: dict[str, Callable] = {"information": _information, "centralized": _information,
                                    "multimodel": _multimodel, "imm": _imm}
 #: ``kind`` → builder ``(settings, Context) -> Controller``.
-CONTROLLERS: dict[str, Callable] = {"flocking": _flocking, "static": lambda spec, ctx: StaticController(ctx.n_uavs)}
+CONTROLLERS: dict[str, Callable] = {"flocking": _flocking, "static": lambda spec, ctx: StaticController(ctx.n_uavs),
+                                    "mpc": _mpc}
+
+
+def _occluders(s: SensorSpec) -> tuple[Occluder, ...]:
+    return tuple(Occluder(o.region, o.window, tuple(u - 1 for u in o.uavs)) for o in s.occluders)
 
 
 def _range_bearing(s: RangeBearingSpec) -> RangeBearingSensor:
-    return RangeBearingSensor(s.sigma_range, s.sigma_bearing, s.max_range, s.latency)
+    return RangeBearingSensor(s.sigma_range, s.sigma_bearing, s.max_range, s.latency, _occluders(s))
 
 
 def _camera(s: CameraSpec) -> CameraSensor:
     tan_half = (0.5 * s.footprint[0] / s.footprint_range, 0.5 * s.footprint[1] / s.footprint_range)
-    occluders = tuple(Occluder(o.region, o.window, tuple(u - 1 for u in o.uavs)) for o in s.occluders)
-    return CameraSensor(s.sigma, s.height, tan_half, tuple(s.home), occluders, s.latency)
+    return CameraSensor(s.sigma, s.height, tan_half, tuple(s.home), _occluders(s), s.latency)
 
 
 #: sensor ``kind`` → builder of the world's (truth-side) sensor.
@@ -194,6 +218,19 @@ def _group(name: str, spec: GroupSpec, flown: tuple) -> Group:
     return Group(name, spec.vehicle, starts, ProfileDriver(flown, spec.velocity_gain, spec.wind_std))
 
 
+def _oracle(world: World, tracked: int, profile, n: int) -> TruthOracle:
+    """The truth oracle for the followed target: its state, the model its profile flies now, and which UAVs the
+    sensor's occluders blind."""
+    def kinematics():
+        return profile.velocity(world.t), profile.acceleration(world.t)
+
+    def blind():
+        hidden = hidden_by(world.sensor.occluders, world.truth()[tracked, None, :2], n, world.t)
+        return np.zeros(n, dtype=bool) if hidden is None else hidden[:, 0]
+
+    return TruthOracle(lambda: world.truth()[tracked], n, kinematics=kinematics, blind=blind, now=lambda: world.t)
+
+
 @dataclass
 class Simulation:
     """Everything one run needs: the truth, the onboard stack, the channel, the clock and the recording's
@@ -229,10 +266,11 @@ def build(scenario: Scenario) -> Simulation:
     tracked = None if followed is None else world.slices["targets"].start + followed - 1
     guide = estimator
     if getattr(scenario.controller, "follow", "estimate") == "truth":  # the schema checked there is a target
-        guide = TruthOracle(lambda: world.truth()[tracked], n)
+        guide = _oracle(world, tracked, flown["targets"][followed - 1], n)
     net = scenario.network
     channel = Channel(net.topology, n, net.r_comm, tuple((a - 1, b - 1) for a, b in net.edges),
-                      net.loss_probability, stream(seed, "channel"))
+                      net.loss_probability, stream(seed, "channel"),
+                      outages=tuple((tuple(u - 1 for u in o.uavs), o.window) for o in net.outages))
     meta = {
         "scenario": scenario.name, "seed": seed, "dt": dt_est, "topology": net.topology, "r_comm": net.r_comm,
         "groups": {name: [sl.start, sl.stop] for name, sl in world.slices.items()},

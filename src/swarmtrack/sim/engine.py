@@ -39,7 +39,7 @@ def simulate(scenario: Scenario, progress: Callable[[float], None] | None = None
         detections, _sources = world.sense(aim=stack.estimator.view().state[:, :2])
         with np.errstate(over="ignore", invalid="ignore"):  # a diverging filter is reported by fuse()
             outbox = stack.estimator.share(t, nav, detections)
-            links = channel.links(positions)
+            links = channel.links(positions, t)
             stack.estimator.fuse(t, detections, Inbox(links, outbox))
             posteriors = publish(t) if publish is not None else None
             if posteriors:  # the second message of the step travels over the links that carried the first
@@ -52,7 +52,7 @@ def simulate(scenario: Scenario, progress: Callable[[float], None] | None = None
                 if offset:  # a control step between estimation steps: fresh navigation
                     nav = world.navigation()
                     positions = world.truth("uavs")[:, :2]
-                beacons = Inbox(channel.beacon_links(positions), stack.controller.broadcast(world.t, nav))
+                beacons = Inbox(channel.beacon_links(positions, world.t), stack.controller.broadcast(world.t, nav))
                 u = stack.controller.command(world.t, nav, view, beacons, clock.dt_control)
             world.advance({"uavs": u}, ticks)
             offset += ticks

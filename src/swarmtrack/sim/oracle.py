@@ -3,6 +3,11 @@
 Not onboard code: it lives beside the world and is wired to it by the builder (``controller.follow: truth``), so
 that a study can separate control from estimation (flocking on perfect information) while the onboard boundary
 stays honest and visible.
+
+It is W20's "perfect version of the MMDEKF" (Sec. 5.4.4.3): it also knows which motion model (CV, CA or CT)
+describes the target now and that model's extra states, from the profile the target flies. A UAV that is blind
+(an occluder hides the target from it) keeps its last perfect estimate and model and predicts with them, as a
+filter without measurements would ("only the UAV's last estimate and model chosen can be used", W20 Sec. 5.4.4.3).
 """
 
 from __future__ import annotations
@@ -12,13 +17,39 @@ from collections.abc import Callable
 import numpy as np
 
 from swarmtrack.estimation.base import TargetView
+from swarmtrack.models import make_model
+
+#: Below this acceleration (m/s²) the target moves at constant velocity; an acceleration within this cosine of
+#: the normal to the velocity is a turn.
+_STILL, _NORMAL = 1e-9, 1e-6
+
+
+def kinematic_model(velocity: np.ndarray, acceleration: np.ndarray) -> tuple[str, np.ndarray]:
+    """The model that describes motion with this velocity and acceleration exactly, and its ``[ax, ay, ω]``:
+    CV without acceleration; CT (``ω = (v × a)/|v|²``) with an acceleration normal to the velocity; CA otherwise."""
+    speed2 = float(velocity @ velocity)
+    a2 = float(acceleration @ acceleration)
+    if a2 < _STILL ** 2:
+        return "cv", np.zeros(3)
+    if speed2 > 0 and abs(velocity @ acceleration) <= _NORMAL * np.sqrt(speed2 * a2):
+        omega = (velocity[0] * acceleration[1] - velocity[1] * acceleration[0]) / speed2
+        return "ct", np.array([0.0, 0.0, omega])
+    return "ca", np.array([acceleration[0], acceleration[1], 0.0])
 
 
 class TruthOracle:
+    """``truth()``: the followed target's ``[x, y, vx, vy]``; ``kinematics()``: its commanded velocity and
+    acceleration (2,) each, or None (no model knowledge: CV); ``blind()``: (N,) the UAVs that cannot see it now,
+    or None; ``now()``: the time."""
+
     probes = ()
 
-    def __init__(self, truth: Callable[[], np.ndarray], n_uavs: int):
+    def __init__(self, truth: Callable[[], np.ndarray], n_uavs: int, *,
+                 kinematics: Callable[[], tuple[np.ndarray, np.ndarray]] | None = None,
+                 blind: Callable[[], np.ndarray] | None = None, now: Callable[[], float] | None = None):
         self._truth, self.n = truth, n_uavs
+        self._kinematics, self._blind, self._now = kinematics, blind, now
+        self._held: list | None = None  # per UAV: (t, state, model, motion) of its last sight
 
     def share(self, t, nav, own) -> dict:
         return {}
@@ -27,7 +58,32 @@ class TruthOracle:
         pass
 
     def view(self) -> TargetView:
-        return TargetView(np.broadcast_to(self._truth()[:4], (self.n, 4)).copy())
+        x = np.asarray(self._truth()[:4], dtype=float)
+        model, motion = kinematic_model(*self._kinematics()) if self._kinematics else ("cv", np.zeros(3))
+        state = np.broadcast_to(x, (self.n, 4)).copy()
+        models = np.full(self.n, model, dtype=object)
+        motions = np.broadcast_to(motion, (self.n, 3)).copy()
+        t = self._now() if self._now is not None else 0.0
+        blind = self._blind() if self._blind is not None else np.zeros(self.n, dtype=bool)
+        if self._held is None or not blind.any():
+            self._held = [(t, x, model, motion)] * self.n
+            return TargetView(state, models, motions)
+        for i in range(self.n):
+            if not blind[i]:
+                self._held[i] = (t, x, model, motion)
+                continue
+            t0, x0, m0, mo0 = self._held[i]
+            state[i], models[i], motions[i] = predict(x0, m0, mo0, t - t0), m0, mo0
+        return TargetView(state, models, motions)
 
     def sample(self) -> dict:
         return {}
+
+
+def predict(x: np.ndarray, model: str, motion: np.ndarray, dt: float) -> np.ndarray:
+    """``[x, y, vx, vy]`` after ``dt`` s of the model's motion (closed form for any dt)."""
+    if dt <= 0:
+        return x.copy()
+    full = np.concatenate([x, motion[:2]]) if model == "ca" else np.concatenate([x, motion[2:]]) \
+        if model == "ct" else x
+    return make_model(model, dt).f(full[None])[0, :4]

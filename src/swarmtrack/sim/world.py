@@ -56,12 +56,13 @@ class RangeBearingSensor:
     sigma_bearing: float
     max_range: float | None = None
     latency: float = 0.0
+    occluders: tuple[Occluder, ...] = ()
     sensed: tuple[str, ...] = ("targets", "decoys")
     name = "range_bearing"
 
     def detect(self, objects, uavs, stamped, noise, t: float, aim):
         return range_bearing.sense(objects, uavs, stamped, self.sigma_range, self.sigma_bearing, noise,
-                                   self.max_range)
+                                   self.max_range, hidden_by(self.occluders, objects, len(uavs), t))
 
 
 @dataclass(frozen=True)
@@ -89,6 +90,15 @@ class Occluder:
         return hidden
 
 
+def hidden_by(occluders, objects: np.ndarray, n_uavs: int, t: float) -> np.ndarray | None:
+    """(N, M) the (UAV, object) pairs any of ``occluders`` hides at time ``t``; None without occluders."""
+    hidden = None
+    for occ in occluders:
+        h = occ.hides(objects, n_uavs, t)
+        hidden = h if hidden is None else hidden | h
+    return hidden
+
+
 @dataclass(frozen=True)
 class CameraSensor:
     """Truth side of the gimballed camera-frame position sensor (W20 Sec. 3.2, eqs. 4.14-4.16,
@@ -111,10 +121,7 @@ class CameraSensor:
         n = len(uavs)
         aim = np.broadcast_to(self.home, (n, 2)) if aim is None else np.asarray(aim, dtype=float)
         aim = np.where(np.isfinite(aim).all(axis=-1, keepdims=True), aim, self.home)  # no estimate yet: home
-        hidden = None
-        for occ in self.occluders:
-            h = occ.hides(objects, n, t)
-            hidden = h if hidden is None else hidden | h
+        hidden = hidden_by(self.occluders, objects, n, t)
         return camera.sense(objects, uavs, stamped, self.height, aim, self.tan_half, self.sigma, noise, hidden)
 
 

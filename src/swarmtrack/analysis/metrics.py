@@ -359,7 +359,8 @@ class _ModelUse:
 
 class _Formation:
     """W20 Ch. 5's tracking error (Tables 5.6, 5.8, 5.11, 5.12): each UAV's true distance to its formation place
-    (the target's true position plus its offset r_r) from the MPC's start on, mean per UAV and per axis; and the
+    (the target's true position plus its offset r_r) from the MPC's start on, mean per UAV, per axis and (mean over
+    the UAVs) per target phase; and the
     MPC's solver statistics (cumulative probes: plans solved, fallbacks, wall time, OSQP iterations)."""
 
     def __init__(self, rec: Recording):
@@ -368,15 +369,21 @@ class _Formation:
         self.rec, self.start = rec, float(ctrl.get("start", 0.0))
         self.offsets = np.asarray(ctrl.get("offsets") or [(0.0, 0.0)] * n, dtype=float)
         self.sum, self.sum_axes, self.n = np.zeros(n), np.zeros((n, 2)), 0
+        self.names, self.group = _phase_groups(rec)
+        self.phase_sum, self.phase_n = np.zeros(len(self.names)), np.zeros(len(self.names))
         self.last = None
 
     def add(self, c: Chunk, keep, err) -> None:
         after = c.t >= self.start - 1e-9
         slot = c.truth[after][:, self.rec.tracked, None, :2] + self.offsets
         off = c.truth[after][:, self.rec.uav_slice, :2] - slot  # (k, N, 2)
-        self.sum += np.linalg.norm(off, axis=-1).sum(axis=0)
+        dist = np.linalg.norm(off, axis=-1)
+        self.sum += dist.sum(axis=0)
         self.sum_axes += np.abs(off).sum(axis=0)
         self.n += int(after.sum())
+        phase = self.group[c.phase[after, self.rec.tracked]]
+        np.add.at(self.phase_sum, phase, dist.mean(axis=1))
+        np.add.at(self.phase_n, phase, 1)
         if len(c.t):
             self.last = {k: c.probes[k][-1] for k in ("solves", "fallbacks", "solve_time", "iterations")}
 
@@ -386,6 +393,8 @@ class _Formation:
         done = np.maximum(solves, 1)
         return {"tracking_error": (self.sum / n).tolist(), "tracking_error_mean": float(self.sum.mean() / n),
                 "tracking_error_xy": (self.sum_axes / n).tolist(),
+                "tracking_error_by_phase": {name: float(self.phase_sum[k] / self.phase_n[k])
+                                            for k, name in enumerate(self.names) if self.phase_n[k]},
                 "solver": {"solves": int(solves.sum()), "fallbacks": self.last["fallbacks"].astype(int).tolist(),
                            "mean_solve_us": float(1e6 * self.last["solve_time"].sum() / done.sum()),
                            "mean_iterations": float(self.last["iterations"].sum() / done.sum())}}

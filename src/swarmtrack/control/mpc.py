@@ -37,10 +37,10 @@ import scipy.sparse as sp
 
 from swarmtrack.control.position import PositionGains, position_control
 from swarmtrack.estimation.base import Probe, TargetView
-from swarmtrack.models import make_model
+from swarmtrack.models.kinematic import KINEMATIC, kinematic_motion
 
 #: The target models the reference can be propagated with (W20 eq. 5.23: CV, CA or CT).
-TARGET_MODELS = ("cv", "ca", "ct")
+TARGET_MODELS = KINEMATIC
 _SOLVED = osqp.SolverStatus.OSQP_SOLVED
 
 
@@ -114,22 +114,16 @@ def propagate_target(view: TargetView, fixed: str | None, period: float, h: int)
     model its estimate follows (``view.model``; CV where unknown) or by ``fixed`` for every UAV. The model's extra
     states come from ``view.motion`` ``[ax, ay, ω]`` (zero where absent)."""
     n = len(view.state)
-    motion = np.zeros((n, 3)) if view.motion is None else np.nan_to_num(view.motion)
+    motion = np.zeros((n, 3)) if view.motion is None else view.motion
     names = np.full(n, fixed or "cv", dtype=object)
     if fixed is None and view.model is not None:
         names[:] = [m if m in TARGET_MODELS else "cv" for m in view.model]
+    tau = period * np.arange(1, h + 1)
     out = np.empty((n, h, 2))
     for name in TARGET_MODELS:
         rows = np.flatnonzero(names == name)
-        if not len(rows):
-            continue
-        model = make_model(name, period)
-        x = view.state[rows, :4]
-        x = np.concatenate([x, motion[rows, :2]], axis=1) if name == "ca" else \
-            np.concatenate([x, motion[rows, 2:]], axis=1) if name == "ct" else x
-        for l in range(h):
-            x = model.f(x)
-            out[rows, l] = x[:, :2]
+        if len(rows):
+            out[rows] = kinematic_motion(view.state[rows, :4], name, motion[rows], tau)[..., :2]
     return out
 
 
@@ -150,7 +144,7 @@ class FormationQP:
         self._rows, self._cols = self._rows[order], self._cols[order]
         self.w = s.Q
         P = sp.csc_matrix((self._values(self.w), (self._rows, self._cols)), shape=(n, n))
-        self.solver = osqp.OSQP()
+        self.solver = osqp.OSQP(algebra="builtin")  # the bundled backend (no search for others at set-up)
         self.solver.setup(P, np.zeros(n), sp.identity(n, format="csc"), np.full(n, -s.bound), np.full(n, s.bound),
                           verbose=False, eps_abs=s.eps, eps_rel=s.eps, max_iter=s.max_iter, polishing=False,
                           warm_starting=True)
@@ -215,6 +209,8 @@ class MPCController:
     def plan(self, nav: np.ndarray, view: TargetView, inbox) -> None:
         """One MPC step of every UAV (each from its own state, estimate and inbox)."""
         s, h = self.s, self.s.horizon
+        if self.setpoint is None:
+            self.setpoint = nav[:, :2].copy()
         ref = propagate_target(view, self.target_model, s.period, h) + self.offsets[:, None, :]  # (N, h, 2)
         beacons = inbox.payloads["nav"]
         free = self.cond.free(beacons)  # each beacon's zero-input prediction (eq. 5.25), the same for every reader
@@ -230,9 +226,9 @@ class MPCController:
         w = s.Q + m * s.Q_s
         r_bar = (s.Q * ref + s.Q_s * pull) / w[:, None, None]
         self.avoiding = m.astype(float)
-        for i, qp in enumerate(self.qps):
-            if not np.isfinite(r_bar[i]).all():  # no estimate yet: keep holding
-                continue
+        ready = np.isfinite(r_bar).all(axis=(1, 2))  # no estimate yet: keep holding
+        for i in np.flatnonzero(ready):
+            qp = self.qps[i]
             t0 = time.perf_counter()
             U, status, iters = qp.solve(own_free[i], r_bar[i].ravel(), float(w[i]))
             self.solve_time[i] += time.perf_counter() - t0

@@ -28,8 +28,9 @@ from swarmtrack.models.base import MotionModel
 SMALL_TURN = 1e-2
 
 
-def _turn_terms(a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``S(a) = sin a / a``, ``C(a) = (1 − cos a)/a`` and their derivatives ``S'(a)``, ``C'(a)``.
+def turn_terms(a: np.ndarray, derivatives: bool = True) -> tuple[np.ndarray, ...]:
+    """``S(a) = sin a / a``, ``C(a) = (1 − cos a)/a`` and (unless ``derivatives=False``) their derivatives
+    ``S'(a)``, ``C'(a)``.
 
     Closed forms use ``1 − cos a = 2 sin²(a/2)`` (no cancellation); series for ``|a| < SMALL_TURN``.
     """
@@ -39,12 +40,14 @@ def _turn_terms(a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.n
     one_minus_cos = 2.0 * np.sin(0.5 * a_safe) ** 2
     S_exact = sin_a / a_safe
     C_exact = one_minus_cos / a_safe
-    dS_exact = (a_safe * cos_a - sin_a) / a_safe**2
-    dC_exact = (a_safe * sin_a - one_minus_cos) / a_safe**2
-
     a2 = a * a
     S_series = 1.0 - a2 / 6.0 * (1.0 - a2 / 20.0 * (1.0 - a2 / 42.0 * (1.0 - a2 / 72.0)))
     C_series = a / 2.0 * (1.0 - a2 / 12.0 * (1.0 - a2 / 30.0 * (1.0 - a2 / 56.0)))
+    if not derivatives:
+        return np.where(small, S_series, S_exact), np.where(small, C_series, C_exact)
+    dS_exact = (a_safe * cos_a - sin_a) / a_safe**2
+    dC_exact = (a_safe * sin_a - one_minus_cos) / a_safe**2
+
     dS_series = -a / 3.0 * (1.0 - a2 / 10.0 * (1.0 - a2 / 28.0 * (1.0 - a2 / 54.0)))
     dC_series = 0.5 - a2 / 8.0 * (1.0 - a2 / 18.0 * (1.0 - a2 / 40.0 * (1.0 - a2 / 70.0)))
 
@@ -70,7 +73,7 @@ class ConstantTurn(MotionModel):
         T = float(self.dt)
         px, py, vx, vy, w = (x[..., i] for i in range(5))
         a = w * T
-        S, C, _, _ = _turn_terms(a)
+        S, C = turn_terms(a, derivatives=False)
         sin_a, cos_a = np.sin(a), np.cos(a)
         return np.stack(
             [
@@ -89,7 +92,7 @@ class ConstantTurn(MotionModel):
         T = float(self.dt)
         vx, vy, w = x[..., 2], x[..., 3], x[..., 4]
         a = w * T
-        S, C, dS, dC = _turn_terms(a)
+        S, C, dS, dC = turn_terms(a)
         sin_a, cos_a = np.sin(a), np.cos(a)
         J = np.zeros(x.shape[:-1] + (5, 5))
         J[..., 0, 0] = 1.0

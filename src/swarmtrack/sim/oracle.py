@@ -17,7 +17,7 @@ from collections.abc import Callable
 import numpy as np
 
 from swarmtrack.estimation.base import TargetView
-from swarmtrack.models import make_model
+from swarmtrack.models.kinematic import kinematic_motion
 
 #: Below this acceleration (m/s²) the target moves at constant velocity; an acceleration within this cosine of
 #: the normal to the velocity is a turn.
@@ -82,8 +82,4 @@ class TruthOracle:
 
 def predict(x: np.ndarray, model: str, motion: np.ndarray, dt: float) -> np.ndarray:
     """``[x, y, vx, vy]`` after ``dt`` s of the model's motion (closed form for any dt)."""
-    if dt <= 0:
-        return x.copy()
-    full = np.concatenate([x, motion[:2]]) if model == "ca" else np.concatenate([x, motion[2:]]) \
-        if model == "ct" else x
-    return make_model(model, dt).f(full[None])[0, :4]
+    return kinematic_motion(x[None], model, motion[None], np.array([max(dt, 0.0)]))[0, 0]

@@ -28,12 +28,14 @@ bench: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_fusion.py
 	$(VENV)/bin/python benchmarks/bench_sweep.py
 	$(VENV)/bin/python benchmarks/bench_sim.py
+	$(VENV)/bin/python benchmarks/bench_mpc.py
 
 bench-large: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_filters.py
 	$(VENV)/bin/python benchmarks/bench_fusion.py
 	$(VENV)/bin/python benchmarks/bench_sweep.py
 	$(VENV)/bin/python benchmarks/bench_sim.py --large
+	$(VENV)/bin/python benchmarks/bench_mpc.py
 
 clean:
 	rm -rf $(VENV) runs

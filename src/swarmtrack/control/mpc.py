@@ -212,20 +212,8 @@ class MPCController:
         if self.setpoint is None:
             self.setpoint = nav[:, :2].copy()
         ref = propagate_target(view, self.target_model, s.period, h) + self.offsets[:, None, :]  # (N, h, 2)
-        beacons = inbox.payloads["nav"]
-        free = self.cond.free(beacons)  # each beacon's zero-input prediction (eq. 5.25), the same for every reader
         own_free = self.cond.free(nav)
-        recv, send = inbox.edges()
-        delta = nav[recv, :2] - beacons[send, :2]
-        close = np.einsum("ij,ij->i", delta, delta) < s.r_s ** 2
-        recv, send, delta = recv[close], send[close], delta[close]
-        steps = free[send].reshape(-1, h, 2) + side_step(delta, s.r_s)[:, None, :]  # side-step points x_s(l)
-        m = np.bincount(recv, minlength=len(nav))
-        pull = np.zeros_like(ref)
-        np.add.at(pull, recv, steps)
-        w = s.Q + m * s.Q_s
-        r_bar = (s.Q * ref + s.Q_s * pull) / w[:, None, None]
-        self.avoiding = m.astype(float)
+        w, r_bar = self._separation(nav, inbox, ref)
         ready = np.isfinite(r_bar).all(axis=(1, 2))  # no estimate yet: keep holding
         for i in np.flatnonzero(ready):
             qp = self.qps[i]
@@ -239,6 +227,29 @@ class MPCController:
             else:  # the last setpoint, moved into this plan's bounds: a feasible input
                 self.fallbacks[i] += 1
                 self.setpoint[i] = nav[i, :2] + np.clip(self.setpoint[i] - nav[i, :2], -s.bound, s.bound)
+
+    def _separation(self, nav: np.ndarray, inbox, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Each UAV's position weight ``w = Q + m Q_s`` and mean reference r̄ (N, h, 2) with its m neighbours closer
+        than r_s (eqs. 5.24-5.29): neighbour j (as it broadcast, eq. 5.24) propagated at zero input by this UAV's
+        model (eq. 5.25), plus the side-step offset of eq. 5.29."""
+        s, n = self.s, len(nav)
+        self.avoiding = np.zeros(n)
+        if s.Q_s == 0:
+            return np.full(n, s.Q), ref
+        beacons = inbox.payloads["nav"]
+        recv, send = inbox.edges()
+        delta = nav[recv, :2] - beacons[send, :2]
+        close = np.einsum("ij,ij->i", delta, delta) < s.r_s ** 2
+        if not close.any():
+            return np.full(n, s.Q), ref
+        recv, send, delta = recv[close], send[close], delta[close]
+        steps = self.cond.free(beacons[send]).reshape(-1, s.horizon, 2) + side_step(delta, s.r_s)[:, None, :]
+        m = np.bincount(recv, minlength=n)
+        pull = np.zeros_like(ref)
+        np.add.at(pull, recv, steps)
+        w = s.Q + m * s.Q_s
+        self.avoiding = m.astype(float)
+        return w, (s.Q * ref + s.Q_s * pull) / w[:, None, None]
 
     def sample(self) -> dict[str, np.ndarray]:
         n = len(self.offsets)

@@ -400,11 +400,14 @@ def _blind_intervals(rec: Recording) -> list[tuple[float, float]]:
     detected = _probe(rec, "detected")
     if detected is None:
         return []
-    blind = ~(detected > 0).any(axis=1)
-    t = np.asarray(rec.t, dtype=float)
-    edges = np.diff(np.concatenate(([0], blind.astype(np.int8), [0])))
+    return _runs(~(detected > 0).any(axis=1), np.asarray(rec.t, dtype=float), rec.dt)
+
+
+def _runs(mask: np.ndarray, t: np.ndarray, dt: float) -> list[tuple[float, float]]:
+    """``(t_start, t_end)`` of each run of True in ``mask`` (K,) over the steps ``t``; a run ends ``dt`` after its
+    last step."""
+    edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
     starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
-    dt = rec.dt
     return [(float(t[s]), float(t[e - 1]) + dt) for s, e in zip(starts.tolist(), ends.tolist(), strict=True)]
 
 

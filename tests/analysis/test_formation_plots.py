@@ -1,0 +1,116 @@
+"""W20 Ch. 5 formation figures: written for MPC runs, registered on the ``setpoint`` probe, and drawing the numbers
+the metrics report."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from swarmtrack.analysis import metrics, plots
+from swarmtrack.scenarios import load_scenario
+from swarmtrack.sim.engine import simulate
+
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+FORMATION_FIGURES = ["formation_paths.png", "formation_xy.png", "slot_distances.png", "mpc_inputs.png",
+                     "min_separation.png"]
+FIGURE_FUNCTIONS = [plots.plot_formation_paths, plots.plot_formation_xy_time, plots.plot_slot_distance,
+                    plots.plot_mpc_inputs, plots.plot_min_separation]
+
+
+@pytest.fixture(scope="module")
+def formation():
+    """Three UAVs; the MPC starts at 20 s."""
+    return simulate(load_scenario("w20-mpc-formation", overrides=["duration=22"]))
+
+
+@pytest.fixture(scope="module")
+def collision():
+    """Two UAVs; UAV 2 passes UAV 1 within r_s in the first seconds."""
+    return simulate(load_scenario("w20-mpc-collision", overrides=["duration=6"]))
+
+
+@pytest.fixture(scope="module")
+def occlusion():
+    """UAV 3 blind from 40 s (the run ends at 42 s)."""
+    return simulate(load_scenario("w20-mpc-occlusion", overrides=["duration=42"]))
+
+
+def assert_png(path):
+    assert path.exists() and path.stat().st_size > 1000
+    assert path.read_bytes()[:8] == PNG_MAGIC
+
+
+@pytest.mark.parametrize("fn", FIGURE_FUNCTIONS, ids=lambda fn: fn.__name__)
+@pytest.mark.parametrize("run", ["formation"])
+def test_every_formation_figure_writes_a_png(fn, run, request, tmp_path):
+    rec = request.getfixturevalue(run)
+    assert_png(fn(rec, tmp_path / "figure.png"))
+
+
+def test_mpc_runs_get_the_formation_figures(collision, tmp_path):
+    names = [p.name for p in plots.save_run_figures(collision, tmp_path)]
+    assert [n for n in names if n in FORMATION_FIGURES] == FORMATION_FIGURES
+    for name in FORMATION_FIGURES:
+        assert_png(tmp_path / name)
+
+
+def test_a_single_uav_gets_no_separation_figure(tmp_path):
+    rec = simulate(load_scenario("w20-mpc-single", overrides=["duration=3"]))
+    names = [p.name for p in plots.save_run_figures(rec, tmp_path)]
+    assert [n for n in names if n in FORMATION_FIGURES] == FORMATION_FIGURES[:-1]
+    assert not (tmp_path / "min_separation.png").exists()
+
+
+def test_a_flocking_run_gets_no_formation_figures(tmp_path):
+    rec = simulate(load_scenario("l24-cv", overrides=["duration=2"]))
+    names = {p.name for p in plots.save_run_figures(rec, tmp_path)}
+    assert names and not names & set(FORMATION_FIGURES)
+
+
+def test_slot_distances_match_a_hand_computation_and_the_tracking_error(formation):
+    dist = plots.slot_distances(formation)
+    offsets = np.array(formation.meta["controller"]["offsets"], dtype=float)
+    k = 123
+    for i in range(formation.n_agents):
+        dx = formation.uav[k, i, 0] - (formation.target[k, 0] + offsets[i, 0])
+        dy = formation.uav[k, i, 1] - (formation.target[k, 1] + offsets[i, 1])
+        assert dist[k, i] == pytest.approx(np.hypot(dx, dy), abs=1e-12)
+    after = formation.t >= formation.meta["controller"]["start"] - 1e-9
+    tracking = metrics.summary(formation)["formation"]["tracking_error"]
+    np.testing.assert_allclose(dist[after].mean(axis=0), tracking, rtol=1e-12)
+
+
+def test_the_slot_distance_figure_draws_slot_distances(formation):
+    dist = plots.slot_distances(formation)
+    np.testing.assert_array_equal(plots._FormationSeries(formation, every=1).distance, dist)
+    np.testing.assert_array_equal(plots._FormationSeries(formation, every=4).distance, dist[::4])
+
+
+def test_the_drawn_minimum_separation_keeps_the_closest_pass(collision):
+    closest = metrics.spacing(collision)["min"]
+    assert int(np.argmin(plots._FormationSeries(collision, every=1).separation)) % 8  # a stride of 8 skips it
+    for every in (1, 8):
+        drawn = plots._FormationSeries(collision, every=every).separation
+        assert len(drawn) == -(-len(collision.t) // every)
+        assert drawn.min() == pytest.approx(closest, abs=1e-12)
+
+
+def test_the_input_is_the_setpoint_relative_to_the_position_before_the_plan(formation):
+    s = plots._FormationSeries(formation, every=1)
+    setpoint, solves = plots._probe(formation, "setpoint"), plots._probe(formation, "solves")
+    i = 1
+    rises = np.flatnonzero(np.diff(solves[:, i]) > 0) + 1  # steps that show a new plan's setpoint
+    k = int(rises[3])
+    assert not np.diff(solves[:, i])[k]  # the plan period is two steps: step k + 1 still shows plan k − 1's setpoint
+    np.testing.assert_allclose(s.u[k, i], setpoint[k, i] - formation.uav[k - 1, i, :2], atol=1e-12)
+    np.testing.assert_allclose(s.u[k + 1, i], setpoint[k + 1, i] - formation.uav[k - 1, i, :2], atol=1e-12)
+    assert np.isnan(s.u[: rises[0], i]).all()  # no input before the first plan
+    bound = formation.meta["controller"]["bound"]
+    assert np.nanmax(np.abs(s.u)) <= bound + 0.1  # within the bound up to the navigation noise
+
+
+def test_a_blind_uav_has_its_own_blind_interval(occlusion):
+    s = plots._FormationSeries(occlusion)
+    assert s.blind[0] == [] and s.blind[1] == []
+    ((t0, t1),) = s.blind[2]
+    assert (t0, t1) == (pytest.approx(40.0), pytest.approx(42.0))

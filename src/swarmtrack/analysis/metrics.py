@@ -357,6 +357,20 @@ class _ModelUse:
         return {"share": share, "switches": self.switches}
 
 
+def formation_spec(rec: Recording) -> tuple[np.ndarray, float, dict]:
+    """``(offsets (N, 2), MPC start s, controller spec)`` from ``meta["controller"]`` (zero offsets, start 0 if
+    absent)."""
+    ctrl = (rec.meta or {}).get("controller") or {}
+    offsets = ctrl.get("offsets") or [(0.0, 0.0)] * rec.n_agents
+    return np.asarray(offsets, dtype=float).reshape(rec.n_agents, 2), float(ctrl.get("start") or 0.0), ctrl
+
+
+def slot_offsets(rec: Recording, truth: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """(k, N, 2) each UAV's true position minus its formation slot (the target's true position plus the UAV's offset
+    r_r, W20 eq. 5.22) at the steps of ``truth`` (k, objects, 4)."""
+    return truth[:, rec.uav_slice, :2] - (truth[:, rec.tracked, None, :2] + offsets)
+
+
 class _Formation:
     """W20 Ch. 5's tracking error (Tables 5.6, 5.8, 5.11, 5.12): each UAV's true distance to its formation place
     (the target's true position plus its offset r_r) from the MPC's start on, mean per UAV, per axis and (mean over
@@ -364,10 +378,9 @@ class _Formation:
     MPC's solver statistics (cumulative probes: plans solved, fallbacks, wall time, OSQP iterations)."""
 
     def __init__(self, rec: Recording):
-        ctrl = rec.meta["controller"]
         n = rec.n_agents
-        self.rec, self.start = rec, float(ctrl.get("start", 0.0))
-        self.offsets = np.asarray(ctrl.get("offsets") or [(0.0, 0.0)] * n, dtype=float)
+        self.rec = rec
+        self.offsets, self.start, _ = formation_spec(rec)
         self.sum, self.sum_axes, self.n = np.zeros(n), np.zeros((n, 2)), 0
         self.names, self.group = _phase_groups(rec)
         self.phase_sum, self.phase_n = np.zeros(len(self.names)), np.zeros(len(self.names))
@@ -375,8 +388,7 @@ class _Formation:
 
     def add(self, c: Chunk, keep, err) -> None:
         after = c.t >= self.start - 1e-9
-        slot = c.truth[after][:, self.rec.tracked, None, :2] + self.offsets
-        off = c.truth[after][:, self.rec.uav_slice, :2] - slot  # (k, N, 2)
+        off = slot_offsets(self.rec, c.truth[after], self.offsets)  # (k, N, 2)
         dist = np.linalg.norm(off, axis=-1)
         self.sum += dist.sum(axis=0)
         self.sum_axes += np.abs(off).sum(axis=0)

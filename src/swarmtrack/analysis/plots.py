@@ -281,7 +281,8 @@ def _draw_pair_distances(ax: Axes, rec: Recording, legend: bool = True) -> tuple
                         label=f"all {total} pairs (min-max)")
     for p in range(shown):
         ax.plot(rec.t, dist[:, p], color=agent_color(p), lw=1.0, label=labels[p], zorder=3)
-    ax.axhline(rec.d, color="black", lw=1.0, ls="-", label=f"d = {rec.d:g} m", zorder=2)
+    if np.isfinite(rec.d):  # a flocking run's desired distance (other controllers have none)
+        ax.axhline(rec.d, color="black", lw=1.0, ls="-", label=f"d = {rec.d:g} m", zorder=2)
     ax.axhline(rec.r_comm, color="black", lw=1.0, ls="--", label=f"$r_{{comm}}$ = {rec.r_comm:g} m", zorder=2)
     if total == 0:
         ax.text(0.5, 0.5, "fewer than 2 agents: no pairs", transform=ax.transAxes, ha="center", va="center")
@@ -588,25 +589,13 @@ MAX_POINTS = 5000
 """Points per line the W20 Ch. 5 figures keep by default (``every=None``)."""
 
 
-def _formation_spec(rec: Recording) -> tuple[np.ndarray, float, dict]:
-    """``(offsets (N, 2), MPC start s, controller spec)`` from ``meta["controller"]`` (zero offsets, start 0 if
-    absent)."""
-    ctrl = (rec.meta or {}).get("controller") or {}
-    offsets = ctrl.get("offsets") or [(0.0, 0.0)] * rec.n_agents
-    return np.asarray(offsets, dtype=float).reshape(rec.n_agents, 2), float(ctrl.get("start") or 0.0), ctrl
-
-
-def _slot_offsets(rec: Recording, truth: np.ndarray, offsets: np.ndarray) -> np.ndarray:
-    """(k, N, 2) each UAV's true position minus its slot (the target's true position plus the UAV's offset)."""
-    return truth[:, rec.uav_slice, :2] - (truth[:, rec.tracked, None, :2] + offsets)
-
-
 def slot_distances(rec: Recording) -> np.ndarray:
     """(K, N) true distance of every UAV to its formation slot ``q_t + r_r`` (W20 Ch. 5's tracking error before
     it is averaged: :func:`~swarmtrack.analysis.metrics.summary`'s ``formation.tracking_error`` is its mean over
     the steps from the MPC's start on). Whole run in memory: for plots and tests of small runs."""
-    offsets, _, _ = _formation_spec(rec)
-    parts = [np.linalg.norm(_slot_offsets(rec, c.truth, offsets), axis=-1) for c in rec.chunks(probes_wanted=False)]
+    offsets, _, _ = metrics.formation_spec(rec)
+    parts = [np.linalg.norm(metrics.slot_offsets(rec, c.truth, offsets), axis=-1)
+             for c in rec.chunks(probes_wanted=False)]
     return np.concatenate(parts) if parts else np.zeros((0, rec.n_agents))
 
 
@@ -648,7 +637,7 @@ class _FormationSeries:
 
     def __init__(self, rec: Recording, every: int | None = None):
         n = rec.n_agents
-        self.offsets, self.start, self.ctrl = _formation_spec(rec)
+        self.offsets, self.start, self.ctrl = metrics.formation_spec(rec)
         steps = int((rec.meta or {}).get("n_steps") or len(rec.t))
         self.every = every = max(1, int(every)) if every is not None else max(1, -(-steps // MAX_POINTS))
         keep_t, full_t, target, uav, dist, u, sep, avoiding, blind = [], [], [], [], [], [], [], [], []
@@ -672,7 +661,7 @@ class _FormationSeries:
             full_t.append(c.t)
             target.append(c.truth[keep, rec.tracked, :2])
             uav.append(q[keep])
-            dist.append(np.linalg.norm(_slot_offsets(rec, c.truth[keep], self.offsets), axis=-1))
+            dist.append(np.linalg.norm(metrics.slot_offsets(rec, c.truth[keep], self.offsets), axis=-1))
             u.append((setpoint - at_plan)[keep])
             sep.append(_min_separation(q))
             avoiding.append(c.probes["avoiding"] if "avoiding" in c.probes else np.zeros((k, n)))

@@ -742,7 +742,7 @@ def plot_formation_paths(rec: Recording, path: str | Path, every: int | None = N
     if s.started():
         marks += f", \u25c6 MPC start (t = {s.start:g} s)"
     ax.set_title(_title(rec, "Formation tracking paths", shown, n, "UAVs")
-                 + f"\nsolid: UAVs, dashed: their slots (target + offset); {marks}", fontsize=10)
+                 + f"\nsolid: UAVs, dashed: their slots (target + offset)\n{marks}", fontsize=10)
     return _save(fig, path)
 
 

@@ -6,7 +6,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-DOCS = ["docs/tracking-swarm.md", "docs/multi-model.md", "README.md", "docs/scenarios.md", "docs/identification.md"]
+DOCS = ["docs/tracking-swarm.md", "docs/multi-model.md", "README.md", "docs/scenarios.md", "docs/identification.md",
+        "docs/mpc.md"]
 
 
 def python_blocks(path: Path) -> list[str]:

@@ -1,5 +1,6 @@
 """Bad MPC, outage and identified-model settings are refused with the field and the cause named (exit 2)."""
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -37,3 +38,19 @@ def test_a_given_model_is_used_and_the_thesis_models_by_name():
     s = load_scenario("w20-mpc-single", ["controller.model=w20-pelican"])
     T, A, B = s.controller.uav_model()
     assert T == 0.2 and A[2, 0] == -0.151 and B[3, 1] == 0.111
+
+
+def test_the_yaml_block_identify_writes_plugs_into_a_scenario():
+    import yaml
+
+    from swarmtrack.control.identification import identify, model_yaml, step_response_log
+    from swarmtrack.scenarios.loader import load_raw
+    from swarmtrack.scenarios.schema import Scenario
+
+    found = identify(step_response_log())
+    data = load_raw("w20-mpc-formation")
+    data["controller"]["model"] = yaml.safe_load(model_yaml(found))["model"]
+    T, A, B = Scenario.model_validate(data).controller.uav_model()
+    assert T == found.T
+    np.testing.assert_allclose(A, found.A, rtol=1e-5, atol=1e-7)
+    np.testing.assert_allclose(B, found.B, rtol=1e-5, atol=1e-7)

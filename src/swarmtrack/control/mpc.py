@@ -199,8 +199,7 @@ class MPCController:
         return {"nav": nav}
 
     def command(self, t: float, nav: np.ndarray, view: TargetView, inbox, dt: float) -> np.ndarray:
-        if self.setpoint is None:
-            self.setpoint = nav[:, :2].copy()  # hold where it is until the MPC starts
+        self._hold_from(nav)
         if t >= self._next_plan - 1e-9:
             self.plan(nav, view, inbox)
             self._next_plan = t + self.s.period
@@ -209,8 +208,7 @@ class MPCController:
     def plan(self, nav: np.ndarray, view: TargetView, inbox) -> None:
         """One MPC step of every UAV (each from its own state, estimate and inbox)."""
         s, h = self.s, self.s.horizon
-        if self.setpoint is None:
-            self.setpoint = nav[:, :2].copy()
+        self._hold_from(nav)
         ref = propagate_target(view, self.target_model, s.period, h) + self.offsets[:, None, :]  # (N, h, 2)
         own_free = self.cond.free(nav)
         w, r_bar = self._separation(nav, inbox, ref)
@@ -227,6 +225,11 @@ class MPCController:
             else:  # the last setpoint, moved into this plan's bounds: a feasible input
                 self.fallbacks[i] += 1
                 self.setpoint[i] = nav[i, :2] + np.clip(self.setpoint[i] - nav[i, :2], -s.bound, s.bound)
+
+    def _hold_from(self, nav: np.ndarray) -> None:
+        """Before the first plan every UAV holds where it was at its first command."""
+        if self.setpoint is None:
+            self.setpoint = nav[:, :2].copy()
 
     def _separation(self, nav: np.ndarray, inbox, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Each UAV's position weight ``w = Q + m Q_s`` and mean reference r̄ (N, h, 2) with its m neighbours closer

@@ -675,7 +675,7 @@ class MPCSpec(ControllerSpec):
         n = scenario.swarm.n_uavs
         if self.offsets and len(self.offsets) != n:
             raise ValueError(f"controller.offsets has {len(self.offsets)} entries for {n} UAVs")
-        if len(self.offsets) < n and n > 1:
+        if not self.offsets and n > 1:
             raise ValueError(f"controller.offsets: {n} UAVs need {n} distinct formation slots (one each)")
         T = self.uav_model()[0]
         if abs(T - self.period) > 1e-9:

@@ -39,8 +39,8 @@ def kinematic_model(velocity: np.ndarray, acceleration: np.ndarray) -> tuple[str
 
 class TruthOracle:
     """``truth()``: the followed target's ``[x, y, vx, vy]``; ``kinematics()``: its commanded velocity and
-    acceleration (2,) each, or None (no model knowledge: CV); ``blind()``: (N,) the UAVs that cannot see it now,
-    or None; ``now()``: the time."""
+    acceleration (2,) each, or None (no model knowledge); ``blind()``: (N,) the UAVs that cannot see it now, or None;
+    ``now()``: the time."""
 
     probes = ()
 
@@ -59,7 +59,8 @@ class TruthOracle:
 
     def view(self) -> TargetView:
         x = np.asarray(self._truth()[:4], dtype=float)
-        model, motion = kinematic_model(*self._kinematics()) if self._kinematics else ("cv", np.zeros(3))
+        known = self._kinematics is not None
+        model, motion = kinematic_model(*self._kinematics()) if known else ("cv", np.zeros(3))
         state = np.broadcast_to(x, (self.n, 4)).copy()
         models = np.full(self.n, model, dtype=object)
         motions = np.broadcast_to(motion, (self.n, 3)).copy()
@@ -67,14 +68,15 @@ class TruthOracle:
         blind = self._blind() if self._blind is not None else np.zeros(self.n, dtype=bool)
         if self._held is None or not blind.any():
             self._held = [(t, x, model, motion)] * self.n
-            return TargetView(state, models, motions)
-        for i in range(self.n):
-            if not blind[i]:
-                self._held[i] = (t, x, model, motion)
-                continue
-            t0, x0, m0, mo0 = self._held[i]
-            state[i], models[i], motions[i] = predict(x0, m0, mo0, t - t0), m0, mo0
-        return TargetView(state, models, motions)
+        else:
+            for i in range(self.n):
+                if not blind[i]:
+                    self._held[i] = (t, x, model, motion)
+                    continue
+                t0, x0, m0, mo0 = self._held[i]
+                state[i], models[i], motions[i] = predict(x0, m0, mo0, t - t0), m0, mo0
+        # without kinematics the oracle knows no model (a blind UAV then extrapolates at constant velocity)
+        return TargetView(state, models, motions) if known else TargetView(state)
 
     def sample(self) -> dict:
         return {}

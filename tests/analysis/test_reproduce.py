@@ -55,6 +55,7 @@ def runs(monkeypatch):
         return {"seed": scenario.seed, "duration": scenario.duration}
 
     monkeypatch.setattr(rep, "run_one", fake_run_one)
+    monkeypatch.setattr(rep, "run_batch", lambda scenarios: [fake_run_one(s) for s in scenarios])
     return seen
 
 
@@ -179,6 +180,7 @@ def test_overrides_reach_every_run_and_the_report(tmp_path, monkeypatch):
         return {"x": 1.0}
 
     monkeypatch.setattr(rep, "run_one", fake_run_one)
+    monkeypatch.setattr(rep, "run_batch", lambda scenarios: [fake_run_one(s) for s in scenarios])
     results = rep.run_all([("l24-cv", 1), ("l24-ct", 2)], tmp_path, workers=1,
                                        overrides=["duration=3", "sensor.latency=0"])
     assert sorted(seen) == [("l24-ct", 3.0, 0.0), ("l24-cv", 3.0, 0.0)] and len(results) == 2

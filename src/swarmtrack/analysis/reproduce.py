@@ -111,6 +111,45 @@ def run_one(scenario: Scenario) -> dict:
         return {"diverged": str(exc)}
 
 
+#: Largest batch of worlds run as one (:mod:`swarmtrack.sim.batch`): UAVs over all its worlds, and worlds. Batches
+#: are for small swarms (their links are dense), and a batch is lost whole when a study is interrupted.
+BATCH_UAVS, BATCH_WORLDS = 256, 32
+
+
+def batches(scenarios: Sequence[Scenario], workers: int = 1) -> list[list[int]]:
+    """Indices of ``scenarios`` grouped into the batches they run in: runs of one scenario (seeds apart) that
+    :func:`~swarmtrack.sim.batch.unbatchable` accepts, at most :data:`BATCH_WORLDS` worlds and
+    :data:`BATCH_UAVS` UAVs each, split so that ``workers`` processes all get work; the rest one by one."""
+    from swarmtrack.sim.batch import unbatchable
+
+    groups: dict[str, list[int]] = {}
+    for k, s in enumerate(scenarios):
+        groups.setdefault(s.model_dump_json(exclude={"seed"}), []).append(k)
+    out = []
+    for members in groups.values():
+        n = scenarios[members[0]].swarm.n_uavs
+        if len(members) < 2 or n > BATCH_UAVS // 2 or unbatchable([scenarios[k] for k in members[:2]]):
+            out += [[k] for k in members]
+            continue
+        size = min(BATCH_WORLDS, BATCH_UAVS // n, -(-len(members) // max(1, workers)))
+        out += [members[i:i + size] for i in range(0, len(members), size)]
+    return out
+
+
+def run_batch(scenarios: Sequence[Scenario]) -> list[dict]:
+    """:func:`run_one` of each scenario, as one batch of worlds when there are several (same numbers); a batch that
+    raises (a filter that diverged, anything else) is run again one world at a time, so each run gets its own
+    result or error."""
+    if len(scenarios) == 1:
+        return [run_one(scenarios[0])]
+    from swarmtrack.sim.batch import simulate_batch
+
+    try:
+        return [summary(rec) for rec in simulate_batch(list(scenarios))]
+    except Exception:  # noqa: BLE001 - each run's own outcome comes from running it alone
+        return [run_one(s) for s in scenarios]
+
+
 def _worker_signals() -> None:
     """Workers leave Ctrl-C to the parent, which stops them at once (:func:`run_all`), and die quietly on the
     parent's SIGTERM (not with the handler a forked worker inherits)."""
@@ -118,8 +157,9 @@ def _worker_signals() -> None:
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
-def _run_indexed(item: tuple[int, Scenario]) -> tuple[int, dict]:
-    return item[0], run_one(item[1])
+def _run_indexed(item: tuple[list[int], list[Scenario]]) -> list[tuple[int, dict]]:
+    """A batch of jobs (their indices and scenarios) to their ``(index, metrics)``."""
+    return list(zip(item[0], run_batch(item[1]), strict=True))
 
 
 def run_all(jobs: list[Job], cache: Path, workers: int | None, on_done: Callable[[], None] | None = None,
@@ -179,22 +219,25 @@ def _run_all(resolved: dict, cache: Path, workers: int | None, on_done, warn, cl
         if on_done:
             on_done()
 
+    n_workers = 1 if workers == 1 else (workers or os.cpu_count() or 1)
+    tasks = [(ks, [todo[k][1] for k in ks]) for ks in batches([item[1] for item in todo], n_workers)]
     if client is not None:
         from distributed import as_completed
 
-        futures = client.map(_run_indexed, [(k, item[1]) for k, item in enumerate(todo)], pure=False)
-        for future in as_completed(futures):
-            k, metrics = future.result()
-            keep(*todo[k], metrics)
-    elif workers == 1 or len(todo) <= 1:
-        for item in todo:
-            keep(*item, run_one(item[1]))
+        for future in as_completed(client.map(_run_indexed, tasks, pure=False)):
+            for k, metrics in future.result():
+                keep(*todo[k], metrics)
+    elif n_workers == 1 or len(tasks) <= 1:
+        for task in tasks:
+            for k, metrics in _run_indexed(task):
+                keep(*todo[k], metrics)
     else:
         # a multiprocessing pool (not concurrent.futures): terminate() stops running workers at once, where an
         # executor lets them finish their runs (30-40 s after Ctrl-C) and throws the results away
-        with multiprocessing.Pool(workers or os.cpu_count(), _worker_signals) as pool:
-            for k, metrics in pool.imap_unordered(_run_indexed, [(k, item[1]) for k, item in enumerate(todo)]):
-                keep(*todo[k], metrics)
+        with multiprocessing.Pool(n_workers, _worker_signals) as pool:
+            for done in pool.imap_unordered(_run_indexed, tasks):
+                for k, metrics in done:
+                    keep(*todo[k], metrics)
     return results
 
 

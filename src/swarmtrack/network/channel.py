@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from swarmtrack.network.links import Links, cut, drop, proximity_links, static_links
+from swarmtrack.network.links import Links, _squared_distance, cut, drop, proximity_links, static_links, to_dense
 
 
 @dataclass
@@ -69,3 +69,48 @@ class Channel:
             self._near = proximity_links(positions, self.r_comm, sparse=self.sparse)
             self._near_at = np.array(positions, dtype=float, copy=True)
         return self._near
+
+
+@dataclass
+class WorldsChannel:
+    """The channels of a batch of B worlds of ``n`` UAVs each (:mod:`swarmtrack.sim.batch`): world b's UAVs are rows
+    ``b·n .. (b+1)·n − 1`` and hear only each other, through world b's own :class:`Channel` (its topology, losses
+    and random stream), so each world's links are the ones it would have alone. Links are dense, block-diagonal."""
+
+    channels: tuple[Channel, ...]
+    n: int
+
+    def __post_init__(self) -> None:
+        worlds = np.repeat(np.arange(len(self.channels)), self.n)
+        self._same = worlds[:, None] == worlds[None, :]
+        first = self.channels[0]
+        self._quiet = all(c.loss_probability <= 0 and not c.outages for c in self.channels)
+        self._static = None
+        if self._quiet and first._static is not None:
+            self._static = self._blocks([to_dense(c._static) for c in self.channels])
+
+    def _blocks(self, blocks: list[np.ndarray]) -> np.ndarray:
+        out = np.zeros(self._same.shape, dtype=bool)
+        for b, block in enumerate(blocks):
+            out[b * self.n:(b + 1) * self.n, b * self.n:(b + 1) * self.n] = block
+        return out
+
+    def links(self, positions: np.ndarray, t: float = 0.0) -> np.ndarray:
+        """Each world's :meth:`Channel.links` (one static block-diagonal array when nothing is lost or cut)."""
+        if self._static is not None:
+            return self._static
+        return self._blocks([to_dense(c.links(positions[b * self.n:(b + 1) * self.n], t))
+                             for b, c in enumerate(self.channels)])
+
+    def beacon_links(self, positions: np.ndarray, t: float = 0.0) -> np.ndarray:
+        """Each world's :meth:`Channel.beacon_links`: the proximity graph within each world (all worlds at once when
+        nothing is lost or cut: the pairs of each world, tested as :func:`proximity_links` tests them)."""
+        if self._quiet:
+            q = positions.reshape(len(self.channels), self.n, -1)
+            near = _squared_distance(q[:, :, None, :], q[:, None, :, :]) < self.channels[0].r_comm ** 2
+            near[:, np.arange(self.n), np.arange(self.n)] = False
+            out = np.zeros(self._same.shape, dtype=bool)
+            out[self._same] = near.reshape(-1)
+            return out
+        return self._blocks([to_dense(c.beacon_links(positions[b * self.n:(b + 1) * self.n], t))
+                             for b, c in enumerate(self.channels)])

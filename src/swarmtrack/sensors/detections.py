@@ -36,14 +36,18 @@ class Detections:
     def __len__(self) -> int:
         return len(self.owner)
 
-    def of_label(self, label: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Per-UAV arrays of the detection labelled ``label``: ``z`` (N, m), ``sensor_pos`` (N, 2) and ``seen``
-        (N,); rows of UAVs that did not detect it are NaN. A sensor gives at most one per UAV and label."""
+    def of_label(self, label) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per-UAV arrays of the detection labelled ``label`` (one label, or one per UAV (N,): UAVs of a batch of
+        worlds follow their own world's target): ``z`` (N, m), ``sensor_pos`` (N, 2) and ``seen`` (N,); rows of UAVs
+        that did not detect it are NaN. A sensor gives at most one per UAV and label."""
         n, m = self.n_uavs, self.z.shape[-1]
-        if self.grid is not None and 0 <= label < self.grid:
+        if np.ndim(label):
+            pick = self.label == np.asarray(label)[self.owner]
+        elif self.grid is not None and 0 <= label < self.grid:
             return (self.z.reshape(n, self.grid, m)[:, label].copy(),
                     self.sensor_pos.reshape(n, self.grid, 2)[:, label].copy(), np.ones(n, dtype=bool))
-        pick = self.label == label
+        else:
+            pick = self.label == label
         owners = self.owner[pick]
         z = np.full((n, m), np.nan)
         pos = np.full((n, 2), np.nan)

@@ -162,6 +162,25 @@ def sense(
     return Detections(owner, z, stamped[owner], source, n, grid), source
 
 
+def sense_worlds(objects: np.ndarray, uavs: np.ndarray, stamped: np.ndarray, sigma_range: float,
+                 sigma_bearing: float, noise: np.ndarray, labels: np.ndarray, max_range: float | None = None):
+    """:func:`sense` for a batch of B worlds of one layout, each UAV towards its own world's objects only:
+    ``objects`` (B, M, 2), ``uavs`` and ``stamped`` (B, N, 2), ``noise`` (B, N, M, 2), ``labels`` (B, M) each
+    object's label. The detections of world b's UAV i are those of UAV ``b·N + i``; the pairs of each world are
+    computed as :func:`sense` computes them alone. Returns the detections and each one's label."""
+    from swarmtrack.sensors.detections import Detections
+
+    worlds, n, m = uavs.shape[0], uavs.shape[1], objects.shape[1]
+    z = measure(objects[:, None, :, :], uavs[:, :, None, :], sigma_range, sigma_bearing, noise=noise)  # (B, N, M, 2)
+    owner = np.repeat(np.arange(worlds * n), m)
+    source = np.broadcast_to(labels[:, None, :], (worlds, n, m)).reshape(-1)
+    z = z.reshape(-1, 2)
+    if max_range is not None:
+        inside = _range_bearing(objects[:, None, :, :], uavs[:, :, None, :])[2].reshape(-1) <= max_range
+        owner, source, z = owner[inside], source[inside], z[inside]
+    return Detections(owner, z, stamped.reshape(-1, 2)[owner], source, worlds * n, None), source
+
+
 @functools.lru_cache(maxsize=8)
 def _grid(n: int, m: int) -> tuple[np.ndarray, np.ndarray]:
     """Owner and object of every (UAV, object) pair, UAV-major (read-only, shared between steps)."""

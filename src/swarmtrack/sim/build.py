@@ -271,19 +271,28 @@ def build(scenario: Scenario) -> Simulation:
     channel = Channel(net.topology, n, net.r_comm, tuple((a - 1, b - 1) for a, b in net.edges),
                       net.loss_probability, stream(seed, "channel"),
                       outages=tuple((tuple(u - 1 for u in o.uavs), o.window) for o in net.outages))
-    meta = {
-        "scenario": scenario.name, "seed": seed, "dt": dt_est, "topology": net.topology, "r_comm": net.r_comm,
-        "groups": {name: [sl.start, sl.stop] for name, sl in world.slices.items()},
-        "tracked": tracked,
+    meta = run_meta(scenario, world.slices, flown, dt_est)
+    return Simulation(world, OnboardStack(estimator, controller, guide), channel, clock, meta)
+
+
+def run_meta(scenario: Scenario, slices: dict[str, slice], flown: dict[str, tuple], dt_estimation: float) -> dict:
+    """What a recording of one world says about its run: the groups' object ranges, the tracked object, the phases,
+    and what capability 1's metrics and figures read."""
+    followed = scenario.estimator.followed_target()
+    net = scenario.network
+    return {
+        "scenario": scenario.name, "seed": scenario.seed, "dt": dt_estimation, "topology": net.topology,
+        "r_comm": net.r_comm, "groups": {name: [sl.start, sl.stop] for name, sl in slices.items()},
+        "tracked": None if followed is None else slices["targets"].start + followed - 1,
         "phase_names": [] if followed is None else list(flown["targets"][followed - 1].phase_names),
-        "object_phases": [list(p.phase_names) for p in flown["targets"] + flown["decoys"]] + [[]] * n,
+        "object_phases": [list(p.phase_names) for p in flown["targets"] + flown["decoys"]]
+        + [[]] * scenario.swarm.n_uavs,
         # what capability 1's metrics and figures read: the flocking's d, when the chase starts, the filter model
         "d": getattr(scenario.controller, "d", float("nan")),
         # the metrics judge the run from here: when the chase starts, or when the estimator's warm-up ends
         "chase_start": max(getattr(scenario.controller, "chase_after_steps", 0),
-                           scenario.estimator.warmup_steps()) * dt_est,
+                           scenario.estimator.warmup_steps()) * dt_estimation,
         "model": getattr(scenario.estimator, "model", None),
         "estimator": scenario.estimator.model_dump(mode="json"),
         "controller": scenario.controller.model_dump(mode="json"),
     }
-    return Simulation(world, OnboardStack(estimator, controller, guide), channel, clock, meta)

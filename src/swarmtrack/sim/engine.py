@@ -15,7 +15,7 @@ import numpy as np
 
 from swarmtrack.network.messages import Inbox
 from swarmtrack.scenarios.schema import Scenario
-from swarmtrack.sim.build import build
+from swarmtrack.sim.build import Simulation, build
 from swarmtrack.sim.recorder import Recorder, Recording
 
 
@@ -24,10 +24,15 @@ def simulate(scenario: Scenario, progress: Callable[[float], None] | None = None
     """Run one closed-loop simulation and return its recording (kept in memory, or streamed to ``record_to``).
     Same scenario and seed, same numbers."""
     sim = build(scenario)
+    recorder = Recorder(sim.meta, sim.world.n_objects, scenario.swarm.n_uavs, sim.stack.probes, record_to)
+    return step_loop(sim, recorder, progress)
+
+
+def step_loop(sim: Simulation, recorder: Recorder, progress: Callable[[float], None] | None = None) -> Recording:
+    """Run a built simulation to its end, recording every estimation step."""
     world, stack, channel, clock = sim.world, sim.stack, sim.channel, sim.clock
-    recorder = Recorder(sim.meta, world.n_objects, scenario.swarm.n_uavs, stack.probes, record_to)
     uavs = world.slices["uavs"]
-    u = np.zeros((scenario.swarm.n_uavs, 2))
+    u = np.zeros((uavs.stop - uavs.start, 2))
     report_every = max(1, clock.steps // 100)
     publish = getattr(stack.estimator, "publish", None)  # the optional second round (Estimator.publish)
     for k in range(clock.steps):

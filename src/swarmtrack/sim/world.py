@@ -10,7 +10,7 @@ Onboard code never imports this module, and this module never imports the scenar
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -63,6 +63,11 @@ class RangeBearingSensor:
     def detect(self, objects, uavs, stamped, noise, t: float, aim):
         return range_bearing.sense(objects, uavs, stamped, self.sigma_range, self.sigma_bearing, noise,
                                    self.max_range, hidden_by(self.occluders, objects, len(uavs), t))
+
+    def detect_worlds(self, objects, uavs, stamped, noise, labels):
+        """A batch of worlds, each UAV towards its own world's objects (no occluders: they name one world's UAVs)."""
+        return range_bearing.sense_worlds(objects, uavs, stamped, self.sigma_range, self.sigma_bearing, noise,
+                                          labels, self.max_range)
 
 
 @dataclass(frozen=True)
@@ -136,10 +141,17 @@ class _Layout:
 
 
 class World:
-    """Truth of every group; :meth:`advance` integrates them together (one batched step per vehicle kind)."""
+    """Truth of every group; :meth:`advance` integrates them together (one batched step per vehicle kind).
+
+    ``streams(purpose)`` gives the random stream of each purpose. A sequence of B such functions makes the world a
+    batch of B independent worlds of one layout (one seed each): every group holds B equal blocks of members, world
+    b's block b; each world draws from its own streams exactly what it would draw alone, and its UAVs sense only its
+    objects, so every world evolves as it would on its own (:mod:`swarmtrack.sim.batch`).
+    """
 
     def __init__(self, groups: list[Group], sensor: RangeBearingSensor | CameraSensor, *, dt: float, ticks: int,
-                 nav_std: tuple[float, float], streams: Callable[[str], np.random.Generator],
+                 nav_std: tuple[float, float],
+                 streams: Callable[[str], np.random.Generator] | Sequence[Callable[[str], np.random.Generator]],
                  compiled: bool = False):
         names = [g.name for g in groups]
         if "uavs" not in names or len(set(names)) != len(names):
@@ -147,9 +159,13 @@ class World:
         self.groups = {g.name: g for g in groups}
         self.dt, self.sensor, self.compiled = dt, sensor, compiled
         self.params = quadrotor.QuadrotorParams()
+        world_streams = list(streams) if isinstance(streams, Sequence) else [streams]
+        self.worlds = len(world_streams)
+        if any(g.size % self.worlds for g in groups):
+            raise ValueError(f"a batch of {self.worlds} worlds needs every group's size divisible by it")
         # random streams by purpose (swarmtrack.sim.streams): each driven member's gusts have their own, so adding
         # a member or a group shifts no other draw
-        self._nav_rng = streams("navigation")
+        self._nav_rngs = [s("navigation") for s in world_streams]
         self._nav_std = np.array([nav_std[0]] * 2 + [nav_std[1]] * 2)
         # object index ranges of each group, in group order
         self.slices, start = {}, 0
@@ -157,12 +173,21 @@ class World:
             self.slices[g.name] = slice(start, start + g.size)
             start += g.size
         self.n_objects = start
+        # each object's world and its member number within its world's block of its group
+        self.world_of = np.concatenate([np.arange(g.size) // (g.size // self.worlds) for g in groups]
+                                       or [np.zeros(0, np.int64)]).astype(np.int64)
+        local = [(g.name, k % (g.size // self.worlds)) for g in groups for k in range(g.size)]
         # the objects the sensor sees, in label order (a cooperative sensor labels each by this index), each
         # with its own noise stream
         self._sensed = np.concatenate([np.arange(self.slices[n].start, self.slices[n].stop, dtype=np.int64)
                                        for n in sensor.sensed if n in self.slices] or [np.zeros(0, np.int64)])
-        names = [(g.name, k) for g in groups for k in range(g.size)]
-        self._sensor_rngs = [streams("sensor/{}/{}/{}".format(sensor.name, *names[o])) for o in self._sensed]
+        self._sensor_rngs = [world_streams[self.world_of[o]]("sensor/{}/{}/{}".format(sensor.name, *local[o]))
+                             for o in self._sensed]
+        # a batch: each world's UAV rows (contiguous) and its sensed objects' labels (B, M)
+        n = self.groups["uavs"].size // self.worlds
+        self._world_uavs = [slice(b * n, (b + 1) * n) for b in range(self.worlds)]
+        sensed_world = self.world_of[self._sensed]
+        self._world_labels = np.stack([np.flatnonzero(sensed_world == b) for b in range(self.worlds)])
         # physics layout and the drivers' profiles, gusts and gains sampled once for each of the run's ``ticks``
         ticks = ticks + 2
         grid = np.arange(ticks) * dt
@@ -177,7 +202,9 @@ class World:
                     v_cmd.append(prof.velocity(grid))
                     a_ff.append(prof.acceleration(grid))
                     gains.append(g.driver.gain)
-                    winds.append(streams(f"wind/{g.name}/{k}").standard_normal((ticks, 2)) * g.driver.wind_std)
+                    b, kl = divmod(k, g.size // self.worlds)
+                    winds.append(world_streams[b](f"wind/{g.name}/{kl}").standard_normal((ticks, 2))
+                                 * g.driver.wind_std)
                 (lay.quad_obj if g.vehicle == "quadrotor" else lay.point_obj).append(obj)
                 (lay.quad_driver if g.vehicle == "quadrotor" else lay.point_driver).append(d)
         n_driven = len(gains)
@@ -256,8 +283,15 @@ class World:
         """Each UAV's own navigation solution (N, 4): truth plus white noise (the ``navigation`` stream)."""
         nav = self.truth("uavs")
         if self._nav_std.any():
-            nav += self._nav_rng.standard_normal(nav.shape) * self._nav_std
+            nav += self._draw(self._nav_rngs, nav.shape[1]) * self._nav_std
         return nav
+
+    def _draw(self, rngs, width: int) -> np.ndarray:
+        """(N, width) standard normal draws, each world's UAV rows from its own stream (one draw when alone)."""
+        n = self._world_uavs[0].stop
+        if self.worlds == 1:
+            return rngs[0].standard_normal((n, width))
+        return np.concatenate([rng.standard_normal((n, width)) for rng in rngs])
 
     def sense(self, aim: np.ndarray | None = None):
         """Every UAV's detections, ``sensor.latency`` old, and (for the recorder and metrics only) the object
@@ -270,7 +304,16 @@ class World:
         sensed = self._sensed
         stamped = uavs.copy()
         if self._nav_std[0] > 0:
-            stamped += self._nav_rng.standard_normal(stamped.shape) * self._nav_std[0]
+            stamped += self._draw(self._nav_rngs, 2) * self._nav_std[0]
+        if self.worlds > 1:  # each world's UAVs towards its own objects, with each object's own noise stream
+            labels, n = self._world_labels, self._world_uavs[0].stop
+            noise = np.empty((self.worlds, n, labels.shape[1], 2))
+            for b, row in enumerate(labels):
+                for j, label in enumerate(row):
+                    noise[b, :, j] = self._sensor_rngs[label].standard_normal((n, 2))
+            det, source = self.sensor.detect_worlds(then[sensed[labels]], uavs.reshape(self.worlds, n, 2),
+                                                    stamped.reshape(self.worlds, n, 2), noise, labels)
+            return det, sensed[source]
         noise = np.empty((len(uavs), len(sensed), 2))
         for j, rng in enumerate(self._sensor_rngs):
             noise[:, j] = rng.standard_normal((len(uavs), 2))

@@ -27,6 +27,7 @@ bench: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_filters.py
 	$(VENV)/bin/python benchmarks/bench_fusion.py
 	$(VENV)/bin/python benchmarks/bench_sweep.py
+	$(VENV)/bin/python benchmarks/bench_batch.py
 	$(VENV)/bin/python benchmarks/bench_sim.py
 	$(VENV)/bin/python benchmarks/bench_mpc.py
 
@@ -34,6 +35,7 @@ bench-large: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_filters.py
 	$(VENV)/bin/python benchmarks/bench_fusion.py
 	$(VENV)/bin/python benchmarks/bench_sweep.py
+	$(VENV)/bin/python benchmarks/bench_batch.py
 	$(VENV)/bin/python benchmarks/bench_sim.py --large
 	$(VENV)/bin/python benchmarks/bench_mpc.py
 

@@ -1,0 +1,79 @@
+"""Many worlds per process: ``l24-cv`` seeds run as batched worlds (:mod:`swarmtrack.sim.batch`) against one process
+per seed (issue 10's goal: 100 seeds as batched worlds ≥ 5× the throughput of one process per seed), with one world
+at a time in one process as the same-run reference. One core; every figure is runs per second including the
+metrics of each run (what a study keeps).
+
+* one process per seed: a fresh interpreter per run (import, numba cache load, run, metrics), as a naive study
+  script or a job array does; timed on a few seeds and taken per run;
+* one world at a time: :func:`swarmtrack.analysis.reproduce.run_one` per seed in this process;
+* batched: :func:`swarmtrack.analysis.reproduce.run_batch` in batches of at most ``BATCH_WORLDS`` worlds.
+
+Run: ``PYTHONPATH=src .venv/bin/python benchmarks/bench_batch.py [--json] [--quick]`` (about 1.5 min; ``--quick``
+runs 20 seeds of 30 s instead of 100 full ones). ``--json`` prints one flat JSON object.
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+
+from swarmtrack.analysis.reproduce import BATCH_WORLDS, run_batch, run_one  # noqa: E402
+from swarmtrack.scenarios import load_scenario  # noqa: E402
+
+GOAL = 5.0
+_ONE = ("import sys; from swarmtrack.analysis.reproduce import run_one; from swarmtrack.scenarios import "
+        "load_scenario; run_one(load_scenario('l24-cv', sys.argv[2:], seed=int(sys.argv[1])))")
+
+
+def per_process(seeds: list[int], overrides: list[str]) -> float:
+    """Runs per second with a fresh interpreter per seed."""
+    t0 = time.perf_counter()
+    for s in seeds:
+        subprocess.run([sys.executable, "-c", _ONE, str(s), *overrides], check=True, env=os.environ.copy())
+    return len(seeds) / (time.perf_counter() - t0)
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--json", action="store_true")
+    parser.add_argument("--quick", action="store_true")
+    args = parser.parse_args(argv)
+    runs, overrides = (20, ["duration=30"]) if args.quick else (100, [])
+    scenarios = [load_scenario("l24-cv", overrides, seed=s) for s in range(1, runs + 1)]
+    run_batch(scenarios[:2])  # numba caches loaded, as in a worker that has run before
+    process = per_process(list(range(1, 4 if args.quick else 6)), overrides)
+    alone_n = min(runs, 10)
+    t0 = time.perf_counter()
+    for s in scenarios[:alone_n]:
+        run_one(s)
+    alone = alone_n / (time.perf_counter() - t0)
+    t0 = time.perf_counter()
+    for i in range(0, runs, BATCH_WORLDS):
+        run_batch(scenarios[i:i + BATCH_WORLDS])
+    batched = runs / (time.perf_counter() - t0)
+    out = {"runs": runs, "simulated_s": scenarios[0].run_duration(), "batch_worlds": BATCH_WORLDS,
+           "per_process_runs_per_s": process, "one_world_at_a_time_runs_per_s": alone,
+           "batched_runs_per_s": batched, "batched_vs_per_process": batched / process,
+           "batched_vs_one_at_a_time": batched / alone, "goal": GOAL, "met": batched / process >= GOAL}
+    if args.json:
+        print(json.dumps(out))
+        return
+    print(f"l24-cv, {runs} seeds of {out['simulated_s']:g} s simulated, one core; runs/s including each run's metrics")
+    print(f"  one process per seed         {process:7.2f} runs/s")
+    print(f"  one world at a time          {alone:7.2f} runs/s  (this process, the same-run reference)")
+    print(f"  batched worlds (<= {BATCH_WORLDS} each) {batched:7.2f} runs/s  = {batched / process:.1f}x one process "
+          f"per seed, {batched / alone:.1f}x one world at a time")
+    print(f"Goal: batched >= {GOAL:g}x one process per seed: {'MET' if out['met'] else 'NOT MET'}")
+
+
+if __name__ == "__main__":
+    main()

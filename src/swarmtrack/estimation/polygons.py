@@ -1,0 +1,135 @@
+"""Planar sets for guaranteed (set-membership) estimation, IB21 Secs. 4-5: every operation returns an *outer*
+approximation of the exact set, so a set that must contain a target still contains it after the operation.
+
+Sets are shapely 2 geometries (polygons, multipolygons, or empty), held in object arrays over the swarm; the
+functions take and return such arrays and use shapely's vectorised functions. What each operation needs:
+
+* **dilation** by a disc of radius r (the reachable displacement, IB21 eqs. 13-15, 44): GEOS places a buffer's
+  vertices *on* the circle, so a plain buffer lies inside the exact dilation (0.48 % short at ``quad_segs=8``). A
+  buffer by ``r / cos(π / (4 q))`` circumscribes it: each segment of a quarter circle cut into q subtends π/(2q), and
+  its midpoint is at the buffer radius times ``cos(π/(4q))``;
+* **simplification**, against vertex counts that grow with every buffer and difference: Douglas-Peucker with
+  tolerance ε keeps the Hausdorff distance to the original within ε, so ``original ⊆ simplified ⊕ D(ε)``; it is
+  done only inside :func:`dilate`, whose buffer then grows by ε, so no simplified set is ever used uncovered;
+* **removal of an explored region** ``A \\ F`` (eqs. 21, 26, 28): F must be an *inner* approximation of what was
+  truly explored, so the footprint is eroded by a small margin before it is removed;
+* **intersection** with the area or a measurement box and **union**: exact, from outer operands.
+
+:data:`OPS` counts the operations by kind, to profile a run.
+"""
+
+from __future__ import annotations
+
+import collections
+import math
+
+import numpy as np
+import shapely
+
+#: Absolute margin (m) against floating-point round-off: dilations grow by it, removed regions shrink by it.
+DELTA = 1e-6
+#: Segments per quarter circle of a dilation's disc.
+QUAD_SEGS = 8
+#: Outward simplification: tolerance (m) and the vertex count from which a set is simplified.
+SIMPLIFY_EPS, VERTEX_CAP = 0.005, 300
+#: Operations done, by kind (buffer, clip, difference, intersection, union, simplify).
+OPS: collections.Counter = collections.Counter()
+
+EMPTY = shapely.Polygon()
+
+
+def empty(n: int | tuple[int, ...]) -> np.ndarray:
+    """An object array of empty sets."""
+    out = np.empty(n, dtype=object)
+    out[...] = EMPTY
+    return out
+
+
+def circumscribed(r: float, quad_segs: int = QUAD_SEGS) -> float:
+    """The buffer distance whose polygonal disc contains the disc of radius ``r`` (plus :data:`DELTA`)."""
+    return r / math.cos(math.pi / (4 * quad_segs)) + DELTA
+
+
+def dilate(sets: np.ndarray, r: float, *, quad_segs: int = QUAD_SEGS, eps: float = SIMPLIFY_EPS,
+           cap: int = VERTEX_CAP) -> np.ndarray:
+    """``A ⊕ D(r)`` of every set, as an outer approximation: sets above ``cap`` vertices are simplified with
+    tolerance ``eps`` first and the buffer grows by ``eps`` (IB21 eqs. 13-15 with the reachable displacement r)."""
+    sets = np.asarray(sets, dtype=object)
+    big = shapely.get_num_coordinates(sets) > cap
+    grow = np.where(big, r + eps, r)
+    if big.any():
+        OPS["simplify"] += int(big.sum())
+        sets = np.where(big, shapely.simplify(sets, eps, preserve_topology=True), sets)
+    OPS["buffer"] += len(sets)
+    radius = grow / math.cos(math.pi / (4 * quad_segs)) + DELTA
+    return shapely.buffer(sets, radius, quad_segs=quad_segs)
+
+
+def clip(sets: np.ndarray, area) -> np.ndarray:
+    """``A ∩ X0``: exact."""
+    OPS["clip"] += len(np.atleast_1d(sets))
+    return shapely.intersection(sets, area)
+
+
+def inner(footprints: np.ndarray, margin: float = DELTA) -> np.ndarray:
+    """The footprints shrunk by ``margin``: an inner approximation of the explored region (points on its edge were
+    detected, so removing them would be safe too, but round-off in the difference must not remove more)."""
+    return shapely.buffer(footprints, -margin, join_style="mitre")
+
+
+def remove(sets: np.ndarray, regions: np.ndarray) -> np.ndarray:
+    """``A \\ F`` for inner ``F`` (IB21 eqs. 21, 26, 28): outer when A is."""
+    OPS["difference"] += len(np.atleast_1d(sets))
+    return shapely.difference(sets, regions)
+
+
+def intersect(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    OPS["intersection"] += len(np.atleast_1d(a))
+    return shapely.intersection(a, b)
+
+
+def within(small, *big):
+    """``small ∩ (∪ big)`` for one small set and some big ones: each big set is first cut to the small one's bounding
+    box (exact, and fast), which keeps large sets out of the overlay."""
+    if small.is_empty:
+        return small
+    box = small.bounds
+    local = union_all([shapely.clip_by_rect(g, *box) for g in big if not g.is_empty])
+    OPS["intersection"] += 1
+    return shapely.intersection(small, local) if not local.is_empty else EMPTY
+
+
+def union(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    OPS["union"] += len(np.atleast_1d(a))
+    return shapely.union(a, b)
+
+
+def union_all(sets) -> shapely.Geometry:
+    """The union of a sequence of sets (empty for none)."""
+    sets = [s for s in sets if s is not None and not s.is_empty]
+    OPS["union"] += max(0, len(sets) - 1)
+    return shapely.union_all(sets) if sets else EMPTY
+
+
+def intersect_all(sets) -> shapely.Geometry:
+    """The intersection of a non-empty sequence of sets."""
+    sets = list(sets)
+    OPS["intersection"] += len(sets) - 1
+    return shapely.intersection_all(sets) if len(sets) > 1 else sets[0]
+
+
+def boxes(z: np.ndarray, bound) -> np.ndarray:
+    """The measurement boxes ``B(y) = y − [w]`` (IB21 Sec. 6: ``h(x) = (x1, x2)``, a box noise of half-widths
+    ``bound``): the exact set of positions a measurement ``y`` (M, 2) can come from."""
+    z = np.asarray(z, dtype=float).reshape(-1, 2)
+    wx, wy = bound
+    return shapely.box(z[:, 0] - wx, z[:, 1] - wy, z[:, 0] + wx, z[:, 1] + wy)
+
+
+def area(sets) -> np.ndarray:
+    """φ: the area of every set (m²), 0 for an empty one."""
+    return shapely.area(np.asarray(sets, dtype=object))
+
+
+def is_empty(sets) -> np.ndarray:
+    return shapely.is_empty(np.asarray(sets, dtype=object))

@@ -1,0 +1,188 @@
+"""Guaranteed (set-membership) search and track of targets among decoys, IB21 Sec. 4 and Algorithm 1.
+
+Each UAV i holds, as planar sets (:mod:`swarmtrack.estimation.polygons`, every one an outer approximation):
+
+* ``identified[i, j]``: where target j can be, for the targets it has identified (the list L: the non-empty ones);
+* ``unidentified[i]`` (Xᵁ): where objects it has detected but not identified can be;
+* ``unexplored[i]`` (X̄): what it has not yet seen, where an undetected target can be. Initially X̄ = X0 and the
+  others are empty (IB21 Sec. 4).
+
+**The guarantee** (IB21 Secs. 3.4-3.5): while the true noise box lies in the assumed one, every object in a footprint
+is detected, targets move at most ``speed`` and stay in X0, and true targets are never misidentified, every true
+target j lies in ``identified[i, j] ∪ unidentified[i] ∪ unexplored[i]`` for every UAV i at every update. (Only the
+union: a decoy confused with j can make ``identified[i, j]`` miss it.)
+
+One update of a UAV's sets (Algorithm 1):
+
+1. **prediction** over the time since its last update (eqs. 12-15): each set dilated by the reachable displacement
+   ``speed·Δt`` and clipped to X0;
+2. **correction by its own frame** (eqs. 16-29), with F its footprint (an inner approximation) and ``B(y)`` the box
+   of positions a measurement y can come from (:func:`polygons.boxes`, the *assumed* bound):
+   ``X_j ← (X_j ∩ (Y_j ∪ Yᵁ)) ∪ ((Xᵁ ∪ X̄) ∩ Y_j) ∪ (X_j \\ F)`` (S1 ∪ S4, S2 ∪ S3, S5: eqs. 17-22, and eq. 23 for a
+  new j), ``Xᵁ ← ((Xᵁ ∪ X̄) ∩ Yᵁ) ∪ (Xᵁ \\ F)`` (eqs. 24-27), ``X̄ ← X̄ \\ F`` (eq. 28), with ``Y_j`` the union of the
+   boxes of the detections labelled j and ``Yᵁ`` that of the unidentified ones; a detection identified as a decoy
+   enters nothing (it leaves X̄ and Xᵁ through the footprint);
+3. **fusion with the neighbours' corrected sets** (eqs. 31-37), written without complements (every set lies in
+   X0): ``X_j ← (∪_ℓ X_{ℓ,j}) ∩ ⋂_ℓ (X_{ℓ,j} ∪ Xᵁ_ℓ ∪ X̄_ℓ)``, ``Xᵁ ← (∪_ℓ Xᵁ_ℓ) ∩ ⋂_ℓ (Xᵁ_ℓ ∪ X̄_ℓ)``,
+   ``X̄ ← ⋂_ℓ X̄_ℓ``, over the UAV and the neighbours whose message arrived (eq. 32's second Xᵁ read as X̄, and
+   Algorithm 1's Xᵁ line over all neighbours as eq. 36 says).
+
+A list L is the identified sets that are not empty (eqs. 29, 35: an emptied set is dropped).
+
+The **alarms** (counts per UAV) flag what cannot happen under the assumptions with no decoys: a detection whose box
+meets no set that could hold it (``unexplained``; with decoys, a decoy seen again after it was identified as one),
+and every set of a UAV empty (``all_empty``: every target lost, the paper's sign of a wrong noise bound).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import shapely
+
+from swarmtrack.estimation import polygons as pg
+
+#: Labels of a detection that is not an identified target (IB21 Sec. 3.2): not identified, identified as a decoy.
+UNLABELLED, IDENTIFIED_FALSE = -1, -2
+
+
+@dataclass
+class Beliefs:
+    """The sets of N UAVs: ``unexplored`` (N,), ``unidentified`` (N,), ``identified`` (N, n_ids) object arrays of
+    shapely geometries, ``t`` (N,) the time they describe, and the alarm counts per UAV."""
+
+    unexplored: np.ndarray
+    unidentified: np.ndarray
+    identified: np.ndarray
+    t: np.ndarray
+    alarms: dict[str, np.ndarray] = field(default_factory=dict)
+
+    @classmethod
+    def start(cls, n_uavs: int, n_ids: int, area, t: float = 0.0) -> Beliefs:
+        """IB21 Sec. 4: L = ∅, Xᵁ = ∅, X̄ = X0."""
+        unexplored = np.empty(n_uavs, dtype=object)
+        unexplored[:] = area
+        return cls(unexplored, pg.empty(n_uavs), pg.empty((n_uavs, n_ids)), np.full(n_uavs, float(t)),
+                   {"unexplained": np.zeros(n_uavs, dtype=np.int64), "all_empty": np.zeros(n_uavs, dtype=np.int64)})
+
+    @property
+    def n_ids(self) -> int:
+        return self.identified.shape[1]
+
+    def copy(self) -> Beliefs:
+        return Beliefs(self.unexplored.copy(), self.unidentified.copy(), self.identified.copy(), self.t.copy(),
+                       {k: v.copy() for k, v in self.alarms.items()})
+
+
+def predict(b: Beliefs, rows: np.ndarray, t: float, speed: float, area) -> None:
+    """IB21 eqs. 12-15 for the UAVs ``rows``: their sets dilated by ``speed · (t − b.t)`` and clipped to X0."""
+    if not len(rows):
+        return
+    r = speed * (t - b.t[rows])
+    if (r < 0).any():
+        raise ValueError("set-membership prediction backwards in time")
+    b.unexplored[rows] = pg.clip(pg.dilate(b.unexplored[rows], r), area)
+    b.unidentified[rows] = pg.clip(pg.dilate(b.unidentified[rows], r), area)
+    ids = b.identified[rows]
+    live = ~pg.is_empty(ids)
+    if live.any():
+        ids[live] = pg.clip(pg.dilate(ids[live], np.broadcast_to(r[:, None], ids.shape)[live]), area)
+        b.identified[rows] = ids
+    b.t[rows] = t
+
+
+def correct(b: Beliefs, i: int, footprint, z: np.ndarray, labels: np.ndarray, bound) -> None:
+    """IB21 eqs. 16-29 for UAV i with its own frame: ``footprint`` (an inner approximation of what it explored),
+    detections ``z`` (M, 2) labelled ``labels`` (M,) (a target's number, :data:`UNLABELLED` or
+    :data:`IDENTIFIED_FALSE`), boxes of half-widths ``bound`` (the assumed noise bound)."""
+    boxes = pg.boxes(z, bound)
+    unid = pg.union_all(boxes[labels == UNLABELLED])
+    Xu, Xbar = b.unidentified[i], b.unexplored[i]
+    _explain(b, i, boxes, labels, Xu, Xbar)
+    for j in range(b.n_ids):
+        Yj = pg.union_all(boxes[labels == j])
+        Xj = b.identified[i, j]
+        if Xj.is_empty and Yj.is_empty:
+            continue
+        first = pg.within(Yj, Xu, Xbar)  # S2 ∪ S3: first identified now (eqs. 18-19, 23)
+        kept = pg.within(pg.union_all([Yj, unid]), Xj)  # S1 ∪ S4 (eqs. 17, 20)
+        unseen = pg.remove(Xj, footprint)  # S5 (eq. 21)
+        b.identified[i, j] = pg.union_all([first, kept, unseen])  # eq. 22
+    found = pg.within(unid, Xu, Xbar)  # S1ᵁ ∪ S2ᵁ (eqs. 24-25)
+    b.unidentified[i] = pg.union_all([found, pg.remove(Xu, footprint)])  # eqs. 26-27
+    b.unexplored[i] = pg.remove(Xbar, footprint)  # eq. 28
+    _check_lost(b, i)
+
+
+def _explain(b: Beliefs, i: int, boxes: np.ndarray, labels: np.ndarray, Xu, Xbar) -> None:
+    """Count the detections whose box meets no predicted set that could hold their object: ``X_j ∪ Xᵁ ∪ X̄`` for one
+    labelled j, any set for an unidentified one (a decoy identified as one is not checked)."""
+    for m in np.flatnonzero(labels != IDENTIFIED_FALSE):
+        j = labels[m]
+        holders = [Xu, Xbar, b.identified[i, j]] if j >= 0 else [Xu, Xbar, *b.identified[i]]
+        if not any(shapely.intersects(h, boxes[m]) for h in holders if not h.is_empty):
+            b.alarms["unexplained"][i] += 1
+
+
+def fuse(b: Beliefs, recv: np.ndarray, send: np.ndarray, sent: Beliefs) -> None:
+    """IB21 eqs. 31-37: every UAV that heard from someone fuses its own and its neighbours' corrected sets (``sent``,
+    the sets as broadcast; row ℓ read by UAV i only where a link ``i ← ℓ`` delivered it). All sets describe the same
+    time."""
+    for i in np.unique(recv):
+        group = np.concatenate([[i], send[recv == i]])
+        bars, us = sent.unexplored[group], sent.unidentified[group]
+        b.unexplored[i] = pg.intersect_all(bars)  # eq. 37
+        b.unidentified[i] = _held_by_all(pg.union_all(us), [[us[k], bars[k]] for k in range(len(group))])  # eq. 36
+        for j in range(b.n_ids):
+            xs = sent.identified[group, j]
+            if pg.is_empty(xs).all():
+                b.identified[i, j] = pg.EMPTY  # eq. 35: dropped
+                continue
+            holders = [[xs[k], us[k], bars[k]] for k in range(len(group))]
+            b.identified[i, j] = _held_by_all(pg.union_all(xs), holders)  # eq. 34
+        _check_lost(b, i)
+
+
+def _held_by_all(candidate, holders: list[list]):
+    """``candidate ∩ ⋂_ℓ (∪ holders[ℓ])``: the part of a (small) union of beliefs that no UAV proved empty (eqs. 34,
+    36 without complements)."""
+    for parts in holders:
+        candidate = pg.within(candidate, *parts)
+    return candidate
+
+
+def _check_lost(b: Beliefs, i: int) -> None:
+    if b.unexplored[i].is_empty and b.unidentified[i].is_empty and pg.is_empty(b.identified[i]).all():
+        b.alarms["all_empty"][i] += 1
+
+
+def aggregated(b: Beliefs) -> np.ndarray:
+    """IB21 eq. 43: ``X^A_i = (∪_j X_{i,j}) ∪ Xᵁ_i ∪ X̄_i`` (N,)."""
+    out = np.empty(len(b.unexplored), dtype=object)
+    for i in range(len(out)):
+        out[i] = pg.union_all([*b.identified[i], b.unidentified[i], b.unexplored[i]])
+    return out
+
+
+def uncertainty(b: Beliefs) -> dict[str, np.ndarray]:
+    """IB21 eq. 10 and its parts, (N,) each: ``phi`` = φ(X^A), ``unexplored`` = φ(X̄), ``unidentified`` = φ(Xᵁ),
+    ``identified`` = φ(∪_j X_j) (m²; overlaps count once, so the parts need not add up to ``phi``)."""
+    ids = np.array([pg.union_all(row) for row in b.identified], dtype=object)
+    return {"phi": pg.area(aggregated(b)), "unexplored": pg.area(b.unexplored),
+            "unidentified": pg.area(b.unidentified), "identified": pg.area(ids)}
+
+
+def containing(b: Beliefs, points: np.ndarray, ids: np.ndarray, tolerance: float = 1e-6) -> np.ndarray:
+    """(N, P) whether each UAV's union ``X_{i,j} ∪ Xᵁ_i ∪ X̄_i`` holds each true target j at ``points`` (P, 2)
+    (``ids`` (P,) their numbers): the guarantee, for the truth-side monitor (within ``tolerance`` m)."""
+    pts = shapely.points(np.asarray(points, dtype=float))
+    ids = np.asarray(ids)
+    ok = ids >= 0
+    own = np.full((len(b.unexplored), len(pts)), pg.EMPTY, dtype=object)
+    own[:, ok] = b.identified[:, ids[ok]]
+    out = np.zeros(own.shape, dtype=bool)
+    for sets in (b.unexplored[:, None], b.unidentified[:, None], own):
+        near = shapely.distance(sets, pts[None, :])
+        out |= np.where(np.isnan(near), False, near <= tolerance)  # distance to an empty set is NaN
+    return out

@@ -1,0 +1,123 @@
+"""IB21's set-membership estimator: the guarantee holds on seeded synthetic missions, and breaks (visibly) when the
+assumed noise bound is too small; prediction, correction and fusion each do what their equations say."""
+
+import numpy as np
+import pytest
+import shapely
+
+from swarmtrack.estimation import polygons as pg
+from swarmtrack.estimation.setmembership import (
+    IDENTIFIED_FALSE,
+    UNLABELLED,
+    Beliefs,
+    containing,
+    correct,
+    fuse,
+    predict,
+    uncertainty,
+)
+
+AREA = shapely.box(0, 0, 200, 200)
+SIDE, SPEED, DT = 60.0, 1.0, 0.5
+
+
+def walk(rng, pos, heading, steps, dt):
+    """Objects at SPEED with a random-walk heading, reflected at the border (never farther than SPEED·dt a step)."""
+    for _ in range(steps):
+        heading = heading + rng.normal(0, 0.3, len(heading)) * np.sqrt(dt)
+        new = pos + SPEED * dt * np.column_stack([np.cos(heading), np.sin(heading)])
+        for axis in (0, 1):
+            low, high = new[:, axis] < 0, new[:, axis] > 200
+            new[low, axis] = -new[low, axis]
+            new[high, axis] = 400 - new[high, axis]
+            flip = low | high
+            heading = np.where(flip, np.pi - heading if axis == 0 else -heading, heading)
+        pos = new
+    return pos, heading
+
+
+def mission(seed: int, true_bound: float, assumed_bound: float, duration: float = 40.0, decoys: int = 2):
+    """Two UAVs sweep lawnmower paths over the area; 3 targets and some decoys walk; every object inside a footprint
+    is detected with box noise; targets are identified at random frames, decoys sometimes confused with a target or
+    identified as decoys. Returns (violations, alarms, final beliefs)."""
+    rng = np.random.default_rng(seed)
+    n_t = 3
+    objs = rng.uniform(0, 200, (n_t + decoys, 2))
+    heading = rng.uniform(-np.pi, np.pi, n_t + decoys)
+    b = Beliefs.start(2, n_t, AREA)
+    violations = 0
+    for k in range(1, int(duration / DT) + 1):
+        t = k * DT
+        objs, heading = walk(rng, objs, heading, 5, DT / 5)
+        centres = np.array([[30 + (16 * t) % 140, 30 + 60 * ((16 * t) // 140 % 3)],
+                            [170 - (16 * t) % 140, 170 - 60 * ((16 * t) // 140 % 3)]])
+        predict(b, np.arange(2), t, SPEED, AREA)
+        for i, c in enumerate(centres):
+            fp = shapely.box(c[0] - SIDE / 2, c[1] - SIDE / 2, c[0] + SIDE / 2, c[1] + SIDE / 2)
+            seen = np.flatnonzero(np.all(np.abs(objs - c) <= SIDE / 2, axis=1))
+            z = objs[seen] + rng.uniform(-true_bound, true_bound, (len(seen), 2))
+            labels = np.full(len(seen), UNLABELLED)
+            draw = rng.random(len(seen))
+            for m, o in enumerate(seen):
+                if o < n_t and draw[m] < 0.3:
+                    labels[m] = o
+                elif o >= n_t and draw[m] < 0.2:
+                    labels[m] = (o - n_t) % n_t  # confused with a target
+                elif o >= n_t and draw[m] < 0.4:
+                    labels[m] = IDENTIFIED_FALSE
+            correct(b, i, pg.inner(fp), z, labels, (assumed_bound, assumed_bound))
+        sent = b.copy()
+        fuse(b, np.array([0, 1]), np.array([1, 0]), sent)
+        violations += int((~containing(b, objs[:n_t], np.arange(n_t))).sum())
+    alarms = sum(int(v.sum()) for v in b.alarms.values())
+    return violations, alarms, b
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_every_true_target_stays_in_its_sets_while_the_noise_bound_holds(seed):
+    violations, _, b = mission(seed, true_bound=5.0, assumed_bound=5.0)
+    assert violations == 0
+    assert uncertainty(b)["phi"].max() < AREA.area  # and the sets did learn something
+
+
+def test_without_decoys_and_with_a_matched_bound_no_alarm_is_raised():
+    violations, alarms, _ = mission(4, true_bound=5.0, assumed_bound=5.0, decoys=0)
+    assert violations == 0 and alarms == 0
+
+
+def test_an_underestimated_noise_bound_loses_targets_visibly():
+    lost = [mission(seed, true_bound=20.0, assumed_bound=1.0, decoys=0)[:2] for seed in (1, 2, 3)]
+    assert sum(v + a for v, a in lost) > 0  # violations found by the monitor, or the estimator's own alarms
+
+
+def test_prediction_covers_every_point_the_target_can_reach():
+    b = Beliefs.start(1, 1, AREA)
+    b.unexplored[0] = shapely.box(50, 50, 60, 60)
+    predict(b, np.array([0]), 10.0, 2.0, AREA)  # 20 m
+    pts = shapely.points(np.random.default_rng(0).uniform(20, 90, (20000, 2)))
+    reach = shapely.distance(pts, shapely.box(50, 50, 60, 60)) <= 20.0
+    assert shapely.covers(b.unexplored[0], pts)[reach].all()
+    exact = 10 * 10 + 4 * 10 * 20 + np.pi * 20 ** 2  # the square dilated by a disc of radius 20
+    assert exact < b.unexplored[0].area < exact * 1.005
+
+
+def test_correction_keeps_the_box_of_a_first_identification_and_clears_the_footprint():
+    b = Beliefs.start(1, 2, AREA)
+    fp = shapely.box(0, 0, 100, 100)
+    correct(b, 0, pg.inner(fp), np.array([[40.0, 40.0], [70.0, 20.0]]), np.array([1, UNLABELLED]), (5.0, 5.0))
+    assert b.identified[0, 1].equals(shapely.box(35, 35, 45, 45))  # eq. 23: (Xᵁ ∪ X̄) ∩ B(y), X̄ outside F empty
+    assert b.identified[0, 0].is_empty
+    assert b.unidentified[0].equals(shapely.box(65, 15, 75, 25))  # eqs. 24-27
+    assert b.unexplored[0].area == pytest.approx(200 * 200 - 100 * 100, rel=1e-6)  # eq. 28
+
+
+def test_fusion_intersects_what_each_uav_has_not_explored():
+    b = Beliefs.start(2, 1, AREA)
+    correct(b, 0, pg.inner(shapely.box(0, 0, 100, 200)), np.zeros((0, 2)), np.zeros(0, int), (5, 5))
+    correct(b, 1, pg.inner(shapely.box(100, 0, 200, 200)), np.zeros((0, 2)), np.zeros(0, int), (5, 5))
+    sent = b.copy()
+    fuse(b, np.array([0, 1]), np.array([1, 0]), sent)
+    assert pg.area(b.unexplored).max() < 1.0  # only the round-off sliver at the seam
+    sent_one_way = sent.copy()
+    fuse(sent_one_way, np.array([0]), np.array([1]), sent)  # UAV 1 heard nothing: its own sets stay
+    assert sent_one_way.unexplored[1].equals(sent.unexplored[1])

@@ -25,6 +25,7 @@ ONBOARD = [
     "swarmtrack.control.identification",
     "swarmtrack.models",
     "swarmtrack.sensors.detections",
+    "swarmtrack.sensors.footprint",
     "swarmtrack.network.messages",
 ]
 TRUTH = ("swarmtrack.sim.world", "swarmtrack.sim.build", "swarmtrack.sim.engine", "swarmtrack.sim.oracle",

@@ -15,6 +15,8 @@ import numpy as np
 
 #: Label of a detection whose object the sensor cannot tell.
 UNLABELLED = -1
+#: Label of a detection the sensor recognised as a false target (a decoy "identified as false", IB21 Sec. 3.2).
+IDENTIFIED_FALSE = -2
 
 
 @dataclass(frozen=True)

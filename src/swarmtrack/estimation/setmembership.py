@@ -42,9 +42,7 @@ import numpy as np
 import shapely
 
 from swarmtrack.estimation import polygons as pg
-
-#: Labels of a detection that is not an identified target (IB21 Sec. 3.2): not identified, identified as a decoy.
-UNLABELLED, IDENTIFIED_FALSE = -1, -2
+from swarmtrack.sensors.detections import IDENTIFIED_FALSE, UNLABELLED  # noqa: F401 (the labels it reads)
 
 
 @dataclass

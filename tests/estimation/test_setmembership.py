@@ -121,3 +121,28 @@ def test_fusion_intersects_what_each_uav_has_not_explored():
     sent_one_way = sent.copy()
     fuse(sent_one_way, np.array([0]), np.array([1]), sent)  # UAV 1 heard nothing: its own sets stay
     assert sent_one_way.unexplored[1].equals(sent.unexplored[1])
+
+
+def test_the_estimator_updates_at_sharing_times_and_identification_frames_and_fuses_over_links():
+    from swarmtrack.estimation.setmembership import SetMembershipEstimator
+    from swarmtrack.network.messages import Inbox
+    from swarmtrack.sensors import footprint
+
+    est = SetMembershipEstimator(2, 1, AREA, speed=1.0, bound=(5.0, 5.0), period=0.5)
+    uavs = np.array([[50.0, 50.0, 100.0], [150.0, 150.0, 100.0]])
+    obj = np.array([[55.0, 52.0]])
+    links = Inbox(np.array([[False, True], [True, False]]), {})
+    for k in range(11):  # 0.5 s at 20 Hz
+        t = 0.05 * k
+        det, _ = footprint.sense(uavs, np.zeros(2), obj, np.zeros(1), np.zeros(1, bool), np.zeros(1),
+                                 np.full(1, 0.1), np.full((2, 1, 2), 0.5))
+        out = est.share(t, None, det)
+        assert bool(out) == (k in (0, 10))  # shared at 0 and 0.5 s only
+        est.fuse(t, det, Inbox(links.links, out))
+    assert est.updates.tolist() == [2, 2]  # nothing identified in between: no extra update
+    phi = est.sample()["phi_unexplored"]
+    side = 2 * 100 * footprint.tan_half(np.pi / 4, "full")
+    assert phi[0] == pytest.approx(phi[1]) and phi[0] < 200 * 200 - 2 * side * side + 1.0  # both footprints fused
+    region = est.view().region
+    assert shapely.covers(region[0], shapely.Point(55.0, 52.0))  # the object seen unidentified stays in X^A
+    assert est.containing(obj, np.array([0])).all()

@@ -34,11 +34,12 @@ class TargetView:
     """What controllers read: each UAV's estimate of the target it follows, ``[x, y, vx, vy]`` (N, 4); where the
     estimate follows a motion model (W20 Ch. 4's T-test winner), that model's name per UAV (N,) and its states
     beyond ``[x, y, vx, vy]`` as ``[ax, ay, ω]`` (N, 3), zero where the model has none (what W20 eq. 5.23 propagates
-    the target with)."""
+    the target with); a set-valued estimator's region per UAV (N,) (IB21 eq. 43's aggregated set, shapely)."""
 
     state: np.ndarray
     model: np.ndarray | None = None
     motion: np.ndarray | None = None
+    region: np.ndarray | None = None
 
 
 class Estimator(Protocol):

@@ -42,6 +42,7 @@ import numpy as np
 import shapely
 
 from swarmtrack.estimation import polygons as pg
+from swarmtrack.estimation.base import Probe, TargetView
 from swarmtrack.sensors.detections import IDENTIFIED_FALSE, UNLABELLED  # noqa: F401 (the labels it reads)
 
 
@@ -184,3 +185,85 @@ def containing(b: Beliefs, points: np.ndarray, ids: np.ndarray, tolerance: float
         near = shapely.distance(sets, pts[None, :])
         out |= np.where(np.isnan(near), False, near <= tolerance)  # distance to an empty set is NaN
     return out
+
+
+class SetMembershipEstimator:
+    """IB21's guaranteed estimator on every UAV (the Estimator protocol, :mod:`swarmtrack.estimation.base`).
+
+    ``n_ids`` true targets are numbered 0..n_ids−1 (the labels the sensor reports); ``area`` is X0 (a shapely
+    polygon); ``speed`` the targets' speed bound V^t (m/s); ``bound`` the assumed noise half-widths (m, per axis);
+    ``period`` T^c (s): the sets are shared and fused every ``period`` and updated then and at every frame that
+    identifies something (IB21 Sec. 6: identification patches are crossed in a fraction of a second). Skipping the
+    other frames drops information only, never the guarantee (the prediction covers the time elapsed).
+
+    The sensor's detections must carry each UAV's footprint (``Detections.footprint``); it is removed as an inner
+    approximation (:func:`polygons.inner`).
+    """
+
+    def __init__(self, n_uavs: int, n_ids: int, area, *, speed: float, bound, period: float = 0.5):
+        self.n, self.area, self.speed, self.bound, self.period = n_uavs, area, speed, tuple(bound), period
+        self.beliefs = Beliefs.start(n_uavs, n_ids, area)
+        self._next_share = 0.0
+        self._sharing = False
+        self._phi = uncertainty(self.beliefs)
+        self.updates = np.zeros(n_uavs, dtype=np.int64)
+        self.probes = (Probe("phi", ()), Probe("phi_unexplored", ()), Probe("phi_unidentified", ()),
+                       Probe("phi_identified", ()), Probe("n_identified", ()), Probe("vertices", ()),
+                       Probe("set_updates", ()), Probe("alarm_unexplained", ()), Probe("alarm_all_empty", ()))
+
+    def share(self, t: float, nav: np.ndarray, own) -> dict:
+        """Update the UAVs whose frame identified something, or all of them at a sharing time, and broadcast the
+        corrected sets at a sharing time (IB21 Algorithm 1 lines 1-10, then eq. 30's message)."""
+        self._sharing = t >= self._next_share - 1e-9
+        if self._sharing:
+            self._next_share = t + self.period
+        events = np.zeros(self.n, dtype=bool)
+        events[own.owner[own.label != UNLABELLED]] = True
+        rows = np.arange(self.n) if self._sharing else np.flatnonzero(events)
+        if len(rows):
+            if own.footprint is None:
+                raise ValueError("the set-membership estimator needs a sensor that reports footprints")
+            predict(self.beliefs, rows, t, self.speed, self.area)
+            regions = pg.inner(shapely.polygons(own.footprint[rows]))
+            for i, region in zip(rows, regions, strict=True):
+                mine = own.owner == i
+                correct(self.beliefs, i, region, own.z[mine], own.label[mine], self.bound)
+            self.updates[rows] += 1
+        if not self._sharing:
+            return {}
+        b = self.beliefs
+        return {"unexplored": b.unexplored.copy(), "unidentified": b.unidentified.copy(),
+                "identified": b.identified.copy()}
+
+    def fuse(self, t: float, own, inbox) -> None:
+        """At a sharing time, fuse what the links delivered (IB21 eqs. 31-37, Algorithm 1 lines 11-16)."""
+        if not self._sharing:
+            return
+        got = inbox.payloads
+        sent = Beliefs(got["unexplored"], got["unidentified"], got["identified"], self.beliefs.t)
+        recv, send = inbox.edges()
+        fuse(self.beliefs, recv, send, sent)
+        self._phi = uncertainty(self.beliefs)
+
+    def view(self) -> TargetView:
+        """No single target: the centre of each UAV's aggregated set (eq. 43) as the state (NaN when empty), and the
+        set itself as the region (what the set-membership MPC plans against)."""
+        region = aggregated(self.beliefs)
+        centre = shapely.get_coordinates(shapely.centroid(region), include_z=False)
+        state = np.full((self.n, 4), np.nan)
+        live = ~pg.is_empty(region)
+        state[live, :2] = centre
+        return TargetView(state, region=region)
+
+    def sample(self) -> dict[str, np.ndarray]:
+        b, phi = self.beliefs, self._phi
+        vertices = shapely.get_num_coordinates(b.unexplored) + shapely.get_num_coordinates(b.unidentified) \
+            + shapely.get_num_coordinates(b.identified).sum(axis=1)
+        return {"phi": phi["phi"], "phi_unexplored": phi["unexplored"], "phi_unidentified": phi["unidentified"],
+                "phi_identified": phi["identified"], "n_identified": (~pg.is_empty(b.identified)).sum(axis=1) * 1.0,
+                "vertices": vertices * 1.0, "set_updates": self.updates * 1.0,
+                "alarm_unexplained": b.alarms["unexplained"] * 1.0, "alarm_all_empty": b.alarms["all_empty"] * 1.0}
+
+    def containing(self, points: np.ndarray, ids: np.ndarray) -> np.ndarray:
+        """For the truth-side monitor only: :func:`containing` on the current sets."""
+        return containing(self.beliefs, points, ids)

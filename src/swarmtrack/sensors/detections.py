@@ -34,6 +34,10 @@ class Detections:
     #: A sensor whose measurement is affine in the object's ground position, ``z = A p + b``, stamps ``[A | b]``
     #: (M, 2, 3) as the UAV's own devices give it (the camera: W20 eq. 4.16); None for other sensors.
     frame: np.ndarray | None = None
+    #: A sensor that sees a region stamps each UAV's footprint corners (N, 4, 2), counter-clockwise, as its own pose
+    #: places them, even when nothing was in view (a frame with nothing in it still explored the region; IB21
+    #: Sec. 3.2); None for other sensors.
+    footprint: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.owner)

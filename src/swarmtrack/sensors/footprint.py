@@ -280,4 +280,4 @@ def sense(uav_xyz, uav_heading, obj_xy, obj_heading, is_decoy, beta, gamma, nois
     u = np.asarray(noise_u, dtype=float).reshape(n, m, 2)[owner, source]
     z = obj_xy[source] + np.asarray(params.noise_bound, dtype=float) * (2.0 * u - 1.0)
     pos = uav_xyz[:, :2] if stamped is None else np.asarray(stamped, dtype=float).reshape(n, 2)
-    return Detections(owner, z, pos[owner], labels[owner, source], n), source
+    return Detections(owner, z, pos[owner], labels[owner, source], n, footprint=corners), source

@@ -5,7 +5,10 @@ finished run, written the moment the run finishes (to a temporary name, then ren
 loses only the runs in progress and ``resume`` runs only what is missing. A run's file is named by the key of what
 determines its result (the resolved scenario and the version, :func:`~swarmtrack.analysis.reproduce.run_key`), so a
 run is never stored twice. A row holds the grid values, the seed, the status (``ok``, ``diverged``, ``failed``), the
-error, the wall time, the version and the run's scalar metrics; ``load_results(DIR)`` reads them as one table.
+error, the wall time, the version, the run's scalar metrics and (an ``ok`` run) its time series as list columns
+``series.t``, ``series.position_error`` … with their bin width ``series.bin_s``
+(:func:`swarmtrack.analysis.metrics.series`); ``load_results(DIR)`` reads them as one table, and refuses a store of
+another format or with rows that lack what this version needs.
 """
 
 from __future__ import annotations
@@ -23,8 +26,15 @@ from swarmtrack.analysis.reproduce import _worker_signals, package_version, run_
 from swarmtrack.scenarios import Scenario, load_scenario
 from swarmtrack.scenarios.loader import ScenarioError
 
-#: Layout of the store; a store of another format is refused.
-STORE_FORMAT = 1
+#: Layout of the store; a store of another format is refused. 2: rows carry the run's time series.
+STORE_FORMAT = 2
+#: Columns every stored row has, and those an ``ok`` row has besides (its time series' bins).
+ROW_COLUMNS = ("seed", "status", "error", "wall_s", "version", "key")
+OK_ROW_COLUMNS = ("series.bin_s", "series.t")
+#: The time series ``summarize`` draws, with their axis labels.
+SERIES = {"position_error": "position error, RMS over UAVs [m]",
+          "nees": "NEES [x, y, vx, vy], mean over UAVs",
+          "tracking_error": "distance to formation slot, mean over UAVs [m]"}
 
 
 def parse_grid(specs: Sequence[str]) -> dict[str, list[str]]:
@@ -76,15 +86,20 @@ def scalars(metrics: dict) -> dict[str, float | None]:
     return {k: (None if v is None else float(v)) for k, v in out.items()}
 
 
+def series_columns(metrics: dict) -> dict[str, float | list]:
+    """One run's time series (``metrics["series"]``) as row cells: ``series.bin_s`` and a list per quantity."""
+    return {f"series.{k}": v for k, v in metrics["series"].items()}
+
+
 def _run(item: tuple[int, Scenario]) -> tuple[int, dict]:
-    """One job in a worker (:func:`~swarmtrack.analysis.reproduce.run_one`): its status, error, wall time and
-    metrics; an exception is a failed run, not a stop."""
+    """One job in a worker (:func:`~swarmtrack.analysis.reproduce.run_one`): its status, error, wall time,
+    metrics and time series; an exception is a failed run, not a stop."""
     k, scenario = item
     t0 = time.perf_counter()
     try:
         metrics = run_one(scenario)
         row = ({"status": "diverged", "error": metrics["diverged"]} if "diverged" in metrics
-               else {"status": "ok", "error": None, **scalars(metrics)})
+               else {"status": "ok", "error": None, **scalars(metrics), **series_columns(metrics)})
     except Exception as exc:  # noqa: BLE001 - stored with the run, the sweep goes on
         row = {"status": "failed", "error": f"{type(exc).__name__}: {exc}"}
     row["wall_s"] = time.perf_counter() - t0
@@ -122,13 +137,7 @@ def _sweep(scenario, grid, runs, out, workers, resume, overrides, on_done, clien
     manifest = out / "sweep.json"
     store = out / "results"
     if manifest.exists():
-        try:
-            fmt = json.loads(manifest.read_text()).get("format")
-        except (OSError, ValueError, AttributeError):
-            fmt = None
-        if fmt != STORE_FORMAT:
-            raise ScenarioError(f"{out}: a result store of format {fmt!r}, this swarmtrack writes format "
-                                f"{STORE_FORMAT}; use another --out")
+        check_format(out, "use another --out")
         if not resume:
             raise ScenarioError(f"{out} holds a sweep already; add --resume to run only what is missing, or use "
                                 "another --out")
@@ -208,25 +217,54 @@ def close_client(client) -> None:
 
 
 def _write_row(path: Path, row: dict) -> None:
-    """One run's row as a Parquet file, written whole or not at all (a temporary name, then a rename)."""
+    """One run's row as a Parquet file, written whole or not at all (a temporary name, then a rename); lists (the
+    time series) as list-of-float64 columns, None a null."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    table = pa.table({k: [v] for k, v in row.items()})
+    table = pa.table({k: pa.array([v], type=pa.list_(pa.float64())) if isinstance(v, list) else [v]
+                      for k, v in row.items()})
     tmp = path.with_name(f".{path.name}.partial")
     pq.write_table(table, tmp)
     tmp.replace(path)
 
 
+def check_format(out: Path, remedy: str) -> None:
+    """Refuse (:class:`ScenarioError`, the cause named) a store whose manifest is unreadable or of another format."""
+    try:
+        manifest = json.loads((Path(out) / "sweep.json").read_text())
+        fmt, by = manifest.get("format"), manifest.get("written_by")
+    except (OSError, ValueError, AttributeError):
+        fmt, by = None, None
+    if fmt != STORE_FORMAT:
+        by = f" (written by {by})" if by else ""
+        raise ScenarioError(f"{out}: a result store of format {fmt!r}{by}, this swarmtrack reads and writes format "
+                            f"{STORE_FORMAT} (rows with the runs' time series); {remedy}")
+
+
 def load_results(out: Path):
-    """Every stored run of the sweep in ``out`` as one pandas table (one row per run)."""
+    """Every stored run of the sweep in ``out`` as one pandas table (one row per run). A store of another format,
+    or a row without the columns this version writes (:data:`ROW_COLUMNS`, and :data:`OK_ROW_COLUMNS` for an
+    ``ok`` run), is refused with a :class:`ScenarioError` naming the file and the columns."""
     import pandas as pd
     import pyarrow.parquet as pq
 
-    files = sorted((Path(out) / "results").glob("*.parquet"))
+    out = Path(out)
+    check_format(out, "sweep again into another --out")
+    files = sorted((out / "results").glob("*.parquet"))
     if not files:
         return pd.DataFrame()
-    return pd.concat([pq.read_table(f).to_pandas() for f in files], ignore_index=True)
+    tables = []
+    for f in files:
+        table = pq.read_table(f)
+        status = table.column("status")[0].as_py() if "status" in table.column_names else None
+        missing = [c for c in (*ROW_COLUMNS, *(OK_ROW_COLUMNS if status == "ok" else ()))
+                   if c not in table.column_names]
+        if missing:
+            raise ScenarioError(f"{f}: a stored run without {', '.join(missing)}, which format {STORE_FORMAT} rows "
+                                "have (written by another swarmtrack?); sweep again into another --out")
+        tables.append(table.to_pandas())
+    return pd.concat(tables, ignore_index=True)
 
 
 #: The metrics ``summarize`` tabulates first, when a sweep has them.
@@ -247,7 +285,8 @@ def summarize(out: Path) -> tuple[str, dict]:
     groups = {(k if isinstance(k, tuple) else (k,)): g for k, g in table.groupby(params)} if params else {(): table}
     order = {tuple(s.values()): n for n, s in enumerate(settings(json.loads((out / "sweep.json").read_text())["grid"]))}
     numbers, rows = [], []
-    for key in sorted(groups, key=lambda k: order.get(tuple(k), len(order))):  # the grid's own order
+    ordered = sorted(groups, key=lambda k: order.get(tuple(k), len(order)))  # the grid's own order
+    for key in ordered:
         runs = groups[key]
         ok = runs[runs["status"] == "ok"]
         entry = {"setting": dict(zip((p[6:] for p in params), key, strict=True)), "runs": len(runs),
@@ -268,7 +307,96 @@ def summarize(out: Path) -> tuple[str, dict]:
     from swarmtrack.analysis.report import markdown_table
 
     md = markdown_table([*(p[6:] for p in params), "ok runs", *(f"{m} mean ± std [95 % CI]" for m in metrics)], rows)
-    return md, {"settings": numbers, "metrics": metrics, "params": [p[6:] for p in params]}
+    series = {q: [{"setting": e["setting"], **band}
+                  for e, key in zip(numbers, ordered, strict=True)
+                  if (band := series_band(groups[key], q)) is not None]
+              for q in SERIES}
+    series = {q: bands for q, bands in series.items() if bands}
+    md += "\n\n## Time series\n\n" + _series_text(series, table)
+    return md, {"settings": numbers, "metrics": metrics, "params": [p[6:] for p in params], "series": series}
+
+
+def series_band(runs, quantity: str) -> dict | None:
+    """Mean and ±1 std over the ``ok`` runs in ``runs`` of one time series, per bin, with the count of runs that
+    have the bin (None: no run has it). Runs align on the bins (all start at t = 0): a shorter run leaves its
+    missing bins out, and a run with finer bins than the coarsest of ``runs`` (a run too long for
+    :data:`~swarmtrack.analysis.metrics.SERIES_MAX_BINS` 1-s bins) is merged into those, each fine bin weighing the
+    same. The std is over the runs (ddof = 0, as the scalar table's)."""
+    import numpy as np
+
+    col = f"series.{quantity}"
+    if col not in runs.columns:
+        return None
+    ok = runs[(runs["status"] == "ok") & runs[col].map(lambda v: hasattr(v, "__len__") and len(v) > 0)]
+    if ok.empty:
+        return None
+    width = float(ok["series.bin_s"].max())
+    rows = []
+    for fine, values in zip(ok["series.bin_s"], ok[col], strict=True):
+        v = np.asarray([np.nan if x is None else x for x in values], dtype=float)
+        factor = int(round(width / float(fine)))
+        if factor > 1:
+            v = np.concatenate([v, np.full(-len(v) % factor, np.nan)]).reshape(-1, factor)
+            counts = np.isfinite(v).sum(axis=1)
+            v = np.where(counts > 0, np.nansum(v, axis=1) / np.maximum(counts, 1), np.nan)
+        rows.append(v)
+    grid = np.full((len(rows), max(len(v) for v in rows)), np.nan)
+    for k, v in enumerate(rows):
+        grid[k, :len(v)] = v
+    n = np.isfinite(grid).sum(axis=0)
+    mean = np.nansum(grid, axis=0) / np.maximum(n, 1)
+    std = np.sqrt(np.nansum((grid - mean) ** 2, axis=0) / np.maximum(n, 1))
+
+    def cells(a):
+        return [float(x) if k else None for x, k in zip(a, n, strict=True)]
+
+    return {"bin_s": width, "t": ((np.arange(grid.shape[1]) + 0.5) * width).tolist(), "mean": cells(mean),
+            "std": cells(std), "n": n.tolist(), "runs": len(ok)}
+
+
+def _series_text(series: dict, table) -> str:
+    """What the time-series section of ``summary.md`` says: the series drawn, or why there are none."""
+    if not series:
+        if not (table["status"] == "ok").any():
+            return "No time series: no stored run finished (ok)."
+        return "No time series: the finished runs recorded none of " + ", ".join(SERIES) + "."
+    lines = []
+    for q, bands in series.items():
+        widths = sorted({b["bin_s"] for b in bands})
+        lines.append(f"- `{q}` ({SERIES[q]}): mean ± 1 std over seeds per bin of {'/'.join(f'{w:g}' for w in widths)} "
+                     f"s, {len(bands)} setting(s), {sum(b['runs'] for b in bands)} runs")
+    return "\n".join(lines)
+
+
+#: Settings drawn in one time-series figure; more go to further figures (``…_over_time_2.png``).
+BANDS_PER_FIGURE = 6
+
+
+def plot_series(numbers: dict, folder: Path) -> list[Path]:
+    """Each time series of :func:`summarize` over time: per setting the mean line and a ±1 std band over the seeds
+    (:func:`swarmtrack.analysis.plots.plot_band`), ``<quantity>_over_time.png``."""
+    from swarmtrack.analysis import plots
+
+    paths = []
+    for q, bands in numbers.get("series", {}).items():
+        for page in range(0, len(bands), BANDS_PER_FIGURE):
+            fig = plots._new_figure((7.2, 4.2))
+            ax = fig.add_subplot(1, 1, 1)
+            for band in bands[page:page + BANDS_PER_FIGURE]:
+                label = ", ".join(f"{k}={v}" for k, v in band["setting"].items()) or q
+                nan = [float("nan") if v is None else v for v in band["mean"]]
+                plots.plot_band(ax, band["t"], nan, [float("nan") if v is None else v for v in band["std"]],
+                                f"{label} ({band['runs']} runs)")
+            if q == "nees":
+                ax.axhline(4.0, color="0.4", ls="--", lw=0.9, label="4: a consistent filter")
+            ax.set_xlabel("t [s]")
+            ax.set_ylabel(SERIES[q])
+            ax.set_title(f"{q}: mean, ±1 std over seeds", fontsize="medium")
+            ax.legend(fontsize="small")
+            ax.grid(alpha=0.3)
+            suffix = "" if not page else f"_{page // BANDS_PER_FIGURE + 1}"
+            paths.append(plots._save(fig, folder / f"{q}_over_time{suffix}.png"))
+    return paths
 
 
 def plot_summary(numbers: dict, folder: Path) -> list[Path]:

@@ -230,3 +230,21 @@ def test_a_store_of_another_format_or_with_incomplete_rows_exits_2_with_the_caus
     assert result.exit_code == 2, result.output
     assert "k01.parquet" in result.output and "series.t" in result.output and "Traceback" not in result.output
     assert not (lacking / "summary.md").exists()
+
+
+def test_dask_workers_are_warmed_with_the_sweeps_scenario_before_the_first_job():
+    def compiled():  # defined here, so Dask ships it by value and the worker imports nothing of this test
+        from swarmtrack.estimation import kernels
+
+        return bool(kernels.cv_cycle.signatures)
+
+    cold = sw.dask_client("local", 1)  # imports only
+    try:
+        assert list(cold.run(compiled).values()) == [False]
+    finally:
+        sw.close_client(cold)
+    client = sw.dask_client("local", 2, warm_with=load_scenario("l24-cv", SHORT))
+    try:
+        assert list(client.run(compiled).values()) == [True, True]  # the compiled kernels loaded in each worker
+    finally:
+        sw.close_client(client)

@@ -202,9 +202,10 @@ def sweep_cmd(scenario: str, grid: tuple[str, ...], runs: int, workers: int | No
 @click.option("--no-figures", is_flag=True, help="skip the figures")
 def summarize_cmd(out: Path, no_figures: bool) -> None:
     """Summarize a sweep's result store OUT: mean ± std and the 95 % interval of each metric per setting (printed,
-    and written to OUT/summary.md and OUT/summary.json together), and each metric against each grid key as figures
-    in OUT/summary/."""
-    from swarmtrack.analysis.sweep import plot_summary, summarize
+    and written to OUT/summary.md and OUT/summary.json together), each metric against each grid key, and each time
+    series (position error, NEES, formation tracking error) as mean lines with ±1 std bands over the seeds per
+    setting, as figures in OUT/summary/ (listed in summary.md)."""
+    from swarmtrack.analysis.sweep import plot_series, plot_summary, summarize
     from swarmtrack.outputs import dump_json, write_together
 
     if not (out / "sweep.json").is_file():
@@ -213,10 +214,12 @@ def summarize_cmd(out: Path, no_figures: bool) -> None:
         md, numbers = summarize(out)
     except ScenarioError as exc:
         raise UsageFailure(str(exc)) from None
+    paths = [] if no_figures else [*plot_summary(numbers, out / "summary"), *plot_series(numbers, out / "summary")]
+    if paths:
+        md += "\n\n## Figures\n\n" + "\n".join(f"- {p.relative_to(out)}" for p in paths)
     write_together({out / "summary.md": md + "\n", out / "summary.json": dump_json(numbers)})
     click.echo(md)
-    if not no_figures:
-        paths = plot_summary(numbers, out / "summary")
+    if paths:
         click.echo(f"{len(paths)} figures in {out / 'summary'}")
 
 

@@ -1,4 +1,5 @@
 import numpy as np
+import pytest
 
 from swarmtrack.analysis import metrics
 from swarmtrack.sim.recorder import Recording
@@ -88,3 +89,73 @@ def test_nis_of_the_own_measurement_is_reported_per_phase_with_its_band():
     # truth-side NEES shows it, which is why both are reported
     assert abs(late["total"]["nis"] - table["total"]["nis"]) < 0.1
     assert late["total"]["nees"] > 4 * table["total"]["nees"]
+
+
+def _series_by_hand(rec, width=1.0):
+    """Per-bin means of the three series, step by step from the whole-run arrays (no streaming)."""
+    from collections import defaultdict
+
+    offsets, start, _ = metrics.formation_spec(rec)
+    sums = defaultdict(lambda: defaultdict(list))
+    for k, t in enumerate(rec.t):
+        b = int(np.floor(t / width + 1e-9))
+        e = rec.estimate[k, :, :2] - rec.target[k, :2]
+        sums["position_error"][b].append(np.sqrt(np.mean(np.sum(e**2, axis=1))))
+        full = rec.estimate[k] - rec.target[k]
+        nees = [f @ np.linalg.inv(P) @ f for f, P in zip(full, rec.covariance[k], strict=True)]
+        sums["nees"][b].append(np.mean(nees))
+        if t >= start - 1e-9:
+            slots = rec.target[k, :2] + offsets
+            sums["tracking_error"][b].append(np.mean(np.linalg.norm(rec.uav[k, :, :2] - slots, axis=1)))
+    return {q: {b: np.mean(v) for b, v in per_bin.items()} for q, per_bin in sums.items()}
+
+
+def test_time_series_equal_a_whole_run_computation_bin_by_bin():
+    from swarmtrack.scenarios import load_scenario
+    from swarmtrack.sim.engine import simulate
+
+    for name, sets, wanted in (("l24-cv", [], {"position_error", "nees"}),
+                               ("w20-mpc-formation", ["controller.start=2.5"],
+                                {"position_error", "nees", "tracking_error"})):
+        rec = simulate(load_scenario(name, ["duration=6", *sets]))
+        got = metrics.summary(rec)["series"]
+        assert got["bin_s"] == 1.0 and got["t"] == [0.5 + k for k in range(len(got["t"]))]
+        assert wanted == set(got) - {"bin_s", "t"}
+        hand = _series_by_hand(rec)
+        for q in wanted:  # (l24-cv has no formation: its hand-made tracking error is not reported)
+            assert len(got[q]) == len(got["t"]) == int(rec.t_last) + 1
+            for b, v in enumerate(got[q]):
+                if b in hand[q]:
+                    assert v == pytest.approx(hand[q][b], rel=1e-9), (name, q, b)
+                else:
+                    assert v is None  # e.g. the tracking error before the MPC starts
+        if name == "w20-mpc-formation":  # None before the MPC starts at 2.5 s
+            assert got["tracking_error"][:2] == [None, None] and None not in got["tracking_error"][2:]
+
+
+def test_time_series_bins_do_not_depend_on_the_recordings_chunk_size(tmp_path, monkeypatch):
+    from swarmtrack.scenarios import load_scenario
+    from swarmtrack.sim import recorder
+    from swarmtrack.sim.engine import simulate
+
+    scn = load_scenario("l24-cv", ["duration=5"])
+    whole = metrics.series(simulate(scn, record_to=tmp_path / "a"))
+    monkeypatch.setattr(recorder, "CHUNK_ROWS", 7 * 4)  # 7 steps of 4 objects: chunks end mid-bin
+    rec = simulate(scn, record_to=tmp_path / "b")
+    assert rec.meta["chunk_steps"] == 7 < rec.meta["n_steps"]
+    chunked = metrics.series(recorder.Recording.load(tmp_path / "b"))
+    assert chunked.keys() == whole.keys()
+    for q in whole:
+        assert chunked[q] == pytest.approx(whole[q], rel=1e-12)
+
+
+def test_long_runs_get_at_most_the_bin_limit_in_nesting_widths():
+    assert metrics.series_bin_width(153.05) == 1.0
+    assert metrics.series_bin_width(199.0) == 1.0
+    assert metrics.series_bin_width(199.5) == 2.0
+    for t_last in (10.0, 500.0, 3600.0, 86400.0):
+        w = metrics.series_bin_width(t_last)
+        assert np.log2(w) == int(np.log2(w)) and t_last / w + 1 <= metrics.SERIES_MAX_BINS
+    s = metrics.series(_rec(K=8000))  # 400 s at 0.05 s
+    assert s["bin_s"] == 4.0 and len(s["t"]) == len(s["nees"]) == 100
+    assert abs(np.mean(s["nees"]) - 4) < 0.2

@@ -8,6 +8,7 @@ Every metric streams over the recording's chunks (:meth:`Recording.chunks`) with
 quantity (O(pairs) for the spacing metrics), never steps × N, so it works on recordings larger than memory.
 Inter-agent spacing is measured over every pair for swarms of up to :data:`ALL_PAIRS_UP_TO` UAVs; for larger
 swarms over the neighbour pairs (closer than r_comm) of each step, from a KD-tree (see :func:`spacing`).
+The time series (:func:`series`) are per-bin means over fixed time bins, O(bins) per quantity.
 """
 
 from __future__ import annotations
@@ -23,6 +24,8 @@ COMPONENTS = ("x", "y", "vx", "vy")
 ALL_PAIRS_UP_TO = 64
 #: Two UAVs closer than this (m) have collided: an Iris-sized quadrotor spans about 0.55 m.
 COLLISION_M = 0.5
+#: A run's time series have at most this many bins (:func:`series_bin_width`).
+SERIES_MAX_BINS = 200
 
 
 def _window(rec: Recording, t: np.ndarray) -> np.ndarray:
@@ -129,6 +132,11 @@ class _ReportedStd:
         return dict(zip(COMPONENTS, (self.total / self.n).tolist(), strict=True))
 
 
+def nees_per_uav(err: np.ndarray, cov: np.ndarray) -> np.ndarray:
+    """(k, N) normalised estimation error squared ``eᵀ P⁻¹ e`` of errors (k, N, d) with covariances (k, N, d, d)."""
+    return np.sum(err * np.linalg.solve(cov, err[..., None])[..., 0], axis=-1)
+
+
 class _Consistency:
     """NEES of ``[x, y, vx, vy]`` and of each component per phase, and the NIS of each UAV's own measurement
     (2 dof), with the 95 % band of a consistent filter's average: ``χ²_{d·n}(0.025, 0.975) / n`` for n samples of
@@ -144,7 +152,7 @@ class _Consistency:
 
     def add(self, c: Chunk, keep: np.ndarray, err: np.ndarray) -> None:
         cov = c.probes["covariance"][keep][..., :4, :4]
-        full = np.sum(err * np.linalg.solve(cov, err[..., None])[..., 0], axis=-1)  # (k, N)
+        full = nees_per_uav(err, cov)  # (k, N)
         comp = err**2 / np.diagonal(cov, axis1=-2, axis2=-1)  # (k, N, 4)
         phase = self.group[c.phase[keep, self.rec.tracked]]
         for p in [*np.unique(phase), -1]:
@@ -425,9 +433,79 @@ def _formation_warnings(formation: dict, min_distance: float | None) -> list[dic
     return out
 
 
+def series_bin_width(t_last: float) -> float:
+    """Width (s) of a run's time-series bins: 1 s, doubled until a run of ``t_last`` seconds fits in
+    :data:`SERIES_MAX_BINS` bins. Powers of two, so the bins of runs of different lengths nest (``summarize``
+    merges finer bins into the coarsest run's)."""
+    width = 1.0
+    while t_last / width + 1 > SERIES_MAX_BINS:
+        width *= 2.0
+    return width
+
+
+class _Series:
+    """Per-bin means over fixed time bins ``[k·w, (k+1)·w)``, ``w`` = :func:`series_bin_width` (bins start at
+    t = 0 whatever the chunking, so they do not depend on the recording's chunk size), from t = 0 on (the
+    initialisation included, which the scalar RMSE leaves out):
+
+    - ``position_error``: the RMS over the UAVs of each UAV's estimated target position error, ``sqrt(mean_i
+      |p̂_i − p|²)`` per step (a Gaussian estimator following one target);
+    - ``nees``: the NEES of ``[x, y, vx, vy]``, mean over the UAVs per step (same);
+    - ``tracking_error``: each UAV's true distance to its formation slot, mean over the UAVs per step, from the
+      MPC's start on (runs with the ``setpoint`` probe: W20 Ch. 5's tracking error over time).
+
+    ``t`` holds the bin centres; a bin without data is None."""
+
+    def __init__(self, rec: Recording):
+        self.rec = rec
+        self.width = series_bin_width(rec.t_last)
+        self.n_bins = int(np.floor(rec.t_last / self.width + 1e-9)) + 1
+        self.quantities = []
+        if health.applies(rec):
+            self.quantities += ["position_error", "nees"]
+        if rec.tracked is not None and "setpoint" in rec.meta["probes"]:
+            self.quantities.append("tracking_error")
+            self.offsets, self.start, _ = formation_spec(rec)
+        self.sum = {q: np.zeros(self.n_bins) for q in self.quantities}
+        self.count = {q: np.zeros(self.n_bins) for q in self.quantities}
+
+    def _bins(self, t: np.ndarray) -> np.ndarray:
+        return np.minimum(np.floor(t / self.width + 1e-9).astype(np.int64), self.n_bins - 1)
+
+    def _add(self, q: str, t: np.ndarray, values: np.ndarray) -> None:
+        b = self._bins(t)
+        self.sum[q] += np.bincount(b, weights=values, minlength=self.n_bins)
+        self.count[q] += np.bincount(b, minlength=self.n_bins)
+
+    def add(self, c: Chunk, keep, err) -> None:
+        if "nees" in self.sum:
+            e = _errors(self.rec, c)  # every step, not only the chase window
+            self._add("position_error", c.t, np.sqrt(np.mean(e[..., 0] ** 2 + e[..., 1] ** 2, axis=1)))
+            self._add("nees", c.t, nees_per_uav(e, c.probes["covariance"][..., :4, :4]).mean(axis=1))
+        if "tracking_error" in self.sum:
+            after = c.t >= self.start - 1e-9
+            dist = np.linalg.norm(slot_offsets(self.rec, c.truth[after], self.offsets), axis=-1)  # (k, N)
+            self._add("tracking_error", c.t[after], dist.mean(axis=1))
+
+    def result(self) -> dict:
+        out = {"bin_s": self.width, "t": ((np.arange(self.n_bins) + 0.5) * self.width).tolist()}
+        for q in self.quantities:
+            n = self.count[q]
+            mean = self.sum[q] / np.maximum(n, 1)
+            out[q] = [float(v) if k and np.isfinite(v) else None for v, k in zip(mean, n, strict=True)]
+        return out
+
+
+def series(rec: Recording) -> dict:
+    """The run's time series (see :class:`_Series`): ``bin_s``, ``t`` (bin centres, s) and each quantity the run
+    recorded what it needs for, one value per bin (None: no data in that bin)."""
+    return _scan(rec, [_Series(rec)])[0]
+
+
 def summary(rec: Recording) -> dict:
     """All scalar metrics of one run, JSON-ready, in one pass over the recording (and one over its truth for the
-    spacing), with the run's ``warnings`` (:func:`swarmtrack.analysis.health.check`). The estimation metrics
+    spacing), with the run's ``warnings`` (:func:`swarmtrack.analysis.health.check`) and its compact time series
+    ``series`` (:func:`series`: at most :data:`SERIES_MAX_BINS` values per quantity). The estimation metrics
     need a followed target and the ``estimate`` and ``covariance`` probes of a Gaussian estimator (capability
     1's); a run whose estimator records others gets the rest."""
     accs = {}
@@ -440,6 +518,7 @@ def summary(rec: Recording) -> dict:
         accs["target_distance"] = _TargetDistance(rec)
         if "setpoint" in rec.meta["probes"]:
             accs["formation"] = _Formation(rec)
+    accs["series"] = _Series(rec)
     out = {"warnings": [], **dict(zip(accs, _scan(rec, list(accs.values())), strict=True))}
     if "consistency" in out:
         out["nees"] = out["consistency"]["total"]["nees"]  # the run-wide figure, kept for comparison

@@ -5,7 +5,10 @@ finished run, written the moment the run finishes (to a temporary name, then ren
 loses only the runs in progress and ``resume`` runs only what is missing. A run's file is named by the key of what
 determines its result (the resolved scenario and the version, :func:`~swarmtrack.analysis.reproduce.run_key`), so a
 run is never stored twice. A row holds the grid values, the seed, the status (``ok``, ``diverged``, ``failed``), the
-error, the wall time, the version and the run's scalar metrics; ``load_results(DIR)`` reads them as one table.
+error, the wall time, the version, the run's scalar metrics and (an ``ok`` run) its time series as list columns
+``series.t``, ``series.position_error`` … with their bin width ``series.bin_s``
+(:func:`swarmtrack.analysis.metrics.series`); ``load_results(DIR)`` reads them as one table, and refuses a store of
+another format or with rows that lack what this version needs.
 """
 
 from __future__ import annotations
@@ -23,8 +26,15 @@ from swarmtrack.analysis.reproduce import _worker_signals, package_version, run_
 from swarmtrack.scenarios import Scenario, load_scenario
 from swarmtrack.scenarios.loader import ScenarioError
 
-#: Layout of the store; a store of another format is refused.
-STORE_FORMAT = 1
+#: Layout of the store; a store of another format is refused. 2: rows carry the run's time series.
+STORE_FORMAT = 2
+#: Columns every stored row has, and those an ``ok`` row has besides (its time series' bins).
+ROW_COLUMNS = ("seed", "status", "error", "wall_s", "version", "key")
+OK_ROW_COLUMNS = ("series.bin_s", "series.t")
+#: The time series ``summarize`` draws, with their axis labels.
+SERIES = {"position_error": "position error, RMS over UAVs [m]",
+          "nees": "NEES [x, y, vx, vy], mean over UAVs",
+          "tracking_error": "distance to formation slot, mean over UAVs [m]"}
 
 
 def parse_grid(specs: Sequence[str]) -> dict[str, list[str]]:
@@ -76,19 +86,50 @@ def scalars(metrics: dict) -> dict[str, float | None]:
     return {k: (None if v is None else float(v)) for k, v in out.items()}
 
 
+def series_columns(metrics: dict) -> dict[str, float | list]:
+    """One run's time series (``metrics["series"]``) as row cells: ``series.bin_s`` and a list per quantity."""
+    return {f"series.{k}": v for k, v in metrics["series"].items()}
+
+
 def _run(item: tuple[int, Scenario]) -> tuple[int, dict]:
-    """One job in a worker (:func:`~swarmtrack.analysis.reproduce.run_one`): its status, error, wall time and
-    metrics; an exception is a failed run, not a stop."""
+    """One job in a worker (:func:`~swarmtrack.analysis.reproduce.run_one`): its status, error, wall time,
+    metrics and time series; an exception is a failed run, not a stop."""
     k, scenario = item
     t0 = time.perf_counter()
     try:
         metrics = run_one(scenario)
         row = ({"status": "diverged", "error": metrics["diverged"]} if "diverged" in metrics
-               else {"status": "ok", "error": None, **scalars(metrics)})
+               else {"status": "ok", "error": None, **scalars(metrics), **series_columns(metrics)})
     except Exception as exc:  # noqa: BLE001 - stored with the run, the sweep goes on
         row = {"status": "failed", "error": f"{type(exc).__name__}: {exc}"}
     row["wall_s"] = time.perf_counter() - t0
     return k, row
+
+
+#: Simulated seconds of the warm-up run a worker makes before its first job (:func:`warm`).
+WARM_UP_S = 1.0
+
+
+def warm(scenario: Scenario | None = None) -> float:
+    """Load in this process what a run needs, once: the imports and, by a run of the first :data:`WARM_UP_S`
+    simulated seconds of ``scenario`` (imports only without one), the compiled kernels from numba's cache (about
+    0.6 s in a fresh process). Every worker does this before its first job, so a job's stored wall time is its own
+    and a Dask cluster's workers are ready before the sweep's clock matters. A failing warm-up run is ignored: the
+    real run reports it. Returns the seconds it took."""
+    t0 = time.perf_counter()
+    import swarmtrack.analysis.metrics  # noqa: F401
+    import swarmtrack.sim.engine  # noqa: F401
+
+    if scenario is not None:
+        short = WARM_UP_S if scenario.duration is None else min(scenario.duration, WARM_UP_S)
+        _run((0, scenario.model_copy(update={"duration": short})))
+    return time.perf_counter() - t0
+
+
+def _worker_init(scenario: Scenario | None) -> None:
+    """A local worker process's start: the parent handles Ctrl-C (:func:`_worker_signals`), then :func:`warm`."""
+    _worker_signals()
+    warm(scenario)
 
 
 def sweep(scenario: str, grid: dict[str, list[str]], runs: int, out: Path, workers: int | None = None,
@@ -110,7 +151,7 @@ def sweep(scenario: str, grid: dict[str, list[str]], runs: int, out: Path, worke
             except ScenarioError as exc:
                 raise ScenarioError(f"setting {setting}: {exc}") from None
             jobs.append((setting, seed, resolved, run_key(resolved, version)))
-    client = dask_client(cluster, workers) if cluster else None
+    client = dask_client(cluster, workers, warm_with=jobs[0][2] if jobs else None) if cluster else None
     try:
         return _sweep(scenario, grid, runs, out, workers, resume, overrides, on_done, client, jobs, version)
     finally:
@@ -122,13 +163,7 @@ def _sweep(scenario, grid, runs, out, workers, resume, overrides, on_done, clien
     manifest = out / "sweep.json"
     store = out / "results"
     if manifest.exists():
-        try:
-            fmt = json.loads(manifest.read_text()).get("format")
-        except (OSError, ValueError, AttributeError):
-            fmt = None
-        if fmt != STORE_FORMAT:
-            raise ScenarioError(f"{out}: a result store of format {fmt!r}, this swarmtrack writes format "
-                                f"{STORE_FORMAT}; use another --out")
+        check_format(out, "use another --out")
         if not resume:
             raise ScenarioError(f"{out} holds a sweep already; add --resume to run only what is missing, or use "
                                 "another --out")
@@ -172,18 +207,24 @@ def _sweep(scenario, grid, runs, out, workers, resume, overrides, on_done, clien
             k, row = future.result()
             keep(todo[k], row)
     elif workers == 1 or len(todo) <= 1:
+        if todo:
+            warm(todo[0][2])
         for k, job in enumerate(todo):
             keep(job, _run((k, job[2]))[1])
     else:
-        with multiprocessing.Pool(min(workers or os.cpu_count() or 1, len(todo)), _worker_signals) as pool:
+        with multiprocessing.Pool(min(workers or os.cpu_count() or 1, len(todo)), _worker_init,
+                                  (todo[0][2],)) as pool:
             for k, row in pool.imap_unordered(_run, [(k, job[2]) for k, job in enumerate(todo)]):
                 keep(todo[k], row)
     return out
 
 
-def dask_client(cluster: str, workers: int | None):
+def dask_client(cluster: str, workers: int | None, warm_with: Scenario | None = None):
     """A Dask client: of a new LocalCluster (``"local"``, one single-threaded process per worker) or of the
-    scheduler at ``cluster``; an unreachable scheduler is a :class:`ScenarioError` naming the address."""
+    scheduler at ``cluster``; an unreachable scheduler is a :class:`ScenarioError` naming the address. Every
+    worker present is warmed (:func:`warm`, with a short run of ``warm_with``) before the client is returned, so
+    the start-up is paid here and not in the first jobs; workers that cannot import swarmtrack are a
+    :class:`ScenarioError` too, before any run."""
     try:
         from distributed import Client, LocalCluster
     except ImportError:  # pragma: no cover - a dependency
@@ -191,12 +232,20 @@ def dask_client(cluster: str, workers: int | None):
     if cluster == "local":
         local = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
                              dashboard_address=None)
-        return Client(local)
+        client = Client(local)
+    else:
+        try:
+            client = Client(cluster, timeout="5s")
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise ScenarioError(f"--cluster {cluster}: cannot reach a Dask scheduler there ({type(exc).__name__}: "
+                                f"{exc})") from None
     try:
-        return Client(cluster, timeout="5s")
-    except (OSError, TimeoutError, ValueError) as exc:
-        raise ScenarioError(f"--cluster {cluster}: cannot reach a Dask scheduler there ({type(exc).__name__}: "
+        client.run(warm, warm_with)
+    except Exception as exc:  # noqa: BLE001 - whatever a remote worker raised, named
+        close_client(client)
+        raise ScenarioError(f"--cluster {cluster}: its workers cannot run swarmtrack ({type(exc).__name__}: "
                             f"{exc})") from None
+    return client
 
 
 def close_client(client) -> None:
@@ -208,25 +257,54 @@ def close_client(client) -> None:
 
 
 def _write_row(path: Path, row: dict) -> None:
-    """One run's row as a Parquet file, written whole or not at all (a temporary name, then a rename)."""
+    """One run's row as a Parquet file, written whole or not at all (a temporary name, then a rename); lists (the
+    time series) as list-of-float64 columns, None a null."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    table = pa.table({k: [v] for k, v in row.items()})
+    table = pa.table({k: pa.array([v], type=pa.list_(pa.float64())) if isinstance(v, list) else [v]
+                      for k, v in row.items()})
     tmp = path.with_name(f".{path.name}.partial")
     pq.write_table(table, tmp)
     tmp.replace(path)
 
 
+def check_format(out: Path, remedy: str) -> None:
+    """Refuse (:class:`ScenarioError`, the cause named) a store whose manifest is unreadable or of another format."""
+    try:
+        manifest = json.loads((Path(out) / "sweep.json").read_text())
+        fmt, by = manifest.get("format"), manifest.get("written_by")
+    except (OSError, ValueError, AttributeError):
+        fmt, by = None, None
+    if fmt != STORE_FORMAT:
+        by = f" (written by {by})" if by else ""
+        raise ScenarioError(f"{out}: a result store of format {fmt!r}{by}, this swarmtrack reads and writes format "
+                            f"{STORE_FORMAT} (rows with the runs' time series); {remedy}")
+
+
 def load_results(out: Path):
-    """Every stored run of the sweep in ``out`` as one pandas table (one row per run)."""
+    """Every stored run of the sweep in ``out`` as one pandas table (one row per run). A store of another format,
+    or a row without the columns this version writes (:data:`ROW_COLUMNS`, and :data:`OK_ROW_COLUMNS` for an
+    ``ok`` run), is refused with a :class:`ScenarioError` naming the file and the columns."""
     import pandas as pd
     import pyarrow.parquet as pq
 
-    files = sorted((Path(out) / "results").glob("*.parquet"))
+    out = Path(out)
+    check_format(out, "sweep again into another --out")
+    files = sorted((out / "results").glob("*.parquet"))
     if not files:
         return pd.DataFrame()
-    return pd.concat([pq.read_table(f).to_pandas() for f in files], ignore_index=True)
+    tables = []
+    for f in files:
+        table = pq.read_table(f)
+        status = table.column("status")[0].as_py() if "status" in table.column_names else None
+        missing = [c for c in (*ROW_COLUMNS, *(OK_ROW_COLUMNS if status == "ok" else ()))
+                   if c not in table.column_names]
+        if missing:
+            raise ScenarioError(f"{f}: a stored run without {', '.join(missing)}, which format {STORE_FORMAT} rows "
+                                "have (written by another swarmtrack?); sweep again into another --out")
+        tables.append(table.to_pandas())
+    return pd.concat(tables, ignore_index=True)
 
 
 #: The metrics ``summarize`` tabulates first, when a sweep has them.
@@ -247,7 +325,8 @@ def summarize(out: Path) -> tuple[str, dict]:
     groups = {(k if isinstance(k, tuple) else (k,)): g for k, g in table.groupby(params)} if params else {(): table}
     order = {tuple(s.values()): n for n, s in enumerate(settings(json.loads((out / "sweep.json").read_text())["grid"]))}
     numbers, rows = [], []
-    for key in sorted(groups, key=lambda k: order.get(tuple(k), len(order))):  # the grid's own order
+    ordered = sorted(groups, key=lambda k: order.get(tuple(k), len(order)))  # the grid's own order
+    for key in ordered:
         runs = groups[key]
         ok = runs[runs["status"] == "ok"]
         entry = {"setting": dict(zip((p[6:] for p in params), key, strict=True)), "runs": len(runs),
@@ -268,7 +347,96 @@ def summarize(out: Path) -> tuple[str, dict]:
     from swarmtrack.analysis.report import markdown_table
 
     md = markdown_table([*(p[6:] for p in params), "ok runs", *(f"{m} mean ± std [95 % CI]" for m in metrics)], rows)
-    return md, {"settings": numbers, "metrics": metrics, "params": [p[6:] for p in params]}
+    series = {q: [{"setting": e["setting"], **band}
+                  for e, key in zip(numbers, ordered, strict=True)
+                  if (band := series_band(groups[key], q)) is not None]
+              for q in SERIES}
+    series = {q: bands for q, bands in series.items() if bands}
+    md += "\n\n## Time series\n\n" + _series_text(series, table)
+    return md, {"settings": numbers, "metrics": metrics, "params": [p[6:] for p in params], "series": series}
+
+
+def series_band(runs, quantity: str) -> dict | None:
+    """Mean and ±1 std over the ``ok`` runs in ``runs`` of one time series, per bin, with the count of runs that
+    have the bin (None: no run has it). Runs align on the bins (all start at t = 0): a shorter run leaves its
+    missing bins out, and a run with finer bins than the coarsest of ``runs`` (a run too long for
+    :data:`~swarmtrack.analysis.metrics.SERIES_MAX_BINS` 1-s bins) is merged into those, each fine bin weighing the
+    same. The std is over the runs (ddof = 0, as the scalar table's)."""
+    import numpy as np
+
+    col = f"series.{quantity}"
+    if col not in runs.columns:
+        return None
+    ok = runs[(runs["status"] == "ok") & runs[col].map(lambda v: hasattr(v, "__len__") and len(v) > 0)]
+    if ok.empty:
+        return None
+    width = float(ok["series.bin_s"].max())
+    rows = []
+    for fine, values in zip(ok["series.bin_s"], ok[col], strict=True):
+        v = np.asarray([np.nan if x is None else x for x in values], dtype=float)
+        factor = int(round(width / float(fine)))
+        if factor > 1:
+            v = np.concatenate([v, np.full(-len(v) % factor, np.nan)]).reshape(-1, factor)
+            counts = np.isfinite(v).sum(axis=1)
+            v = np.where(counts > 0, np.nansum(v, axis=1) / np.maximum(counts, 1), np.nan)
+        rows.append(v)
+    grid = np.full((len(rows), max(len(v) for v in rows)), np.nan)
+    for k, v in enumerate(rows):
+        grid[k, :len(v)] = v
+    n = np.isfinite(grid).sum(axis=0)
+    mean = np.nansum(grid, axis=0) / np.maximum(n, 1)
+    std = np.sqrt(np.nansum((grid - mean) ** 2, axis=0) / np.maximum(n, 1))
+
+    def cells(a):
+        return [float(x) if k else None for x, k in zip(a, n, strict=True)]
+
+    return {"bin_s": width, "t": ((np.arange(grid.shape[1]) + 0.5) * width).tolist(), "mean": cells(mean),
+            "std": cells(std), "n": n.tolist(), "runs": len(ok)}
+
+
+def _series_text(series: dict, table) -> str:
+    """What the time-series section of ``summary.md`` says: the series drawn, or why there are none."""
+    if not series:
+        if not (table["status"] == "ok").any():
+            return "No time series: no stored run finished (ok)."
+        return "No time series: the finished runs recorded none of " + ", ".join(SERIES) + "."
+    lines = []
+    for q, bands in series.items():
+        widths = sorted({b["bin_s"] for b in bands})
+        lines.append(f"- `{q}` ({SERIES[q]}): mean ± 1 std over seeds per bin of {'/'.join(f'{w:g}' for w in widths)} "
+                     f"s, {len(bands)} setting(s), {sum(b['runs'] for b in bands)} runs")
+    return "\n".join(lines)
+
+
+#: Settings drawn in one time-series figure; more go to further figures (``…_over_time_2.png``).
+BANDS_PER_FIGURE = 6
+
+
+def plot_series(numbers: dict, folder: Path) -> list[Path]:
+    """Each time series of :func:`summarize` over time: per setting the mean line and a ±1 std band over the seeds
+    (:func:`swarmtrack.analysis.plots.plot_band`), ``<quantity>_over_time.png``."""
+    from swarmtrack.analysis import plots
+
+    paths = []
+    for q, bands in numbers.get("series", {}).items():
+        for page in range(0, len(bands), BANDS_PER_FIGURE):
+            fig = plots._new_figure((7.2, 4.2))
+            ax = fig.add_subplot(1, 1, 1)
+            for band in bands[page:page + BANDS_PER_FIGURE]:
+                label = ", ".join(f"{k}={v}" for k, v in band["setting"].items()) or q
+                nan = [float("nan") if v is None else v for v in band["mean"]]
+                plots.plot_band(ax, band["t"], nan, [float("nan") if v is None else v for v in band["std"]],
+                                f"{label} ({band['runs']} runs)")
+            if q == "nees":
+                ax.axhline(4.0, color="0.4", ls="--", lw=0.9, label="4: a consistent filter")
+            ax.set_xlabel("t [s]")
+            ax.set_ylabel(SERIES[q])
+            ax.set_title(f"{q}: mean, ±1 std over seeds", fontsize="medium")
+            ax.legend(fontsize="small")
+            ax.grid(alpha=0.3)
+            suffix = "" if not page else f"_{page // BANDS_PER_FIGURE + 1}"
+            paths.append(plots._save(fig, folder / f"{q}_over_time{suffix}.png"))
+    return paths
 
 
 def plot_summary(numbers: dict, folder: Path) -> list[Path]:

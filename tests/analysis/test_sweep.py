@@ -65,10 +65,31 @@ def test_a_run_that_raises_is_stored_as_failed_and_the_sweep_goes_on(tmp_path, m
         return real(scenario, *a, **k)
 
     monkeypatch.setattr(engine, "simulate", flaky)
+    _batches_run_alone(monkeypatch)
     sw.sweep("l24-cv", {"network.topology": ["line"]}, 3, tmp_path / "s", workers=1, overrides=SHORT)
     table = sw.load_results(tmp_path / "s").set_index("seed")
     assert table.loc[2, "status"] == "failed" and "a broken run" in table.loc[2, "error"]
     assert list(table.loc[[1, 3], "status"]) == ["ok", "ok"]
+
+
+def _batches_run_alone(monkeypatch):
+    """A batch of worlds runs its scenarios through ``engine.simulate`` (as patched by the test), so a run that raises
+    breaks its batch, which is then run again one job at a time."""
+    import swarmtrack.sim.batch as batch
+    import swarmtrack.sim.engine as engine
+
+    monkeypatch.setattr(batch, "simulate_batch", lambda scenarios: [engine.simulate(s) for s in scenarios])
+
+
+def test_seeds_run_as_batched_worlds_give_the_rows_of_single_runs(tmp_path, monkeypatch):
+    sw.sweep("l24-cv", {"network.topology": ["line"]}, 3, tmp_path / "b", workers=1, overrides=SHORT)
+    batched = sw.load_results(tmp_path / "b").set_index("seed").sort_index()
+    monkeypatch.setattr(sw, "batches", lambda scenarios, workers=1: [[k] for k in range(len(scenarios))])
+    sw.sweep("l24-cv", {"network.topology": ["line"]}, 3, tmp_path / "s", workers=1, overrides=SHORT)
+    single = sw.load_results(tmp_path / "s").set_index("seed").sort_index()
+    assert batched["batch"].tolist() == [3, 3, 3] and single["batch"].tolist() == [1, 1, 1]
+    for col in ("rmse_total_x", "nees", "spacing_offset"):
+        assert batched[col].tolist() == single[col].tolist()
 
 
 def test_bad_grid_keys_and_values_exit_2_before_anything_is_written(tmp_path):
@@ -206,6 +227,7 @@ def test_summarize_of_a_store_without_time_series_says_so(tmp_path, monkeypatch)
         raise RuntimeError("a broken run")
 
     monkeypatch.setattr(engine, "simulate", broken)
+    _batches_run_alone(monkeypatch)
     out = tmp_path / "s"
     sw.sweep("l24-cv", {"sensor.latency": ["0"]}, 2, out, workers=1, overrides=SHORT)
     result = CliRunner().invoke(main, ["summarize", str(out)])

@@ -22,7 +22,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from swarmtrack import outputs
-from swarmtrack.analysis.reproduce import _worker_signals, package_version, run_key, run_one
+from swarmtrack.analysis.reproduce import _worker_signals, batches, package_version, run_key, run_one
 from swarmtrack.scenarios import Scenario, load_scenario
 from swarmtrack.scenarios.loader import ScenarioError
 
@@ -91,19 +91,44 @@ def series_columns(metrics: dict) -> dict[str, float | list]:
     return {f"series.{k}": v for k, v in metrics["series"].items()}
 
 
+def _row(metrics: dict) -> dict:
+    """A finished run's status, error, metrics and time series."""
+    if "diverged" in metrics:
+        return {"status": "diverged", "error": metrics["diverged"]}
+    return {"status": "ok", "error": None, **scalars(metrics), **series_columns(metrics)}
+
+
 def _run(item: tuple[int, Scenario]) -> tuple[int, dict]:
     """One job in a worker (:func:`~swarmtrack.analysis.reproduce.run_one`): its status, error, wall time,
     metrics and time series; an exception is a failed run, not a stop."""
     k, scenario = item
     t0 = time.perf_counter()
     try:
-        metrics = run_one(scenario)
-        row = ({"status": "diverged", "error": metrics["diverged"]} if "diverged" in metrics
-               else {"status": "ok", "error": None, **scalars(metrics), **series_columns(metrics)})
+        row = _row(run_one(scenario))
     except Exception as exc:  # noqa: BLE001 - stored with the run, the sweep goes on
         row = {"status": "failed", "error": f"{type(exc).__name__}: {exc}"}
     row["wall_s"] = time.perf_counter() - t0
+    row["batch"] = 1
     return k, row
+
+
+def _run_batch(item: tuple[list[int], list[Scenario]]) -> list[tuple[int, dict]]:
+    """Jobs that run as one batch of worlds (:mod:`swarmtrack.sim.batch`; the same numbers as one at a time): each
+    row's ``wall_s`` is its share of the batch's wall time and ``batch`` the number of worlds. A batch that raises
+    is run again one job at a time, so each run gets its own status."""
+    ks, scenarios = item
+    if len(ks) == 1:
+        return [_run((ks[0], scenarios[0]))]
+    from swarmtrack.analysis.metrics import summary
+    from swarmtrack.sim.batch import simulate_batch
+
+    t0 = time.perf_counter()
+    try:
+        results = [summary(rec) for rec in simulate_batch(scenarios)]
+    except Exception:  # noqa: BLE001 - each run's own outcome comes from running it alone
+        return [_run((k, s)) for k, s in zip(ks, scenarios, strict=True)]
+    share = (time.perf_counter() - t0) / len(ks)
+    return [(k, {**_row(m), "wall_s": share, "batch": len(ks)}) for k, m in zip(ks, results, strict=True)]
 
 
 #: Simulated seconds of the warm-up run a worker makes before its first job (:func:`warm`).
@@ -199,23 +224,25 @@ def _sweep(scenario, grid, runs, out, workers, resume, overrides, on_done, clien
         if on_done:
             on_done(done, len(jobs))
 
+    n_workers = 1 if workers == 1 else (workers or os.cpu_count() or 1)
+    tasks = [(ks, [todo[k][2] for k in ks]) for ks in batches([job[2] for job in todo], n_workers)]
     if client is not None:
         from distributed import as_completed
 
-        futures = client.map(_run, [(k, job[2]) for k, job in enumerate(todo)], pure=False)
-        for future in as_completed(futures):
-            k, row = future.result()
-            keep(todo[k], row)
-    elif workers == 1 or len(todo) <= 1:
+        for future in as_completed(client.map(_run_batch, tasks, pure=False)):
+            for k, row in future.result():
+                keep(todo[k], row)
+    elif n_workers == 1 or len(tasks) <= 1:
         if todo:
             warm(todo[0][2])
-        for k, job in enumerate(todo):
-            keep(job, _run((k, job[2]))[1])
-    else:
-        with multiprocessing.Pool(min(workers or os.cpu_count() or 1, len(todo)), _worker_init,
-                                  (todo[0][2],)) as pool:
-            for k, row in pool.imap_unordered(_run, [(k, job[2]) for k, job in enumerate(todo)]):
+        for task in tasks:
+            for k, row in _run_batch(task):
                 keep(todo[k], row)
+    else:
+        with multiprocessing.Pool(min(n_workers, len(tasks)), _worker_init, (todo[0][2],)) as pool:
+            for done_rows in pool.imap_unordered(_run_batch, tasks):
+                for k, row in done_rows:
+                    keep(todo[k], row)
     return out
 
 

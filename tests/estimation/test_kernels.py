@@ -360,6 +360,40 @@ def test_the_unrolled_12x12_check_agrees_with_numpys_cholesky():
             assert not _positive_definite12(Ab)
 
 
+def test_the_unrolled_fs_prediction_is_f_p_ft_plus_q_with_the_models_jacobian():
+    """kernels._FS_E (E = F − I, the pattern the unrolled P⁻ is generated from) is models/fs.py's Jacobian, and
+    the unrolled P⁻ equals F S Fᵀ + Q for S the symmetric part of P, exactly symmetric."""
+    from swarmtrack.estimation import kernels
+
+    model = make_model("fs", DT)
+    rng = np.random.default_rng(3)
+    x = model.initial_state() + rng.normal(0.0, 0.3, 12)
+    J = model.jacobian(x)
+    E = np.zeros((12, 12))
+    for r, c, _ in kernels._FS_E:
+        E[r, c] = J[r, c]
+    np.testing.assert_array_equal(np.eye(12) + E, J)
+    args = {name: J[r, c] for r, c, name in kernels._FS_E}.values()  # in the generated signature's order
+    P = rng.standard_normal((1, 12, 12))  # not symmetric: only its symmetric part counts
+    A = np.empty((12, 12))
+    q = np.diag(model.Q).copy()
+    kernels._fs_predicted_covariance(P, 0, A, q, *args)
+    S = 0.5 * (P[0] + P[0].T)
+    np.testing.assert_allclose(A, J @ S @ J.T + np.diag(q), rtol=1e-12, atol=1e-12)
+    assert np.array_equal(A, A.T)
+
+
+def test_the_scalar_3x3_solve_equals_numpy_on_every_pivot_order():
+    from swarmtrack.estimation.kernels import _solve3
+
+    rng = np.random.default_rng(4)
+    for _ in range(300):
+        C = rng.standard_normal((3, 3)) * rng.choice([1e-3, 1.0, 1e3], (3, 3))
+        B = rng.standard_normal((3, 3))
+        X = np.array(_solve3(*(tuple(row) for row in np.hstack([C, B]))))
+        np.testing.assert_allclose(C @ X, B, atol=1e-8 * np.linalg.cond(C) * (1 + abs(B).max()))
+
+
 def test_the_compiled_fs_estimator_equals_the_numpy_one_in_the_loop():
     from swarmtrack.scenarios import load_scenario
     from swarmtrack.sim.engine import simulate

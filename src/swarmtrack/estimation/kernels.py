@@ -435,12 +435,55 @@ def _ldl_check_source(name: str, n: int) -> str:
     return "\n".join(lines) + "\n"
 
 
+#: E = F − I of the FS model (models/fs.py: jacobian) as (row, column, name of the value in fs_cycle); T = thrust.
+_FS_E = ((0, 2, "dt"), (1, 3, "dt"), (2, 6, "e26"), (2, 11, "e2T"), (3, 5, "e35"), (3, 6, "e36"), (3, 11, "e3T"),
+         (4, 5, "e45"), (4, 6, "e46"), (4, 11, "e4T"), (5, 7, "dt"), (6, 8, "dt"), (7, 9, "e79"), (8, 10, "e8X"))
+
+
+def _predicted_covariance_source(name: str, n: int, pattern) -> str:
+    """Source of ``name(P, k, A, q, *values)``: ``A = F S Fᵀ + diag(q)`` for ``S`` the symmetric part of ``P[k]``
+    and ``F = I + E``, ``E`` sparse with ``pattern`` ((row, column, value name), ...); every entry a local.
+
+    ``G = F S = S + E S`` on the rows E touches, then ``A = G Fᵀ = G + G Eᵀ`` on the lower triangle, mirrored
+    (``A`` exactly symmetric). The same arithmetic as the looped form, about 8 % faster for FS.
+    """
+    rows = {}
+    for r, c, v in pattern:
+        rows.setdefault(r, []).append((c, v))
+    names = tuple(dict.fromkeys(v for _, _, v in pattern))
+
+    def s(a, c):
+        return f"s{max(a, c)}_{min(a, c)}"
+
+    def g(a, c):
+        return f"g{a}_{c}" if a in rows else s(a, c)
+
+    lines = [f"def {name}(P, k, A, q, {', '.join(names)}):"]
+    for a in range(n):
+        lines.append("    " + "; ".join(f"s{a}_{c} = 0.5 * (P[k, {a}, {c}] + P[k, {c}, {a}])" for c in range(a + 1)))
+    for a in sorted(rows):
+        terms = lambda c, a=a: " + ".join([s(a, c)] + [f"{v} * {s(e, c)}" for e, v in rows[a]])  # noqa: E731
+        lines.append("    " + "; ".join(f"g{a}_{c} = {terms(c)}" for c in range(n)))
+    for a in range(n):
+        for c in range(a + 1):
+            expr = " + ".join([g(a, c)] + [f"{v} * {g(a, e)}" for e, v in rows.get(c, [])])
+            if a == c:
+                lines.append(f"    A[{a}, {a}] = {expr} + q[{a}]")
+            else:
+                lines.append(f"    v = {expr}")
+                lines.append(f"    A[{a}, {c}] = v; A[{c}, {a}] = v")
+    return "\n".join(lines) + "\n"
+
+
 _namespace = {"_INF": _INF}
 exec(compile(_ldl_check_source("_positive_definite12", 12), __file__, "exec"), _namespace)
+exec(compile(_predicted_covariance_source("_fs_predicted_covariance", 12, _FS_E), __file__, "exec"), _namespace)
 #: ``_positive_definite12(A)``: whether the symmetric 12 x 12 ``A`` (lower triangle read) is positive definite and
 #: finite, i.e. every LDLᵀ pivot (the square of a Cholesky pivot) is > 0 and < inf. A NaN or inf anywhere in the
 #: lower triangle reaches a later pivot (as NaN or -inf), so the pivots alone carry the finiteness check.
 _positive_definite12 = numba.njit(fastmath=False, inline="always")(_namespace.pop("_positive_definite12"))
+#: ``_fs_predicted_covariance(P, k, A, q, dt, e26, …)``: FS's ``P⁻ = F P Fᵀ + Q`` of agent ``k`` into ``A`` (12, 12).
+_fs_predicted_covariance = numba.njit(fastmath=False, inline="always")(_namespace.pop("_fs_predicted_covariance"))
 
 
 @numba.njit(cache=True, fastmath=False)
@@ -451,9 +494,9 @@ def fs_cycle(x, P, dt, q, I, i, mass, Ixx, Iyy, g, w_vz):
     The same cycle as the information-form reference (``predict`` → ``add_position_information`` → the fake
     ``vz = 0`` measurement → ``recover``), written in covariance form so that no 12 x 12 matrix is inverted:
 
-        x⁻ = f(x),  P⁻ = F P Fᵀ + Q     (F = I + E: E's 14 entries only)
+        x⁻ = f(x),  P⁻ = F P Fᵀ + Q     (F = I + E: E's 14 entries only, _FS_E)
         M = U Λ Uᵀ,  U = [e_x, e_y, e_vz],  Λ = blockdiag(I, w_vz)     (the added information, rank ≤ 3)
-        P = P⁻ − P⁻ U D Uᵀ P⁻,  D = (I₃ + Λ Uᵀ P⁻ U)⁻¹ Λ  = (P⁻⁻¹ + M)⁻¹   (Woodbury; D symmetric)
+        P = P⁻ − P⁻ U D Uᵀ P⁻,  D = C⁻¹ Λ,  C = I₃ + Λ Uᵀ P⁻ U        (Woodbury: P = (P⁻⁻¹ + M)⁻¹; D symmetric)
         x = x⁻ + P (u − M x⁻),  u = [i, 0, …]                         (x = P (Y⁻ x⁻ + u))
 
     ``I, i`` are linearised at ``cv_predicted_position(x, dt)`` (FS's position rows are CV's). A flag is set when
@@ -463,16 +506,12 @@ def fs_cycle(x, P, dt, q, I, i, mass, Ixx, Iyy, g, w_vz):
     n = x.shape[0]
     d = 12
     flags = np.zeros(n, np.uint8)
-    S = np.empty((d, d))
-    G = np.empty((d, d))
     A = np.empty((d, d))
     xp = np.empty(d)
     PU = np.empty((d, 3))
     W = np.empty((d, 3))
-    C = np.empty((3, 3))
-    D = np.empty((3, 3))
-    M6 = np.empty((3, 6))
-    Lam = np.zeros((3, 3))
+    e79 = dt / Ixx
+    e8X = dt / Iyy
     for k in range(n):
         phi, theta, thrust = x[k, 5], x[k, 6], x[k, 11]
         sphi, cphi, sth, cth = math.sin(phi), math.cos(phi), math.sin(theta), math.cos(theta)
@@ -487,7 +526,7 @@ def fs_cycle(x, P, dt, q, I, i, mass, Ixx, Iyy, g, w_vz):
         xp[6] += dt * x[k, 8]
         xp[7] += dt * x[k, 9] / Ixx
         xp[8] += dt * x[k, 10] / Iyy
-        # E = F − I (models/fs.py: jacobian); e_rc is E[r, c], T (thrust) is state 11
+        # E's state-dependent entries (models/fs.py: jacobian); e_rc is E[r, c], T the thrust (state 11)
         e26 = dt * thrust / mass * cth
         e2T = dt / mass * sth
         e35 = -dt * thrust / mass * cphi * cth
@@ -496,70 +535,32 @@ def fs_cycle(x, P, dt, q, I, i, mass, Ixx, Iyy, g, w_vz):
         e45 = -dt * thrust / mass * sphi * cth
         e46 = -dt * thrust / mass * cphi * sth
         e4T = dt / mass * cphi * cth
-        e79 = dt / Ixx
-        e8X = dt / Iyy
-        for a in range(d):  # S = symmetric part of P
-            for b in range(a + 1):
-                s = 0.5 * (P[k, a, b] + P[k, b, a])
-                S[a, b] = s
-                S[b, a] = s
-        for b in range(d):  # G = F S = S + E S, row by row
-            G[0, b] = S[0, b] + dt * S[2, b]
-            G[1, b] = S[1, b] + dt * S[3, b]
-            G[2, b] = S[2, b] + e26 * S[6, b] + e2T * S[11, b]
-            G[3, b] = S[3, b] + e35 * S[5, b] + e36 * S[6, b] + e3T * S[11, b]
-            G[4, b] = S[4, b] + e45 * S[5, b] + e46 * S[6, b] + e4T * S[11, b]
-            G[5, b] = S[5, b] + dt * S[7, b]
-            G[6, b] = S[6, b] + dt * S[8, b]
-            G[7, b] = S[7, b] + e79 * S[9, b]
-            G[8, b] = S[8, b] + e8X * S[10, b]
-            G[9, b] = S[9, b]
-            G[10, b] = S[10, b]
-            G[11, b] = S[11, b]
-        for a in range(d):  # P⁻ = G Fᵀ + Q = G + G Eᵀ + Q, row by row
-            A[a, 0] = G[a, 0] + dt * G[a, 2]
-            A[a, 1] = G[a, 1] + dt * G[a, 3]
-            A[a, 2] = G[a, 2] + e26 * G[a, 6] + e2T * G[a, 11]
-            A[a, 3] = G[a, 3] + e35 * G[a, 5] + e36 * G[a, 6] + e3T * G[a, 11]
-            A[a, 4] = G[a, 4] + e45 * G[a, 5] + e46 * G[a, 6] + e4T * G[a, 11]
-            A[a, 5] = G[a, 5] + dt * G[a, 7]
-            A[a, 6] = G[a, 6] + dt * G[a, 8]
-            A[a, 7] = G[a, 7] + e79 * G[a, 9]
-            A[a, 8] = G[a, 8] + e8X * G[a, 10]
-            A[a, 9] = G[a, 9]
-            A[a, 10] = G[a, 10]
-            A[a, 11] = G[a, 11]
-        for a in range(d):  # lower triangle mirrored: P⁻ exactly symmetric
-            for b in range(a):
-                A[b, a] = A[a, b]
-            A[a, a] += q[a]
+        _fs_predicted_covariance(P, k, A, q, dt, e26, e2T, e35, e36, e3T, e45, e46, e4T, e79, e8X)
         if not _positive_definite12(A):
             flags[k] = _PREDICT
             _fill_nan(x, P, k)
             continue
         # Woodbury with U = [e_x, e_y, e_vz], Λ = blockdiag(I, w_vz)
-        Lam[0, 0] = I[k, 0, 0]
-        Lam[1, 1] = I[k, 1, 1]
-        Lam[0, 1] = Lam[1, 0] = 0.5 * (I[k, 0, 1] + I[k, 1, 0])
-        Lam[2, 2] = w_vz
+        l00 = I[k, 0, 0]
+        l11 = I[k, 1, 1]
+        l01 = 0.5 * (I[k, 0, 1] + I[k, 1, 0])
         for a in range(d):  # P⁻ U
             PU[a, 0] = A[a, 0]
             PU[a, 1] = A[a, 1]
             PU[a, 2] = A[a, 4]
-        for c in range(3):  # C = I₃ + Λ Uᵀ P⁻ U
-            C[0, c] = Lam[0, 0] * PU[0, c] + Lam[0, 1] * PU[1, c]
-            C[1, c] = Lam[1, 0] * PU[0, c] + Lam[1, 1] * PU[1, c]
-            C[2, c] = w_vz * PU[4, c]
-            C[c, c] += 1.0
-        # D = C⁻¹ Λ (3 x 3) by Gaussian elimination with partial pivoting on [C | Λ], then its symmetric part
-        _solve3(C, Lam, M6, D)
-        d00, d11, d22 = D[0, 0], D[1, 1], D[2, 2]
-        d01 = 0.5 * (D[0, 1] + D[1, 0])
-        d02 = 0.5 * (D[0, 2] + D[2, 0])
-        d12 = 0.5 * (D[1, 2] + D[2, 1])
+        # D = C⁻¹ Λ, C = I₃ + Λ Uᵀ P⁻ U, by Gaussian elimination with partial pivoting on [C | Λ]; D's symmetric part
+        (d00, d01, d02), (d10, d11, d12), (d20, d21, d22) = _solve3(
+            (1.0 + (l00 * A[0, 0] + l01 * A[1, 0]), l00 * A[0, 1] + l01 * A[1, 1], l00 * A[0, 4] + l01 * A[1, 4],
+             l00, l01, 0.0),
+            (l01 * A[0, 0] + l11 * A[1, 0], 1.0 + (l01 * A[0, 1] + l11 * A[1, 1]), l01 * A[0, 4] + l11 * A[1, 4],
+             l01, l11, 0.0),
+            (w_vz * A[4, 0], w_vz * A[4, 1], 1.0 + w_vz * A[4, 4], 0.0, 0.0, w_vz))
+        d01 = 0.5 * (d01 + d10)
+        d02 = 0.5 * (d02 + d20)
+        d12 = 0.5 * (d12 + d21)
         # innovation in information units: u − M x⁻ on the U coordinates
-        r0 = i[k, 0] - (Lam[0, 0] * xp[0] + Lam[0, 1] * xp[1])
-        r1 = i[k, 1] - (Lam[1, 0] * xp[0] + Lam[1, 1] * xp[1])
+        r0 = i[k, 0] - (l00 * xp[0] + l01 * xp[1])
+        r1 = i[k, 1] - (l01 * xp[0] + l11 * xp[1])
         r2 = -w_vz * xp[4]
         for a in range(d):  # W = P⁻ U D
             p0, p1, p2 = PU[a, 0], PU[a, 1], PU[a, 2]
@@ -580,31 +581,35 @@ def fs_cycle(x, P, dt, q, I, i, mass, Ixx, Iyy, g, w_vz):
     return flags
 
 
-@numba.njit(cache=True, fastmath=False)
-def _solve3(C, B, M, X):
-    """``X = C⁻¹ B`` for 3 x 3 matrices, Gaussian elimination with partial pivoting (``M`` (3, 6) scratch)."""
-    for r in range(3):
-        for c in range(3):
-            M[r, c] = C[r, c]
-            M[r, 3 + c] = B[r, c]
-    for col in range(3):
-        piv = col
-        for r in range(col + 1, 3):
-            if abs(M[r, col]) > abs(M[piv, col]):
-                piv = r
-        if piv != col:
-            for c in range(6):
-                M[col, c], M[piv, c] = M[piv, c], M[col, c]
-        for r in range(col + 1, 3):
-            f = M[r, col] / M[col, col]
-            for c in range(col, 6):
-                M[r, c] -= f * M[col, c]
-    for c in range(3):
-        for r in range(2, -1, -1):
-            acc = M[r, 3 + c]
-            for m in range(r + 1, 3):
-                acc -= M[r, m] * X[m, c]
-            X[r, c] = acc / M[r, r]
+@numba.njit(cache=True, fastmath=False, inline="always")
+def _solve3(r0, r1, r2):
+    """``X = C⁻¹ B`` for 3 x 3 ``C, B`` given as the rows of ``[C | B]`` (three 6-tuples), by Gaussian elimination
+    with partial pivoting; returns the rows of ``X`` (three 3-tuples). Scalars only: no scratch arrays."""
+    if abs(r1[0]) > abs(r0[0]):  # pivot of column 0: the first row of largest magnitude
+        if abs(r2[0]) > abs(r1[0]):
+            r0, r2 = r2, r0
+        else:
+            r0, r1 = r1, r0
+    elif abs(r2[0]) > abs(r0[0]):
+        r0, r2 = r2, r0
+    f = r1[0] / r0[0]
+    r1 = (0.0, r1[1] - f * r0[1], r1[2] - f * r0[2], r1[3] - f * r0[3], r1[4] - f * r0[4], r1[5] - f * r0[5])
+    f = r2[0] / r0[0]
+    r2 = (0.0, r2[1] - f * r0[1], r2[2] - f * r0[2], r2[3] - f * r0[3], r2[4] - f * r0[4], r2[5] - f * r0[5])
+    if abs(r2[1]) > abs(r1[1]):
+        r1, r2 = r2, r1
+    f = r2[1] / r1[1]
+    r2 = (0.0, 0.0, r2[2] - f * r1[2], r2[3] - f * r1[3], r2[4] - f * r1[4], r2[5] - f * r1[5])
+    x20 = r2[3] / r2[2]
+    x21 = r2[4] / r2[2]
+    x22 = r2[5] / r2[2]
+    x10 = (r1[3] - r1[2] * x20) / r1[1]
+    x11 = (r1[4] - r1[2] * x21) / r1[1]
+    x12 = (r1[5] - r1[2] * x22) / r1[1]
+    x00 = (r0[3] - r0[1] * x10 - r0[2] * x20) / r0[0]
+    x01 = (r0[4] - r0[1] * x11 - r0[2] * x21) / r0[0]
+    x02 = (r0[5] - r0[1] * x12 - r0[2] * x22) / r0[0]
+    return (x00, x01, x02), (x10, x11, x12), (x20, x21, x22)
 
 
 @numba.njit(cache=True, fastmath=False)

@@ -475,13 +475,17 @@ def _predicted_covariance_source(name: str, n: int, pattern) -> str:
     return "\n".join(lines) + "\n"
 
 
+# The generated helpers are compiled under a pseudo file name (tracebacks do not point into this file's lines);
+# fs_cycle's cache holds their code. The LDLᵀ check is a call, not inlined: fs_cycle compiles in ~7 s, not ~11 s.
 _namespace = {"_INF": _INF}
-exec(compile(_ldl_check_source("_positive_definite12", 12), __file__, "exec"), _namespace)
-exec(compile(_predicted_covariance_source("_fs_predicted_covariance", 12, _FS_E), __file__, "exec"), _namespace)
+for _source in (_ldl_check_source("_positive_definite12", 12),
+                _predicted_covariance_source("_fs_predicted_covariance", 12, _FS_E)):
+    exec(compile(_source, "<generated in swarmtrack.estimation.kernels>", "exec"), _namespace)
+del _source
 #: ``_positive_definite12(A)``: whether the symmetric 12 x 12 ``A`` (lower triangle read) is positive definite and
 #: finite, i.e. every LDLᵀ pivot (the square of a Cholesky pivot) is > 0 and < inf. A NaN or inf anywhere in the
 #: lower triangle reaches a later pivot (as NaN or -inf), so the pivots alone carry the finiteness check.
-_positive_definite12 = numba.njit(fastmath=False, inline="always")(_namespace.pop("_positive_definite12"))
+_positive_definite12 = numba.njit(fastmath=False)(_namespace.pop("_positive_definite12"))
 #: ``_fs_predicted_covariance(P, k, A, q, dt, e26, …)``: FS's ``P⁻ = F P Fᵀ + Q`` of agent ``k`` into ``A`` (12, 12).
 _fs_predicted_covariance = numba.njit(fastmath=False, inline="always")(_namespace.pop("_fs_predicted_covariance"))
 

@@ -322,6 +322,78 @@ def test_fs_cycle_flags_a_covariance_that_is_not_positive_definite():
     assert flags[0] == PREDICT_NOT_PD and np.isnan(x).all()
 
 
+def test_fs_cycle_flags_a_posterior_that_is_not_positive_definite():
+    """Negative position information (an indefinite Λ) makes (P⁻⁻¹ + M) indefinite: the posterior check fires."""
+    from swarmtrack.estimation.kernels import POSTERIOR_NOT_PD, fs_cycle
+
+    model = make_model("fs", DT)
+    x = model.initial_state() + np.zeros((2, 12))
+    P = np.broadcast_to(0.1 * np.eye(12), (2, 12, 12)).copy()
+    I = np.stack([np.diag([400.0, 300.0]), np.diag([-1e6, 300.0])])
+    flags = fs_cycle(x, P, DT, np.ascontiguousarray(np.diag(model.Q)), I, np.zeros((2, 2)), model.mass,
+                     model.Ixx, model.Iyy, model.g, 400.0)
+    assert flags.tolist() == [0, POSTERIOR_NOT_PD] and np.isnan(P[1]).all() and np.isfinite(P[0]).all()
+
+
+def test_the_unrolled_12x12_check_agrees_with_numpys_cholesky():
+    """The straight-line LDLᵀ check of fs_cycle says positive definite exactly when numpy's Cholesky succeeds
+    (away from singular-to-rounding matrices), and refuses NaN and inf anywhere in the lower triangle."""
+    from swarmtrack.estimation.kernels import _positive_definite12
+
+    rng = np.random.default_rng(11)
+    for _ in range(200):
+        B = rng.standard_normal((12, 12))
+        A = B @ B.T + rng.uniform(-3.0, 3.0) * np.eye(12)  # PD or indefinite, far from singular
+        if abs(np.linalg.eigvalsh(A)).min() < 1e-6:
+            continue
+        try:
+            np.linalg.cholesky(A)
+            expected = True
+        except np.linalg.LinAlgError:
+            expected = False
+        assert _positive_definite12(A) == expected
+    A = np.eye(12)
+    for r, c in ((0, 0), (5, 2), (11, 0), (11, 11)):
+        for bad in (np.nan, np.inf, -np.inf):
+            Ab = A.copy()
+            Ab[r, c] = bad
+            assert not _positive_definite12(Ab)
+
+
+def test_the_unrolled_fs_prediction_is_f_p_ft_plus_q_with_the_models_jacobian():
+    """kernels._FS_E (E = F − I, the pattern the unrolled P⁻ is generated from) is models/fs.py's Jacobian, and
+    the unrolled P⁻ equals F S Fᵀ + Q for S the symmetric part of P, exactly symmetric."""
+    from swarmtrack.estimation import kernels
+
+    model = make_model("fs", DT)
+    rng = np.random.default_rng(3)
+    x = model.initial_state() + rng.normal(0.0, 0.3, 12)
+    J = model.jacobian(x)
+    E = np.zeros((12, 12))
+    for r, c, _ in kernels._FS_E:
+        E[r, c] = J[r, c]
+    np.testing.assert_array_equal(np.eye(12) + E, J)
+    args = {name: J[r, c] for r, c, name in kernels._FS_E}.values()  # in the generated signature's order
+    P = rng.standard_normal((1, 12, 12))  # not symmetric: only its symmetric part counts
+    A = np.empty((12, 12))
+    q = np.diag(model.Q).copy()
+    kernels._fs_predicted_covariance(P, 0, A, q, *args)
+    S = 0.5 * (P[0] + P[0].T)
+    np.testing.assert_allclose(A, J @ S @ J.T + np.diag(q), rtol=1e-12, atol=1e-12)
+    assert np.array_equal(A, A.T)
+
+
+def test_the_scalar_3x3_solve_equals_numpy_on_every_pivot_order():
+    from swarmtrack.estimation.kernels import _solve3
+
+    rng = np.random.default_rng(4)
+    for _ in range(300):
+        C = rng.standard_normal((3, 3)) * rng.choice([1e-3, 1.0, 1e3], (3, 3))
+        B = rng.standard_normal((3, 3))
+        X = np.array(_solve3(*(tuple(row) for row in np.hstack([C, B]))))
+        np.testing.assert_allclose(C @ X, B, atol=1e-8 * np.linalg.cond(C) * (1 + abs(B).max()))
+
+
 def test_the_compiled_fs_estimator_equals_the_numpy_one_in_the_loop():
     from swarmtrack.scenarios import load_scenario
     from swarmtrack.sim.engine import simulate

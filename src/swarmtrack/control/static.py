@@ -12,8 +12,8 @@ from swarmtrack.network.messages import Inbox
 class StaticController:
     probes = ()
 
-    def __init__(self, n_uavs: int):
-        self._zero = np.zeros((n_uavs, 2))
+    def __init__(self, n_uavs: int, width: int = 2):
+        self._zero = np.zeros((n_uavs, width))
         self._zero.flags.writeable = False
 
     def broadcast(self, t: float, nav: np.ndarray) -> dict:

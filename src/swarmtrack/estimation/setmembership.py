@@ -207,6 +207,7 @@ class SetMembershipEstimator:
         self._sharing = False
         self._phi = uncertainty(self.beliefs)
         self.updates = np.zeros(n_uavs, dtype=np.int64)
+        self._view: TargetView | None = None  # the view of the current sets (they change only at updates)
         self.probes = (Probe("phi", ()), Probe("phi_unexplored", ()), Probe("phi_unidentified", ()),
                        Probe("phi_identified", ()), Probe("n_identified", ()), Probe("vertices", ()),
                        Probe("set_updates", ()), Probe("alarm_unexplained", ()), Probe("alarm_all_empty", ()))
@@ -229,6 +230,7 @@ class SetMembershipEstimator:
                 mine = own.owner == i
                 correct(self.beliefs, i, region, own.z[mine], own.label[mine], self.bound)
             self.updates[rows] += 1
+            self._view = None
         if not self._sharing:
             return {}
         b = self.beliefs
@@ -244,10 +246,16 @@ class SetMembershipEstimator:
         recv, send = inbox.edges()
         fuse(self.beliefs, recv, send, sent)
         self._phi = uncertainty(self.beliefs)
+        self._view = None
 
     def view(self) -> TargetView:
         """No single target: the centre of each UAV's aggregated set (eq. 43) as the state (NaN when empty), and the
         set itself as the region (what the set-membership MPC plans against)."""
+        if self._view is None:
+            self._view = self._make_view()
+        return self._view
+
+    def _make_view(self) -> TargetView:
         region = aggregated(self.beliefs)
         centre = shapely.get_coordinates(shapely.centroid(region), include_z=False)
         state = np.full((self.n, 4), np.nan)

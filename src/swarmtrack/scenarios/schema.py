@@ -223,12 +223,34 @@ class GroupSpec(_Strict):
     """A named group of driven vehicles (``targets``, ``decoys``): one vehicle kind, any number of members, each
     flying its own velocity profile through the same autopilot (feed-forward + P velocity loop) and wind."""
 
-    vehicle: Literal["quadrotor", "double_integrator"] = Field(
-        "quadrotor", description="quadrotor: Iris-like, attitude loop and tilt limits (L24); double_integrator")
+    vehicle: Literal["quadrotor", "double_integrator", "walker"] = Field(
+        "quadrotor", description=("quadrotor: Iris-like, attitude loop and tilt limits (L24); double_integrator; "
+                                  "walker: constant speed, random-walk yaw rate, reflected at the area's border "
+                                  "(IB21 Sec. 6)"))
     velocity_gain: Gain = Field(1.5, gt=0, description="autopilot velocity-loop gain, 1/s (chosen; at most 1e6)")
     wind_std: Acceleration = Field(0.05, ge=0, description=(
         "random acceleration disturbance std, m/s² (chosen; at most 1e3 m/s²: about 100 g)"))
     members: list[MemberSpec] = Field(default_factory=list)
+    count: int = Field(0, ge=0, le=10_000, description=(
+        "walker: members placed at seeded uniform positions in the area with uniform headings (IB21 Sec. 6)"))
+    speed: Speed = Field(1.0, gt=0, description="walker: speed V^t, m/s (IB21: 1; Fig. 9: 1.0-1.8)")
+    yaw_accel_bound: AngularRate = Field(0.39269908169872414, gt=0, description=(
+        "walker: yaw acceleration drawn from U(−b, b) every physics step, rad/s² (IB21: π/8)"))
+    area: tuple[Length, Length, Length, Length] = Field((0.0, 0.0, 400.0, 400.0), description=(
+        "walker: [x0, y0, x1, y1], m, where the walkers start and stay (IB21: a 400 m square)"))
+
+    @model_validator(mode="after")
+    def _walkers(self):
+        if self.vehicle != "walker":
+            for name in ("count", "speed", "yaw_accel_bound", "area"):
+                if not _is_default(type(self), name, getattr(self, name)):
+                    raise ValueError(f"{name} is used only with vehicle: walker")
+        elif not self.area[0] < self.area[2] or not self.area[1] < self.area[3]:
+            raise ValueError(f"area {list(self.area)} must be [x0, y0, x1, y1] with x0 < x1 and y0 < y1")
+        return self
+
+    def size(self) -> int:
+        return self.count + len(self.members)
 
 
 #: Keys of the one-target shorthand ``target:`` that belong to the group rather than to its member.
@@ -242,9 +264,18 @@ def _one_target(target: dict) -> dict:
     return group
 
 
+class FixedWingSpec(_Strict):
+    """A fixed-wing UAV at constant speed and altitude steered by its yaw acceleration (IB21 Sec. 6)."""
+
+    speed: Speed = Field(16.6, gt=0, description="m/s (IB21: 16.6)")
+    altitude: Length = Field(100.0, gt=0, description="m (IB21: 100)")
+    yaw_rate_max: AngularRate = Field(0.6, gt=0, description="rad/s (ours: ≈ 45° of bank; IB21 gives none)")
+
+
 class SwarmSpec(_Strict):
     n_uavs: int = Field(3, ge=1, le=100_000, description="number of UAVs")
-    vehicle: Literal["quadrotor", "double_integrator"] = "quadrotor"
+    vehicle: Literal["quadrotor", "double_integrator", "fixed_wing"] = "quadrotor"
+    fixed_wing: FixedWingSpec = Field(default_factory=FixedWingSpec, description="with vehicle: fixed_wing")
     initial_positions: list[Position] | None = Field(None, description=(
         "m (at most 1e6 m per axis); default: seeded random in the spawn box"))
     spawn_center: Position = Field((-2.0, -6.0), description=(
@@ -355,6 +386,38 @@ class OutageSpec(_Strict):
         if not 0 <= self.window[0] < self.window[1]:
             raise ValueError(f"window {list(self.window)} must be [t0, t1) with 0 <= t0 < t1")
         return self
+
+
+class FootprintSpec(SensorSpec):
+    """IB21's downward camera on fixed-wing UAVs: every walker in the footprint detected with box noise, identified
+    only from inside a narrow cone (Sec. 3.2, Sec. 6, eqs. 50-54; our readings in docs/set-membership.md)."""
+
+    kind: Literal["footprint"] = "footprint"
+    opening: Angle = Field(0.7853981633974483, gt=0, description="rad, in azimuth and elevation (IB21: π/4)")
+    convention: Literal["full", "half"] = Field("full", description=(
+        "full: the opening is the full angle (82.8 m square at 100 m); half: the half angle (200 m)"))
+    orientation: Literal["heading", "north"] = Field("heading", description="the footprint's sides")
+    noise_bound: tuple[Length, Length] = Field((5.0, 5.0), description=(
+        "m, the TRUE noise half-widths per axis (uniform; IB21: 5)"))
+    confusion: Literal["outside_inner_cone", "inside_inner_cone"] = Field("outside_inner_cone", description=(
+        "where a decoy is confused with a target: outside its inner π/60 cone (the text, Fig. 3) or inside (eq. 53)"))
+
+    @field_validator("noise_bound")
+    @classmethod
+    def _positive_bound(cls, v):
+        if min(v) <= 0:
+            raise ValueError(f"{list(v)} must be two positive half-widths")
+        return v
+
+    def check(self, scenario: Scenario) -> None:
+        if scenario.swarm.vehicle != "fixed_wing":
+            raise ValueError("sensor.kind footprint needs swarm.vehicle: fixed_wing")
+        for group in ("targets", "decoys"):
+            g = getattr(scenario, group)
+            if g.size() and g.vehicle != "walker":
+                raise ValueError(f"sensor.kind footprint needs {group}.vehicle: walker")
+        if self.latency or self.occluders:
+            raise ValueError("sensor.kind footprint has no latency or occluders")
 
 
 class NetworkSpec(_Strict):
@@ -560,6 +623,47 @@ class IMMSpec(EstimatorSpec):
             raise ValueError(f"estimator.kind imm needs a range_bearing sensor, not {scenario.sensor.kind!r}")
 
 
+class SetMembershipSpec(EstimatorSpec):
+    """IB21's guaranteed search and track of targets among decoys (Algorithm 1): every UAV keeps the sets where each
+    identified target, each unidentified object and anything unexplored can be, shares them every ``period``."""
+
+    kind: Literal["setmembership"] = "setmembership"
+    area: tuple[Length, Length, Length, Length] = Field((0.0, 0.0, 400.0, 400.0), description=(
+        "X0 = [x0, y0, x1, y1], m"))
+    target_speed: Speed | None = Field(None, gt=0, description=(
+        "m/s, the speed bound V^t the sets grow with; default: the targets' speed"))
+    noise_bound: tuple[Length, Length] = Field((5.0, 5.0), description=(
+        "m, the ASSUMED noise half-widths per axis (the guarantee needs them to contain the true ones)"))
+    period: Time = Field(0.5, gt=0, description="s, between exchanges T^c (IB21: 0.5)")
+
+    @field_validator("noise_bound")
+    @classmethod
+    def _positive_bound(cls, v):
+        if min(v) <= 0:
+            raise ValueError(f"{list(v)} must be two positive half-widths")
+        return v
+
+    @field_validator("area")
+    @classmethod
+    def _box(cls, v):
+        if not (v[0] < v[2] and v[1] < v[3]):
+            raise ValueError(f"area {list(v)} must be [x0, y0, x1, y1] with x0 < x1 and y0 < y1")
+        return v
+
+    def speed_bound(self, scenario: Scenario) -> float:
+        return self.target_speed if self.target_speed is not None else scenario.targets.speed
+
+    def check(self, scenario: Scenario) -> None:
+        if scenario.sensor.kind != "footprint":
+            raise ValueError("estimator.kind setmembership needs sensor.kind: footprint")
+        if scenario.swarm.nav_position_std or scenario.swarm.nav_velocity_std:
+            raise ValueError("swarm.nav_position_std and nav_velocity_std must be 0 with estimator.kind "
+                             "setmembership: a Gaussian pose error has no bound, so no footprint is guaranteed")
+        ratio = self.period * scenario.rates.estimation
+        if abs(ratio - round(ratio)) > 1e-9:
+            raise ValueError(f"estimator.period {self.period:g} s must be a whole number of estimation steps")
+
+
 class StaticSpec(ControllerSpec):
     """UAVs hold their initial positions (W20 Sec. 4.6.1: hung from the ceiling, estimation decoupled from
     flight)."""
@@ -690,10 +794,12 @@ class MPCSpec(ControllerSpec):
 #: are registered beside them (:func:`swarmtrack.sim.build.register`), so a new capability adds an entry here,
 #: not a branch in the engine.
 ESTIMATOR_KINDS: dict[str, type[EstimatorSpec]] = {"information": InformationSpec, "centralized": CentralizedSpec,
-                                                  "multimodel": MultiModelSpec, "imm": IMMSpec}
+                                                  "multimodel": MultiModelSpec, "imm": IMMSpec,
+                                                  "setmembership": SetMembershipSpec}
 CONTROLLER_KINDS: dict[str, type[ControllerSpec]] = {"flocking": FlockingSpec, "static": StaticSpec,
                                                     "mpc": MPCSpec}
-SENSOR_KINDS: dict[str, type[SensorSpec]] = {"range_bearing": RangeBearingSpec, "camera": CameraSpec}
+SENSOR_KINDS: dict[str, type[SensorSpec]] = {"range_bearing": RangeBearingSpec, "camera": CameraSpec,
+                                             "footprint": FootprintSpec}
 
 
 def _by_kind(value, kinds: dict, default: str, base: type):

@@ -84,7 +84,7 @@ def build_batch(scenarios: list[Scenario]) -> tuple[Simulation, list[dict]]:
     uavs = Group("uavs", first.swarm.vehicle,
                  np.concatenate([spawn_positions(s, stream(s.seed, "spawn")) for s in scenarios]))
     groups = [_concat_group("targets", scenarios, flown), _concat_group("decoys", scenarios, flown), uavs]
-    world = World(groups, SENSORS[first.sensor.kind](first.sensor), dt=clock.dt,
+    world = World(groups, SENSORS[first.sensor.kind](first.sensor, first), dt=clock.dt,
                   ticks=clock.steps * clock.ticks_estimation,
                   nav_std=(first.swarm.nav_position_std, first.swarm.nav_velocity_std),
                   streams=[lambda purpose, seed=s.seed: stream(seed, purpose) for s in scenarios],

@@ -21,6 +21,7 @@ from swarmtrack.estimation.imm import IMMInformationEstimator
 from swarmtrack.estimation.information import InformationEstimator, RangeBearingUpdate
 from swarmtrack.estimation.measurements import CameraFrameMeasurement, RangeBearingMeasurement
 from swarmtrack.estimation.multimodel import MultiModelEstimator
+from swarmtrack.estimation.setmembership import SetMembershipEstimator
 from swarmtrack.models import make_model
 from swarmtrack.network.channel import Channel
 from swarmtrack.network.links import edge_list, proximity_links
@@ -33,6 +34,7 @@ from swarmtrack.scenarios.schema import (
     EstimatorSpec,
     FilterSpec,
     FlockingSpec,
+    FootprintSpec,
     GroupSpec,
     IMMSpec,
     MPCSpec,
@@ -40,6 +42,7 @@ from swarmtrack.scenarios.schema import (
     RangeBearingSpec,
     Scenario,
     SensorSpec,
+    SetMembershipSpec,
 )
 from swarmtrack.sim.agent import OnboardStack
 from swarmtrack.sim.clock import Clock
@@ -47,6 +50,7 @@ from swarmtrack.sim.oracle import TruthOracle
 from swarmtrack.sim.streams import stream
 from swarmtrack.sim.world import (
     CameraSensor,
+    FootprintSensor,
     Group,
     Occluder,
     ProfileDriver,
@@ -54,6 +58,8 @@ from swarmtrack.sim.world import (
     World,
     hidden_by,
 )
+from swarmtrack.vehicles.fixed_wing import FixedWingParams
+from swarmtrack.vehicles.ground_walker import WalkerParams
 
 
 @dataclass(frozen=True)
@@ -68,6 +74,8 @@ class Context:
     compiled: bool
     label_of: Callable[[str, int], int]
     """``label_of(group, member)``: the label the sensor reports for ``group`` member ``member`` (0-based)."""
+    command_width: int = 2
+    """What a UAV's controller commands per UAV: 2 (a planar acceleration) or 1 (a fixed wing's yaw acceleration)."""
 
 
 def _information(spec: FilterSpec, ctx: Context) -> InformationEstimator:
@@ -128,11 +136,20 @@ def _mpc(spec: MPCSpec, ctx: Context) -> MPCController:
                          spec.target_model, start=spec.start, gains=PositionGains(**spec.gains.model_dump()))
 
 
+def _setmembership(spec: SetMembershipSpec, ctx: Context) -> SetMembershipEstimator:
+    import shapely
+
+    return SetMembershipEstimator(ctx.n_uavs, ctx.scenario.targets.size(), shapely.box(*spec.area),
+                                  speed=spec.speed_bound(ctx.scenario), bound=tuple(spec.noise_bound),
+                                  period=spec.period)
+
+
 #: ``kind`` → builder ``(settings, Context) -> Estimator``.
 ESTIMATORS: dict[str, Callable] = {"information": _information, "centralized": _information,
-                                   "multimodel": _multimodel, "imm": _imm}
+                                   "multimodel": _multimodel, "imm": _imm, "setmembership": _setmembership}
 #: ``kind`` → builder ``(settings, Context) -> Controller``.
-CONTROLLERS: dict[str, Callable] = {"flocking": _flocking, "static": lambda spec, ctx: StaticController(ctx.n_uavs),
+CONTROLLERS: dict[str, Callable] = {"flocking": _flocking,
+                                    "static": lambda spec, ctx: StaticController(ctx.n_uavs, ctx.command_width),
                                     "mpc": _mpc}
 
 
@@ -140,17 +157,33 @@ def _occluders(s: SensorSpec) -> tuple[Occluder, ...]:
     return tuple(Occluder(o.region, o.window, tuple(u - 1 for u in o.uavs)) for o in s.occluders)
 
 
-def _range_bearing(s: RangeBearingSpec) -> RangeBearingSensor:
+def _range_bearing(s: RangeBearingSpec, scenario: Scenario) -> RangeBearingSensor:
     return RangeBearingSensor(s.sigma_range, s.sigma_bearing, s.max_range, s.latency, _occluders(s))
 
 
-def _camera(s: CameraSpec) -> CameraSensor:
+def _camera(s: CameraSpec, scenario: Scenario) -> CameraSensor:
     tan_half = (0.5 * s.footprint[0] / s.footprint_range, 0.5 * s.footprint[1] / s.footprint_range)
     return CameraSensor(s.sigma, s.height, tan_half, tuple(s.home), _occluders(s), s.latency)
 
 
-#: sensor ``kind`` → builder of the world's (truth-side) sensor.
-SENSORS: dict[str, Callable] = {"range_bearing": _range_bearing, "camera": _camera}
+def _footprint(s: FootprintSpec, scenario: Scenario) -> FootprintSensor:
+    """Each sensed object's cone angles from its stream ``cones/<group>/<k>``; decoys confused with target ℓ mod N_t
+    (IB21 leaves J open)."""
+    from swarmtrack.sensors import footprint
+
+    params = footprint.FootprintParams(s.opening, s.convention, s.orientation, tuple(s.noise_bound),
+                                       confusion=s.confusion)
+    angles = [footprint.draw_cones(stream(scenario.seed, f"cones/{g}/{k}"), 1)
+              for g in ("targets", "decoys") for k in range(getattr(scenario, g).size())]
+    beta = np.array([a[0][0] for a in angles])
+    gamma = np.array([a[1][0] for a in angles])
+    n_t, n_f = scenario.targets.size(), scenario.decoys.size()
+    is_decoy = np.r_[np.zeros(n_t, bool), np.ones(n_f, bool)]
+    return FootprintSensor(params, beta, gamma, is_decoy, footprint.confusion_map(n_f, n_t))
+
+
+#: sensor ``kind`` → builder ``(settings, scenario)`` of the world's (truth-side) sensor.
+SENSORS: dict[str, Callable] = {"range_bearing": _range_bearing, "camera": _camera, "footprint": _footprint}
 
 
 def register(role: str, spec: type, builder: Callable) -> None:
@@ -208,14 +241,36 @@ def _too_close(pos: np.ndarray, min_sep: float) -> np.ndarray:
 
 def profiles(scenario: Scenario, group: str) -> tuple:
     """The velocity profile of each member of a driven group (random manoeuvres from the stream
-    ``manoeuvres/<group>/<member>``)."""
+    ``manoeuvres/<group>/<member>``); walkers fly none."""
+    spec = getattr(scenario, group)
+    if spec.vehicle == "walker":
+        return ()
     return tuple(m.velocity_profile(stream(scenario.seed, f"manoeuvres/{group}/{k}"))
-                 for k, m in enumerate(getattr(scenario, group).members))
+                 for k, m in enumerate(spec.members))
 
 
-def _group(name: str, spec: GroupSpec, flown: tuple) -> Group:
+def _group(name: str, spec: GroupSpec, flown: tuple, seed: int = 0) -> Group:
     starts = np.asarray([m.start for m in spec.members], dtype=float).reshape(-1, 2)
+    if spec.vehicle == "walker":  # the listed members, then `count` at uniform places and headings (IB21 Sec. 6)
+        rng = stream(seed, f"spawn/{name}")
+        x0, y0, x1, y1 = spec.area
+        starts = np.concatenate([starts, rng.uniform((x0, y0), (x1, y1), size=(spec.count, 2))])
+        heading = np.concatenate([[m.heading for m in spec.members], rng.uniform(-np.pi, np.pi, spec.count)])
+        return Group(name, "walker", starts, params=WalkerParams(spec.speed, spec.yaw_accel_bound, tuple(spec.area)),
+                     heading=heading)
     return Group(name, spec.vehicle, starts, ProfileDriver(flown, spec.velocity_gain, spec.wind_std))
+
+
+def _uavs(scenario: Scenario) -> Group:
+    """The swarm at its spawn positions; fixed wings also with seeded uniform headings (stream ``spawn/headings``)."""
+    sw = scenario.swarm
+    starts = spawn_positions(scenario, stream(scenario.seed, "spawn"))
+    if sw.vehicle != "fixed_wing":
+        return Group("uavs", sw.vehicle, starts)
+    f = sw.fixed_wing
+    heading = stream(scenario.seed, "spawn/headings").uniform(-np.pi, np.pi, sw.n_uavs)
+    return Group("uavs", "fixed_wing", starts, params=FixedWingParams(f.speed, f.altitude, f.yaw_rate_max),
+                 heading=heading)
 
 
 def _oracle(world: World, tracked: int, profile, n: int) -> TruthOracle:
@@ -241,6 +296,8 @@ class Simulation:
     channel: Channel
     clock: Clock
     meta: dict
+    monitors: dict = dataclasses.field(default_factory=dict)
+    """Truth-side checks recorded beside the probes: name → a function giving (N,) values (never onboard)."""
 
 
 def build(scenario: Scenario) -> Simulation:
@@ -252,14 +309,15 @@ def build(scenario: Scenario) -> Simulation:
     n = scenario.swarm.n_uavs
     seed = scenario.seed
     flown = {g: profiles(scenario, g) for g in ("targets", "decoys")}
-    groups = [_group("targets", scenario.targets, flown["targets"]), _group("decoys", scenario.decoys, flown["decoys"]),
-              Group("uavs", scenario.swarm.vehicle, spawn_positions(scenario, stream(seed, "spawn")))]
-    world = World(groups, SENSORS[scenario.sensor.kind](scenario.sensor),
+    groups = [_group("targets", scenario.targets, flown["targets"], seed),
+              _group("decoys", scenario.decoys, flown["decoys"], seed), _uavs(scenario)]
+    world = World(groups, SENSORS[scenario.sensor.kind](scenario.sensor, scenario),
                   dt=dt_phys, ticks=clock.steps * clock.ticks_estimation,
                   nav_std=(scenario.swarm.nav_position_std, scenario.swarm.nav_velocity_std),
                   streams=lambda purpose: stream(seed, purpose), compiled=compiled)
     ctx = Context(scenario, n, dt_est, clock.dt_control, compiled,
-                  lambda group, member: world.label_of(world.slices[group].start + member))
+                  lambda group, member: world.label_of(world.slices[group].start + member),
+                  1 if scenario.swarm.vehicle == "fixed_wing" else 2)
     estimator = _builder("estimator", scenario.estimator.kind, ESTIMATORS)(scenario.estimator, ctx)
     controller = _builder("controller", scenario.controller.kind, CONTROLLERS)(scenario.controller, ctx)
     followed = scenario.estimator.followed_target()  # 1-based member of targets, checked by the schema
@@ -272,7 +330,18 @@ def build(scenario: Scenario) -> Simulation:
                       net.loss_probability, stream(seed, "channel"),
                       outages=tuple((tuple(u - 1 for u in o.uavs), o.window) for o in net.outages))
     meta = run_meta(scenario, world.slices, flown, dt_est)
-    return Simulation(world, OnboardStack(estimator, controller, guide), channel, clock, meta)
+    return Simulation(world, OnboardStack(estimator, controller, guide), channel, clock, meta,
+                      _monitors(world, estimator))
+
+
+def _monitors(world: World, estimator) -> dict[str, Callable[[], np.ndarray]]:
+    """Truth-side checks recorded beside the probes (N,) each: for a guaranteed estimator, the number of true
+    targets outside the sets that must hold them (IB21's guarantee)."""
+    if not hasattr(estimator, "containing") or not world.slices["targets"].stop - world.slices["targets"].start:
+        return {}
+    ids = np.arange(world.slices["targets"].stop - world.slices["targets"].start)
+    return {"guarantee_violations": lambda: (~estimator.containing(world.truth("targets")[:, :2], ids)).sum(axis=1)
+            * 1.0}
 
 
 def run_meta(scenario: Scenario, slices: dict[str, slice], flown: dict[str, tuple], dt_estimation: float) -> dict:
@@ -286,7 +355,8 @@ def run_meta(scenario: Scenario, slices: dict[str, slice], flown: dict[str, tupl
         "tracked": None if followed is None else slices["targets"].start + followed - 1,
         "phase_names": [] if followed is None else list(flown["targets"][followed - 1].phase_names),
         "object_phases": [list(p.phase_names) for p in flown["targets"] + flown["decoys"]]
-        + [[]] * scenario.swarm.n_uavs,
+        + [[]] * (scenario.swarm.n_uavs + sum(getattr(scenario, g).size() for g in ("targets", "decoys")
+                                              if getattr(scenario, g).vehicle == "walker")),
         # what capability 1's metrics and figures read: the flocking's d, when the chase starts, the filter model
         "d": getattr(scenario.controller, "d", float("nan")),
         # the metrics judge the run from here: when the chase starts, or when the estimator's warm-up ends

@@ -24,7 +24,8 @@ def simulate(scenario: Scenario, progress: Callable[[float], None] | None = None
     """Run one closed-loop simulation and return its recording (kept in memory, or streamed to ``record_to``).
     Same scenario and seed, same numbers."""
     sim = build(scenario)
-    recorder = Recorder(sim.meta, sim.world.n_objects, scenario.swarm.n_uavs, sim.stack.probes, record_to)
+    probes = {**sim.stack.probes, **dict.fromkeys(sim.monitors, ())}
+    recorder = Recorder(sim.meta, sim.world.n_objects, scenario.swarm.n_uavs, probes, record_to)
     return step_loop(sim, recorder, progress)
 
 
@@ -49,7 +50,7 @@ def step_loop(sim: Simulation, recorder: Recorder, progress: Callable[[float], N
             posteriors = publish(t) if publish is not None else None
             if posteriors:  # the second message of the step travels over the links that carried the first
                 stack.estimator.combine(t, Inbox(links, posteriors))
-        recorder.record(t, truth, world.phase_index(), stack.sample())
+        recorder.record(t, truth, world.phase_index(), {**stack.sample(), **{k: f() for k, f in sim.monitors.items()}})
         view = stack.guide.view()
         offset = 0  # physics ticks since the estimation step
         for control_now, ticks in clock.control_segments(k):

@@ -16,10 +16,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from swarmtrack.sensors import range_bearing
-from swarmtrack.vehicles import double_integrator, quadrotor
+from swarmtrack.vehicles import double_integrator, fixed_wing, ground_walker, quadrotor
 from swarmtrack.vehicles.profile import VelocityProfile
 
-VEHICLES = ("quadrotor", "double_integrator")
+VEHICLES = ("quadrotor", "double_integrator", "walker", "fixed_wing")
+#: Vehicles stepped by their own kinematics (IB21 Sec. 6) rather than the acceleration physics: the module that steps
+#: them and the input a commanded group takes per member.
+KINEMATIC = {"walker": ground_walker, "fixed_wing": fixed_wing}
 
 
 @dataclass(frozen=True)
@@ -34,12 +37,16 @@ class ProfileDriver:
 
 @dataclass(frozen=True)
 class Group:
-    """``start`` (n, 2) initial positions; ``driver`` None: commanded onboard (the UAVs)."""
+    """``start`` (n, 2) initial positions; ``driver`` None: commanded onboard (the UAVs). A kinematic vehicle
+    (:data:`KINEMATIC`) also takes its ``params`` (``WalkerParams``, ``FixedWingParams``) and initial ``heading``
+    (n,); walkers draw their own yaw accelerations (stream ``walk/<group>/<member>``)."""
 
     name: str
     vehicle: str
     start: np.ndarray
     driver: ProfileDriver | None = None
+    params: object = None
+    heading: np.ndarray | None = None
 
     @property
     def size(self) -> int:
@@ -130,6 +137,75 @@ class CameraSensor:
         return camera.sense(objects, uavs, stamped, self.height, aim, self.tan_half, self.sigma, noise, hidden)
 
 
+@dataclass(frozen=True)
+class FootprintSensor:
+    """Truth side of IB21's downward camera (Sec. 3.2, Sec. 6, eqs. 50-54; :mod:`swarmtrack.sensors.footprint`):
+    every target and decoy (walkers) inside a fixed-wing UAV's footprint is detected with box noise (uniform draws
+    from the object's stream ``sensor/footprint/<group>/<k>``) and labelled by the identification cones. ``beta`` and
+    ``gamma`` are each sensed object's cone angles, ``is_decoy`` which are decoys, ``J`` the decoys' confusion map
+    (drawn and built by :mod:`swarmtrack.sim.build`)."""
+
+    params: object
+    beta: np.ndarray
+    gamma: np.ndarray
+    is_decoy: np.ndarray
+    J: np.ndarray
+    latency: float = 0.0
+    occluders: tuple = ()
+    sensed: tuple[str, ...] = ("targets", "decoys")
+    name = "footprint"
+
+    def detect_world(self, world: World):
+        from swarmtrack.sensors import footprint
+
+        uavs = world.kinematic("uavs").state
+        objects = np.concatenate([world.kinematic(g).state for g in self.sensed if world.kinematic(g) is not None])
+        n = len(uavs)
+        noise = np.stack([rng.random((n, 2)) for rng in world._sensor_rngs], axis=1) if len(objects) else \
+            np.zeros((n, 0, 2))
+        return footprint.sense(uavs[:, [fixed_wing.X, fixed_wing.Y, fixed_wing.Z]], uavs[:, fixed_wing.PSI],
+                               objects[:, :2], objects[:, ground_walker.HEADING], self.is_decoy, self.beta,
+                               self.gamma, noise, self.params, self.J)
+
+
+@dataclass
+class _Kinematic:
+    """A group of kinematic vehicles: their full ``state`` (n, d), the ``command`` a commanded group holds (n, 1:
+    a fixed wing's yaw acceleration), a walker group's yaw-acceleration draws per tick (ticks, n)."""
+
+    name: str
+    module: object
+    params: object
+    objects: np.ndarray
+    state: np.ndarray
+    command: np.ndarray
+    draws: np.ndarray | None
+
+    @classmethod
+    def of(cls, g: Group, objects: slice, world_streams: list, worlds: int, ticks: int) -> _Kinematic:
+        module = KINEMATIC[g.vehicle]
+        heading = np.zeros(g.size) if g.heading is None else np.asarray(g.heading, dtype=float)
+        if g.vehicle == "fixed_wing":
+            state = module.initial_state(g.start, heading, g.params)
+        else:
+            state = module.initial_state(g.start, heading)
+        draws = None
+        if g.vehicle == "walker":
+            per = g.size // worlds
+            draws = np.stack([module.draw_inputs(world_streams[k // per](f"walk/{g.name}/{k % per}"), ticks, 1,
+                                                 g.params)[:, 0] for k in range(g.size)], axis=1) if g.size else \
+                np.zeros((ticks, 0))
+        return cls(g.name, module, g.params, np.arange(objects.start, objects.stop), state, np.zeros((g.size, 1)),
+                   draws)
+
+    def step(self, tick: int, dt: float) -> None:
+        u = self.command if self.draws is None else self.draws[min(tick, len(self.draws) - 1)]
+        self.state = self.module.step(self.state, u, self.params, dt)
+
+    def truth4(self) -> np.ndarray:
+        return self.module.truth4(self.state, self.params)
+
+
 @dataclass
 class _Layout:
     """Where each object lives: rows of the quadrotor and point-mass arrays, and its driver column."""
@@ -192,7 +268,11 @@ class World:
         ticks = ticks + 2
         grid = np.arange(ticks) * dt
         lay, v_cmd, a_ff, gains, winds = _Layout(), [], [], [], []
+        self._kinematic: list[_Kinematic] = []
         for g in groups:
+            if g.vehicle in KINEMATIC:
+                self._kinematic.append(_Kinematic.of(g, self.slices[g.name], world_streams, self.worlds, ticks))
+                continue
             for k in range(g.size):
                 obj = self.slices[g.name].start + k
                 d = -1
@@ -232,12 +312,18 @@ class World:
         self._row = np.empty(self.n_objects, dtype=np.int64)
         self._row[self._quad_obj] = np.arange(len(self._quad_obj))
         self._row[self._point_obj] = len(self._quad_obj) + np.arange(len(self._point_obj))
+        first = len(self._quad_obj) + len(self._point_obj)
+        for kin in self._kinematic:
+            self._row[kin.objects] = first + np.arange(len(kin.objects))
+            first += len(kin.objects)
         # ring buffer of past positions, for measurements that arrive `latency` late
         lag = int(round(sensor.latency / dt))
         self._history = np.repeat(starts[None], lag + 1, axis=0)
         # where each group's commands go: a group is one vehicle kind, laid out contiguously in that kind's rows
         self._cmd_rows = {}
         for g in groups:
+            if g.vehicle in KINEMATIC:
+                continue
             rows = self._row[self.slices[g.name]]
             if g.vehicle != "quadrotor":
                 rows = rows - len(self._quad_obj)
@@ -259,7 +345,8 @@ class World:
     # --- truth, for the engine's recorder and the metrics only -------------------------------------------
     def _all_truth(self) -> np.ndarray:
         if self._truth_at != self._tick:  # gathered once per tick (the arrays only change in advance())
-            self._truth = np.concatenate([self._quads[:, :4], self._points])[self._row]
+            self._truth = np.concatenate([self._quads[:, :4], self._points,
+                                          *(k.truth4() for k in self._kinematic)])[self._row]
             self._truth_at = self._tick
         return self._truth
 
@@ -284,7 +371,13 @@ class World:
         nav = self.truth("uavs")
         if self._nav_std.any():
             nav += self._draw(self._nav_rngs, nav.shape[1]) * self._nav_std
-        return nav
+        kin = self.kinematic("uavs")
+        return nav if kin is None else np.concatenate([nav, kin.state], axis=1)
+
+    def kinematic(self, group: str) -> _Kinematic | None:
+        """The kinematic vehicles of ``group`` (their full states), or None for a group of other vehicles. A UAV's
+        navigation solution carries its full state after ``[x, y, vx, vy]`` (its autopilot knows it)."""
+        return next((k for k in self._kinematic if k.name == group), None)
 
     def _draw(self, rngs, width: int) -> np.ndarray:
         """(N, width) standard normal draws, each world's UAV rows from its own stream (one draw when alone)."""
@@ -298,6 +391,9 @@ class World:
         each came from. The navigation position stamped on a detection is also that old, with its own error,
         so an onboard filter that takes the packet as current sees objects where they were. ``aim`` (N, 2): where
         each UAV points a gimballed sensor (its latest estimate; NaN rows: none yet); others ignore it."""
+        if hasattr(self.sensor, "detect_world"):  # a sensor that needs full states (IB21's footprint camera)
+            det, source = self.sensor.detect_world(self)
+            return det, self._sensed[source]
         lagged = len(self._history) > 1
         then = self._history[(self._tick + 1) % len(self._history)] if lagged else self._all_truth()[:, :2]
         uavs = then[self.slices["uavs"]]
@@ -328,16 +424,30 @@ class World:
         kernel :func:`swarmtrack.vehicles.kernels.advance`, which gives the same numbers to a few ulps.
         """
         for name, u in commands.items():
+            kin = self.kinematic(name)
+            if kin is not None:
+                kin.command[:] = np.asarray(u, dtype=float).reshape(kin.command.shape)
+                continue
             target, rows = self._cmd_rows[name]
             target[rows] = u
         if not self.compiled:
             for _ in range(ticks):
                 self.step()
             return
+        start = self._tick
         self._kernel(self._quads, self._points, self._quad_cmd, self._point_cmd, self._quad_driver,
                      self._point_driver, self._v_cmd, self._a_ff, self._wind, self._gains, self._tick, ticks,
                      self.dt, self._kernel_consts, self._history, self._quad_obj, self._point_obj)
+        for tick in range(start, start + ticks):
+            self._step_kinematic(tick)
         self._tick += ticks
+
+    def _step_kinematic(self, tick: int) -> None:
+        """One tick of every kinematic group (from tick ``tick``), and their positions into the latency buffer."""
+        for kin in self._kinematic:
+            kin.step(tick, self.dt)
+            if len(self._history) > 1:
+                self._history[(tick + 1) % len(self._history)][kin.objects] = kin.state[:, :2]
 
     def _accel(self, cmd: np.ndarray, driver: np.ndarray, velocity: np.ndarray) -> np.ndarray:
         """Commanded rows keep their command; driven rows fly their profile (feed-forward + P) plus the gust."""
@@ -352,6 +462,7 @@ class World:
 
     def step(self) -> None:
         """Advance the truth by one physics step (the numpy reference of the compiled kernel)."""
+        self._step_kinematic(self._tick)
         if len(self._quad_obj):
             a = self._accel(self._quad_cmd, self._quad_driver, self._quads[:, 2:4])
             self._quads = quadrotor.step(self._quads, a, self.params, self.dt)

@@ -89,12 +89,19 @@ def rollout(state, inputs, ticks: int, params: FixedWingParams = DEFAULT_PARAMS,
     inputs = np.asarray(inputs, dtype=float)
     s = np.asarray(state, dtype=float)
     lead = np.broadcast_shapes(s.shape[:-1], inputs.shape[:-1])
-    s = np.broadcast_to(s, lead + (STATE_DIM,))
     h = inputs.shape[-1]
-    out = np.empty(lead + (h, STATE_DIM))
+    # the rows of :func:`step`, written on flat columns (same operations in the same order: the same numbers)
+    x, y, z, g, psi, rate, acc = (np.array(np.broadcast_to(s[..., j], lead), dtype=float).ravel()
+                                  for j in range(STATE_DIM))
+    u_all = np.broadcast_to(inputs, lead + (h,)).reshape(-1, h)
+    v_dt = dt * params.speed
+    out = np.empty((x.size, h, STATE_DIM))
     for m in range(h):
-        u = np.broadcast_to(inputs[..., m], lead)
+        u = np.ascontiguousarray(u_all[:, m])
         for _ in range(ticks):
-            s = step(s, u, params, dt)
-        out[..., m, :] = s
-    return out
+            horizontal = v_dt * np.cos(g)
+            x, y, z, psi, rate, acc = (x + horizontal * np.cos(psi), y + horizontal * np.sin(psi),
+                                       z + v_dt * np.sin(g), psi + dt * rate,
+                                       np.clip(rate + dt * acc, -params.yaw_rate_max, params.yaw_rate_max), u)
+        out[:, m] = np.stack([x, y, z, g, psi, rate, acc], axis=-1)
+    return out.reshape(lead + (h, STATE_DIM))

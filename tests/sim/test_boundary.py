@@ -23,6 +23,7 @@ ONBOARD = [
     "swarmtrack.control.static",
     "swarmtrack.control.position",
     "swarmtrack.control.identification",
+    "swarmtrack.control.sm_mpc",
     "swarmtrack.models",
     "swarmtrack.sensors.detections",
     "swarmtrack.sensors.footprint",

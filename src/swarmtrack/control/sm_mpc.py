@@ -1,0 +1,529 @@
+"""Set-membership MPC (IB21 Sec. 5, eqs. 38-49) and its SimpleBaselineMPC, onboard.
+
+Every control period ``T^c`` (0.5 s) UAV i picks the input sequence ``(u_0, …, u_{h−1})`` from ``U_d^h`` (a discrete
+input set, each input a yaw acceleration held for ``T^c``) that minimises eq. 47,
+
+    ``J = φ(X^{A,P}_{i,k+h}) + α·d(x^{u,P}_{i,k+h}, X^{A,P}_{i,k+h})``,
+
+and applies ``u_0`` (receding horizon). The predicted aggregated set comes from the UAV's aggregated set ``X^A_i``
+(eq. 43: the union of its identified sets, Xᵁ and X̄) by ``h`` rounds of
+
+* eq. 44: ``P = (A ⊕ D(V^t·T^c)) ∩ X0``, dilation by the targets' reach in one period (outward, as the estimator
+  dilates: :func:`swarmtrack.estimation.polygons.dilate`, without its vertex cap) and clipping to the area;
+* eqs. 46, 49: ``A = P \\ (F_i(x^P_{i,k+κ}) ∪ ∪_{ℓ ∈ N^P_{i,k+κ}} F_ℓ(x^P_{ℓ,k+κ}))``, the UAV's predicted footprint and
+  those of its lower-indexed neighbours ℓ < i (Sec. 5.3: they have already planned) whose predicted position is
+  within the communication range ``d^c`` of the UAV's predicted position at that step (eq. 48).
+
+The UAV's own states ``x^P`` are its fixed-wing model (:mod:`swarmtrack.models.fixed_wing`, the world's own
+equations, eq. 1) stepped at ``T_d`` with each input held for ``T^c``; a neighbour's from the state it broadcast and
+the plan it made earlier in the same call. ``d`` (A10): ``"nearest"`` (default) ``inf_{y ∈ X} ‖p − y‖`` in the
+plane, the distance that "drives UAV i towards X^{A,P}" as the text says, or ``"hausdorff"``, ``sup_{y ∈ X} ‖p − y‖``
+(the Hausdorff distance between {p} and X, the paper's word); 0 for an empty set. With α = 1e-4 the term only
+breaks ties of the area (0.06 m² for 566 m).
+
+**SimpleBaselineMPC** (IB21 Sec. 6, the video): "the evolution of the set estimates and the control input from
+the neighbors are not taken into account": ``J = φ(X^A \\ ∪_κ F_i(x^P_{k+κ})) + α·d``, no dilation, no neighbours.
+
+**Ties** (and the empty set, where every J is 0): candidates are ordered lexicographically, first input major, over
+:func:`input_order` (0 first, then increasing ``|u|``; equal ``|u|`` in the order given: ``+`` before ``−`` by
+default); the first candidate within round-off of the minimum wins, so with nothing to gain the UAV flies straight.
+
+**Local window** (performance plan lever 4; ``exact=False``, the default). Let ρ be the buffer distance of one
+dilation (the circumscribed radius of ``D(V^t T^c)``) and R the union of every footprint that differs between
+candidates: the UAV's own at k+1 … k+h for every candidate, and a neighbour's at step κ if eq. 48 keeps it for some
+candidates and drops it for others. Take the box ``W = bbox(R) ⊕ m`` with ``m = 2hρ + 1 m`` and run the same
+rounds on ``X^A ∩ W`` instead of ``X^A``. Then **the local cost differs from the exact one by a constant, the same
+for every candidate**, so both pick the same input:
+
+1. *Locality.* Whether a point y lies in a dilation depends only on the input set within ρ of y; removals and
+   clips are pointwise. So after j rounds the local set equals the exact one on ``W ⊖ jρ`` (the box shrunk by jρ).
+2. *Where candidates differ.* Before any removal the set is the same for all candidates; a removal changes it only
+   on R, and each dilation spreads a difference by at most ρ; so after h rounds two candidates' sets (exact, and
+   local alike) can differ only on ``E = R ⊕ (h−1)ρ``.
+3. Since ``m ≥ (2h−1)ρ``, ``E ⊆ W ⊖ hρ``: on E local and exact sets are equal; off E each is the same for every
+   candidate. Hence ``φ(A_exact(c)) − φ(A_local(c)) = φ(A_exact \\ E) − φ(A_local \\ E)`` does not depend on c. ∎
+
+The area outside the window is therefore dropped from the comparison, and the rounds operate on a polygon of
+≈ 200 m × 200 m or less instead of the whole area. The distance term needs the true set: on ``W_ex = W ⊖ hρ`` the
+local set is exact, so the nearest distance to ``A_local ∩ W_ex`` is the true one whenever it is no larger than the
+distance from p to W_ex's edge (nothing outside can be nearer). Otherwise (the UAV far from any set) and always for
+``"hausdorff"``, the part outside ``W_ex`` (the same for every candidate by 2.) is computed once per plan on the
+full set, without the UAV's footprints, and ``d = min`` (``max`` for Hausdorff) over both parts. The reference
+(``exact=True``) runs the rounds on the full set for every candidate.
+
+**What the controller needs from outside.**
+
+* ``nav``: each UAV's (N, 7) fixed-wing navigation state ``[x, y, z, γ, ψ, ψ̇, ψ̈]`` (exact, IB21 assumes known UAV
+  states); the world hands the fixed-wing navigation state (extra columns beyond 7 are ignored).
+* Each UAV's aggregated set X^A (eq. 43) as an (N,) object array of shapely geometries (None or empty: nothing left).
+  The set-membership estimator is to expose it as ``view().region`` (a new optional ``TargetView`` field,
+  :func:`swarmtrack.estimation.setmembership.aggregated` of its beliefs); until then the controller takes a
+  ``regions`` callable ``TargetView → (N,)`` at construction, and :func:`plan_all` takes the array directly.
+* The inbox of the beacons it broadcast (``{"state": (N, 7)}``), with the links that carried them: UAV i reads
+  neighbour ℓ's state, and the plan ℓ made earlier in the same call, only where ``links[i, ℓ]`` (A19; with no delays
+  this is Sec. 5.3's waiting rule).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+import shapely
+
+from swarmtrack.estimation import polygons as pg
+from swarmtrack.estimation.base import Probe, TargetView
+from swarmtrack.models import fixed_wing as fw
+from swarmtrack.network.links import edge_list
+from swarmtrack.sensors.footprint import OPENING, footprint_corners, footprint_polygons, tan_half
+
+DISTANCES = ("nearest", "hausdorff")
+#: Slack (m) added to the local window beyond what the proof needs (GEOS's arcs, round-off).
+WINDOW_SLACK = 1.0
+
+
+@dataclass(frozen=True)
+class SMMPCSettings:
+    """IB21 Sec. 5-6 SM-MPC constants and our choices (brief §2.6, A8, A10):
+
+    * ``inputs`` U_d (rad/s², yaw accelerations; ours: {0, ±0.25, ±0.5}), ``horizon`` h = 2, ``period`` T^c = 0.5 s,
+      ``tick`` T_d = 0.05 s (the prediction step), ``alpha`` α = 1e-4 (Sec. 6), ``distance`` (A10);
+    * ``target_speed`` V^t (m/s, the dilation per period is V^t·T^c), ``comm_range`` d^c = 200 m (eq. 48);
+    * ``uav`` the fixed-wing constants of the prediction model; the footprint: ``tan_half`` (full π/4 opening),
+      ``orientation`` (as :mod:`swarmtrack.sensors.footprint`);
+    * ``baseline`` (SimpleBaselineMPC), ``exact`` (reference cost on the full sets), ``quad_segs`` of the dilation.
+    """
+
+    inputs: tuple[float, ...] = (0.0, 0.25, -0.25, 0.5, -0.5)
+    horizon: int = 2
+    period: float = 0.5
+    tick: float = fw.T_D
+    alpha: float = 1e-4
+    distance: str = "nearest"
+    target_speed: float = 1.0
+    comm_range: float = 200.0
+    uav: fw.FixedWingParams = fw.DEFAULT_PARAMS
+    tan_half: float = field(default=tan_half(OPENING, "full"))
+    orientation: str = "heading"
+    baseline: bool = False
+    exact: bool = False
+    quad_segs: int = pg.QUAD_SEGS
+
+    def __post_init__(self) -> None:
+        if self.distance not in DISTANCES:
+            raise ValueError(f"distance must be one of {DISTANCES}, not {self.distance!r}")
+        if not len(self.inputs):
+            raise ValueError("inputs must not be empty")
+        if self.horizon < 1:
+            raise ValueError("horizon must be at least 1")
+        if abs(self.period / self.tick - round(self.period / self.tick)) > 1e-9 or self.period < self.tick:
+            raise ValueError(f"period {self.period} s must be a whole multiple of the tick {self.tick} s")
+
+    @property
+    def ticks(self) -> int:
+        """Prediction ticks per control period."""
+        return int(round(self.period / self.tick))
+
+    @property
+    def reach(self) -> float:
+        """ρ: the buffer distance of one eq. 44 dilation (circumscribing the disc of radius V^t·T^c)."""
+        return pg.circumscribed(self.target_speed * self.period, self.quad_segs)
+
+
+DEFAULT_SETTINGS = SMMPCSettings()
+
+
+# --- candidates and predictions ----------------------------------------------------------------------------------
+
+
+def input_order(inputs) -> np.ndarray:
+    """U_d in tie-breaking order: increasing ``|u|`` (so 0 first), equal ``|u|`` in the order given."""
+    u = np.asarray(inputs, dtype=float)
+    return u[np.argsort(np.abs(u), kind="stable")]
+
+
+def candidates(inputs, horizon: int) -> np.ndarray:
+    """All sequences of U_d^h (C, h), C = |U_d|^h, lexicographic over :func:`input_order`, first input major (so
+    candidates sharing a prefix of length κ are contiguous blocks of ``|U_d|^(h−κ)``)."""
+    order = input_order(inputs)
+    return np.array(list(itertools.product(order, repeat=horizon)), dtype=float).reshape(-1, horizon)
+
+
+def predict(state, plans, s: SMMPCSettings = DEFAULT_SETTINGS) -> np.ndarray:
+    """x^P at k+1 … k+h (eq. 1 with the Sec. 6 model): ``state`` (..., 7) and ``plans`` (..., h) broadcast,
+    returns (..., h, 7)."""
+    return fw.rollout(state, plans, s.ticks, s.uav, s.tick)
+
+
+def footprints(states, s: SMMPCSettings = DEFAULT_SETTINGS) -> np.ndarray:
+    """Footprint corners (..., 4, 2) of predicted states (..., 7) (:func:`swarmtrack.sensors.footprint.
+    footprint_corners`, the sensor's own geometry, at the predicted altitude x3 and heading x5)."""
+    st = np.asarray(states, dtype=float)
+    flat = st.reshape(-1, fw.STATE_DIM)
+    c = footprint_corners(flat[:, :2], flat[:, fw.PSI], flat[:, fw.Z], s.tan_half, s.orientation)
+    return c.reshape(st.shape[:-1] + (4, 2))
+
+
+# --- the rounds of eqs. 44-49 ------------------------------------------------------------------------------------
+
+
+@dataclass
+class Removals:
+    """What each round removes (eqs. 46, 49), per level κ = 1 … h over the nodes of that level (the prefixes of
+    length κ, |U_d|^κ of them): ``own`` (n_κ,) footprint polygons, ``xy`` (n_κ, 2) the UAV's predicted position,
+    ``nb`` (L,) the neighbours' footprint polygons at step κ and ``kept`` (n_κ, L) eq. 48."""
+
+    own: list[np.ndarray]
+    xy: list[np.ndarray]
+    nb: list[np.ndarray]
+    kept: list[np.ndarray]
+    corners: list[np.ndarray]  # own footprint corners per level (n_κ, 4, 2)
+    nb_corners: np.ndarray  # (L, h, 4, 2)
+
+    def neighbours(self, level: int, kept: np.ndarray) -> shapely.Geometry:
+        """The union of the neighbours' footprints at ``level`` selected by ``kept`` (L,) bool."""
+        return pg.union_all(self.nb[level][kept])
+
+
+def removals(own_states: np.ndarray, nb_states: np.ndarray, s: SMMPCSettings,
+             neighbours: bool = True) -> Removals:
+    """The per-level removals of one UAV: ``own_states`` (C, h, 7) its predicted states for every candidate,
+    ``nb_states`` (L, h, 7) its lower-indexed neighbours' predicted states (eq. 48 with ``c = d^c − ‖Δp‖ ≥ 0``)."""
+    h = s.horizon
+    branch = len(s.inputs)
+    nb_states = nb_states if neighbours else nb_states[:0]
+    corners_all = footprints(np.concatenate([own_states.reshape(-1, fw.STATE_DIM),
+                                             nb_states.reshape(-1, fw.STATE_DIM)]), s)
+    own_corners = corners_all[:own_states.shape[0] * h].reshape(own_states.shape[:2] + (4, 2))
+    nb_corners = corners_all[own_states.shape[0] * h:].reshape(nb_states.shape[:2] + (4, 2))
+    own, xy, nb, kept, corners = [], [], [], [], []
+    for k in range(h):
+        stride = branch ** (h - k - 1)  # the first candidate of every prefix of length k+1
+        nodes = own_states[::stride, k]
+        c = own_corners[::stride, k]
+        corners.append(c)
+        own.append(footprint_polygons(c))
+        xy.append(nodes[:, :2])
+        nb.append(footprint_polygons(nb_corners[:, k]) if len(nb_states) else pg.empty(0))
+        gap = nodes[:, None, :2] - nb_states[None, :, k, :2]
+        kept.append(np.einsum("nli,nli->nl", gap, gap) <= s.comm_range ** 2)
+    return Removals(own, xy, nb, kept, corners, nb_corners)
+
+
+def _is_box(area) -> bool:
+    return bool(shapely.equals(area, shapely.box(*area.bounds)))
+
+
+def evolve(region, rem: Removals, s: SMMPCSettings, area, *, use_own: bool = True,
+           nb_masks: list[np.ndarray] | None = None, own_last: bool = True, box: bool = False,
+           window: tuple[float, float, float, float] | None = None) -> np.ndarray:
+    """The predicted aggregated sets at k+h, one per node of the last level (C,): h rounds of eq. 44 (skipped by the
+    baseline) and eqs. 46/49. ``own_last`` False leaves the UAV's own footprint out of the last round (the caller
+    measures it, :func:`_minus_areas`). With ``use_own`` False: one set, without the UAV's footprints and with only
+    the neighbours in ``nb_masks[κ]`` (L,) at each step, which eq. 48 must then keep for all candidates or none.
+    ``box``: X0 is a rectangle, clipped to with GEOS's rectangle clipping (same set, faster). ``window``: also clip
+    every round to this box (the local window: what a dilation pushes out of it is dropped, which only widens the
+    band along its edge where the local sets are inexact by the ρ the proof allows per round)."""
+    branch = len(s.inputs) if use_own else 1
+    a = np.array([region if region is not None else pg.EMPTY], dtype=object)
+    for k in range(s.horizon):
+        if not s.baseline:
+            a = pg.dilate(a, s.target_speed * s.period, quad_segs=s.quad_segs, cap=math.inf)
+            if not box:
+                a = pg.clip(a, area)
+            if box or window is not None:
+                bounds = np.array(area.bounds if box else window)
+                if box and window is not None:
+                    bounds = np.concatenate([np.maximum(bounds[:2], window[:2]), np.minimum(bounds[2:], window[2:])])
+                pg.OPS["clip"] += len(a)
+                if bounds[2] > bounds[0] and bounds[3] > bounds[1]:
+                    a = shapely.clip_by_rect(a, *bounds)
+                else:  # the window lies off X0
+                    a = pg.empty(len(a))
+        a = np.repeat(a, branch)
+        kept = rem.kept[k] if use_own else rem.kept[k][:1]
+        if nb_masks is not None:
+            kept = kept & nb_masks[k][None, :]
+        if kept.any():  # eq. 49: once per distinct (parent, kept neighbours), not per candidate
+            parent = np.arange(len(a)) // branch
+            keys, first, group = np.unique(np.column_stack([parent, kept]), axis=0, return_index=True,
+                                           return_inverse=True)
+            unions: dict[bytes, shapely.Geometry] = {}
+            out = a[first].copy()
+            for g, row in enumerate(keys):
+                mask = row[1:].astype(bool)
+                if mask.any() and not out[g].is_empty:
+                    key = mask.tobytes()
+                    if key not in unions:
+                        unions[key] = rem.neighbours(k, mask)
+                    if shapely.intersects(out[g], unions[key]):  # a miss removes nothing: skip the overlay
+                        out[g] = pg.remove(np.array([out[g]], dtype=object),
+                                           np.array([unions[key]], dtype=object))[0]
+            a = out[group.ravel()]
+        if use_own and (own_last or k < s.horizon - 1):  # eq. 46
+            live = shapely.intersects(a, rem.own[k])  # a miss removes nothing: skip the overlay
+            if live.any():
+                a[live] = pg.remove(a[live], rem.own[k][live])
+    return a
+
+
+def _minus_areas(sets: np.ndarray, corners: np.ndarray) -> np.ndarray:
+    """``φ(A_c ∩ F_c)`` for sets (C,) and rectangles F_c given by their corners (C, 4, 2) (as
+    :func:`footprint_corners` orders them), without an overlay: each set is mapped, by the affine map that takes
+    F_c to the unit square [−1, 1]², into that square's frame, clipped there by GEOS's rectangle clipping (a few µs,
+    against ≈ 20 µs for a general overlay) and its area scaled back. Then ``φ(A \\ F) = φ(A) − φ(A ∩ F)``."""
+    centre = corners.mean(axis=1)
+    along, across = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 1]
+    la, lc = np.linalg.norm(along, axis=1), np.linalg.norm(across, axis=1)
+    ua, uc = along / la[:, None], across / lc[:, None]
+    counts = shapely.get_num_coordinates(sets)
+    cx, cy = np.repeat(centre[:, 0], counts), np.repeat(centre[:, 1], counts)
+    ax, ay = np.repeat(ua[:, 0] * 2 / la, counts), np.repeat(ua[:, 1] * 2 / la, counts)
+    bx, by = np.repeat(uc[:, 0] * 2 / lc, counts), np.repeat(uc[:, 1] * 2 / lc, counts)
+
+    def to_unit(xy: np.ndarray) -> np.ndarray:
+        dx, dy = xy[:, 0] - cx, xy[:, 1] - cy
+        return np.column_stack([dx * ax + dy * ay, dx * bx + dy * by])
+
+    pg.OPS["clip"] += len(sets)
+    unit = shapely.clip_by_rect(shapely.transform(sets, to_unit), -1.0, -1.0, 1.0, 1.0)
+    return shapely.area(unit) * la * lc / 4
+
+
+def set_distance(sets, xy, kind: str = "nearest") -> np.ndarray:
+    """d of eq. 47 from points ``xy`` (n, 2) to ``sets`` (n,): nearest (inf) or Hausdorff (sup, the farthest
+    vertex); NaN for an empty set."""
+    pts = shapely.points(np.asarray(xy, dtype=float).reshape(-1, 2))
+    if kind == "nearest":
+        return shapely.distance(pts, sets)
+    return shapely.hausdorff_distance(pts, sets)  # from a point: the farthest vertex, sup over the polygon
+
+
+def _box_gap(xy: np.ndarray, box) -> np.ndarray:
+    """Distance from points inside ``box`` (x0, y0, x1, y1) to its edge."""
+    x0, y0, x1, y1 = box
+    return np.minimum.reduce([xy[:, 0] - x0, xy[:, 1] - y0, x1 - xy[:, 0], y1 - xy[:, 1]])
+
+
+@dataclass
+class Choice:
+    """One UAV's plan: ``index`` of the chosen candidate, its ``plan`` (h,), ``cost`` (C,) eq. 47 per candidate
+    (local: up to a constant), ``area`` (C,) and ``distance`` (C,) its terms, ``ops`` the set operations used."""
+
+    index: int
+    plan: np.ndarray
+    cost: np.ndarray
+    area: np.ndarray
+    distance: np.ndarray
+    ops: int = 0
+    window: tuple[float, float, float, float] | None = None
+
+
+def choose(cost: np.ndarray, rel: float = 1e-12, abs_tol: float = 1e-9) -> int:
+    """The first candidate within round-off of the minimum (the tie order is the candidates' order)."""
+    best = np.min(cost)
+    return int(np.flatnonzero(cost <= best + abs_tol + rel * abs(best))[0])
+
+
+def plan_one(region, own_states: np.ndarray, nb_states: np.ndarray, area, s: SMMPCSettings = DEFAULT_SETTINGS,
+             exact: bool | None = None, prune: bool = True) -> Choice:
+    """Eq. 47 minimised over U_d^h for one UAV: ``region`` its X^A (a shapely geometry), ``own_states`` (C, h, 7)
+    its predicted states per candidate (:func:`predict` over :func:`candidates`), ``nb_states`` (L, h, 7) its
+    lower-indexed neighbours' predicted states, ``area`` X0. ``exact`` (default ``s.exact``): the full-set
+    reference instead of the local window (module docstring). ``prune`` (local window only): compute the distance
+    only for candidates whose area term leaves them a chance (the others' cost is reported as ``inf``)."""
+    exact = s.exact if exact is None else exact
+    ops0 = sum(pg.OPS.values())
+    cands = candidates(s.inputs, s.horizon)
+    rem = removals(own_states, nb_states, s, neighbours=not s.baseline)
+    xy_end = rem.xy[-1]
+    region = pg.EMPTY if region is None else region
+    window = None
+    if region.is_empty:
+        areas, dist = np.zeros(len(cands)), np.zeros(len(cands))
+    elif exact:
+        leaves = evolve(region, rem, s, area)
+        areas = pg.area(leaves)
+        dist = np.nan_to_num(set_distance(leaves, xy_end, s.distance), nan=0.0)
+    else:
+        areas, dist, window = _local_costs(region, rem, s, area, xy_end, prune)
+    cost = areas + s.alpha * dist
+    index = choose(cost)
+    ops = sum(pg.OPS.values()) - ops0
+    return Choice(index, cands[index], cost, areas, dist, ops, window)
+
+
+def _local_costs(region, rem: Removals, s: SMMPCSettings, area, xy_end: np.ndarray, prune: bool):
+    """Areas (up to a constant) and exact distances on the local window (module docstring, lever 4). The last
+    round's own footprint is measured, not removed (:func:`_minus_areas`); the sets themselves are built (one
+    overlay each) only for the candidates whose distance is needed."""
+    h, rho = s.horizon, (0.0 if s.baseline else s.reach)
+    pts = [np.concatenate(rem.corners).reshape(-1, 2)]
+    steady = []  # per step, the neighbours eq. 48 keeps for all candidates or for none
+    for k in range(h):
+        kept = rem.kept[k]
+        vary = kept.any(axis=0) & ~kept.all(axis=0)  # eq. 48 keeps ℓ for some candidates only: part of R
+        if vary.any():
+            pts.append(rem.nb_corners[vary, k].reshape(-1, 2))
+        steady.append(~vary)
+    pts = np.concatenate(pts)
+    m = 2 * h * rho + WINDOW_SLACK
+    lo, hi = pts.min(axis=0) - m, pts.max(axis=0) + m
+    window = (lo[0], lo[1], hi[0], hi[1])
+    pg.OPS["clip"] += 1
+    local = shapely.clip_by_rect(region, *window)
+    box = _is_box(area)
+    touch = [((rem.nb_corners[:, k].min(axis=1) <= hi) & (rem.nb_corners[:, k].max(axis=1) >= lo)).all(axis=1)
+             for k in range(h)]  # a neighbour's footprint off the window changes nothing in it
+    before = evolve(local, rem, s, area, nb_masks=touch, own_last=False, box=box, window=window)  # (C,) P_h
+    cut = _minus_areas(before, rem.corners[-1])
+    areas = shapely.area(before) - cut
+    # eq. 47's distance, for the candidates that can still win
+    need = np.ones(len(areas), dtype=bool)
+    dist = np.full(len(areas), np.inf)
+    if prune:
+        first = choose(areas)
+        need[:] = False
+        need[first] = True
+        dist[first] = _distances(region, rem, s, area, xy_end, before, cut, np.array([first]), lo, hi, steady,
+                                 box)[0]
+        bound = areas[first] + s.alpha * dist[first]
+        need = areas <= bound + 1e-9 + 1e-12 * abs(bound)
+        need[first] = False
+    rows = np.flatnonzero(need)
+    if len(rows):
+        dist[rows] = _distances(region, rem, s, area, xy_end, before, cut, rows, lo, hi, steady, box)
+    return areas, dist, window
+
+
+def _distances(region, rem: Removals, s: SMMPCSettings, area, xy_end, before, cut, rows, lo, hi, steady, box):
+    """d of eq. 47 (0 for an empty set) for the candidates ``rows``, exact although the sets are local: true on the
+    exact box ``W ⊖ hρ`` when no farther than its edge, otherwise (and for Hausdorff) combined with the part of
+    the set outside that box, the same for every candidate (module docstring)."""
+    h, rho = s.horizon, (0.0 if s.baseline else s.reach)
+    sets = before[rows].copy()
+    hit = cut[rows] > 0
+    if hit.any():
+        sets[hit] = pg.remove(sets[hit], rem.own[-1][rows[hit]])
+    shrink = h * rho
+    exact_box = (lo[0] + shrink, lo[1] + shrink, hi[0] - shrink, hi[1] - shrink)
+    xy = xy_end[rows]
+    pg.OPS["clip"] += len(sets)
+    near = set_distance(shapely.clip_by_rect(sets, *exact_box), xy, s.distance)
+    certified = near <= _box_gap(xy, exact_box)  # NaN (nothing inside) is not certified
+    if s.distance == "nearest" and certified.all():
+        return near
+    far = evolve(region, rem, s, area, use_own=False, nb_masks=steady, box=box)[0]
+    pg.OPS["difference"] += 1
+    far = shapely.difference(far, shapely.box(*exact_box))
+    outer = set_distance(np.full(len(xy), far, dtype=object), xy, s.distance)
+    both = np.fmin(near, outer) if s.distance == "nearest" else np.fmax(near, outer)
+    return np.nan_to_num(both, nan=0.0)
+
+
+# --- the fleet, in index order (Sec. 5.3) ------------------------------------------------------------------------
+
+
+@dataclass
+class FleetPlan:
+    """Every UAV's plan this period: ``plans`` (N, h), ``cost`` (N,) the chosen eq. 47 value (local window: up to a
+    constant per UAV), ``solve_time`` (N,) s, ``neighbours`` (N,) lower-indexed neighbours heard, ``ops`` (N,) set
+    operations."""
+
+    plans: np.ndarray
+    cost: np.ndarray
+    solve_time: np.ndarray
+    neighbours: np.ndarray
+    ops: np.ndarray
+    choices: list[Choice]
+
+
+def plan_all(nav, regions, area, s: SMMPCSettings = DEFAULT_SETTINGS, links=None, beacons=None,
+             exact: bool | None = None) -> FleetPlan:
+    """Sec. 5.3's sequential rounds in index order: UAV i plans from its own ``nav`` (N, 7) row and ``regions[i]``
+    (its X^A), with the plans of the lower-indexed neighbours ℓ computed before it in this call, read only where
+    ``links[i, ℓ]`` carried ℓ's beacon (``beacons`` (N, 7), the broadcast states; default ``nav``)."""
+    nav = np.asarray(nav, dtype=float)[:, :fw.STATE_DIM]
+    n = len(nav)
+    beacons = nav if beacons is None else np.asarray(beacons, dtype=float)[:, :fw.STATE_DIM]
+    cands = candidates(s.inputs, s.horizon)
+    t0 = time.perf_counter()
+    own = predict(nav[:, None, :], cands[None, :, :], s)  # (N, C, h, 7), one batched rollout for the fleet
+    shared = (time.perf_counter() - t0) / max(n, 1)
+    if links is None or s.baseline:
+        recv = send = np.zeros(0, dtype=int)
+    else:
+        recv, send = edge_list(links)
+    plans = np.zeros((n, s.horizon))
+    out = FleetPlan(plans, np.zeros(n), np.full(n, shared), np.zeros(n), np.zeros(n), [])
+    for i in range(n):
+        t0 = time.perf_counter()
+        lower = send[(recv == i) & (send < i)]
+        nb = predict(beacons[lower], plans[lower], s) if len(lower) else np.zeros((0, s.horizon, fw.STATE_DIM))
+        choice = plan_one(regions[i], own[i], nb, area, s, exact)
+        plans[i] = choice.plan
+        out.solve_time[i] += time.perf_counter() - t0
+        out.cost[i] = choice.cost[choice.index]
+        out.neighbours[i] = len(lower)
+        out.ops[i] = choice.ops
+        out.choices.append(choice)
+    return out
+
+
+def _view_region(view: TargetView) -> np.ndarray:
+    region = getattr(view, "region", None)
+    if region is None:
+        raise ValueError("the set-membership MPC needs each UAV's aggregated set X^A: an estimator whose view() has "
+                         "`region` (N,), or a `regions` callable")
+    return region
+
+
+class SetMembershipMPC:
+    """IB21's SM-MPC on every UAV (Controller protocol): plans every ``settings.period`` s in index order
+    (:func:`plan_all`) and commands the first input of its plan, held until the next plan, as the yaw acceleration
+    (N, 1) rad/s².
+
+    ``area``: X0 (a shapely geometry). ``regions``: ``TargetView → (N,)`` X^A per UAV (default: ``view.region``,
+    what the set-membership estimator is to expose). ``start``: s before which every UAV flies straight.
+    Broadcasts each UAV's state (its beacon for eq. 48); reads a neighbour's plan only over the links that carried
+    its beacon."""
+
+    def __init__(self, area, settings: SMMPCSettings = DEFAULT_SETTINGS, *,
+                 regions: Callable[[TargetView], np.ndarray] | None = None, start: float = 0.0):
+        self.area, self.s, self.start = area, settings, start
+        self.region_of = regions or _view_region
+        self._next = start
+        self.u: np.ndarray | None = None
+        self.last: FleetPlan | None = None
+        self.probes = (Probe("yaw_accel", ()), Probe("solve_time", ()), Probe("cost", ()), Probe("candidates", ()),
+                       Probe("neighbours", ()), Probe("set_ops", ()))
+        self._values: dict[str, np.ndarray] = {}
+
+    def broadcast(self, t: float, nav: np.ndarray) -> dict:
+        """Beacon: own fixed-wing state (Sec. 5.3: the state at k; the plan follows in the same call)."""
+        return {"state": np.asarray(nav, dtype=float)[:, :fw.STATE_DIM]}
+
+    def command(self, t: float, nav: np.ndarray, view: TargetView, inbox, dt: float) -> np.ndarray:
+        n = len(nav)
+        if self.u is None:
+            self.u = np.zeros(n)
+            self._values = {p.name: np.zeros(n) for p in self.probes}
+        if t >= self._next - 1e-9:
+            links = None if inbox is None else inbox.links
+            beacons = None if inbox is None else inbox.payloads.get("state")
+            plan = plan_all(nav, self.region_of(view), self.area, self.s, links, beacons)
+            self.u = plan.plans[:, 0].copy()
+            self.last = plan
+            self._values.update(solve_time=plan.solve_time, cost=plan.cost, neighbours=plan.neighbours,
+                                set_ops=plan.ops, candidates=np.full(n, float(len(plan.choices[0].cost))))
+            self._next = t + self.s.period
+        self._values["yaw_accel"] = self.u.copy()
+        return self.u[:, None].copy()
+
+    def sample(self) -> dict[str, np.ndarray]:
+        n = 0 if self.u is None else len(self.u)
+        return {p.name: self._values.get(p.name, np.zeros(n)).copy() for p in self.probes}

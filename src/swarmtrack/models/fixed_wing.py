@@ -1,0 +1,107 @@
+"""Fixed-wing UAV kinematics at constant speed and altitude, steered by its yaw acceleration (IB21 Sec. 6).
+
+The one copy of these equations: the world integrates them (:mod:`swarmtrack.vehicles.fixed_wing`) and the
+set-membership MPC predicts its own UAV and its neighbours with them (:mod:`swarmtrack.control.sm_mpc`, IB21 eq. 1:
+``x^u_{k+1} = f^u(x^u_k, u_k)``), so the prediction and the truth cannot drift apart. Pure numpy, batched over any
+leading axes.
+
+State ``(..., 7)`` = ``[x1, x2, x3, x4, x5, x6, x7]`` = ``[x, y, z, γ, ψ, ψ̇, ψ̈]``: ground position (m), altitude (m),
+flight-path angle (rad), heading (rad, not wrapped), yaw rate (rad/s), yaw acceleration (rad/s²). One Euler tick of
+``T_d`` (IB21 Sec. 6, the UAV rows; rows 5-6 are printed with superscript t, read u):
+
+* ``x1⁺ = x1 + T_d·V·cos x4·cos x5``
+* ``x2⁺ = x2 + T_d·V·cos x4·sin x5``
+* ``x3⁺ = x3 + T_d·V·sin x4``
+* ``x4⁺ = x4``
+* ``x5⁺ = x5 + T_d·x6``
+* ``x6⁺ = sat(x6 + T_d·x7)``, ``sat`` the clip to ``±yaw_rate_max`` (ours, see :class:`FixedWingParams`)
+* ``x7⁺ = u``
+
+The input ``u`` is the *new* yaw acceleration ("the control input is applied to x7"): every row reads the state at
+``k``, so ``u_k`` is stored in ``x7`` at ``k+1``, changes the yaw rate at ``k+2`` and the heading at ``k+3``, and the
+position from ``k+4``. This one-tick delay is the equations' own, kept as printed. ``x7`` keeps the commanded value
+even while the yaw rate is saturated (it is the input, not an achieved acceleration).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+X, Y, Z, GAMMA, PSI, PSI_DOT, PSI_DDOT = range(7)
+STATE_DIM = 7
+STATE_NAMES = ("x", "y", "z", "gamma", "psi", "psi_dot", "psi_ddot")
+#: IB21 Sec. 6: T_d = 0.05 s.
+T_D = 0.05
+
+
+@dataclass(frozen=True)
+class FixedWingParams:
+    """IB21 Sec. 6 UAV constants.
+
+    * ``speed`` V^u = 16.6 m/s and ``altitude`` x3 = 100 m: the paper's (γ = x4 = 0 is the initial state's).
+    * ``yaw_rate_max`` = 0.6 rad/s: **ours**; the paper bounds no yaw rate (only "u ∈ U"). A coordinated turn at
+      bank φ has ψ̇ = g·tan φ / V: 0.6 rad/s is ≈ 45° of bank at 16.6 m/s (0.59 rad/s), a turn radius of ≈ 28 m.
+      Without it a greedy MPC can wind the yaw rate up without bound. ``inf`` switches it off.
+    """
+
+    speed: float = 16.6
+    altitude: float = 100.0
+    yaw_rate_max: float = 0.6
+
+
+#: The paper's UAV (and our yaw-rate bound).
+DEFAULT_PARAMS = FixedWingParams()
+
+
+def step(state, u, params: FixedWingParams = DEFAULT_PARAMS, dt: float = T_D) -> np.ndarray:
+    """One tick of the IB21 Sec. 6 UAV rows: returns a new ``(..., 7)`` array.
+
+    ``u`` is the new yaw acceleration in rad/s², shape ``(...)`` or ``(..., 1)`` (broadcast against the state's
+    leading axes), stored in x7 (one-tick delay, see the module docstring); the yaw rate is saturated at
+    ``±params.yaw_rate_max``.
+    """
+    s = np.asarray(state, dtype=float)
+    u = np.asarray(u, dtype=float)
+    if u.ndim == s.ndim and u.ndim > 0 and u.shape[-1] == 1:
+        u = u[..., 0]
+    lead = np.broadcast_shapes(s.shape[:-1], u.shape)
+    s = np.broadcast_to(s, lead + (STATE_DIM,))
+    v_dt = dt * params.speed
+    horizontal = v_dt * np.cos(s[..., GAMMA])
+    out = np.empty(lead + (STATE_DIM,))
+    out[..., X] = s[..., X] + horizontal * np.cos(s[..., PSI])
+    out[..., Y] = s[..., Y] + horizontal * np.sin(s[..., PSI])
+    out[..., Z] = s[..., Z] + v_dt * np.sin(s[..., GAMMA])
+    out[..., GAMMA] = s[..., GAMMA]
+    out[..., PSI] = s[..., PSI] + dt * s[..., PSI_DOT]
+    out[..., PSI_DOT] = np.clip(s[..., PSI_DOT] + dt * s[..., PSI_DDOT], -params.yaw_rate_max, params.yaw_rate_max)
+    out[..., PSI_DDOT] = u
+    return out
+
+
+def rollout(state, inputs, ticks: int, params: FixedWingParams = DEFAULT_PARAMS,
+            dt: float = T_D) -> np.ndarray:
+    """The states at the end of each held input: ``inputs`` (..., h) yaw accelerations, each held for ``ticks``
+    ticks of :func:`step` (IB21 Sec. 5: the input is held over the control period ``T^c = ticks·T_d``), from
+    ``state`` (..., 7) (leading axes broadcast). Returns ``(..., h, 7)``: x at ``k+1, …, k+h`` control periods."""
+    inputs = np.asarray(inputs, dtype=float)
+    s = np.asarray(state, dtype=float)
+    lead = np.broadcast_shapes(s.shape[:-1], inputs.shape[:-1])
+    h = inputs.shape[-1]
+    # the rows of :func:`step`, written on flat columns (same operations in the same order: the same numbers)
+    x, y, z, g, psi, rate, acc = (np.array(np.broadcast_to(s[..., j], lead), dtype=float).ravel()
+                                  for j in range(STATE_DIM))
+    u_all = np.broadcast_to(inputs, lead + (h,)).reshape(-1, h)
+    v_dt = dt * params.speed
+    out = np.empty((x.size, h, STATE_DIM))
+    for m in range(h):
+        u = np.ascontiguousarray(u_all[:, m])
+        for _ in range(ticks):
+            horizontal = v_dt * np.cos(g)
+            x, y, z, psi, rate, acc = (x + horizontal * np.cos(psi), y + horizontal * np.sin(psi),
+                                       z + v_dt * np.sin(g), psi + dt * rate,
+                                       np.clip(rate + dt * acc, -params.yaw_rate_max, params.yaw_rate_max), u)
+        out[:, m] = np.stack([x, y, z, g, psi, rate, acc], axis=-1)
+    return out.reshape(lead + (h, STATE_DIM))

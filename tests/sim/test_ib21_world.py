@@ -10,7 +10,13 @@ from swarmtrack.sim.engine import simulate
 
 @pytest.fixture(scope="module")
 def short():
-    return simulate(load_scenario("ib21-fleet-6", ["duration=4"]))
+    return simulate(load_scenario("ib21-fleet-6", ["duration=4", "controller.kind=static"]))
+
+
+def test_the_set_membership_mpc_steers_and_keeps_the_guarantee():
+    fr = simulate(load_scenario("ib21-fleet-6", ["duration=3"])).frame("uavs")
+    assert fr["guarantee_violations"].max() == 0
+    assert (fr["yaw_accel"] != 0).any() and (fr["solve_time"] > 0).any()
 
 
 def test_no_true_target_ever_leaves_the_sets_of_any_uav(short):
@@ -43,6 +49,8 @@ def test_fixed_wings_fly_at_their_speed_and_walkers_stay_in_the_area(short):
     ("estimator.area=[0, 0, -1, 400]", ["estimator.area"]),
     ("estimator.period=0.52", ["estimator.period", "whole number"]),
     ("targets.vehicle=quadrotor", ["targets"]),
+    ("controller.inputs=[]", ["controller.inputs"]),
+    ("rates.physics=40", ["rates.estimation must equal rates.physics"]),
 ])
 def test_settings_that_void_the_guarantee_exit_2_naming_the_field(override, words, refused_ib21):
     refused_ib21(override, words)

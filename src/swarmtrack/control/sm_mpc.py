@@ -482,6 +482,12 @@ def _view_region(view: TargetView) -> np.ndarray:
     return region
 
 
+def _own_state(nav: np.ndarray) -> np.ndarray:
+    """The fixed wing's full state (N, 7): the last columns of its navigation solution (the world appends it after
+    ``[x, y, vx, vy]``; a bare (N, 7) state is taken as it is)."""
+    return np.asarray(nav, dtype=float)[:, -fw.STATE_DIM:]
+
+
 class SetMembershipMPC:
     """IB21's SM-MPC on every UAV (Controller protocol): plans every ``settings.period`` s in index order
     (:func:`plan_all`) and commands the first input of its plan, held until the next plan, as the yaw acceleration
@@ -493,8 +499,9 @@ class SetMembershipMPC:
     its beacon."""
 
     def __init__(self, area, settings: SMMPCSettings = DEFAULT_SETTINGS, *,
-                 regions: Callable[[TargetView], np.ndarray] | None = None, start: float = 0.0):
-        self.area, self.s, self.start = area, settings, start
+                 regions: Callable[[TargetView], np.ndarray] | None = None, start: float = 0.0,
+                 n_uavs: int = 0):
+        self.area, self.s, self.start, self.n = area, settings, start, n_uavs
         self.region_of = regions or _view_region
         self._next = start
         self.u: np.ndarray | None = None
@@ -505,7 +512,7 @@ class SetMembershipMPC:
 
     def broadcast(self, t: float, nav: np.ndarray) -> dict:
         """Beacon: own fixed-wing state (Sec. 5.3: the state at k; the plan follows in the same call)."""
-        return {"state": np.asarray(nav, dtype=float)[:, :fw.STATE_DIM]}
+        return {"state": _own_state(nav)}
 
     def command(self, t: float, nav: np.ndarray, view: TargetView, inbox, dt: float) -> np.ndarray:
         n = len(nav)
@@ -515,7 +522,7 @@ class SetMembershipMPC:
         if t >= self._next - 1e-9:
             links = None if inbox is None else inbox.links
             beacons = None if inbox is None else inbox.payloads.get("state")
-            plan = plan_all(nav, self.region_of(view), self.area, self.s, links, beacons)
+            plan = plan_all(_own_state(nav), self.region_of(view), self.area, self.s, links, beacons)
             self.u = plan.plans[:, 0].copy()
             self.last = plan
             self._values.update(solve_time=plan.solve_time, cost=plan.cost, neighbours=plan.neighbours,
@@ -525,5 +532,5 @@ class SetMembershipMPC:
         return self.u[:, None].copy()
 
     def sample(self) -> dict[str, np.ndarray]:
-        n = 0 if self.u is None else len(self.u)
+        n = self.n if self.u is None else len(self.u)
         return {p.name: self._values.get(p.name, np.zeros(n)).copy() for p in self.probes}

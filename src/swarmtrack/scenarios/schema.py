@@ -664,6 +664,32 @@ class SetMembershipSpec(EstimatorSpec):
             raise ValueError(f"estimator.period {self.period:g} s must be a whole number of estimation steps")
 
 
+class SMMPCSpec(ControllerSpec):
+    """IB21 Sec. 5's set-membership MPC: every UAV picks, from a discrete set of yaw accelerations, the sequence over
+    the horizon that leaves the smallest predicted set to search (plus α times its distance to it), given the plans of
+    its lower-indexed neighbours; ``baseline``: the paper's SimpleBaselineMPC."""
+
+    kind: Literal["sm_mpc"] = "sm_mpc"
+    inputs: list[AngularRate] = Field([0.0, 0.25, -0.25, 0.5, -0.5], min_length=1, description=(
+        "rad/s², the yaw accelerations tried, in tie order (ours: IB21 gives none)"))
+    horizon: int = Field(2, ge=1, le=6, description="steps of the control period (IB21: 2)")
+    period: Time = Field(0.5, gt=0, description="s (IB21: 0.5)")
+    alpha: float = Field(1e-4, ge=0, le=1e6, description="weight of the distance to the set (IB21: 1e-4)")
+    distance: Literal["nearest", "hausdorff"] = Field("nearest", description=(
+        "eq. 47's distance from the UAV to the set: nearest point (ours) or farthest (the Hausdorff distance)"))
+    baseline: bool = Field(False, description="SimpleBaselineMPC: no neighbours' plans, no growth of the sets")
+
+    def check(self, scenario: Scenario) -> None:
+        if scenario.estimator.kind != "setmembership" or scenario.swarm.vehicle != "fixed_wing":
+            raise ValueError("controller.kind sm_mpc needs estimator.kind: setmembership and swarm.vehicle: fixed_wing")
+        ratio = self.period * scenario.rates.control
+        if abs(ratio - round(ratio)) > 1e-9:
+            raise ValueError(f"controller.period {self.period:g} s must be a whole number of control steps")
+        if scenario.rates.physics != scenario.rates.estimation:
+            raise ValueError("controller.kind sm_mpc predicts with the physics step: rates.estimation must equal "
+                             "rates.physics (IB21: both T_d = 0.05 s)")
+
+
 class StaticSpec(ControllerSpec):
     """UAVs hold their initial positions (W20 Sec. 4.6.1: hung from the ceiling, estimation decoupled from
     flight)."""
@@ -797,7 +823,7 @@ ESTIMATOR_KINDS: dict[str, type[EstimatorSpec]] = {"information": InformationSpe
                                                   "multimodel": MultiModelSpec, "imm": IMMSpec,
                                                   "setmembership": SetMembershipSpec}
 CONTROLLER_KINDS: dict[str, type[ControllerSpec]] = {"flocking": FlockingSpec, "static": StaticSpec,
-                                                    "mpc": MPCSpec}
+                                                    "mpc": MPCSpec, "sm_mpc": SMMPCSpec}
 SENSOR_KINDS: dict[str, type[SensorSpec]] = {"range_bearing": RangeBearingSpec, "camera": CameraSpec,
                                              "footprint": FootprintSpec}
 

@@ -16,6 +16,7 @@ import numpy as np
 from swarmtrack.control.flocking import FlockingController, FlockingGains
 from swarmtrack.control.mpc import MPCController, MPCSettings
 from swarmtrack.control.position import PositionGains
+from swarmtrack.control.sm_mpc import SetMembershipMPC
 from swarmtrack.control.static import StaticController
 from swarmtrack.estimation.imm import IMMInformationEstimator
 from swarmtrack.estimation.information import InformationEstimator, RangeBearingUpdate
@@ -43,6 +44,7 @@ from swarmtrack.scenarios.schema import (
     Scenario,
     SensorSpec,
     SetMembershipSpec,
+    SMMPCSpec,
 )
 from swarmtrack.sim.agent import OnboardStack
 from swarmtrack.sim.clock import Clock
@@ -144,13 +146,29 @@ def _setmembership(spec: SetMembershipSpec, ctx: Context) -> SetMembershipEstima
                                   period=spec.period)
 
 
+def _sm_mpc(spec: SMMPCSpec, ctx: Context) -> SetMembershipMPC:
+    import shapely
+
+    from swarmtrack.control.sm_mpc import SMMPCSettings
+    from swarmtrack.models.fixed_wing import FixedWingParams as Model
+    from swarmtrack.sensors.footprint import tan_half
+
+    sc = ctx.scenario
+    f, sensor = sc.swarm.fixed_wing, sc.sensor
+    settings = SMMPCSettings(tuple(spec.inputs), spec.horizon, spec.period, ctx.dt_estimation, spec.alpha,
+                             spec.distance, sc.estimator.speed_bound(sc), sc.network.r_comm,
+                             Model(f.speed, f.altitude, f.yaw_rate_max), tan_half(sensor.opening, sensor.convention),
+                             sensor.orientation, spec.baseline)
+    return SetMembershipMPC(shapely.box(*sc.estimator.area), settings, n_uavs=ctx.n_uavs)
+
+
 #: ``kind`` → builder ``(settings, Context) -> Estimator``.
 ESTIMATORS: dict[str, Callable] = {"information": _information, "centralized": _information,
                                    "multimodel": _multimodel, "imm": _imm, "setmembership": _setmembership}
 #: ``kind`` → builder ``(settings, Context) -> Controller``.
 CONTROLLERS: dict[str, Callable] = {"flocking": _flocking,
                                     "static": lambda spec, ctx: StaticController(ctx.n_uavs, ctx.command_width),
-                                    "mpc": _mpc}
+                                    "mpc": _mpc, "sm_mpc": _sm_mpc}
 
 
 def _occluders(s: SensorSpec) -> tuple[Occluder, ...]:

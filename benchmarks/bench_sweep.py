@@ -15,6 +15,10 @@ cases (issue 10's goals: parallel efficiency ≥ 85 % on 2 workers; Dask within 
 
 The machine may be shared: the cases run in interleaved rounds and each reports its best round (``--repeat``).
 
+Every case runs one world per job (the sweep's grouping of seeds into batched worlds is switched off here), so the
+figures compare the execution backends; what batched worlds add is ``benchmarks/bench_batch.py``'s figure, and the
+default sweep (batched) is printed last for reference.
+
 Run: ``PYTHONPATH=src .venv/bin/python benchmarks/bench_sweep.py [--json] [--quick] [--repeat R]`` (about 1-2 min;
 ``--quick`` sweeps 4 runs instead of 12, once). ``--json`` prints one flat JSON object.
 """
@@ -33,6 +37,7 @@ import tempfile  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
+import swarmtrack.analysis.sweep as sw  # noqa: E402
 from swarmtrack.analysis.sweep import load_results, sweep  # noqa: E402
 from swarmtrack.scenarios import load_scenario  # noqa: E402
 from swarmtrack.sim.engine import simulate  # noqa: E402
@@ -84,6 +89,9 @@ def main(argv=None) -> None:
     best: dict[str, float] = {}
     startups = []
     with tempfile.TemporaryDirectory(prefix="bench-sweep-") as tmp:
+        best["batched"] = rate(runs, 1, Path(tmp) / "batched")  # the default: seeds as batched worlds, one worker
+        batching = sw.batches
+        sw.batches = lambda scenarios, workers=1: [[k] for k in range(len(scenarios))]  # one world per job
         for r in range(repeat):
             root = Path(tmp) / str(r)
             for name, workers, cluster in (("one", 1, None), ("two", 2, None), ("dask", 2, "local")):
@@ -91,6 +99,7 @@ def main(argv=None) -> None:
             warm_rate, startup = running_cluster_rate(runs, root / "dask-running")
             best["dask_running"] = max(best.get("dask_running", 0.0), warm_rate)
             startups.append(startup)
+        sw.batches = batching
     one, two, dask, running = best["one"], best["two"], best["dask"], best["dask_running"]
     eff = two / (2 * one)
     startup = min(startups)
@@ -99,14 +108,16 @@ def main(argv=None) -> None:
                           "parallel_efficiency_2_workers": round(eff, 3),
                           "sweep_runs_per_s_dask_local_2_workers_with_startup": round(dask, 3),
                           "sweep_runs_per_s_dask_local_2_workers_running": round(running, 3),
-                          "dask_local_startup_s": round(startup, 2), "runs": runs, "rounds": repeat}))
+                          "dask_local_startup_s": round(startup, 2), "runs": runs, "rounds": repeat,
+                          "sweep_runs_per_s_batched_1_worker": round(best["batched"], 3)}))
         return
 
     def verdict(x: float) -> str:
         return f"{100 * x / two:.0f} % of local processes (goal >= {100 * DASK_GOAL:.0f} %: " + (
             "MET)" if x >= DASK_GOAL * two else "NOT MET)")
 
-    print(f"sweep of l24-cv, {runs} runs (153 s simulated each), best of {repeat} interleaved round(s)")
+    print(f"sweep of l24-cv, {runs} runs (153 s simulated each), one world per job, best of {repeat} interleaved "
+          "round(s)")
     print(f"  local, 1 worker : {one:.2f} runs/s")
     print(f"  local, 2 workers: {two:.2f} runs/s (workers forked from this warmed process)")
     print(f"  parallel efficiency on 2 workers: {100 * eff:.0f} % (goal >= {100 * EFFICIENCY_GOAL:.0f} %: "
@@ -116,6 +127,7 @@ def main(argv=None) -> None:
     print(f"  Dask LocalCluster, 2 workers, cluster already running and warmed: {running:.2f} runs/s, "
           + verdict(running))
     print(f"  (that cluster's start-up and warm-up, outside the timing: {startup:.2f} s)")
+    print(f"  for reference, the default sweep (seeds as batched worlds), 1 worker: {best['batched']:.2f} runs/s")
 
 
 if __name__ == "__main__":

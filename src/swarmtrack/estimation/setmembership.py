@@ -275,3 +275,7 @@ class SetMembershipEstimator:
     def containing(self, points: np.ndarray, ids: np.ndarray) -> np.ndarray:
         """For the truth-side monitor only: :func:`containing` on the current sets."""
         return containing(self.beliefs, points, ids)
+
+    def current(self, t: float) -> np.ndarray:
+        """(N,) the UAVs whose sets describe time ``t`` (updated at ``t``): the guarantee is about the sets' time."""
+        return np.abs(self.beliefs.t - t) < 1e-9

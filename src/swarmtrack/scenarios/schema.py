@@ -97,6 +97,24 @@ Gain = Annotated[float, _at_most(MAX_GAIN, "")]
 Position = tuple[Length, Length]
 
 
+def _box(v):
+    if not (v[0] < v[2] and v[1] < v[3]):
+        raise ValueError(f"{list(v)} must be [x0, y0, x1, y1] with x0 < x1 and y0 < y1")
+    return v
+
+
+def _half_widths(v):
+    if min(v) <= 0:
+        raise ValueError(f"{list(v)} must be two positive half-widths")
+    return v
+
+
+#: A box ``[x0, y0, x1, y1]`` (m) with x0 < x1 and y0 < y1.
+Box = Annotated[tuple[Length, Length, Length, Length], AfterValidator(_box)]
+#: Two positive half-widths (m), one per axis.
+HalfWidths = Annotated[tuple[Length, Length], AfterValidator(_half_widths)]
+
+
 def _split_commas(v):
     """``"cv,ca,ct"`` (handy with ``--set``) as ``["cv", "ca", "ct"]``; anything else unchanged."""
     return [m.strip() for m in v.split(",")] if isinstance(v, str) else v
@@ -236,7 +254,7 @@ class GroupSpec(_Strict):
     speed: Speed = Field(1.0, gt=0, description="walker: speed V^t, m/s (IB21: 1; Fig. 9: 1.0-1.8)")
     yaw_accel_bound: AngularRate = Field(0.39269908169872414, gt=0, description=(
         "walker: yaw acceleration drawn from U(−b, b) every physics step, rad/s² (IB21: π/8)"))
-    area: tuple[Length, Length, Length, Length] = Field((0.0, 0.0, 400.0, 400.0), description=(
+    area: Box = Field((0.0, 0.0, 400.0, 400.0), description=(
         "walker: [x0, y0, x1, y1], m, where the walkers start and stay (IB21: a 400 m square)"))
 
     @model_validator(mode="after")
@@ -245,8 +263,6 @@ class GroupSpec(_Strict):
             for name in ("count", "speed", "yaw_accel_bound", "area"):
                 if not _is_default(type(self), name, getattr(self, name)):
                     raise ValueError(f"{name} is used only with vehicle: walker")
-        elif not self.area[0] < self.area[2] or not self.area[1] < self.area[3]:
-            raise ValueError(f"area {list(self.area)} must be [x0, y0, x1, y1] with x0 < x1 and y0 < y1")
         return self
 
     def size(self) -> int:
@@ -397,17 +413,10 @@ class FootprintSpec(SensorSpec):
     convention: Literal["full", "half"] = Field("full", description=(
         "full: the opening is the full angle (82.8 m square at 100 m); half: the half angle (200 m)"))
     orientation: Literal["heading", "north"] = Field("heading", description="the footprint's sides")
-    noise_bound: tuple[Length, Length] = Field((5.0, 5.0), description=(
+    noise_bound: HalfWidths = Field((5.0, 5.0), description=(
         "m, the TRUE noise half-widths per axis (uniform; IB21: 5)"))
     confusion: Literal["outside_inner_cone", "inside_inner_cone"] = Field("outside_inner_cone", description=(
         "where a decoy is confused with a target: outside its inner π/60 cone (the text, Fig. 3) or inside (eq. 53)"))
-
-    @field_validator("noise_bound")
-    @classmethod
-    def _positive_bound(cls, v):
-        if min(v) <= 0:
-            raise ValueError(f"{list(v)} must be two positive half-widths")
-        return v
 
     def check(self, scenario: Scenario) -> None:
         if scenario.swarm.vehicle != "fixed_wing":
@@ -628,27 +637,12 @@ class SetMembershipSpec(EstimatorSpec):
     identified target, each unidentified object and anything unexplored can be, shares them every ``period``."""
 
     kind: Literal["setmembership"] = "setmembership"
-    area: tuple[Length, Length, Length, Length] = Field((0.0, 0.0, 400.0, 400.0), description=(
-        "X0 = [x0, y0, x1, y1], m"))
+    area: Box = Field((0.0, 0.0, 400.0, 400.0), description="X0 = [x0, y0, x1, y1], m")
     target_speed: Speed | None = Field(None, gt=0, description=(
         "m/s, the speed bound V^t the sets grow with; default: the targets' speed"))
-    noise_bound: tuple[Length, Length] = Field((5.0, 5.0), description=(
+    noise_bound: HalfWidths = Field((5.0, 5.0), description=(
         "m, the ASSUMED noise half-widths per axis (the guarantee needs them to contain the true ones)"))
     period: Time = Field(0.5, gt=0, description="s, between exchanges T^c (IB21: 0.5)")
-
-    @field_validator("noise_bound")
-    @classmethod
-    def _positive_bound(cls, v):
-        if min(v) <= 0:
-            raise ValueError(f"{list(v)} must be two positive half-widths")
-        return v
-
-    @field_validator("area")
-    @classmethod
-    def _box(cls, v):
-        if not (v[0] < v[2] and v[1] < v[3]):
-            raise ValueError(f"area {list(v)} must be [x0, y0, x1, y1] with x0 < x1 and y0 < y1")
-        return v
 
     def speed_bound(self, scenario: Scenario) -> float:
         return self.target_speed if self.target_speed is not None else scenario.targets.speed

@@ -102,8 +102,8 @@ def build_batch(scenarios: list[Scenario]) -> tuple[Simulation, list[dict]]:
     net = first.network
     channel = WorldsChannel(tuple(Channel(net.topology, n, net.r_comm, tuple((a - 1, b - 1) for a, b in net.edges),
                                           net.loss_probability, stream(s.seed, "channel")) for s in scenarios), n)
-    local = {name: slice(sum(per[g] for g in list(per)[:k]), sum(per[g] for g in list(per)[:k + 1]))
-             for k, name in enumerate(per)}
+    ends = np.cumsum(list(per.values()))
+    local = {name: slice(int(end - per[name]), int(end)) for name, end in zip(per, ends, strict=True)}  # one world's
     metas = [run_meta(s, local, f, clock.dt_estimation) for s, f in zip(scenarios, flown, strict=True)]
     batch_meta = {**metas[0], "seed": None, "groups": {k: [v.start, v.stop] for k, v in world.slices.items()},
                   "tracked": None, "worlds": worlds}

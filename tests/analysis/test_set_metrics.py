@@ -12,20 +12,9 @@ from swarmtrack.analysis import health, metrics
 from swarmtrack.sim.recorder import Chunk, Recording
 
 
-@pytest.fixture(scope="module")
-def recorded(tmp_path_factory):
-    """A 4 s ib21-fleet-6 run streamed to disk in chunks of 7 steps (chunks end mid-bin and between plans)."""
-    from swarmtrack.scenarios import load_scenario
-    from swarmtrack.sim import recorder
-    from swarmtrack.sim.engine import simulate
-
-    path = tmp_path_factory.mktemp("ib21") / "rec"
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(recorder, "CHUNK_ROWS", 7 * 12)  # 12 objects: 3 targets, 3 decoys, 6 UAVs
-        simulate(load_scenario("ib21-fleet-6", ["duration=4"]), record_to=path)
-    rec = Recording.load(path)
-    assert rec.meta["chunk_steps"] == 7 < rec.meta["n_steps"] == 80
-    return rec
+@pytest.fixture
+def recorded(ib21_run):
+    return ib21_run
 
 
 def _whole(rec: Recording, edit=None) -> Recording:

@@ -362,11 +362,13 @@ RUN_FIGURES = (
 
 
 def save_run_figures(rec: Recording, out_dir: str | Path) -> list[Path]:
-    """Write every single-run figure into ``out_dir`` (created if needed), and the figures of the probes the run
-    recorded (:data:`PROBE_FIGURES`); return their paths."""
+    """Write the single-run figures into ``out_dir`` (created if needed): :data:`RUN_FIGURES` for a run whose
+    estimators follow one target (they draw its estimate), and the figures of the probes the run recorded
+    (:data:`PROBE_FIGURES`); return their paths."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    figures = [*RUN_FIGURES, *((name, fn) for probe, name, fn in PROBE_FIGURES
+    follows = rec.tracked is not None and "estimate" in rec.meta["probes"]
+    figures = [*(RUN_FIGURES if follows else ()), *((name, fn) for probe, name, fn in PROBE_FIGURES
                                if probe in rec.meta["probes"] and _FIGURE_APPLIES.get(fn, bool)(rec))]
     return [fn(rec, out_dir / name) for name, fn in figures]
 

@@ -6,6 +6,16 @@
   ``n`` χ²(4) samples lies in ``χ²_{4n}(0.025, 0.975) / n`` when the filter is consistent).
 * **Lost target**: the median estimation error over the UAVs above :data:`LOST_M` for at least :data:`GAP_S`.
 
+For a guaranteed (set-membership) run, which records ``phi`` instead of a Gaussian estimate (:class:`SetHealth`):
+
+* **Guarantee violated**: a check of the truth-side monitor ``guarantee_violations`` found a true target outside
+  the sets that must hold it (IB21 Secs. 3.4-3.5: impossible while the true noise box lies in the assumed one).
+* **All sets empty**: every set of a UAV became empty (its ``alarm_all_empty`` count rose): every target lost, the
+  paper's sign of an assumed noise bound that is too small (IB21 Sec. 6, Fig. 10).
+* **Unexplained detections without decoys**: with no decoys in the world, a detection that meets no set that could
+  hold it (``alarm_unexplained``) cannot happen under the assumptions either (with decoys it can: a decoy seen
+  again after it was identified as one).
+
 Each warning is a dict ``{kind, message, t_start, t_end[, uav]}`` (times in s, UAV numbers 1-based). The
 accumulators are O(N) per UAV plus O(steps) scalars: they stream over the recording's chunks.
 """
@@ -98,14 +108,96 @@ def applies(rec: Recording) -> bool:
     return rec.tracked is not None and {"estimate", "covariance"} <= set(rec.meta["probes"])
 
 
+def guaranteed(rec: Recording) -> bool:
+    """The run recorded a set-membership estimator's uncertainty Φ (IB21 eq. 10): :class:`SetHealth` applies."""
+    return "phi" in rec.meta["probes"]
+
+
 def check(rec: Recording) -> list[dict]:
     """The warnings of one run (empty: nothing looked wrong)."""
-    if not applies(rec):
+    accs = [acc(rec) for acc, wanted in ((Health, applies), (SetHealth, guaranteed)) if wanted(rec)]
+    if not accs:
         return []
-    health = Health(rec)
     for c in rec.chunks():
-        health.add(c)
-    return health.result()
+        for acc in accs:
+            acc.add(c)
+    return [w for acc in accs for w in acc.result()]
+
+
+def _group_size(rec: Recording, name: str) -> int:
+    start, stop = rec.meta["groups"].get(name, (0, 0))
+    return stop - start
+
+
+class SetHealth:
+    """IB21's guarantee and alarms, streamed (O(N) state): the total and the largest per-step sum over the UAVs of
+    the ``guarantee_violations`` monitor (true targets outside the sets that must hold them, counted where a UAV's
+    sets describe the step's instant; absent when the world has no targets), when the first and last violation were
+    seen, the time each UAV's cumulative ``alarm_all_empty`` count first rose (NaN: never) and the last
+    ``alarm_unexplained`` counts. :func:`swarmtrack.analysis.metrics.summary` reads :meth:`counts` for its
+    ``set_membership`` section and :meth:`result` for its warnings."""
+
+    def __init__(self, rec: Recording):
+        n = rec.n_agents
+        self.rec = rec
+        self.monitored = "guarantee_violations" in rec.meta["probes"]
+        self.violations, self.worst, self.first, self.last = 0.0, 0.0, None, None
+        self.empty_count = np.zeros(n)  # the cumulative alarm count at the last step seen
+        self.empty_at = np.full(n, np.nan)
+        self.unexplained = np.zeros(n)
+
+    def add(self, c, keep=None, err=None) -> None:
+        """Every step of chunk ``c``."""
+        if not len(c.t):
+            return
+        if self.monitored:
+            per_step = c.probes["guarantee_violations"].sum(axis=1)
+            self.violations += float(per_step.sum())
+            self.worst = max(self.worst, float(per_step.max()))
+            hit = np.flatnonzero(per_step > 0)
+            if len(hit):
+                self.first = float(c.t[hit[0]]) if self.first is None else self.first
+                self.last = float(c.t[hit[-1]])
+        count = c.probes["alarm_all_empty"]
+        rose = count > np.concatenate([self.empty_count[None], count[:-1]])  # (k, N): the count went up at k
+        new = np.isnan(self.empty_at) & rose.any(axis=0)
+        self.empty_at[new] = c.t[rose.argmax(axis=0)[new]]
+        self.empty_count = count[-1].copy()
+        self.unexplained = c.probes["alarm_unexplained"][-1].copy()
+
+    def counts(self) -> dict:
+        """``guarantee_violations`` (total over steps and UAVs; None without a monitor), ``max_violations_per_step``,
+        ``first_violation_t``, ``empty_set_alarms`` (UAVs whose all-empty alarm ever rose), ``empty_set_alarm_t``
+        (per UAV, when it first rose; None: never), ``all_empty_events`` (sum of the final cumulative counts) and
+        ``alarms_unexplained`` (sum of the final cumulative counts)."""
+        return {"guarantee_violations": int(self.violations) if self.monitored else None,
+                "max_violations_per_step": int(self.worst) if self.monitored else None,
+                "first_violation_t": self.first,
+                "empty_set_alarms": int(np.isfinite(self.empty_at).sum()),
+                "empty_set_alarm_t": [None if np.isnan(t) else float(t) for t in self.empty_at],
+                "all_empty_events": int(self.empty_count.sum()),
+                "alarms_unexplained": int(self.unexplained.sum())}
+
+    def result(self) -> list[dict]:
+        out = []
+        if self.violations:
+            out.append({"kind": "guarantee_violated", "t_start": self.first, "t_end": self.last,
+                        "message": f"guarantee violated: {int(self.violations)} checks found a true target outside "
+                                   f"its sets (t = {self.first:.2f}-{self.last:.2f} s)"})
+        emptied = np.flatnonzero(np.isfinite(self.empty_at))
+        for i in emptied[:LISTED]:
+            t = float(self.empty_at[i])
+            out.append({"kind": "all_sets_empty", "uav": int(i) + 1, "t_start": t, "t_end": None,
+                        "message": f"every set of UAV {i + 1} became empty at t = {t:.2f} s: the assumed noise bound "
+                                   "may be too small"})
+        if len(emptied) > LISTED:
+            out.append({"kind": "all_sets_empty", "uav": None, "t_start": float(np.nanmin(self.empty_at)),
+                        "t_end": None, "message": f"and {len(emptied) - LISTED} more UAVs lost every set"})
+        if self.unexplained.sum() and not _group_size(self.rec, "decoys"):
+            out.append({"kind": "unexplained_without_decoys", "t_start": None, "t_end": None,
+                        "message": f"{int(self.unexplained.sum())} detections met no set that could hold them although "
+                                   "the world has no decoys: the assumed noise bound may be too small"})
+        return out
 
 
 def _gaps(seen: np.ndarray, t: np.ndarray) -> list[dict]:

@@ -433,6 +433,84 @@ def _formation_warnings(formation: dict, min_distance: float | None) -> list[dic
     return out
 
 
+#: The parts of Φ (IB21 eq. 10) a set-membership estimator records, by their names in the summary.
+PHI_PARTS = {"unexplored": "phi_unexplored", "unidentified": "phi_unidentified", "identified": "phi_identified"}
+
+
+def plan_steps(t: np.ndarray, dt: float, period: float, start: float = 0.0) -> np.ndarray:
+    """(k,) whether the record at each time ``t`` is the first to show a new plan of a controller that plans every
+    ``period`` s from ``start`` (IB21's SM-MPC: ``meta["controller"]``'s ``period``, T^c = 0.5 s).
+
+    The engine records a step before its control runs, so a plan made at ``t_p`` first shows in the record of the
+    next estimation step: the record at ``t`` holds a new plan iff a plan time ``start + m·period`` (m ≥ 0) lies in
+    ``[t − dt, t)``. (With control faster than estimation only the last plan of a step would show; no built-in
+    scenario does that.)"""
+    def plans_before(x):  # plan times in [start, x), counted
+        return np.maximum(np.ceil((x - start) / period - 1e-9), 0.0)
+
+    t = np.asarray(t, dtype=float)
+    return plans_before(t) > plans_before(t - dt)
+
+
+class _SetMembership:
+    """IB21's uncertainty, guarantee and SM-MPC cost, streamed (O(N)): see :func:`summary`'s ``set_membership``."""
+
+    def __init__(self, rec: Recording):
+        n, probes = rec.n_agents, rec.meta["probes"]
+        self.rec, self.health = rec, health.SetHealth(rec)
+        self.phi_sum, self.steps, self.final, self.cleared = 0.0, 0, None, None
+        ctrl = rec.meta.get("controller") or {}
+        self.period = ctrl.get("period") if "solve_time" in probes else None
+        self.start = float(ctrl.get("start") or 0.0)
+        self.plans, self.fleet_sum, self.fleet_max = 0, 0.0, 0.0
+        self.uav_sum, self.uav_max = np.zeros(n), np.zeros(n)
+
+    def add(self, c: Chunk, keep, err) -> None:
+        self.health.add(c)
+        if not len(c.t):
+            return
+        bar = c.probes["phi"].mean(axis=1)  # Φ̄, eq. 11
+        self.phi_sum += float(bar.sum())
+        self.steps += len(bar)
+        self.final = {"phi_bar": float(bar[-1]), "n_identified": float(c.probes["n_identified"][-1].mean()),
+                      **{part: float(c.probes[p][-1].mean()) for part, p in PHI_PARTS.items()}}
+        if self.cleared is None:
+            clear = np.flatnonzero(c.probes["phi_unexplored"].mean(axis=1) == 0)
+            self.cleared = float(c.t[clear[0]]) if len(clear) else None
+        if self.period:
+            solve = c.probes["solve_time"][plan_steps(c.t, self.rec.dt, self.period, self.start)]  # (plans, N)
+            if len(solve):
+                fleet = solve.sum(axis=1)
+                self.plans += len(solve)
+                self.fleet_sum += float(fleet.sum())
+                self.fleet_max = max(self.fleet_max, float(fleet.max()))
+                self.uav_sum += solve.sum(axis=0)
+                self.uav_max = np.maximum(self.uav_max, solve.max(axis=0))
+
+    def result(self) -> dict:
+        area = _area(self.rec)
+        final = self.final or dict.fromkeys(["phi_bar", "n_identified", *PHI_PARTS], None)
+        solve = None
+        if self.plans:
+            solve = {"plans": self.plans, "fleet_mean": self.fleet_sum / self.plans, "fleet_max": self.fleet_max,
+                     "per_uav_mean": (self.uav_sum / self.plans).tolist(), "per_uav_max": self.uav_max.tolist()}
+        return {"phi_bar_final": final["phi_bar"],
+                "phi_bar_mean": self.phi_sum / self.steps if self.steps else None,
+                "phi_bar_final_fraction": final["phi_bar"] / area if area and self.final else None,
+                "area": area,
+                "parts_final": {part: final[part] for part in PHI_PARTS},
+                **self.health.counts(),
+                "time_unexplored_cleared": self.cleared,
+                "identified_final": final["n_identified"],
+                "solve_time": solve}
+
+
+def _area(rec: Recording) -> float | None:
+    """Area of X0 (m²) from the estimator's ``area`` box ``[x0, y0, x1, y1]`` in the run's meta (None if absent)."""
+    box = ((rec.meta or {}).get("estimator") or {}).get("area")
+    return None if box is None else float((box[2] - box[0]) * (box[3] - box[1]))
+
+
 def series_bin_width(t_last: float) -> float:
     """Width (s) of a run's time-series bins: 1 s, doubled until a run of ``t_last`` seconds fits in
     :data:`SERIES_MAX_BINS` bins. Powers of two, so the bins of runs of different lengths nest (``summarize``
@@ -452,7 +530,11 @@ class _Series:
       |p̂_i − p|²)`` per step (a Gaussian estimator following one target);
     - ``nees``: the NEES of ``[x, y, vx, vy]``, mean over the UAVs per step (same);
     - ``tracking_error``: each UAV's true distance to its formation slot, mean over the UAVs per step, from the
-      MPC's start on (runs with the ``setpoint`` probe: W20 Ch. 5's tracking error over time).
+      MPC's start on (runs with the ``setpoint`` probe: W20 Ch. 5's tracking error over time);
+    - ``phi_bar`` (Φ̄, IB21 eq. 11), ``phi_unexplored``, ``phi_unidentified``, ``phi_identified`` (its parts φ(X̄),
+      φ(Xᵁ), φ(X)): each the mean over the UAVs per step, m² (runs with the ``phi`` probe: IB21 Figs. 8-11);
+    - ``solve_time``: the fleet's total MPC solve time per plan (sum over the UAVs at the steps that show a new plan,
+      :func:`plan_steps`), s (runs with ``solve_time`` and a controller ``period``: IB21 Fig. 11 right).
 
     ``t`` holds the bin centres; a bin without data is None."""
 
@@ -466,6 +548,12 @@ class _Series:
         if rec.tracked is not None and "setpoint" in rec.meta["probes"]:
             self.quantities.append("tracking_error")
             self.offsets, self.start, _ = formation_spec(rec)
+        if health.guaranteed(rec):
+            self.quantities += ["phi_bar", *PHI_PARTS.values()]
+            ctrl = rec.meta.get("controller") or {}
+            if "solve_time" in rec.meta["probes"] and ctrl.get("period"):
+                self.quantities.append("solve_time")
+                self.plan = (ctrl["period"], float(ctrl.get("start") or 0.0))
         self.sum = {q: np.zeros(self.n_bins) for q in self.quantities}
         self.count = {q: np.zeros(self.n_bins) for q in self.quantities}
 
@@ -486,6 +574,13 @@ class _Series:
             after = c.t >= self.start - 1e-9
             dist = np.linalg.norm(slot_offsets(self.rec, c.truth[after], self.offsets), axis=-1)  # (k, N)
             self._add("tracking_error", c.t[after], dist.mean(axis=1))
+        if "phi_bar" in self.sum:
+            self._add("phi_bar", c.t, c.probes["phi"].mean(axis=1))
+            for p in PHI_PARTS.values():
+                self._add(p, c.t, c.probes[p].mean(axis=1))
+        if "solve_time" in self.sum:
+            plan = plan_steps(c.t, self.rec.dt, *self.plan)
+            self._add("solve_time", c.t[plan], c.probes["solve_time"][plan].sum(axis=1))
 
     def result(self) -> dict:
         out = {"bin_s": self.width, "t": ((np.arange(self.n_bins) + 0.5) * self.width).tolist()}
@@ -507,13 +602,27 @@ def summary(rec: Recording) -> dict:
     spacing), with the run's ``warnings`` (:func:`swarmtrack.analysis.health.check`) and its compact time series
     ``series`` (:func:`series`: at most :data:`SERIES_MAX_BINS` values per quantity). The estimation metrics
     need a followed target and the ``estimate`` and ``covariance`` probes of a Gaussian estimator (capability
-    1's); a run whose estimator records others gets the rest."""
+    1's); a run whose estimator records others gets the rest.
+
+    A run that recorded a set-membership estimator's ``phi`` (IB21) gets ``set_membership``: ``phi_bar_final`` and
+    ``phi_bar_mean`` (Φ̄ = the mean over the UAVs of Φ_i, eq. 11, m², at the last step and averaged over the steps,
+    which are evenly spaced: the time average), ``phi_bar_final_fraction`` (over the area of X0, ``area``),
+    ``parts_final`` (φ(X̄), φ(Xᵁ), φ(X), each the mean over the UAVs, at the last step), the guarantee and alarm
+    counts of :meth:`swarmtrack.analysis.health.SetHealth.counts` (``guarantee_violations``: the monitor's counts
+    summed over all steps and UAVs, ``max_violations_per_step``, ``empty_set_alarms``: the UAVs whose all-empty
+    alarm ever rose, ``alarms_unexplained`` …), ``time_unexplored_cleared`` (the first t at which the mean over the
+    UAVs of φ(X̄) is exactly 0, else None; X̄ never regrows once empty), ``identified_final`` (identified targets,
+    mean over the UAVs, at the last step) and ``solve_time`` (the MPC's: ``plans`` seen, ``fleet_mean`` and
+    ``fleet_max`` over the plans of the sum over the UAVs, ``per_uav_mean`` and ``per_uav_max`` per UAV; plans are
+    found from the controller's period, :func:`plan_steps`; None without plans)."""
     accs = {}
     if health.applies(rec):
         accs = {"rmse": _Rmse(rec), "spread": _Spread(rec), "reported_std": _ReportedStd(rec),
                 "consistency": _Consistency(rec), "mean_error": _MeanError(rec), "warnings": health.Health(rec)}
         if "winner" in rec.meta["probes"]:
             accs["model_use"] = _ModelUse(rec)
+    if health.guaranteed(rec):
+        accs["set_membership"] = _SetMembership(rec)
     if rec.tracked is not None:
         accs["target_distance"] = _TargetDistance(rec)
         if "setpoint" in rec.meta["probes"]:
@@ -525,4 +634,6 @@ def summary(rec: Recording) -> dict:
     out["inter_agent_distance"] = spacing(rec)
     if "formation" in out:
         out["warnings"] += _formation_warnings(out["formation"], out["inter_agent_distance"]["min"])
+    if "set_membership" in out:
+        out["warnings"] += accs["set_membership"].health.result()
     return out

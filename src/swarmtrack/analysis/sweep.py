@@ -34,7 +34,12 @@ OK_ROW_COLUMNS = ("series.bin_s", "series.t")
 #: The time series ``summarize`` draws, with their axis labels.
 SERIES = {"position_error": "position error, RMS over UAVs [m]",
           "nees": "NEES [x, y, vx, vy], mean over UAVs",
-          "tracking_error": "distance to formation slot, mean over UAVs [m]"}
+          "tracking_error": "distance to formation slot, mean over UAVs [m]",
+          "phi_bar": "Φ̄, mean over UAVs of Φ_i [m²]",
+          "phi_unexplored": "φ(X̄), mean over UAVs [m²]",
+          "phi_unidentified": "φ(Xᵁ), mean over UAVs [m²]",
+          "phi_identified": "φ(X), mean over UAVs [m²]",
+          "solve_time": "fleet MPC solve time per plan [s]"}
 
 
 def parse_grid(specs: Sequence[str]) -> dict[str, list[str]]:
@@ -82,6 +87,10 @@ def scalars(metrics: dict) -> dict[str, float | None]:
     out["model_switches"] = metrics.get("model_use", {}).get("switches")
     out["target_distance_mean"] = metrics.get("target_distance", {}).get("mean")
     out["spacing_offset"] = metrics.get("inter_agent_distance", {}).get("offset")
+    sm = metrics.get("set_membership", {})
+    for k in ("phi_bar_final", "phi_bar_mean", "guarantee_violations", "empty_set_alarms",
+              "time_unexplored_cleared"):
+        out[k] = sm.get(k)
     out["warnings"] = float(len(metrics.get("warnings", [])))
     return {k: (None if v is None else float(v)) for k, v in out.items()}
 

@@ -191,3 +191,14 @@ def test_within_per_part_equals_the_overlay_on_the_whole_bounding_box():
     fast = pg.within(small, big, shapely.box(0, 0, 50, 50))
     reference = shapely.intersection(small, shapely.union(big, shapely.box(0, 0, 50, 50)))
     assert fast.is_valid and shapely.symmetric_difference(fast, reference).area < 1e-9
+
+
+def test_fusing_sets_of_two_lineages_gives_their_intersection_and_reuses_the_bases_intersection():
+    b = _three_uavs_sharing_a_base()
+    b.base[2] = b.unexplored[2] = shapely.difference(b.unexplored[2], shapely.box(0, 150, 40, 200))  # own lineage
+    b.cut[2] = pg.EMPTY
+    plain = shapely.intersection_all(b.unexplored)
+    sent = b.copy()
+    fuse(b, np.array([0, 0, 1, 1]), np.array([1, 2, 0, 2]), sent)  # UAVs 0 and 1: neighbourhoods differ in order
+    for i in (0, 1):
+        assert shapely.symmetric_difference(b.unexplored[i], plain).area < 1e-6

@@ -152,6 +152,7 @@ def fuse(b: Beliefs, recv: np.ndarray, send: np.ndarray, sent: Beliefs) -> None:
     the sets as broadcast; row ℓ read by UAV i only where a link ``i ← ℓ`` delivered it). All sets describe the same
     time. UAVs with the same closed neighbourhood fuse the same inputs: computed once, the result shared."""
     done: dict[tuple, int] = {}
+    bases: dict = {}  # intersections of predicted X̄ (by the set of objects), shared within this round
     for i in np.unique(recv):
         group = np.concatenate([[i], send[recv == i]])
         key = tuple(sorted(group.tolist()))
@@ -161,15 +162,15 @@ def fuse(b: Beliefs, recv: np.ndarray, send: np.ndarray, sent: Beliefs) -> None:
             b.identified[i] = b.identified[k]
         else:
             done[key] = i
-            _fuse_one(b, i, group, sent)
+            _fuse_one(b, i, group, sent, bases)
         if b.base is not None:
             b.base[i], b.cut[i] = b.unexplored[i], pg.EMPTY
         _check_lost(b, i)
 
 
-def _fuse_one(b: Beliefs, i: int, group: np.ndarray, sent: Beliefs) -> None:
+def _fuse_one(b: Beliefs, i: int, group: np.ndarray, sent: Beliefs, bases: dict | None = None) -> None:
     bars, us = sent.unexplored[group], sent.unidentified[group]
-    b.unexplored[i] = _common_unexplored(sent, group)  # eq. 37
+    b.unexplored[i] = _common_unexplored(sent, group, bases)  # eq. 37
     b.unidentified[i] = _held_by_all(pg.union_all(us), [[us[k], bars[k]] for k in range(len(group))])  # eq. 36
     for j in range(b.n_ids):
         xs = sent.identified[group, j]
@@ -180,23 +181,21 @@ def _fuse_one(b: Beliefs, i: int, group: np.ndarray, sent: Beliefs) -> None:
         b.identified[i, j] = _held_by_all(pg.union_all(xs), holders)  # eq. 34
 
 
-def _common_unexplored(sent: Beliefs, group: np.ndarray):
-    """``⋂_ℓ X̄_ℓ`` (eq. 37). The UAVs whose X̄ is ``base \\ cut_ℓ`` with one shared base contribute
-    ``base \\ ∪_ℓ cut_ℓ`` (the same set: one difference by a few footprints), so only sets of different lineage are
-    intersected: near-equal large polygons are the dearest overlay GEOS does (their shared edges)."""
-    if sent.base is None:
+def _common_unexplored(sent: Beliefs, group: np.ndarray, bases: dict | None = None):
+    """``⋂_ℓ X̄_ℓ`` (eq. 37). With the lineage ``X̄_ℓ = base_ℓ \\ cut_ℓ`` this is the same set as
+    ``(⋂ distinct bases) \\ ∪_ℓ cut_ℓ``: one difference by a few footprints, after an intersection only of bases that
+    differ, and that intersection kept in ``bases`` (per set of base objects) for the other UAVs fusing this round.
+    Near-equal large polygons are the dearest overlay GEOS does (their shared edges), so it is done as rarely as
+    this allows."""
+    if sent.base is None or any(sent.base[ell] is None for ell in group.tolist()):
         return pg.intersect_all(sent.unexplored[group])
-    classes: dict[object, list[int]] = {}
-    for ell in group.tolist():
-        base = sent.base[ell]
-        classes.setdefault(("own", ell) if base is None else id(base), []).append(ell)
-    parts = []
-    for members in classes.values():
-        if len(members) == 1:
-            parts.append(sent.unexplored[members[0]])
-        else:
-            parts.append(pg.remove(sent.base[members[0]], pg.union_all(sent.cut[members])))
-    return pg.intersect_all(parts)
+    distinct = {id(sent.base[ell]): sent.base[ell] for ell in group.tolist()}
+    key = frozenset(distinct)
+    bases = {} if bases is None else bases
+    if key not in bases:
+        bases[key] = pg.intersect_all(list(distinct.values()))
+    cuts = pg.union_all(sent.cut[group])
+    return pg.remove(bases[key], cuts) if not cuts.is_empty else bases[key]
 
 
 def _held_by_all(candidate, holders: list[list]):

@@ -30,6 +30,7 @@ bench: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_batch.py
 	$(VENV)/bin/python benchmarks/bench_sim.py
 	$(VENV)/bin/python benchmarks/bench_mpc.py
+	$(VENV)/bin/python benchmarks/bench_setmembership.py
 
 bench-large: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_filters.py
@@ -38,6 +39,7 @@ bench-large: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_batch.py
 	$(VENV)/bin/python benchmarks/bench_sim.py --large
 	$(VENV)/bin/python benchmarks/bench_mpc.py
+	$(VENV)/bin/python benchmarks/bench_setmembership.py
 
 clean:
 	rm -rf $(VENV) runs

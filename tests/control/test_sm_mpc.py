@@ -221,3 +221,16 @@ def test_settings_refuse_bad_values():
         sm.SMMPCSettings(distance="sup")
     with pytest.raises(ValueError, match="multiple"):
         sm.SMMPCSettings(period=0.52)
+
+
+def test_uavs_far_from_the_same_set_share_its_far_part_and_get_the_distances_of_separate_plans():
+    region = shapely.box(20, 20, 40, 40)  # far from both UAVs: the distance needs the part outside the window
+    cands = sm.candidates(S.inputs, S.horizon)
+    shared: dict = {}
+    for state in (uav(300, 300, 0.5), uav(350, 200, -1.0)):
+        own = sm.predict(state, cands, S)
+        alone = sm.plan_one(region, own, np.zeros((0, 2, 7)), X0, S, prune=False)
+        common = sm.plan_one(region, own, np.zeros((0, 2, 7)), X0, S, prune=False, shared=shared)
+        np.testing.assert_array_equal(alone.distance, common.distance)
+        assert alone.index == common.index
+    assert len(shared) == 1  # built once for both

@@ -146,3 +146,59 @@ def test_the_estimator_updates_at_sharing_times_and_identification_frames_and_fu
     region = est.view().region
     assert shapely.covers(region[0], shapely.Point(55.0, 52.0))  # the object seen unidentified stays in X^A
     assert est.containing(obj, np.array([0])).all()
+
+
+def _three_uavs_sharing_a_base():
+    """Three UAVs whose X̄ were fused alike (one object), predicted, and cut by different footprints."""
+    b = Beliefs.start(3, 1, AREA)
+    correct(b, 0, pg.inner(shapely.box(0, 0, 60, 200)), np.zeros((0, 2)), np.zeros(0, int), (5, 5))
+    b.unexplored[1] = b.unexplored[2] = b.unexplored[0]
+    b.base[:] = b.unexplored[0]
+    b.cut[:] = pg.EMPTY
+    predict(b, np.arange(3), 2.0, SPEED, AREA)
+    for i, (x, y) in enumerate([(100, 50), (130, 90), (160, 150)]):
+        correct(b, i, pg.inner(shapely.box(x - 30, y - 30, x + 30, y + 30)), np.zeros((0, 2)), np.zeros(0, int),
+                (5, 5))
+    return b
+
+
+def test_fusing_sets_of_one_lineage_as_one_difference_gives_their_intersection():
+    b = _three_uavs_sharing_a_base()
+    assert b.base[0] is b.base[1] is b.base[2]  # one dilation served all three
+    plain = shapely.intersection_all(b.unexplored)
+    sent = b.copy()
+    fuse(b, np.array([0, 0]), np.array([1, 2]), sent)
+    assert shapely.symmetric_difference(b.unexplored[0], plain).area < 1e-6
+    pts = shapely.points(np.random.default_rng(0).uniform(0, 200, (20000, 2)))
+    assert (shapely.covers(b.unexplored[0], pts) | ~shapely.covers(plain, pts)).all()
+
+
+def test_uavs_with_the_same_neighbourhood_share_one_fusion_result():
+    b = _three_uavs_sharing_a_base()
+    sent = b.copy()
+    alone = b.copy()
+    fuse(b, np.array([0, 0, 1, 1, 2, 2]), np.array([1, 2, 0, 2, 0, 1]), sent)
+    assert b.unexplored[0] is b.unexplored[1] is b.unexplored[2]
+    fuse(alone, np.array([2, 2]), np.array([0, 1]), sent)  # computed on its own
+    assert shapely.symmetric_difference(alone.unexplored[2], b.unexplored[2]).area < 1e-6
+
+
+def test_within_per_part_equals_the_overlay_on_the_whole_bounding_box():
+    rng = np.random.default_rng(3)
+    small = shapely.union_all(shapely.buffer(shapely.points(rng.uniform(0, 200, (6, 2))), 4.0))
+    big = shapely.difference(AREA, shapely.union_all(shapely.buffer(shapely.points(rng.uniform(0, 200, (30, 2))),
+                                                                    15.0)))
+    fast = pg.within(small, big, shapely.box(0, 0, 50, 50))
+    reference = shapely.intersection(small, shapely.union(big, shapely.box(0, 0, 50, 50)))
+    assert fast.is_valid and shapely.symmetric_difference(fast, reference).area < 1e-9
+
+
+def test_fusing_sets_of_two_lineages_gives_their_intersection_and_reuses_the_bases_intersection():
+    b = _three_uavs_sharing_a_base()
+    b.base[2] = b.unexplored[2] = shapely.difference(b.unexplored[2], shapely.box(0, 150, 40, 200))  # own lineage
+    b.cut[2] = pg.EMPTY
+    plain = shapely.intersection_all(b.unexplored)
+    sent = b.copy()
+    fuse(b, np.array([0, 0, 1, 1]), np.array([1, 2, 0, 2]), sent)  # UAVs 0 and 1: neighbourhoods differ in order
+    for i in (0, 1):
+        assert shapely.symmetric_difference(b.unexplored[i], plain).area < 1e-6

@@ -330,12 +330,14 @@ def choose(cost: np.ndarray, rel: float = 1e-12, abs_tol: float = 1e-9) -> int:
 
 
 def plan_one(region, own_states: np.ndarray, nb_states: np.ndarray, area, s: SMMPCSettings = DEFAULT_SETTINGS,
-             exact: bool | None = None, prune: bool = True) -> Choice:
+             exact: bool | None = None, prune: bool = True, shared: dict | None = None) -> Choice:
     """Eq. 47 minimised over U_d^h for one UAV: ``region`` its X^A (a shapely geometry), ``own_states`` (C, h, 7)
     its predicted states per candidate (:func:`predict` over :func:`candidates`), ``nb_states`` (L, h, 7) its
     lower-indexed neighbours' predicted states, ``area`` X0. ``exact`` (default ``s.exact``): the full-set
     reference instead of the local window (module docstring). ``prune`` (local window only): compute the distance
-    only for candidates whose area term leaves them a chance (the others' cost is reported as ``inf``)."""
+    only for candidates whose area term leaves them a chance (the others' cost is reported as ``inf``). ``shared``:
+    a dict kept across the UAVs of one fleet plan, where the full-set rounds without any footprint (the far part
+    of the distance) are kept per X^A object: UAVs holding the same X^A share them."""
     exact = s.exact if exact is None else exact
     ops0 = sum(pg.OPS.values())
     cands = candidates(s.inputs, s.horizon)
@@ -350,14 +352,15 @@ def plan_one(region, own_states: np.ndarray, nb_states: np.ndarray, area, s: SMM
         areas = pg.area(leaves)
         dist = np.nan_to_num(set_distance(leaves, xy_end, s.distance), nan=0.0)
     else:
-        areas, dist, window = _local_costs(region, rem, s, area, xy_end, prune)
+        areas, dist, window = _local_costs(region, rem, s, area, xy_end, prune, shared)
     cost = areas + s.alpha * dist
     index = choose(cost)
     ops = sum(pg.OPS.values()) - ops0
     return Choice(index, cands[index], cost, areas, dist, ops, window)
 
 
-def _local_costs(region, rem: Removals, s: SMMPCSettings, area, xy_end: np.ndarray, prune: bool):
+def _local_costs(region, rem: Removals, s: SMMPCSettings, area, xy_end: np.ndarray, prune: bool,
+                 shared: dict | None = None):
     """Areas (up to a constant) and exact distances on the local window (module docstring, lever 4). The last
     round's own footprint is measured, not removed (:func:`_minus_areas`); the sets themselves are built (one
     overlay each) only for the candidates whose distance is needed."""
@@ -385,22 +388,24 @@ def _local_costs(region, rem: Removals, s: SMMPCSettings, area, xy_end: np.ndarr
     # eq. 47's distance, for the candidates that can still win
     need = np.ones(len(areas), dtype=bool)
     dist = np.full(len(areas), np.inf)
+    far: dict = {"shared": shared}  # the part outside the exact box, the same for every candidate: once per plan
     if prune:
         first = choose(areas)
         need[:] = False
         need[first] = True
         dist[first] = _distances(region, rem, s, area, xy_end, before, cut, np.array([first]), lo, hi, steady,
-                                 box)[0]
+                                 box, far)[0]
         bound = areas[first] + s.alpha * dist[first]
         need = areas <= bound + 1e-9 + 1e-12 * abs(bound)
         need[first] = False
     rows = np.flatnonzero(need)
     if len(rows):
-        dist[rows] = _distances(region, rem, s, area, xy_end, before, cut, rows, lo, hi, steady, box)
+        dist[rows] = _distances(region, rem, s, area, xy_end, before, cut, rows, lo, hi, steady, box, far)
     return areas, dist, window
 
 
-def _distances(region, rem: Removals, s: SMMPCSettings, area, xy_end, before, cut, rows, lo, hi, steady, box):
+def _distances(region, rem: Removals, s: SMMPCSettings, area, xy_end, before, cut, rows, lo, hi, steady, box,
+               far: dict):
     """d of eq. 47 (0 for an empty set) for the candidates ``rows``, exact although the sets are local: true on the
     exact box ``W ⊖ hρ`` when no farther than its edge, otherwise (and for Hausdorff) combined with the part of
     the set outside that box, the same for every candidate (module docstring)."""
@@ -417,10 +422,16 @@ def _distances(region, rem: Removals, s: SMMPCSettings, area, xy_end, before, cu
     certified = near <= _box_gap(xy, exact_box)  # NaN (nothing inside) is not certified
     if s.distance == "nearest" and certified.all():
         return near
-    far = evolve(region, rem, s, area, use_own=False, nb_masks=steady, box=box)[0]
-    pg.OPS["difference"] += 1
-    far = shapely.difference(far, shapely.box(*exact_box))
-    outer = set_distance(np.full(len(xy), far, dtype=object), xy, s.distance)
+    if "set" not in far:  # ``far`` caches it for the plan's other calls
+        plain = not any((rem.kept[k][:1] & steady[k][None, :]).any() for k in range(h))  # no footprint removed
+        cache = far["shared"] if plain and far["shared"] is not None else {}
+        key = (id(region), box)
+        if key not in cache:
+            cache[key] = evolve(region, rem, s, area, use_own=False, nb_masks=steady, box=box)[0]
+        outside = cache[key]
+        pg.OPS["difference"] += 1
+        far["set"] = shapely.difference(outside, shapely.box(*exact_box))
+    outer = set_distance(np.full(len(xy), far["set"], dtype=object), xy, s.distance)
     both = np.fmin(near, outer) if s.distance == "nearest" else np.fmax(near, outer)
     return np.nan_to_num(both, nan=0.0)
 
@@ -460,11 +471,12 @@ def plan_all(nav, regions, area, s: SMMPCSettings = DEFAULT_SETTINGS, links=None
         recv, send = edge_list(links)
     plans = np.zeros((n, s.horizon))
     out = FleetPlan(plans, np.zeros(n), np.full(n, shared), np.zeros(n), np.zeros(n), [])
+    common: dict = {}  # what UAVs with the same X^A can share (plan_one)
     for i in range(n):
         t0 = time.perf_counter()
         lower = send[(recv == i) & (send < i)]
         nb = predict(beacons[lower], plans[lower], s) if len(lower) else np.zeros((0, s.horizon, fw.STATE_DIM))
-        choice = plan_one(regions[i], own[i], nb, area, s, exact)
+        choice = plan_one(regions[i], own[i], nb, area, s, exact, shared=common)
         plans[i] = choice.plan
         out.solve_time[i] += time.perf_counter() - t0
         out.cost[i] = choice.cost[choice.index]

@@ -45,6 +45,21 @@ def empty(n: int | tuple[int, ...]) -> np.ndarray:
     return out
 
 
+def distinct(sets: np.ndarray, *keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows holding the same set object with equal ``keys`` (per-row values): ``first`` (sorted), the first row of
+    each kind, and ``inverse``, so that ``x[first][inverse]`` rebuilds the rows. The same object in, the same result
+    out: an operation on ``sets[first]`` serves every row."""
+    seen: dict[tuple, int] = {}
+    first, inverse = [], np.empty(len(sets), dtype=np.int64)
+    for row, s in enumerate(sets):
+        key = (id(s), *(k[row] for k in keys))
+        if key not in seen:
+            seen[key] = len(first)
+            first.append(row)
+        inverse[row] = seen[key]
+    return np.array(first, dtype=np.int64), inverse
+
+
 def circumscribed(r: float, quad_segs: int = QUAD_SEGS) -> float:
     """The buffer distance whose polygonal disc contains the disc of radius ``r`` (plus :data:`DELTA`)."""
     return r / math.cos(math.pi / (4 * quad_segs)) + DELTA
@@ -89,14 +104,29 @@ def intersect(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def within(small, *big):
-    """``small ∩ (∪ big)`` for one small set and some big ones: each big set is first cut to the small one's bounding
-    box (exact, and fast), which keeps large sets out of the overlay."""
+    """``small ∩ (∪ big)`` for one small set and some big ones: each big set is first cut to the bounding box of
+    each part of the small one (exact, and fast), which keeps large sets out of the overlays. The parts are disjoint,
+    so their results are too and make a multipolygon without a union."""
     if small.is_empty:
         return small
-    box = small.bounds
-    local = union_all([shapely.clip_by_rect(g, *box) for g in big if not g.is_empty])
-    OPS["intersection"] += 1
-    return shapely.intersection(small, local) if not local.is_empty else EMPTY
+    big = [g for g in big if not g.is_empty]
+    parts = shapely.get_parts(small)
+    pieces = []
+    for part in parts:
+        box = part.bounds
+        local = union_all([shapely.clip_by_rect(g, *box) for g in big])
+        if local.is_empty:
+            continue
+        OPS["intersection"] += 1
+        pieces.extend(shapely.get_parts(shapely.intersection(part, local)))
+    pieces = [p for p in pieces if not p.is_empty]
+    if not pieces:
+        return EMPTY
+    if len(pieces) == 1:
+        return pieces[0]
+    if all(p.geom_type == "Polygon" for p in pieces):
+        return shapely.MultiPolygon(pieces)
+    return union_all(pieces)  # a degenerate contact (line, point) is kept, as the overlay would
 
 
 def union(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -56,6 +56,11 @@ class Beliefs:
     identified: np.ndarray
     t: np.ndarray
     alarms: dict[str, np.ndarray] = field(default_factory=dict)
+    #: X̄'s lineage (N,) each: ``unexplored[i]`` is, as a set, ``base[i] \\ cut[i]`` (its prediction and the
+    #: footprints removed from it since). UAVs whose X̄ share a base (the same object: equal inputs gave it) fuse it
+    #: as one difference, ``base \\ ∪ cut``, instead of intersecting near-equal sets. None: no lineage known.
+    base: np.ndarray | None = None
+    cut: np.ndarray | None = None
 
     @classmethod
     def start(cls, n_uavs: int, n_ids: int, area, t: float = 0.0) -> Beliefs:
@@ -63,7 +68,8 @@ class Beliefs:
         unexplored = np.empty(n_uavs, dtype=object)
         unexplored[:] = area
         return cls(unexplored, pg.empty(n_uavs), pg.empty((n_uavs, n_ids)), np.full(n_uavs, float(t)),
-                   {"unexplained": np.zeros(n_uavs, dtype=np.int64), "all_empty": np.zeros(n_uavs, dtype=np.int64)})
+                   {"unexplained": np.zeros(n_uavs, dtype=np.int64), "all_empty": np.zeros(n_uavs, dtype=np.int64)},
+                   unexplored.copy(), pg.empty(n_uavs))
 
     @property
     def n_ids(self) -> int:
@@ -71,24 +77,39 @@ class Beliefs:
 
     def copy(self) -> Beliefs:
         return Beliefs(self.unexplored.copy(), self.unidentified.copy(), self.identified.copy(), self.t.copy(),
-                       {k: v.copy() for k, v in self.alarms.items()})
+                       {k: v.copy() for k, v in self.alarms.items()},
+                       None if self.base is None else self.base.copy(), None if self.cut is None else self.cut.copy())
 
 
 def predict(b: Beliefs, rows: np.ndarray, t: float, speed: float, area) -> None:
-    """IB21 eqs. 12-15 for the UAVs ``rows``: their sets dilated by ``speed · (t − b.t)`` and clipped to X0."""
+    """IB21 eqs. 12-15 for the UAVs ``rows``: their sets dilated by ``speed · (t − b.t)`` and clipped to X0. A set
+    held by several UAVs (the same object, from equal inputs) is dilated once for all of them."""
     if not len(rows):
         return
     r = speed * (t - b.t[rows])
     if (r < 0).any():
         raise ValueError("set-membership prediction backwards in time")
-    b.unexplored[rows] = pg.clip(pg.dilate(b.unexplored[rows], r), area)
-    b.unidentified[rows] = pg.clip(pg.dilate(b.unidentified[rows], r), area)
+    b.unexplored[rows] = _grow(b.unexplored[rows], r, area)
+    b.unidentified[rows] = _grow(b.unidentified[rows], r, area)
     ids = b.identified[rows]
     live = ~pg.is_empty(ids)
     if live.any():
-        ids[live] = pg.clip(pg.dilate(ids[live], np.broadcast_to(r[:, None], ids.shape)[live]), area)
+        ids[live] = _grow(ids[live], np.broadcast_to(r[:, None], ids.shape)[live], area)
         b.identified[rows] = ids
+    if b.base is not None:
+        b.base[rows] = b.unexplored[rows]
+        b.cut[rows] = pg.EMPTY
     b.t[rows] = t
+
+
+def _grow(sets: np.ndarray, r: np.ndarray, area) -> np.ndarray:
+    """``(A ⊕ D(r)) ∩ X0`` of every set, computed once per distinct (set, r) and empty sets left as they are."""
+    first, inverse = pg.distinct(sets, r)
+    todo = first[~pg.is_empty(sets[first])]
+    out = sets[first].copy()
+    if len(todo):
+        out[np.searchsorted(first, todo)] = pg.clip(pg.dilate(sets[todo], r[todo]), area)
+    return out[inverse]
 
 
 def correct(b: Beliefs, i: int, footprint, z: np.ndarray, labels: np.ndarray, bound) -> None:
@@ -111,6 +132,8 @@ def correct(b: Beliefs, i: int, footprint, z: np.ndarray, labels: np.ndarray, bo
     found = pg.within(unid, Xu, Xbar)  # S1ᵁ ∪ S2ᵁ (eqs. 24-25)
     b.unidentified[i] = pg.union_all([found, pg.remove(Xu, footprint)])  # eqs. 26-27
     b.unexplored[i] = pg.remove(Xbar, footprint)  # eq. 28
+    if b.base is not None and b.base[i] is not None:
+        b.cut[i] = pg.union_all([b.cut[i], footprint])  # X̄ = base \ cut still
     _check_lost(b, i)
 
 
@@ -127,20 +150,52 @@ def _explain(b: Beliefs, i: int, boxes: np.ndarray, labels: np.ndarray, Xu, Xbar
 def fuse(b: Beliefs, recv: np.ndarray, send: np.ndarray, sent: Beliefs) -> None:
     """IB21 eqs. 31-37: every UAV that heard from someone fuses its own and its neighbours' corrected sets (``sent``,
     the sets as broadcast; row ℓ read by UAV i only where a link ``i ← ℓ`` delivered it). All sets describe the same
-    time."""
+    time. UAVs with the same closed neighbourhood fuse the same inputs: computed once, the result shared."""
+    done: dict[tuple, int] = {}
+    bases: dict = {}  # intersections of predicted X̄ (by the set of objects), shared within this round
     for i in np.unique(recv):
         group = np.concatenate([[i], send[recv == i]])
-        bars, us = sent.unexplored[group], sent.unidentified[group]
-        b.unexplored[i] = pg.intersect_all(bars)  # eq. 37
-        b.unidentified[i] = _held_by_all(pg.union_all(us), [[us[k], bars[k]] for k in range(len(group))])  # eq. 36
-        for j in range(b.n_ids):
-            xs = sent.identified[group, j]
-            if pg.is_empty(xs).all():
-                b.identified[i, j] = pg.EMPTY  # eq. 35: dropped
-                continue
-            holders = [[xs[k], us[k], bars[k]] for k in range(len(group))]
-            b.identified[i, j] = _held_by_all(pg.union_all(xs), holders)  # eq. 34
+        key = tuple(sorted(group.tolist()))
+        if key in done:  # identical inputs, identical outputs
+            k = done[key]
+            b.unexplored[i], b.unidentified[i] = b.unexplored[k], b.unidentified[k]
+            b.identified[i] = b.identified[k]
+        else:
+            done[key] = i
+            _fuse_one(b, i, group, sent, bases)
+        if b.base is not None:
+            b.base[i], b.cut[i] = b.unexplored[i], pg.EMPTY
         _check_lost(b, i)
+
+
+def _fuse_one(b: Beliefs, i: int, group: np.ndarray, sent: Beliefs, bases: dict | None = None) -> None:
+    bars, us = sent.unexplored[group], sent.unidentified[group]
+    b.unexplored[i] = _common_unexplored(sent, group, bases)  # eq. 37
+    b.unidentified[i] = _held_by_all(pg.union_all(us), [[us[k], bars[k]] for k in range(len(group))])  # eq. 36
+    for j in range(b.n_ids):
+        xs = sent.identified[group, j]
+        if pg.is_empty(xs).all():
+            b.identified[i, j] = pg.EMPTY  # eq. 35: dropped
+            continue
+        holders = [[xs[k], us[k], bars[k]] for k in range(len(group))]
+        b.identified[i, j] = _held_by_all(pg.union_all(xs), holders)  # eq. 34
+
+
+def _common_unexplored(sent: Beliefs, group: np.ndarray, bases: dict | None = None):
+    """``⋂_ℓ X̄_ℓ`` (eq. 37). With the lineage ``X̄_ℓ = base_ℓ \\ cut_ℓ`` this is the same set as
+    ``(⋂ distinct bases) \\ ∪_ℓ cut_ℓ``: one difference by a few footprints, after an intersection only of bases that
+    differ, and that intersection kept in ``bases`` (per set of base objects) for the other UAVs fusing this round.
+    Near-equal large polygons are the dearest overlay GEOS does (their shared edges), so it is done as rarely as
+    this allows."""
+    if sent.base is None or any(sent.base[ell] is None for ell in group.tolist()):
+        return pg.intersect_all(sent.unexplored[group])
+    distinct = {id(sent.base[ell]): sent.base[ell] for ell in group.tolist()}
+    key = frozenset(distinct)
+    bases = {} if bases is None else bases
+    if key not in bases:
+        bases[key] = pg.intersect_all(list(distinct.values()))
+    cuts = pg.union_all(sent.cut[group])
+    return pg.remove(bases[key], cuts) if not cuts.is_empty else bases[key]
 
 
 def _held_by_all(candidate, holders: list[list]):
@@ -157,18 +212,27 @@ def _check_lost(b: Beliefs, i: int) -> None:
 
 
 def aggregated(b: Beliefs) -> np.ndarray:
-    """IB21 eq. 43: ``X^A_i = (∪_j X_{i,j}) ∪ Xᵁ_i ∪ X̄_i`` (N,)."""
-    out = np.empty(len(b.unexplored), dtype=object)
-    for i in range(len(out)):
-        out[i] = pg.union_all([*b.identified[i], b.unidentified[i], b.unexplored[i]])
-    return out
+    """IB21 eq. 43: ``X^A_i = (∪_j X_{i,j}) ∪ Xᵁ_i ∪ X̄_i`` (N,), one union per distinct row of sets (UAVs that
+    fused the same inputs hold the same objects)."""
+    keys = [_ids(b.unidentified), *(_ids(b.identified[:, j]) for j in range(b.n_ids))]
+    first, inverse = pg.distinct(b.unexplored, *keys)
+    out = np.empty(len(first), dtype=object)
+    for r, i in enumerate(first):
+        out[r] = pg.union_all([*b.identified[i], b.unidentified[i], b.unexplored[i]])
+    return out[inverse]
 
 
-def uncertainty(b: Beliefs) -> dict[str, np.ndarray]:
+def _ids(sets: np.ndarray) -> np.ndarray:
+    return np.array([id(s) for s in sets], dtype=np.int64)
+
+
+def uncertainty(b: Beliefs, region: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """IB21 eq. 10 and its parts, (N,) each: ``phi`` = φ(X^A), ``unexplored`` = φ(X̄), ``unidentified`` = φ(Xᵁ),
-    ``identified`` = φ(∪_j X_j) (m²; overlaps count once, so the parts need not add up to ``phi``)."""
+    ``identified`` = φ(∪_j X_j) (m²; overlaps count once, so the parts need not add up to ``phi``). ``region``: X^A
+    if already computed (:func:`aggregated`)."""
     ids = np.array([pg.union_all(row) for row in b.identified], dtype=object)
-    return {"phi": pg.area(aggregated(b)), "unexplored": pg.area(b.unexplored),
+    region = aggregated(b) if region is None else region
+    return {"phi": pg.area(region), "unexplored": pg.area(b.unexplored),
             "unidentified": pg.area(b.unidentified), "identified": pg.area(ids)}
 
 
@@ -235,18 +299,20 @@ class SetMembershipEstimator:
             return {}
         b = self.beliefs
         return {"unexplored": b.unexplored.copy(), "unidentified": b.unidentified.copy(),
-                "identified": b.identified.copy()}
+                "identified": b.identified.copy(), "unexplored_base": b.base.copy(), "unexplored_cut": b.cut.copy()}
 
     def fuse(self, t: float, own, inbox) -> None:
         """At a sharing time, fuse what the links delivered (IB21 eqs. 31-37, Algorithm 1 lines 11-16)."""
         if not self._sharing:
             return
         got = inbox.payloads
-        sent = Beliefs(got["unexplored"], got["unidentified"], got["identified"], self.beliefs.t)
+        sent = Beliefs(got["unexplored"], got["unidentified"], got["identified"], self.beliefs.t,
+                       base=got.get("unexplored_base"), cut=got.get("unexplored_cut"))
         recv, send = inbox.edges()
         fuse(self.beliefs, recv, send, sent)
-        self._phi = uncertainty(self.beliefs)
-        self._view = None
+        region = aggregated(self.beliefs)  # X^A once, for Φ and the view
+        self._phi = uncertainty(self.beliefs, region)
+        self._view = self._make_view(region)
 
     def view(self) -> TargetView:
         """No single target: the centre of each UAV's aggregated set (eq. 43) as the state (NaN when empty), and the
@@ -255,8 +321,8 @@ class SetMembershipEstimator:
             self._view = self._make_view()
         return self._view
 
-    def _make_view(self) -> TargetView:
-        region = aggregated(self.beliefs)
+    def _make_view(self, region: np.ndarray | None = None) -> TargetView:
+        region = aggregated(self.beliefs) if region is None else region
         centre = shapely.get_coordinates(shapely.centroid(region), include_z=False)
         state = np.full((self.n, 4), np.nan)
         live = ~pg.is_empty(region)

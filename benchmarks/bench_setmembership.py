@@ -1,0 +1,135 @@
+"""Speed of IB21's guaranteed search and track (set-membership estimator + SM-MPC), on one core.
+
+Goals (issue 8, "Speed (benchmarks)"): one 400 s ``ib21-fleet-6`` mission (6 fixed-wing UAVs, 3 targets, 3 decoys)
+≥ 20x faster than real time (≤ 20 s wall); the Fig. 8 study (5 fleet sizes × 30 runs) ≤ 30 min on 2 cores; the
+control time per UAV growing at most linearly with fleet size.
+
+One mission, after a 2 s warm-up run (imports, numba caches), timed with ``time.perf_counter`` around
+``simulate``. The split is measured by wrapping the components' methods for the timed run:
+
+* ``estimator``: :class:`SetMembershipEstimator` ``share`` (prediction and correction of the sets), ``fuse``
+  (fusion with the neighbours, Φ) and ``view`` (the aggregated set X^A, eq. 43; cached between updates);
+* ``mpc``: :class:`SetMembershipMPC` ``command`` (eqs. 44-49 for every UAV in index order);
+* ``rest``: the world, sensor, network, truth-side monitor and recorder (wall − the two).
+
+Beside it: the set operations per estimation step (``polygons.OPS``, by kind; the MPC's included), the vertices of
+a UAV's sets (the estimator's ``vertices`` probe: mean and maximum over UAVs and steps), the guarantee violations
+(must be 0) and the final mean uncertainty Φ̄ (so a speed-up that changes behaviour shows).
+
+Run: ``PYTHONPATH=src .venv/bin/python benchmarks/bench_setmembership.py [--json] [--quick] [--duration S]``
+(400 s simulated; ``--quick``: 30 s). ``--json`` prints one flat JSON object ``{name: value}`` instead of the table.
+"""
+
+from __future__ import annotations
+
+import os
+
+# One core: numba serial kernels, no threaded BLAS. Other environment settings are left as they are.
+os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("MKL_NUM_THREADS", "1")
+
+import argparse  # noqa: E402
+import contextlib  # noqa: E402
+import json  # noqa: E402
+import time  # noqa: E402
+
+import numpy as np  # noqa: E402
+import shapely  # noqa: E402
+
+from swarmtrack.control.sm_mpc import SetMembershipMPC  # noqa: E402
+from swarmtrack.estimation import polygons as pg  # noqa: E402
+from swarmtrack.estimation.setmembership import SetMembershipEstimator  # noqa: E402
+from swarmtrack.scenarios import load_scenario  # noqa: E402
+from swarmtrack.sim.engine import simulate  # noqa: E402
+
+SCENARIO = "ib21-fleet-6"
+DURATION, QUICK_DURATION = 400.0, 30.0
+GOAL_WALL_S = 20.0  # the 400 s mission
+
+
+@contextlib.contextmanager
+def timed(spent: dict[str, float], methods: dict[str, tuple[type, str]]):
+    """Accumulate the wall time of each ``(class, method)`` into ``spent[name]`` while the block runs."""
+    saved = []
+    for name, (cls, attr) in methods.items():
+        original = getattr(cls, attr)
+        saved.append((cls, attr, original))
+
+        def wrapper(self, *args, _f=original, _name=name, **kwargs):
+            t0 = time.perf_counter()
+            try:
+                return _f(self, *args, **kwargs)
+            finally:
+                spent[_name] += time.perf_counter() - t0
+
+        setattr(cls, attr, wrapper)
+    try:
+        yield spent
+    finally:
+        for cls, attr, original in saved:
+            setattr(cls, attr, original)
+
+
+def mission(duration: float) -> dict[str, float]:
+    simulate(load_scenario(SCENARIO, ["duration=2"]))  # warm-up
+    scn = load_scenario(SCENARIO, [f"duration={duration:g}"])
+    methods = {"share": (SetMembershipEstimator, "share"), "fuse": (SetMembershipEstimator, "fuse"),
+               "view": (SetMembershipEstimator, "view"), "mpc": (SetMembershipMPC, "command")}
+    spent = dict.fromkeys(methods, 0.0)
+    pg.OPS.clear()
+    with timed(spent, methods):
+        t0 = time.perf_counter()
+        rec = simulate(scn)
+        wall = time.perf_counter() - t0
+    ops = dict(pg.OPS)
+    steps = round(duration * scn.rates.estimation)
+    chunks = list(rec.chunks())
+    vertices = np.concatenate([c.probes["vertices"] for c in chunks])
+    violations = np.concatenate([c.probes["guarantee_violations"] for c in chunks])
+    phi = chunks[-1].probes["phi"][-1]
+    estimator = spent["share"] + spent["fuse"] + spent["view"]
+    out = {"duration_s": duration, "wall_s": wall, "rtf": duration / wall, "estimator_s": estimator,
+           "predict_correct_s": spent["share"], "fusion_s": spent["fuse"], "view_s": spent["view"],
+           "mpc_s": spent["mpc"], "rest_s": wall - estimator - spent["mpc"],
+           "mpc_ms_per_uav_plan": 1e3 * spent["mpc"] / (scn.swarm.n_uavs * duration / 0.5),
+           "ops_per_step": sum(ops.values()) / steps, "vertices_mean": float(vertices.mean()),
+           "vertices_max": float(vertices.max()), "guarantee_violations": float(violations.sum()),
+           "phi_final_mean": float(phi.mean())}
+    out.update({f"ops_{k}_per_step": v / steps for k, v in sorted(ops.items())})
+    return out
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--json", action="store_true", help="print one flat JSON object {name: value} instead")
+    parser.add_argument("--quick", action="store_true", help=f"a {QUICK_DURATION:g} s mission (smoke test)")
+    parser.add_argument("--duration", type=float, default=None, help="simulated seconds (default 400)")
+    args = parser.parse_args(argv)
+    duration = args.duration or (QUICK_DURATION if args.quick else DURATION)
+    r = mission(duration)
+    if args.json:
+        print(json.dumps({k: round(v, 4 if abs(v) < 100 else 1) for k, v in r.items()}))
+        return
+    print(f"IB21 {SCENARIO}, one core, shapely {shapely.__version__} / GEOS {shapely.geos_version_string}")
+    print(f"\n{r['duration_s']:.0f} s simulated in {r['wall_s']:.2f} s wall: {r['rtf']:.1f}x real time")
+    header = f"{'part':<34} {'s':>8} {'share':>7}"
+    print(header)
+    print("-" * len(header))
+    for name, key in (("estimator: predict + correct", "predict_correct_s"), ("estimator: fusion + Φ", "fusion_s"),
+                      ("estimator: view (X^A)", "view_s"), ("SM-MPC (all UAVs)", "mpc_s"),
+                      ("rest (world, sensor, monitor, ...)", "rest_s")):
+        print(f"{name:<34} {r[key]:>8.2f} {100 * r[key] / r['wall_s']:>6.1f}%")
+    print(f"   SM-MPC per UAV and plan: {r['mpc_ms_per_uav_plan']:.2f} ms")
+    kinds = ", ".join(f"{k[4:-9]} {v:.2f}" for k, v in r.items() if k.startswith("ops_") and k != "ops_per_step")
+    print(f"\nset operations per estimation step: {r['ops_per_step']:.1f} ({kinds})")
+    print(f"vertices per UAV (all its sets): mean {r['vertices_mean']:.0f}, max {r['vertices_max']:.0f}")
+    print(f"guarantee violations: {r['guarantee_violations']:.0f}; final mean Φ: {r['phi_final_mean']:.0f} m²")
+    if duration == DURATION:
+        print(f"\nGoal: the 400 s mission ≤ {GOAL_WALL_S:.0f} s wall: {r['wall_s']:.1f} s "
+              f"({'MET' if r['wall_s'] <= GOAL_WALL_S else 'NOT MET'})")
+
+
+if __name__ == "__main__":
+    main()

@@ -21,7 +21,7 @@ run: $(STAMP)
 test: $(STAMP)
 	$(VENV)/bin/python -m pytest
 
-# bench: the default speed figures (about 1.5 min); bench-large adds 10,000 UAVs and the peak-memory runs
+# bench: the default speed figures (about 5 min); bench-large adds 10,000 UAVs and the peak-memory runs
 # (tens of minutes, see benchmarks/bench_sim.py). All scripts take --json and --quick.
 bench: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_filters.py

@@ -101,6 +101,13 @@ def run_cmd(scenario: str, out: Path | None, overwrite: bool, seed: int | None, 
         facts.append(f"mean error {100 * metrics['mean_error']['all']:.2f} cm")
     if "model_use" in metrics:
         facts.append(f"{metrics['model_use']['switches']:.0f} model switches per UAV")
+    if "formation" in metrics:  # W20 Ch. 5
+        facts.append("distance from each place " + ", ".join(f"{e:.2f}" for e in metrics["formation"]["tracking_error"])
+                     + " m")
+    if "set_membership" in metrics:  # IB21
+        sm = metrics["set_membership"]
+        facts.append(f"Φ̄ {sm['phi_bar_final']:.0f} m² at the end, "
+                     f"{sm['guarantee_violations']:.0f} guarantee violations")
     offset = metrics["inter_agent_distance"]["offset"]
     if offset is not None and math.isfinite(offset):
         facts.append(f"spacing offset {offset:.3f} m")

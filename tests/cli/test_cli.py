@@ -228,3 +228,11 @@ def test_overwrite_does_not_follow_a_link_put_where_the_earlier_run_had_a_folder
     res = _run("--out", str(out), "--overwrite")
     assert res.exit_code == 2 and "symbolic link" in res.output and "Traceback" not in res.output
     assert all(p.read_text() == "my data" for p in mine.iterdir()) and len(list(mine.iterdir())) >= 2
+
+
+@pytest.mark.parametrize(("scenario", "words"), [("w20-mpc-collision", "distance from each place"),
+                                                 ("ib21-fleet-6", "guarantee violations")])
+def test_run_prints_the_capabilitys_own_result(tmp_path, scenario, words):
+    res = CliRunner().invoke(main, ["run", scenario, "--set", "duration=2", "--out", str(tmp_path / "r"),
+                                    "--no-plots"])
+    assert res.exit_code == 0 and words in res.output, res.output

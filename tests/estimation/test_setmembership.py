@@ -202,3 +202,23 @@ def test_fusing_sets_of_two_lineages_gives_their_intersection_and_reuses_the_bas
     fuse(b, np.array([0, 0, 1, 1]), np.array([1, 2, 0, 2]), sent)  # UAVs 0 and 1: neighbourhoods differ in order
     for i in (0, 1):
         assert shapely.symmetric_difference(b.unexplored[i], plain).area < 1e-6
+
+
+def test_round_intersections_reuse_chains_and_equal_intersection_all_of_the_ordered_sets():
+    from swarmtrack.estimation.setmembership import _Meets
+
+    rng = np.random.default_rng(5)
+    sets = [shapely.difference(AREA, shapely.union_all(shapely.buffer(shapely.points(rng.uniform(0, 200, (8, 2))),
+                                                                       12.0))) for _ in range(5)]
+    base = np.empty(5, dtype=object)
+    base[:] = sets
+    groups = [np.array(g) for g in ([0, 1, 2], [1, 0, 2, 3], [2, 1, 0, 3, 4], [4, 3], [3])]
+    meets = _Meets(base, groups)
+    pg.OPS.clear()
+    for g in groups:
+        ordered = sorted({id(base[e]): base[e] for e in g.tolist()}.items(), key=lambda kv: meets.rank[kv[0]])
+        got = meets.meet(dict(ordered[::-1]))  # the argument's order does not matter
+        want = shapely.intersection_all([s for _, s in ordered])  # the same overlay chain
+        assert shapely.equals_exact(got, want, tolerance=0.0)
+        assert shapely.symmetric_difference(got, shapely.intersection_all(base[g])).area < 1e-6
+    assert pg.OPS["intersection"] == 2 + 1 + 1 + 1  # {0,1,2} once; 3 and then 4 on top; {3,4} alone

@@ -129,6 +129,19 @@ def within(small, *big):
     return union_all(pieces)  # a degenerate contact (line, point) is kept, as the overlay would
 
 
+def loosen(sets, margin: float = DELTA):
+    """A superset of each set whose edges all lie ``margin`` off its own: the mitred buffer by ``margin`` (an offset
+    of every edge outwards; a corner is mitred, or bevelled beyond twice the margin, never cut inside the set).
+
+    For intersecting sets that share much of their boundary *exactly* (UAVs' X̄ after fusions of overlapping
+    neighbourhoods): GEOS's overlay on coincident edges falls back to a robust noder, 4-10x slower than on edges
+    ``margin`` apart. ``A ∩ loosen(B)`` is an outer approximation of ``A ∩ B``, wider by at most about twice
+    ``margin`` (the mitre limit; measured ≤ 2.02 ``margin``): the same kind of allowance as :data:`DELTA` in every
+    dilation."""
+    OPS["buffer"] += len(np.atleast_1d(sets))
+    return shapely.buffer(sets, margin, join_style="mitre", mitre_limit=2.0)
+
+
 def union(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     OPS["union"] += len(np.atleast_1d(a))
     return shapely.union(a, b)

@@ -194,7 +194,8 @@ class _Meets:
     boundary exactly, which makes GEOS's overlay 4-10x slower than on edges 1e-6 m apart. So the result is
     ``s1 ∩ loosen(s2) ∩ …``: a superset of ``⋂ s`` (an outer approximation, as eq. 37 needs), wider by about
     2e-6 m along its edges (more only in the tip of an acute corner between two operands' edges; it is dilated by
-    V^t·T^c = 0.5 m at the next prediction anyway), and the very chain ``intersection_all`` does on the ordered, loosened sets (tests hold both)."""
+    V^t·T^c = 0.5 m at the next prediction anyway), and the very chain ``intersection_all`` does on the ordered,
+    loosened sets (tests hold both)."""
 
     def __init__(self, base: np.ndarray | None, groups):
         self.rank: dict[int, tuple[int, int]] = {}

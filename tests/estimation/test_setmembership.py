@@ -190,7 +190,8 @@ def test_within_per_part_equals_the_overlay_on_the_whole_bounding_box():
                                                                     15.0)))
     fast = pg.within(small, big, shapely.box(0, 0, 50, 50))
     reference = shapely.intersection(small, shapely.union(big, shapely.box(0, 0, 50, 50)))
-    assert fast.is_valid and shapely.symmetric_difference(fast, reference).area < 1e-9
+    assert fast.is_valid and shapely.difference(fast, small).area < 1e-12
+    assert_outer_and_close(fast, reference)
 
 
 def test_fusing_sets_of_two_lineages_gives_their_intersection_and_reuses_the_bases_intersection():
@@ -201,4 +202,42 @@ def test_fusing_sets_of_two_lineages_gives_their_intersection_and_reuses_the_bas
     sent = b.copy()
     fuse(b, np.array([0, 0, 1, 1]), np.array([1, 2, 0, 2]), sent)  # UAVs 0 and 1: neighbourhoods differ in order
     for i in (0, 1):
-        assert shapely.symmetric_difference(b.unexplored[i], plain).area < 1e-6
+        assert_outer_and_close(b.unexplored[i], plain)
+
+
+def assert_outer_and_close(got, exact, margin=3e-6):
+    """``got`` ⊇ ``exact`` (up to round-off) and no farther than ``margin`` from it: a loosened intersection."""
+    assert shapely.difference(exact, got).area < 1e-9
+    assert shapely.hausdorff_distance(got, exact) <= margin + 1e-9
+    assert shapely.difference(got, exact).area <= margin * shapely.length(got) + 1e-9
+
+
+def test_round_intersections_reuse_chains_and_equal_intersection_all_of_the_ordered_sets():
+    from swarmtrack.estimation.setmembership import _Meets
+
+    rng = np.random.default_rng(5)
+    sets = [shapely.difference(AREA, shapely.union_all(shapely.buffer(shapely.points(rng.uniform(0, 200, (8, 2))),
+                                                                       12.0))) for _ in range(5)]
+    base = np.empty(5, dtype=object)
+    base[:] = sets
+    groups = [np.array(g) for g in ([0, 1, 2], [1, 0, 2, 3], [2, 1, 0, 3, 4], [4, 3], [3])]
+    meets = _Meets(base, groups)
+    pg.OPS.clear()
+    for g in groups:
+        ordered = sorted({id(base[e]): base[e] for e in g.tolist()}.items(), key=lambda kv: meets.rank[kv[0]])
+        got = meets.meet(dict(ordered[::-1]))  # the argument's order does not matter
+        chain = [s if k == 0 else pg.loosen(s) for k, (_, s) in enumerate(ordered)]
+        want = shapely.intersection_all(chain)  # the same overlay chain
+        assert shapely.equals_exact(got, want, tolerance=0.0)
+        assert_outer_and_close(got, shapely.intersection_all(base[g]))
+    assert pg.OPS["intersection"] == 2 + 1 + 1 + 1  # {0,1,2} once; 3 and then 4 on top; {3,4} alone
+
+
+def test_a_loosened_set_contains_the_set_with_its_edges_apart():
+    rng = np.random.default_rng(6)
+    a = shapely.difference(AREA, shapely.union_all(shapely.buffer(shapely.points(rng.uniform(0, 200, (8, 2))),
+                                                                   12.0, quad_segs=3)))
+    loose = pg.loosen(a)
+    assert loose.is_valid and shapely.contains(loose, a)
+    assert shapely.hausdorff_distance(loose, a) <= 3 * pg.DELTA
+    assert shapely.distance(shapely.boundary(loose), shapely.boundary(a)) > 0.5 * pg.DELTA

@@ -106,15 +106,19 @@ def intersect(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def within(small, *big):
     """``small ∩ (∪ big)`` for one small set and some big ones: each big set is first cut to the bounding box of
     each part of the small one (exact, and fast), which keeps large sets out of the overlays. The parts are disjoint,
-    so their results are too and make a multipolygon without a union."""
+    so their results are too and make a multipolygon without a union.
+
+    The cut big sets are :func:`loosen`-ed: the small set is mostly a union of beliefs that the big ones share
+    edges with exactly (``X_j ⊆ ∪_ℓ X_{ℓ,j}`` against ``X_{ℓ,j} ∪ …``), the slow case of GEOS's overlay. The result
+    is thus an outer approximation of ``small ∩ (∪ big)``, within ``small`` and about ``2·DELTA`` wider."""
     if small.is_empty:
         return small
-    big = [g for g in big if not g.is_empty]
+    big = np.array([g for g in big if not g.is_empty], dtype=object)
     parts = shapely.get_parts(small)
     pieces = []
     for part in parts:
         box = part.bounds
-        local = union_all([shapely.clip_by_rect(g, *box) for g in big])
+        local = union_all(loosen(shapely.clip_by_rect(big, *box)))
         if local.is_empty:
             continue
         OPS["intersection"] += 1
@@ -127,6 +131,19 @@ def within(small, *big):
     if all(p.geom_type == "Polygon" for p in pieces):
         return shapely.MultiPolygon(pieces)
     return union_all(pieces)  # a degenerate contact (line, point) is kept, as the overlay would
+
+
+def loosen(sets, margin: float = DELTA):
+    """A superset of each set whose edges all lie ``margin`` off its own: the mitred buffer by ``margin`` (an offset
+    of every edge outwards; a corner is mitred, or bevelled beyond twice the margin, never cut inside the set).
+
+    For intersecting sets that share much of their boundary *exactly* (UAVs' X̄ after fusions of overlapping
+    neighbourhoods): GEOS's overlay on coincident edges falls back to a robust noder, 4-10x slower than on edges
+    ``margin`` apart. ``A ∩ loosen(B)`` is an outer approximation of ``A ∩ B``, wider by at most about twice
+    ``margin`` (the mitre limit; measured ≤ 2.02 ``margin``): the same kind of allowance as :data:`DELTA` in every
+    dilation."""
+    OPS["buffer"] += len(np.atleast_1d(sets))
+    return shapely.buffer(sets, margin, join_style="mitre", mitre_limit=2.0)
 
 
 def union(a: np.ndarray, b: np.ndarray) -> np.ndarray:

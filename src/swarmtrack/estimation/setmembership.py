@@ -152,9 +152,9 @@ def fuse(b: Beliefs, recv: np.ndarray, send: np.ndarray, sent: Beliefs) -> None:
     the sets as broadcast; row ℓ read by UAV i only where a link ``i ← ℓ`` delivered it). All sets describe the same
     time. UAVs with the same closed neighbourhood fuse the same inputs: computed once, the result shared."""
     done: dict[tuple, int] = {}
-    bases: dict = {}  # intersections of predicted X̄ (by the set of objects), shared within this round
-    for i in np.unique(recv):
-        group = np.concatenate([[i], send[recv == i]])
+    groups = {i: np.concatenate([[i], send[recv == i]]) for i in np.unique(recv).tolist()}
+    bases = _Meets(sent.base, groups.values())  # intersections of predicted X̄, shared within this round
+    for i, group in groups.items():
         key = tuple(sorted(group.tolist()))
         if key in done:  # identical inputs, identical outputs
             k = done[key]
@@ -168,7 +168,7 @@ def fuse(b: Beliefs, recv: np.ndarray, send: np.ndarray, sent: Beliefs) -> None:
         _check_lost(b, i)
 
 
-def _fuse_one(b: Beliefs, i: int, group: np.ndarray, sent: Beliefs, bases: dict | None = None) -> None:
+def _fuse_one(b: Beliefs, i: int, group: np.ndarray, sent: Beliefs, bases: _Meets | None = None) -> None:
     bars, us = sent.unexplored[group], sent.unidentified[group]
     b.unexplored[i] = _common_unexplored(sent, group, bases)  # eq. 37
     b.unidentified[i] = _held_by_all(pg.union_all(us), [[us[k], bars[k]] for k in range(len(group))])  # eq. 36
@@ -181,21 +181,70 @@ def _fuse_one(b: Beliefs, i: int, group: np.ndarray, sent: Beliefs, bases: dict 
         b.identified[i, j] = _held_by_all(pg.union_all(xs), holders)  # eq. 34
 
 
-def _common_unexplored(sent: Beliefs, group: np.ndarray, bases: dict | None = None):
+class _Meets:
+    """Intersections of sets (X̄ bases) for one fusion round, each built on the longest one already computed.
+
+    The round's groups intersect overlapping collections of the same objects (neighbourhoods overlap), and a
+    collection's intersection is computed as a chain ``((s1 ∩ s2) ∩ s3) ∩ …`` — what ``shapely.intersection_all``
+    does, one overlay per step. The sets of each collection are put in one order for the whole round (those in the
+    most collections first, then by first appearance), and every prefix of a chain is kept, so a collection whose
+    ordered prefix was met before starts from it: about a quarter of the overlays saved on ``ib21-fleet-6``.
+
+    Every operand after the first is :func:`polygons.loosen`-ed (once per round): the bases share most of their
+    boundary exactly, which makes GEOS's overlay 4-10x slower than on edges 1e-6 m apart. So the result is
+    ``s1 ∩ loosen(s2) ∩ …``: a superset of ``⋂ s`` (an outer approximation, as eq. 37 needs), wider by about
+    2e-6 m along its edges (more only in the tip of an acute corner between two operands' edges; it is dilated by
+    V^t·T^c = 0.5 m at the next prediction anyway), and the very chain ``intersection_all`` does on the ordered,
+    loosened sets (tests hold both)."""
+
+    def __init__(self, base: np.ndarray | None, groups):
+        self.rank: dict[int, tuple[int, int]] = {}
+        self.chains: dict[tuple[int, ...], object] = {}
+        self.loose: dict[int, object] = {}
+        if base is None:
+            return
+        count: dict[int, int] = {}
+        seen: set[tuple] = set()
+        order: dict[int, int] = {}
+        for group in groups:
+            key = tuple(sorted(group.tolist()))
+            idents = {id(base[ell]) for ell in key} if all(base[ell] is not None for ell in key) else set()
+            if key in seen or len(idents) < 2:  # nothing to intersect
+                continue
+            seen.add(key)
+            for ident in idents:
+                count[ident] = count.get(ident, 0) + 1
+            for ell in key:  # by lowest row
+                order.setdefault(id(base[ell]), len(order))
+        self.rank = {ident: (-count[ident], order[ident]) for ident in count}
+
+    def meet(self, sets: dict[int, object]):
+        """``⋂ sets.values()`` (``sets``: by ``id``, non-empty), reusing the longest prefix already computed."""
+        ids = sorted(sets, key=lambda ident: self.rank.get(ident, (0, ident)))
+        n = len(ids)
+        while n > 1 and tuple(ids[:n]) not in self.chains:
+            n -= 1
+        acc = self.chains[tuple(ids[:n])] if n > 1 else sets[ids[0]]
+        for k in range(max(n, 1), len(ids)):
+            if ids[k] not in self.loose:
+                self.loose[ids[k]] = pg.loosen(sets[ids[k]])
+            acc = pg.intersect(acc, self.loose[ids[k]])
+            self.chains[tuple(ids[:k + 1])] = acc
+        return acc
+
+
+def _common_unexplored(sent: Beliefs, group: np.ndarray, bases: _Meets | None = None):
     """``⋂_ℓ X̄_ℓ`` (eq. 37). With the lineage ``X̄_ℓ = base_ℓ \\ cut_ℓ`` this is the same set as
     ``(⋂ distinct bases) \\ ∪_ℓ cut_ℓ``: one difference by a few footprints, after an intersection only of bases that
-    differ, and that intersection kept in ``bases`` (per set of base objects) for the other UAVs fusing this round.
+    differ, built by ``bases`` (:class:`_Meets`) on the intersections already done for the other UAVs this round.
     Near-equal large polygons are the dearest overlay GEOS does (their shared edges), so it is done as rarely as
     this allows."""
     if sent.base is None or any(sent.base[ell] is None for ell in group.tolist()):
         return pg.intersect_all(sent.unexplored[group])
     distinct = {id(sent.base[ell]): sent.base[ell] for ell in group.tolist()}
-    key = frozenset(distinct)
-    bases = {} if bases is None else bases
-    if key not in bases:
-        bases[key] = pg.intersect_all(list(distinct.values()))
+    common = (_Meets(None, ()) if bases is None else bases).meet(distinct)
     cuts = pg.union_all(sent.cut[group])
-    return pg.remove(bases[key], cuts) if not cuts.is_empty else bases[key]
+    return pg.remove(common, cuts) if not cuts.is_empty else common
 
 
 def _held_by_all(candidate, holders: list[list]):

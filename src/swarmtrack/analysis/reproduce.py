@@ -268,7 +268,9 @@ def reproduce(paper: str, out: Path, runs: int = 10, workers: int | None = None,
     if overrides:
         lines += ["", "Overrides: " + ", ".join(f"`{o}`" for o in overrides)]
     if figures:
-        lines += ["", "Figures (seed 1): " + ", ".join(p.name for p in spec.figures(out, overrides))]
+        drawn = spec.figures(out, overrides)
+        if drawn:
+            lines += ["", "Figures (seed 1): " + ", ".join(p.name for p in drawn)]
     write_together({out / "reproduction.json": dump_json(report), out / "reproduction.md": "\n".join(lines) + "\n"})
     console.print("\n".join(lines))
     return report

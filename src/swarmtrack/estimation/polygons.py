@@ -60,8 +60,9 @@ def distinct(sets: np.ndarray, *keys: np.ndarray) -> tuple[np.ndarray, np.ndarra
     return np.array(first, dtype=np.int64), inverse
 
 
-def circumscribed(r: float, quad_segs: int = QUAD_SEGS) -> float:
-    """The buffer distance whose polygonal disc contains the disc of radius ``r`` (plus :data:`DELTA`)."""
+def circumscribed(r, quad_segs: int = QUAD_SEGS):
+    """The buffer distance whose polygonal disc contains the disc of radius ``r`` (a number or an array), plus
+    :data:`DELTA`."""
     return r / math.cos(math.pi / (4 * quad_segs)) + DELTA
 
 
@@ -76,8 +77,7 @@ def dilate(sets: np.ndarray, r: float, *, quad_segs: int = QUAD_SEGS, eps: float
         OPS["simplify"] += int(big.sum())
         sets = np.where(big, shapely.simplify(sets, eps, preserve_topology=True), sets)
     OPS["buffer"] += len(sets)
-    radius = grow / math.cos(math.pi / (4 * quad_segs)) + DELTA
-    return shapely.buffer(sets, radius, quad_segs=quad_segs)
+    return shapely.buffer(sets, circumscribed(grow, quad_segs), quad_segs=quad_segs)
 
 
 def clip(sets: np.ndarray, area) -> np.ndarray:
@@ -144,11 +144,6 @@ def loosen(sets, margin: float = DELTA):
     dilation."""
     OPS["buffer"] += len(np.atleast_1d(sets))
     return shapely.buffer(sets, margin, join_style="mitre", mitre_limit=2.0)
-
-
-def union(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    OPS["union"] += len(np.atleast_1d(a))
-    return shapely.union(a, b)
 
 
 def union_all(sets) -> shapely.Geometry:

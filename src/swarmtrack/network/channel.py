@@ -11,7 +11,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from swarmtrack.network.links import Links, _squared_distance, cut, drop, proximity_links, static_links, to_dense
+from swarmtrack.network.links import (
+    Links,
+    cut,
+    drop,
+    proximity_blocks,
+    proximity_links,
+    static_links,
+    to_dense,
+)
 
 
 @dataclass
@@ -106,9 +114,7 @@ class WorldsChannel:
         """Each world's :meth:`Channel.beacon_links`: the proximity graph within each world (all worlds at once when
         nothing is lost or cut: the pairs of each world, tested as :func:`proximity_links` tests them)."""
         if self._quiet:
-            q = positions.reshape(len(self.channels), self.n, -1)
-            near = _squared_distance(q[:, :, None, :], q[:, None, :, :]) < self.channels[0].r_comm ** 2
-            near[:, np.arange(self.n), np.arange(self.n)] = False
+            near = proximity_blocks(positions.reshape(len(self.channels), self.n, -1), self.channels[0].r_comm)
             out = np.zeros(self._same.shape, dtype=bool)
             out[self._same] = near.reshape(-1)
             return out

@@ -150,9 +150,7 @@ def proximity_links(positions: np.ndarray, r_comm: float, *, sparse: bool | None
     n = q.shape[0]
     r2 = float(r_comm) * float(r_comm)
     if not _wants_sparse(n, sparse):
-        A = _squared_distance(q[:, None, :], q[None, :, :]) < r2
-        np.fill_diagonal(A, False)
-        return A
+        return proximity_blocks(q[None], r_comm)[0]
     from scipy.spatial import cKDTree
 
     tree = cKDTree(q, balanced_tree=False, compact_nodes=False)  # faster to build, same pairs
@@ -164,6 +162,17 @@ def proximity_links(positions: np.ndarray, r_comm: float, *, sparse: bool | None
     key = np.sort(np.concatenate([a * n + b, b * n + a]))
     rows, cols = np.divmod(key, n)
     return _sorted_csr(n, rows, cols)
+
+
+def proximity_blocks(positions: np.ndarray, r_comm: float) -> np.ndarray:
+    """The dense proximity links of B separate groups at once: ``positions`` (B, N, d) → (B, N, N), each group's
+    pairs tested as :func:`proximity_links` tests them (the worlds of a batch, :mod:`swarmtrack.sim.batch`)."""
+    q = np.asarray(positions, dtype=float)
+    r2 = float(r_comm) * float(r_comm)
+    A = _squared_distance(q[:, :, None, :], q[:, None, :, :]) < r2
+    diag = np.arange(q.shape[1])
+    A[:, diag, diag] = False
+    return A
 
 
 def static_links(kind: str, n: int, edges: Sequence[Sequence[int]] = (), *, sparse: bool | None = None) -> Links:

@@ -110,18 +110,39 @@ def terminate_as_exception():
     certain C code and then ends the process by SIGINT whatever exit code the program chose (seen here now and
     then as a return code of −2 instead of 130)."""
     def handler(signum, frame):
+        if in_compiler(frame):  # an exception inside numba's LLVM callbacks crashes the process: try again soon
+            signal.setitimer(signal.ITIMER_REAL, RETRY_S)
+            return
         raise Terminated()
 
+    signals = (signal.SIGTERM, signal.SIGINT, signal.SIGALRM)
     try:
-        previous = {sig: signal.signal(sig, handler) for sig in (signal.SIGTERM, signal.SIGINT)}
+        previous = {sig: signal.signal(sig, handler) for sig in signals}
     except ValueError:  # not the main thread: leave signals alone
         yield
         return
     try:
         yield
     finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
         for sig, old in previous.items():
             signal.signal(sig, old)
+
+
+#: How soon a termination that arrived during compilation is tried again, s.
+RETRY_S = 0.05
+_COMPILER = (f"{os.sep}numba{os.sep}", f"{os.sep}llvmlite{os.sep}")
+
+
+def in_compiler(frame) -> bool:
+    """Whether ``frame`` or a caller runs numba's or llvmlite's Python code (compiling a kernel, or in one of LLVM's
+    callbacks into Python, where an exception cannot unwind and leaves LLVM broken: seen as a segfault when Ctrl-C
+    arrived while a kernel compiled for the first time)."""
+    while frame is not None:
+        if any(part in frame.f_code.co_filename for part in _COMPILER):
+            return True
+        frame = frame.f_back
+    return False
 
 
 def check_destination(out: Path, overwrite: bool) -> None:

@@ -236,3 +236,24 @@ def test_run_prints_the_capabilitys_own_result(tmp_path, scenario, words):
     res = CliRunner().invoke(main, ["run", scenario, "--set", "duration=2", "--out", str(tmp_path / "r"),
                                     "--no-plots"])
     assert res.exit_code == 0 and words in res.output, res.output
+
+
+def test_a_termination_during_kernel_compilation_waits_until_the_compiler_returns():
+    """SIGINT or SIGTERM in numba's code is deferred (retried by a short timer): raising inside LLVM's callbacks
+    crashes the process."""
+    import os
+
+    from swarmtrack import outputs
+
+    namespace = {"sys": sys}
+    code = compile("frame = sys._getframe()", os.path.join("site-packages", "numba", "core", "compiler.py"), "exec")
+    exec(code, namespace)
+    assert outputs.in_compiler(namespace["frame"])
+    assert not outputs.in_compiler(sys._getframe())
+    with outputs.terminate_as_exception():
+        signal.getsignal(signal.SIGINT)(signal.SIGINT, namespace["frame"])  # deferred: no exception now
+        assert signal.getitimer(signal.ITIMER_REAL)[0] > 0
+        signal.setitimer(signal.ITIMER_REAL, 0)  # fire the retry by hand (no real alarm inside the test)
+        with pytest.raises(outputs.Terminated):
+            signal.getsignal(signal.SIGALRM)(signal.SIGALRM, sys._getframe())
+    assert signal.getitimer(signal.ITIMER_REAL)[0] == 0

@@ -45,6 +45,10 @@ class RangeBearingUpdate:
     sigma_bearing: float
     mode: str = "position"
     min_range: float = 0.05
+    #: The std (m, per axis) of the UAV's own navigation position, which the measurement is taken from: added to
+    #: the converted measurement's covariance (``R + σ²I``) and, to first order, to the polar one
+    #: (``diag(σr² + σ², σβ² + σ²/ρ̂²)``, since the rows of ``H`` are orthogonal with norms 1 and 1/ρ̂).
+    own_sigma: float = 0.0
 
     def contributions(self, x_pos: np.ndarray, sensor_pos: np.ndarray, z: np.ndarray):
         """Local measurement information ``(I, i)`` (L24 eq. 6), restricted to the position block.
@@ -58,14 +62,20 @@ class RangeBearingUpdate:
             rho = np.maximum(np.hypot(rel[..., 0], rel[..., 1]), self.min_range)
             beta = np.arctan2(rel[..., 1], rel[..., 0])
             R = position_covariance(rho, beta, self.sigma_range, self.sigma_bearing)
+            if self.own_sigma:
+                R[..., 0, 0] += self.own_sigma**2
+                R[..., 1, 1] += self.own_sigma**2
             I = _inv2(R)
             i = np.einsum("...ab,...b->...a", I, to_position(z, sensor_pos))
             return I, i
         h, H = polar_model(x_pos, sensor_pos, min_range=self.min_range)
         nu = z - h
         nu[..., 1] = wrap_angle(nu[..., 1])
-        w = np.array([1.0 / self.sigma_range**2, 1.0 / self.sigma_bearing**2])
-        HtW = np.swapaxes(H, -1, -2) * w
+        own = self.own_sigma**2
+        rho2 = np.maximum(np.sum(rel * rel, axis=-1), self.min_range**2)
+        w = np.stack(np.broadcast_arrays(1.0 / (self.sigma_range**2 + own), 1.0 / (self.sigma_bearing**2 + own / rho2)),
+                     axis=-1)
+        HtW = np.swapaxes(H, -1, -2) * w[..., None, :]
         I = HtW @ H
         i = np.einsum("...ab,...b->...a", HtW, nu + np.einsum("...ab,...b->...a", H, x_pos))
         return I, i
@@ -80,6 +90,20 @@ def _inv2(R: np.ndarray) -> np.ndarray:
     out[..., 1, 1] = a / det
     out[..., 0, 1] = out[..., 1, 0] = -b / det
     return out
+
+
+def position_nis(q: np.ndarray, I: np.ndarray, x_pos: np.ndarray, P_pos: np.ndarray) -> np.ndarray:
+    """``νᵀ S⁻¹ ν`` (...,) of position measurements ``q`` (..., 2) with information ``I`` (..., 2, 2) against a
+    predicted position ``x_pos`` with covariance ``P_pos``: ``ν = q − x_pos``, ``S = I⁻¹ + P_pos`` (χ²(2) when
+    consistent). Closed-form 2 x 2 algebra: it runs every step for every UAV and link."""
+    a, b, d = I[..., 0, 0], I[..., 0, 1], I[..., 1, 1]
+    det_i = a * d - b * b
+    s00 = d / det_i + P_pos[..., 0, 0]
+    s01 = -b / det_i + P_pos[..., 0, 1]
+    s11 = a / det_i + P_pos[..., 1, 1]
+    nu = q - x_pos
+    n0, n1 = nu[..., 0], nu[..., 1]
+    return (n0 * n0 * s11 - 2.0 * n0 * n1 * s01 + n1 * n1 * s00) / (s00 * s11 - s01 * s01)
 
 
 def symmetrize(M: np.ndarray) -> np.ndarray:
@@ -162,13 +186,16 @@ class InformationEstimator:
 
     def __init__(self, model: MotionModel, update: RangeBearingUpdate, n_uavs: int, *, label: int = 0,
                  share: str = "information", centralized: bool = False, initial_info: float = 1e-6,
-                 fake_vz_sigma: float | None = None, compiled: bool = False):
+                 fake_vz_sigma: float | None = None, compiled: bool = False, gating: str = "none",
+                 gate_probability: float = 0.999):
         self.model, self.update_rule, self.share_mode, self.centralized = model, update, share, centralized
+        self.gating, self.gate_probability = gating, gate_probability
         self.n, self.label = n_uavs, label
         n_filters = 1 if centralized else n_uavs
         Y, y = initial_information(model, n_filters, initial_info)
         self.x, self.P = recover(Y, y)
-        self.compiled = compiled and model.name in COMPILED_MODELS and update.mode == "position" and not centralized
+        self.compiled = compiled and model.name in COMPILED_MODELS and update.mode == "position" and \
+            not centralized and gating != "ci"
         if self.compiled:
             self._Y, self._y, self._q = Y, y, np.ascontiguousarray(np.diag(model.Q))
         self._x_pred = self.x
@@ -186,10 +213,16 @@ class InformationEstimator:
         self._Q2 = model.Q[:2, :2]
         self.probes = (Probe("estimate", (model.dim,)), Probe("covariance", (model.dim, model.dim)),
                        Probe("detected", ()), Probe("nis", ()))
+        self._gated = np.zeros(n_uavs)
+        self._rejected = np.zeros(n_uavs)
+        if gating == "chi2":  # whom each UAV gated: how many it left out, and how many left each one's out
+            self.probes += (Probe("gated", ()), Probe("rejected", ()))
 
     def share(self, t: float, nav: np.ndarray, own) -> dict:
         """Predict (L24 Sec. 3.1) and compute this UAV's own contribution (L24 eq. 6) for broadcast; a UAV that
         did not detect its target contributes zero information."""
+        self._gated[:] = 0.0
+        self._rejected[:] = 0.0
         z, pos, seen = own.of_label(self.label)
         if self.compiled:
             from swarmtrack.estimation import kernels
@@ -197,7 +230,7 @@ class InformationEstimator:
             self._x_pred = kernels.cv_predicted_position(self.x, self.model.dt)
             u = self.update_rule
             I, i = kernels.cv_position_contributions(self._x_pred, pos, z, u.sigma_range, u.sigma_bearing,
-                                                     u.min_range)
+                                                     u.min_range, u.own_sigma**2)
         else:
             self._Y_pred, self._y_pred, self._x_pred = predict(self.model, self.x, self.P)
             x_pos = self._x_pred[:, :2]
@@ -209,7 +242,7 @@ class InformationEstimator:
 
             self._nis = kernels.position_nis(z, pos, self._x_pred[:, :2], self.P, self._F2, self._Q2, I)
         else:
-            self._nis = self._own_nis(z, pos, I)
+            self._nis = self._own_nis(z, pos, I, self.x, self.P, self._x_pred)
         if not seen.all():  # unseen rows are NaN
             I[~seen] = 0.0
             i[~seen] = 0.0
@@ -218,24 +251,19 @@ class InformationEstimator:
         return self._own if self.share_mode == "information" or self.centralized else {
             "z": z, "sensor_pos": pos, "seen": seen}
 
-    def _own_nis(self, z: np.ndarray, pos: np.ndarray, I: np.ndarray) -> np.ndarray:
+    def predicted_position_covariance(self, x: np.ndarray, P: np.ndarray) -> np.ndarray:
+        """Position block (..., 2, 2) of ``P(k|k−1) = F P Fᵀ + Q`` predicted from the posterior ``x, P``."""
+        F = self._F2 if self._F2 is not None else self.model.jacobian(x)[..., :2, :]
+        return F @ P @ np.swapaxes(F, -1, -2) + self._Q2
+
+    def _own_nis(self, z: np.ndarray, pos: np.ndarray, I: np.ndarray, x: np.ndarray, P: np.ndarray,
+                 x_pred: np.ndarray) -> np.ndarray:
         """Normalised innovation squared of each UAV's own measurement (N,), in position form whatever the update:
         ``ν = q(z) − x̂(k|k−1)[:2]``, ``S = I⁻¹ + P(k|k−1)[:2, :2]`` with ``I`` the measurement's position-block
-        information (``R⁻¹`` of the converted measurement; ``HᵀR⁻¹H`` of the polar one, equal to first order).
-        χ²(2) for a consistent filter; NaN where the UAV saw nothing. Closed-form 2 x 2 algebra: it runs every
-        step for every UAV."""
-        F = self._F2 if self._F2 is not None else self.model.jacobian(self.x)[..., :2, :]
-        P_pred = F @ self.P @ np.swapaxes(F, -1, -2)  # position block of F P Fᵀ + Q
-        a = I[..., 0, 0]
-        b = I[..., 0, 1]
-        d = I[..., 1, 1]
-        det_i = a * d - b * b
-        s00 = d / det_i + P_pred[..., 0, 0] + self._Q2[0, 0]  # S = I⁻¹ + P(k|k−1)[:2, :2]
-        s01 = -b / det_i + P_pred[..., 0, 1] + self._Q2[0, 1]
-        s11 = a / det_i + P_pred[..., 1, 1] + self._Q2[1, 1]
-        nu = to_position(z, pos) - self._x_pred[..., :2]
-        n0, n1 = nu[..., 0], nu[..., 1]
-        return (n0 * n0 * s11 - 2.0 * n0 * n1 * s01 + n1 * n1 * s00) / (s00 * s11 - s01 * s01)
+        information (``R⁻¹`` of the converted measurement; ``HᵀR⁻¹H`` of the polar one, equal to first order),
+        predicted from the posterior ``x, P`` to ``x_pred``. χ²(2) for a consistent filter; NaN where the UAV saw
+        nothing."""
+        return position_nis(to_position(z, pos), I, x_pred[..., :2], self.predicted_position_covariance(x, P))
 
     def fuse(self, t: float, own, inbox) -> None:
         """Update (L24 eq. 7): own information plus what the links delivered."""
@@ -244,8 +272,13 @@ class InformationEstimator:
             I = mine["info_matrix"].sum(axis=0, keepdims=True)
             i = mine["info_vector"].sum(axis=0, keepdims=True)
         elif self.share_mode == "information":
-            I = mine["info_matrix"] + inbox.sum("info_matrix")
-            i = mine["info_vector"] + inbox.sum("info_vector")
+            if self.gating == "ci":
+                self._fuse_ci(t, inbox)
+                return
+            I_n, i_n = self._neighbour_information(inbox, self._x_pred[..., :2],
+                                                   self.predicted_position_covariance(self.x, self.P))
+            I = mine["info_matrix"] + I_n
+            i = mine["info_vector"] + i_n
         else:
             I, i = self._received_measurements(inbox)
         if self.compiled:
@@ -261,6 +294,41 @@ class InformationEstimator:
             return
         Y, y = add_position_information(self._Y_pred, self._y_pred, I, i)
         if self._vz is not None:  # L24's fake vz = 0 measurement, local to every filter
+            k, w_vz = self._vz
+            Y[:, k, k] += w_vz
+        check_information(Y, y, t)
+        self.x, self.P = recover(Y, y)
+
+    def _neighbour_information(self, inbox, x_pos: np.ndarray, P_pos: np.ndarray):
+        """The sums of what the links delivered (L24 eq. 7), without the contributions the χ²-gate leaves out
+        (:func:`swarmtrack.estimation.gating.chi2_gate`, against the prediction ``x_pos, P_pos``); late parts as
+        if current."""
+        if self.gating != "chi2":
+            return inbox.sum("info_matrix"), inbox.sum("info_vector")
+        I, i = 0.0, 0.0
+        for part in inbox.parts():
+            I_p, i_p = self.gate(part.links, part.payloads, x_pos, P_pos)
+            I, i = I + I_p, i + i_p
+        return I, i
+
+    def gate(self, links, payloads: dict, x_pos: np.ndarray, P_pos: np.ndarray):
+        """χ²-gated sums of one part of an inbox, counting the gated links (the ``gated``/``rejected`` probes)."""
+        from swarmtrack.estimation.gating import chi2_gate
+
+        I, i, (recv, send) = chi2_gate(links, payloads, x_pos, P_pos, self.gate_probability, self.n)
+        np.add.at(self._gated, recv, 1.0)
+        np.add.at(self._rejected, send, 1.0)
+        return I, i
+
+    def _fuse_ci(self, t: float, inbox) -> None:
+        """Own measurement by eq. 7, then every neighbour's contribution by covariance intersection."""
+        from swarmtrack.estimation.gating import covariance_intersection
+
+        Y, y = add_position_information(self._Y_pred, self._y_pred, self._own["info_matrix"],
+                                        self._own["info_vector"])
+        for part in inbox.parts():
+            Y, y = covariance_intersection(Y, y, part.links, part.payloads)
+        if self._vz is not None:
             k, w_vz = self._vz
             Y[:, k, k] += w_vz
         check_information(Y, y, t)
@@ -291,4 +359,7 @@ class InformationEstimator:
 
     def sample(self) -> dict[str, np.ndarray]:
         x, P = self.estimates()
-        return {"estimate": x, "covariance": P, "detected": self._detected, "nis": self._nis}
+        out = {"estimate": x, "covariance": P, "detected": self._detected, "nis": self._nis}
+        if self.gating == "chi2":
+            out.update(gated=self._gated.copy(), rejected=self._rejected.copy())
+        return out

@@ -288,18 +288,19 @@ def cv_cycle(Y, y, x, P, dt, q, I, i):
 
 
 @numba.njit(cache=True, fastmath=False)
-def cv_position_contributions(x_pred_pos, sensor_pos, z, sigma_range, sigma_bearing, min_range):
+def cv_position_contributions(x_pred_pos, sensor_pos, z, sigma_range, sigma_bearing, min_range, own_var=0.0):
     """Position-mode measurement information ``I`` (N, 2, 2), ``i`` (N, 2) (L24 eq. 6, L24 Sec. 4).
 
     Matches ``RangeBearingUpdate(sigma_range, sigma_bearing, "position", min_range).contributions`` for
     ``x_pred_pos``, ``sensor_pos``, ``z = [range, bearing]`` all (N, 2): with ``ρ̂, β̂`` the predicted range
     (floored at ``min_range``) and bearing from the sensor, ``R = Λ diag(σr², ρ̂²σβ²) Λᵀ``, ``I = R⁻¹``
-    (computed as ``Λ diag(1/σr², 1/(ρ̂²σβ²)) Λᵀ``) and ``i = I · (sensor + z_ρ (cos z_β, sin z_β))``.
+    (computed as ``Λ diag(1/σr², 1/(ρ̂²σβ²)) Λᵀ``) and ``i = I · (sensor + z_ρ (cos z_β, sin z_β))``; ``own_var``:
+    the UAV's own position variance per axis, added to both (isotropic, so exactly ``R + own_var I``).
     """
     n = x_pred_pos.shape[0]
     I = np.empty((n, 2, 2))
     iv = np.empty((n, 2))
-    wr = 1.0 / (sigma_range * sigma_range)
+    wr = 1.0 / (sigma_range * sigma_range + own_var)
     sb2 = sigma_bearing * sigma_bearing
     for k in range(n):
         sx = sensor_pos[k, 0]
@@ -314,7 +315,7 @@ def cv_position_contributions(x_pred_pos, sensor_pos, z, sigma_range, sigma_bear
             c = 1.0
             s = 0.0
         rho = max(max(r, min_range), _POSITION_COV_FLOOR)
-        wt = 1.0 / (rho * rho * sb2)
+        wt = 1.0 / (rho * rho * sb2 + own_var)
         I00 = wr * c * c + wt * s * s
         I11 = wr * s * s + wt * c * c
         I01 = (wr - wt) * c * s

@@ -11,15 +11,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from swarmtrack.network.faults import Liar
 from swarmtrack.network.links import (
     Links,
     cut,
     drop,
+    edge_list,
     proximity_blocks,
     proximity_links,
     static_links,
+    subset,
     to_dense,
 )
+from swarmtrack.network.messages import Inbox, Outbox
 
 
 @dataclass
@@ -29,6 +33,11 @@ class Channel:
 
     Links are dense for small swarms and CSR from :data:`~swarmtrack.network.links.SPARSE_MIN_UAVS` UAVs on
     (``sparse=None``); ``sparse=True``/``False`` forces the form (``full`` is always dense).
+
+    Delays (:meth:`deliver`): every estimation message on every link takes ``delay`` s, or a time drawn uniformly
+    in ``[delay, delay_max]`` from ``delay_rng`` (its own stream, so the losses are the same draws with or without
+    delays); it arrives at the first estimation step (period ``dt``) at or after it was sent plus its delay, so
+    random delays reorder messages. Flocking beacons are not delayed.
     """
 
     topology: str
@@ -39,8 +48,14 @@ class Channel:
     rng: np.random.Generator | None = None
     sparse: bool | None = None
     outages: tuple = ()
+    delay: float = 0.0
+    delay_max: float = 0.0
+    dt: float = 1.0
+    delay_rng: np.random.Generator | None = None
+    liar: Liar | None = None
 
     def __post_init__(self) -> None:
+        self._in_flight: dict[int, list[Inbox]] = {}  # arrival step -> parts of earlier messages
         self._static = None
         if self.topology != "proximity":
             self._static = static_links(self.topology, self.n, self.edges, sparse=self.sparse)
@@ -52,6 +67,23 @@ class Channel:
         minus the UAVs cut off, minus losses."""
         A = self._static if self._static is not None else self._proximity(positions)
         return drop(self._cut(A, t), self.loss_probability, self.rng)
+
+    def deliver(self, links: Links, outbox: Outbox, t: float) -> Inbox:
+        """This step's inbox: what ``links`` carry of ``outbox`` without delay, plus the earlier messages whose
+        delays end now (:attr:`Inbox.late`, oldest first). Without delays, ``Inbox(links, outbox)``. A
+        :class:`~swarmtrack.network.faults.Liar`'s broadcast is corrupted as it is sent."""
+        if self.liar is not None:
+            outbox = self.liar.corrupt(outbox, t)
+        if self.delay_max <= 0.0:
+            return Inbox(links, outbox)
+        k = round(t / self.dt)
+        wait = np.full(edge_list(links)[0].size, self.delay)
+        if self.delay_max > self.delay:
+            wait += (self.delay_max - self.delay) * self.delay_rng.random(wait.size)
+        steps = np.ceil(wait / self.dt - 1e-9).astype(int)
+        for m in np.unique(steps[steps > 0]):
+            self._in_flight.setdefault(k + int(m), []).append(Inbox(subset(links, steps == m), outbox))
+        return Inbox(subset(links, steps == 0), outbox, tuple(self._in_flight.pop(k, ())))
 
     def _cut(self, links: Links, t: float) -> Links:
         if not self.outages:
@@ -109,6 +141,10 @@ class WorldsChannel:
             return self._static
         return self._blocks([to_dense(c.links(positions[b * self.n:(b + 1) * self.n], t))
                              for b, c in enumerate(self.channels)])
+
+    def deliver(self, links: np.ndarray, outbox: Outbox, t: float) -> Inbox:
+        """A batch has no delays (:func:`swarmtrack.sim.batch.unbatchable`): what the links carry, now."""
+        return Inbox(links, outbox)
 
     def beacon_links(self, positions: np.ndarray, t: float = 0.0) -> np.ndarray:
         """Each world's :meth:`Channel.beacon_links`: the proximity graph within each world (all worlds at once when

@@ -127,6 +127,16 @@ def drop(links: Links, probability: float, rng: np.random.Generator | None) -> L
     return _sorted_csr(links.shape[0], receivers[keep], senders[keep])
 
 
+def subset(links: Links, keep: np.ndarray) -> Links:
+    """The links of :func:`edge_list` order where ``keep`` (one flag per directed link), in the same form."""
+    receivers, senders = edge_list(links)
+    if is_sparse(links):
+        return _sorted_csr(links.shape[0], receivers[keep], senders[keep])
+    out = np.zeros(links.shape, dtype=bool)
+    out[receivers[keep], senders[keep]] = True
+    return out
+
+
 def cut(links: Links, off: np.ndarray) -> Links:
     """``links`` without every link from or to a UAV where ``off`` (N,) is set (a UAV cut off from the network)."""
     if not off.any():

@@ -4,6 +4,11 @@ An outbox is a plain mapping ``name → array (N, ...)``: row ``j`` is what UAV 
 The :class:`Inbox` pairs it with the links that carried it this step; UAV ``i`` reads sender ``j``'s payload only
 where ``links[i, j]`` (a dense boolean array for small swarms, a sparse CSR matrix for large ones), so a
 summable payload (information contributions, L24 eq. 7) is delivered as one (sparse) matrix product.
+
+A channel with delays also delivers messages sent at earlier steps: each send step's payloads with the links that
+deliver them now is one more :class:`Inbox` in ``late`` (:meth:`Inbox.parts`). Payloads carry the time their data
+was taken (``taken``, per sender) where the estimator stamps them; one that ignores stamps fuses every part as if
+current (:meth:`Inbox.sum`).
 """
 
 from __future__ import annotations
@@ -21,10 +26,20 @@ Outbox = dict[str, np.ndarray]
 class Inbox:
     links: Links
     payloads: Outbox
+    #: Messages sent at earlier steps that arrive now, one inbox per send step (a channel with delays).
+    late: tuple[Inbox, ...] = ()
+
+    def parts(self) -> tuple[Inbox, ...]:
+        """This step's messages, then the late ones: each part's payloads come from one send step."""
+        return (self, *self.late)
 
     def sum(self, name: str) -> np.ndarray:
-        """``Σ_{j: links[i, j]} payload_j`` for every receiver i (L24 eq. 7): a (sparse) matrix product."""
-        return neighbour_sum(self.links, self.payloads[name])
+        """``Σ_{j: links[i, j]} payload_j`` for every receiver i (L24 eq. 7): a (sparse) matrix product; with late
+        parts, their sums too (as if current)."""
+        out = neighbour_sum(self.links, self.payloads[name])
+        for part in self.late:
+            out = out + part.sum(name)
+        return out
 
     def edges(self) -> tuple[np.ndarray, np.ndarray]:
         """``(receivers, senders)`` of every link that carried a message, receiver-major."""

@@ -429,12 +429,40 @@ class FootprintSpec(SensorSpec):
             raise ValueError("sensor.kind footprint has no latency or occluders")
 
 
+class LiarSpec(_Strict):
+    """One UAV whose estimation broadcasts lie, its own filter staying honest (network/faults.py)."""
+
+    uav: int = Field(ge=1, description="1-based UAV that lies")
+    mode: Literal["bias", "random"] = Field("bias", description=(
+        "bias: claims the target at its measurement plus offset; random: plus a fresh N(0, sigma² I) each step"))
+    offset: tuple[Length, Length] = Field((2.0, 0.0), description="m, the bias's displacement")
+    sigma: Length = Field(2.0, gt=0, description="m, the random lie's standard deviation per axis")
+    start: Time = Field(0.0, ge=0, description="s, when it starts lying")
+
+
 class NetworkSpec(_Strict):
     topology: Literal["none", "line", "ring", "full", "proximity", "edges"] = "line"
     edges: list[tuple[int, int]] = Field(default_factory=list, description="1-based UAV pairs, with topology: edges")
     r_comm: Length = Field(4.8, gt=0, description="communication range, m (L24, L23; at most 1e6 m)")
     loss_probability: float = Field(0.0, ge=0, lt=1, description="independent loss of each message")
     outages: list[OutageSpec] = Field(default_factory=list, description="UAVs cut off from the network for a while")
+    delay: Time = Field(0.0, ge=0, description=(
+        "s, every estimation message's delay on every link (delivered at the first estimation step at or after "
+        "it; flocking beacons are not delayed)"))
+    liar: LiarSpec | None = Field(None, description="a member whose broadcasts lie (estimator.gating defends)")
+    delay_max: Time | None = Field(None, ge=0, description=(
+        "s, with it each message's delay is uniform in [delay, delay_max], drawn per link and step (reorders "
+        "messages)"))
+
+    @model_validator(mode="after")
+    def _delay_range(self):
+        if self.delay_max is not None and self.delay_max < self.delay:
+            raise ValueError(f"delay_max ({self.delay_max:g} s) is smaller than delay ({self.delay:g} s)")
+        return self
+
+    def delay_bound(self) -> float:
+        """The longest delay a message can take, s."""
+        return self.delay if self.delay_max is None else self.delay_max
 
     @field_validator("edges")
     @classmethod
@@ -489,9 +517,37 @@ class FilterSpec(EstimatorSpec):
     fake_vz_sigma: Speed = Field(0.05, gt=0, description=(
         "FS model: std of the fake vz = 0 measurement, m/s (at most 1e3 m/s)"))
     target: int = Field(1, ge=1, description="which member of the targets group the filter follows (1-based)")
+    delayed_data: Literal["refilter", "as_current"] = Field("refilter", description=(
+        "refilter: fuse each measurement and message at the time it was taken, re-filtering the steps since "
+        "(sensor latency, network delays); as_current: fuse late data as if it were current (L24's filter)"))
+    gating: Literal["none", "chi2", "ci"] = Field("none", description=(
+        "neighbours' contributions: none (L24), chi2 (a χ²-test against the own prediction leaves out "
+        "outliers and records whom), ci (covariance intersection, one neighbour at a time)"))
+    gate_probability: float = Field(0.999, gt=0.5, lt=1, description="the χ²(2) gate's quantile")
+    own_position: Literal["include", "ignore"] = Field("include", description=(
+        "include: the UAV's own navigation error (swarm.nav_position_std, its navigation system's stated "
+        "accuracy) enters each measurement's covariance; ignore: as the papers' filters"))
 
     def followed_target(self) -> int | None:
         return self.target
+
+    def check(self, scenario: Scenario) -> None:
+        if self.gating != "none" and (self.kind == "centralized" or self.share != "information"):
+            raise ValueError("estimator.gating applies to neighbours' information contributions: it needs "
+                             "kind information with share information")
+        if self.delayed_data != "refilter" or not refiltered_steps(scenario):
+            return
+        if self.gating == "ci":
+            raise ValueError("estimator.gating ci is not built for late data (sensor.latency or network.delay): "
+                             "use chi2, or delayed_data: as_current")
+        if self.share != "information" and self.kind != "centralized":
+            raise ValueError("estimator.delayed_data refilter needs estimator.share information (or "
+                             "delayed_data: as_current)")
+        period = 1.0 / scenario.rates.estimation
+        ratio = scenario.sensor.latency / period
+        if abs(ratio - round(ratio)) > 1e-6:
+            raise ValueError(f"sensor.latency ({scenario.sensor.latency:g} s) must be a whole number of estimation "
+                             f"periods ({period:g} s) for estimator.delayed_data refilter (or use as_current)")
 
     @field_validator("q")
     @classmethod
@@ -507,6 +563,12 @@ class FilterSpec(EstimatorSpec):
                 if len(v) != dim:
                     raise ValueError(f"has {len(v)} entries; model {info.data['model']!r} has {dim} states")
         return v
+
+
+def refiltered_steps(scenario: Scenario) -> int:
+    """How many estimation steps late a datum can arrive: the sensor's latency plus the network's delay bound."""
+    late = getattr(scenario.sensor, "latency", 0.0) + scenario.network.delay_bound()
+    return math.ceil(late * scenario.rates.estimation - 1e-6)
 
 
 class InformationSpec(FilterSpec):
@@ -926,6 +988,20 @@ class Scenario(_Strict):
             for v in e:
                 if not 1 <= v <= n:
                     raise ValueError(f"network.edges names UAV {v}, but the swarm has UAVs 1..{n}")
+        if self.network.delay_bound() > 0:
+            if self.network.delay_bound() >= self.run_duration():
+                raise ValueError(f"network.delay_max ({self.network.delay_bound():g} s) is not shorter than the run "
+                                 f"({self.run_duration():g} s)")
+            if self.estimator.kind not in ("information", "centralized"):
+                raise ValueError(f"network.delay needs estimator.kind information: the {self.estimator.kind!r} "
+                                 "estimator does not read time stamps")
+        liar = self.network.liar
+        if liar is not None:
+            if not 1 <= liar.uav <= n:
+                raise ValueError(f"network.liar.uav names UAV {liar.uav}, but the swarm has UAVs 1..{n}")
+            if self.estimator.kind != "information" or getattr(self.estimator, "share", None) != "information":
+                raise ValueError("network.liar corrupts information contributions: it needs estimator.kind "
+                                 "information with share information")
         for k, outage in enumerate(self.network.outages):
             for v in outage.uavs:
                 if not 1 <= v <= n:

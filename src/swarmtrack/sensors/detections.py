@@ -38,6 +38,9 @@ class Detections:
     #: places them, even when nothing was in view (a frame with nothing in it still explored the region; IB21
     #: Sec. 3.2); None for other sensors.
     footprint: np.ndarray | None = None
+    #: The time (s) the measurements were taken, stamped by the sensor: one sensing step is one instant, and a
+    #: sensor with latency delivers it late (``taken`` < the time the onboard code receives it). None: now.
+    taken: float | None = None
 
     def __len__(self) -> int:
         return len(self.owner)

@@ -56,6 +56,8 @@ def unbatchable(scenarios: list[Scenario]) -> str | None:
         return "controller.follow: truth (the oracle is not batched)"
     if first.sensor.occluders or first.network.outages:
         return "occluders and outages name UAVs of one world"
+    if first.network.delay_bound() or first.network.liar is not None:
+        return "network delays and liars (kept per world)"
     return None
 
 

@@ -22,9 +22,11 @@ from swarmtrack.estimation.imm import IMMInformationEstimator
 from swarmtrack.estimation.information import InformationEstimator, RangeBearingUpdate
 from swarmtrack.estimation.measurements import CameraFrameMeasurement, RangeBearingMeasurement
 from swarmtrack.estimation.multimodel import MultiModelEstimator
+from swarmtrack.estimation.refilter import RefilteringEstimator
 from swarmtrack.estimation.setmembership import SetMembershipEstimator
 from swarmtrack.models import make_model
 from swarmtrack.network.channel import Channel
+from swarmtrack.network.faults import Liar
 from swarmtrack.network.links import edge_list, proximity_links
 from swarmtrack.scenarios.loader import ScenarioError
 from swarmtrack.scenarios.schema import (
@@ -45,6 +47,7 @@ from swarmtrack.scenarios.schema import (
     SensorSpec,
     SetMembershipSpec,
     SMMPCSpec,
+    refiltered_steps,
 )
 from swarmtrack.sim.agent import OnboardStack
 from swarmtrack.sim.clock import Clock
@@ -81,12 +84,18 @@ class Context:
 
 
 def _information(spec: FilterSpec, ctx: Context) -> InformationEstimator:
+    """L24's filter; with late data (latency, delays) and ``delayed_data: refilter``, the time-stamp-aware one."""
     s = ctx.scenario.sensor
-    return InformationEstimator(
-        make_model(spec.model, ctx.dt_estimation, spec.q), RangeBearingUpdate(s.sigma_range, s.sigma_bearing, s.update),
+    window = refiltered_steps(ctx.scenario) if spec.delayed_data == "refilter" else 0
+    kind, extra = (RefilteringEstimator, {"window": window}) if window else (InformationEstimator, {})
+    own = ctx.scenario.swarm.nav_position_std if spec.own_position == "include" else 0.0
+    return kind(
+        make_model(spec.model, ctx.dt_estimation, spec.q),
+        RangeBearingUpdate(s.sigma_range, s.sigma_bearing, s.update, own_sigma=own),
         ctx.n_uavs, label=ctx.label_of("targets", spec.target - 1), share=spec.share,
         centralized=spec.kind == "centralized", initial_info=spec.initial_information,
-        fake_vz_sigma=spec.fake_vz_sigma, compiled=ctx.compiled)
+        fake_vz_sigma=spec.fake_vz_sigma, compiled=ctx.compiled, gating=spec.gating,
+        gate_probability=spec.gate_probability, **extra)
 
 
 def _imm(spec: IMMSpec, ctx: Context) -> IMMInformationEstimator:
@@ -346,7 +355,10 @@ def build(scenario: Scenario) -> Simulation:
     net = scenario.network
     channel = Channel(net.topology, n, net.r_comm, tuple((a - 1, b - 1) for a, b in net.edges),
                       net.loss_probability, stream(seed, "channel"),
-                      outages=tuple((tuple(u - 1 for u in o.uavs), o.window) for o in net.outages))
+                      outages=tuple((tuple(u - 1 for u in o.uavs), o.window) for o in net.outages),
+                      delay=net.delay, delay_max=net.delay_bound(), dt=dt_est, delay_rng=stream(seed, "channel/delay"),
+                      liar=None if net.liar is None else Liar(net.liar.uav - 1, net.liar.mode, net.liar.offset,
+                                                              net.liar.sigma, net.liar.start, stream(seed, "liar")))
     meta = run_meta(scenario, world.slices, flown, dt_est)
     return Simulation(world, OnboardStack(estimator, controller, guide), channel, clock, meta,
                       _monitors(world, estimator))

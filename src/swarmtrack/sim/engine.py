@@ -46,7 +46,7 @@ def step_loop(sim: Simulation, recorder: Recorder, progress: Callable[[float], N
         with np.errstate(over="ignore", invalid="ignore"):  # a diverging filter is reported by fuse()
             outbox = stack.estimator.share(t, nav, detections)
             links = channel.links(positions, t)
-            stack.estimator.fuse(t, detections, Inbox(links, outbox))
+            stack.estimator.fuse(t, detections, channel.deliver(links, outbox, t))
             posteriors = publish(t) if publish is not None else None
             if posteriors:  # the second message of the step travels over the links that carried the first
                 stack.estimator.combine(t, Inbox(links, posteriors))

@@ -10,6 +10,7 @@ Onboard code never imports this module, and this module never imports the scenar
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -409,12 +410,16 @@ class World:
                     noise[b, :, j] = self._sensor_rngs[label].standard_normal((n, 2))
             det, source = self.sensor.detect_worlds(then[sensed[labels]], uavs.reshape(self.worlds, n, 2),
                                                     stamped.reshape(self.worlds, n, 2), noise, labels)
-            return det, sensed[source]
+            return self._stamped(det), sensed[source]
         noise = np.empty((len(uavs), len(sensed), 2))
         for j, rng in enumerate(self._sensor_rngs):
             noise[:, j] = rng.standard_normal((len(uavs), 2))
         det, source = self.sensor.detect(then[sensed], uavs, stamped, noise, self.t, aim)
-        return det, sensed[source]
+        return self._stamped(det), sensed[source]
+
+    def _stamped(self, det):
+        """The detections with the time they were taken (the latency buffer's age before now)."""
+        return dataclasses.replace(det, taken=(self._tick - (len(self._history) - 1)) * self.dt)
 
     # --- physics -----------------------------------------------------------------------------------------
     def advance(self, commands: dict[str, np.ndarray], ticks: int) -> None:

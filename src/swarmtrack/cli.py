@@ -130,20 +130,28 @@ def run_cmd(scenario: str, out: Path | None, overwrite: bool, seed: int | None, 
 @click.option("--no-figures", is_flag=True, help="skip the paper's figures")
 @click.option("--cluster", default=None, metavar="ADDRESS",
               help="run on Dask: tcp://HOST:PORT of a running scheduler, or 'local' for a LocalCluster of --workers")
+@click.option("--figure", default=None, metavar="NAME",
+              help="only one figure's experiments, figures and claims, for a paper that groups them (" + "; ".join(
+                  f"{k}: {', '.join(p.figure_groups)}" for k, p in sorted(PAPERS.items()) if p.figure_groups) + ")")
 def reproduce_cmd(paper: str, out: Path | None, runs: int, workers: int | None, overrides: tuple[str, ...],
-                  no_figures: bool, cluster: str | None) -> None:
+                  no_figures: bool, cluster: str | None, figure: str | None) -> None:
     """Run a paper's experiments over several seeds and check its claims.
 
     Every finished run is kept in OUT/runs and reused next time (keyed by its resolved scenario and the
-    swarmtrack version); Ctrl-C stops at once; the two reports are written together or not at all."""
-    from swarmtrack.analysis.reproduce import reproduce
+    swarmtrack version); Ctrl-C stops at once; the two reports are written together or not at all (with
+    --figure N: reproduction-figN.json and .md)."""
+    from swarmtrack.analysis.reproduce import figure_experiments, reproduce
     from swarmtrack.outputs import Terminated, terminate_as_exception
 
+    try:
+        figure_experiments(paper, figure)
+    except ValueError as exc:
+        raise UsageFailure(str(exc)) from None
     out = out or Path("runs") / f"reproduce-{paper}"
     try:
         with terminate_as_exception():
             reproduce(paper, out, runs=runs, workers=workers, figures=not no_figures, overrides=overrides,
-                      cluster=cluster)
+                      cluster=cluster, figure=figure)
     except ScenarioError as exc:
         raise UsageFailure(str(exc)) from None
     except (KeyboardInterrupt, Terminated):

@@ -1101,12 +1101,13 @@ def plot_phi_bands(results: Mapping[str, Sequence], path: str | Path, quantities
 def plot_phi_parts_bands(results: Mapping[str, Sequence], path: str | Path, title: str | None = None) -> Path:
     """IB21 Fig. 8 right / Fig. 10 right as bands: one panel per part of Φ̄, φ(X̄) (unexplored), φ(Xᵁ)
     (unidentified) and φ(X) (identified), each the mean over the UAVs (m²), with per setting (``results``: label →
-    runs, as :func:`plot_phi_bands`) the mean line and ±1 std band over the runs; the panels share their y axis."""
+    runs, as :func:`plot_phi_bands`) the mean line and ±1 std band over the runs; each panel has its own y scale
+    (φ(Xᵁ) and φ(X) are often a hundredth of φ(X̄))."""
     if not results:
         raise ValueError("plot_phi_parts_bands needs at least one setting")
     parts = tuple(metrics.PHI_PARTS.values())
     fig = _new_figure((15.0, 4.8))
-    axes = fig.subplots(1, len(parts), sharey=True)
+    axes = fig.subplots(1, len(parts))
     for ax, q in zip(axes, parts, strict=True):
         entries = _draw_phi_bands(ax, results, (q,))
         _band_axes(ax, (q,), entries)

@@ -11,7 +11,8 @@ small), each UAV's footprint, the true targets and decoys, and Φ̄.
 (what at least one UAV has not yet explored), Xᵁ is ∪_i Xᵁ_i, X is ∪_i ∪_j X_{i,j}. Every UAV's sets lie inside it,
 so every true target is inside the drawn union while the guarantee holds, whichever UAV one asks. ``uav=k`` shows UAV
 k's own sets instead (its Φ_k is the area of their union). Over the sets: each UAV's footprint (its colour) and path
-so far, the true targets (green dots) and decoys (grey crosses). The title gives t, Φ̄ (eq. 11) and the view.
+over the last :data:`TRAIL` s (the whole path of a 400 s mission hides the sets), the true targets (green dots) and
+decoys (grey crosses). The title gives t, Φ̄ (eq. 11) and the view.
 
 Files are written beside their destination under a hidden temporary name and renamed into place when complete
 (an interruption leaves nothing); an existing file is replaced only with ``overwrite``. GIF through matplotlib's
@@ -36,6 +37,7 @@ __all__ = ["FORMATS", "AnimationError", "Frame", "FrameCapture", "check_destinat
 FORMATS = (".gif", ".mp4")
 FPS = 10  #: frames shown per second of the file (a frame per second of the run: 10× real time)
 DPI = 80
+TRAIL = 30.0  #: s of each UAV's path drawn behind it
 SET_STYLE = {"unexplored": ("tab:blue", 0.22, r"$\bar X$ unexplored"),
              "unidentified": ("tab:orange", 0.55, r"$X^U$ detected, unidentified"),
              "identified": ("tab:red", 0.65, r"$X$ identified targets")}
@@ -173,7 +175,7 @@ class _Canvas:
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")
         handles = [Patch(facecolor=c, alpha=a, label=label) for c, a, label in SET_STYLE.values()]
-        handles += [Patch(facecolor="none", edgecolor="black", label="footprints, UAV paths"),
+        handles += [Patch(facecolor="none", edgecolor="black", label=f"footprints, paths (last {TRAIL:g} s)"),
                     Line2D([], [], ls="none", marker="o", color=TARGET_COLOR, mec="black", label="targets (true)"),
                     Line2D([], [], ls="none", marker="x", mew=2.0, color=DECOY_COLOR, label="decoys (true)")]
         ax.legend(handles=handles, fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.09), ncol=3)
@@ -194,7 +196,8 @@ class _Canvas:
                 color, alpha, _ = SET_STYLE[name]
                 self.moving.append(ax.add_artist(patch_from_polygon(poly, facecolor=color, alpha=alpha,
                                                                    edgecolor=color, lw=0.4)))
-        path = np.asarray(self.capture.path[:frame.step])  # (k, N, 2)
+        trail = int(round(TRAIL / self.capture.sim.clock.dt_estimation))
+        path = np.asarray(self.capture.path[max(0, frame.step - trail):frame.step])  # (k, N, 2)
         for i, fp in enumerate(frame.footprints):
             color = agent_color(i)
             self.moving.append(ax.add_artist(patch_from_polygon(fp, facecolor="none", edgecolor=color, lw=1.2)))

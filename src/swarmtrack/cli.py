@@ -44,7 +44,7 @@ def scenarios_cmd() -> None:
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="output folder (default: runs/<name>-seed<seed>-<hash of the resolved scenario>)")
 @click.option("--overwrite", is_flag=True,
-              help="replace an earlier run in --out (only the files its manifest.json lists)")
+              help="replace an earlier run in --out (only the files its manifest.json lists), and the --animate file")
 @click.option("--seed", type=int, default=None, help="override the scenario's seed")
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
               help="override a scenario key, e.g. --set network.topology=full (repeatable)")
@@ -52,15 +52,25 @@ def scenarios_cmd() -> None:
 @click.option("--strict", is_flag=True, help="exit with code 3 when the run has warnings (lost target, ...)")
 @click.option("--format", "formats", type=click.Choice(["parquet", "csv"]), multiple=True, default=("parquet",),
               show_default=True, help="time series formats: the Parquet recording always, csv adds timeseries/*.csv")
+@click.option("--animate", type=click.Path(dir_okay=False, path_type=Path), default=None, metavar="FILE.gif|FILE.mp4",
+              help="also write an animation of the sets, footprints, paths, targets and decoys (set-membership "
+                   "scenarios; .mp4 needs ffmpeg); an existing file is replaced only with --overwrite")
+@click.option("--animate-every", type=click.FloatRange(min=0, min_open=True), default=None, metavar="SECONDS",
+              help="simulated time between frames  [default: 1]")
+@click.option("--animate-uav", type=click.IntRange(min=1), default=None, metavar="N",
+              help="show UAV N's own sets (default: the union of every UAV's sets)")
 def run_cmd(scenario: str, out: Path | None, overwrite: bool, seed: int | None, overrides: tuple[str, ...],
-            no_plots: bool, strict: bool, formats: tuple[str, ...]) -> None:
+            no_plots: bool, strict: bool, formats: tuple[str, ...], animate: Path | None,
+            animate_every: float | None, animate_uav: int | None) -> None:
     """Run one closed-loop simulation of SCENARIO (a built-in name or a YAML file).
 
     Writes scenario.yaml (resolved), metrics.json, recording/ (Parquet; load it with
     swarmtrack.sim.recorder.Recording.load), manifest.json and, unless --no-plots, PNG figures. An existing
-    non-empty --out is refused unless it holds an earlier run and --overwrite is given."""
+    non-empty --out is refused unless it holds an earlier run and --overwrite is given. With --animate, also the
+    animation (a frame every --animate-every s of simulated time, played at 10 frames per second)."""
     from rich.progress import Progress
 
+    from swarmtrack.analysis.animation import AnimationError
     from swarmtrack.analysis.metrics import summary
     from swarmtrack.analysis.report import format_rmse_table
     from swarmtrack.analysis.reproduce import run_key
@@ -70,12 +80,20 @@ def run_cmd(scenario: str, out: Path | None, overwrite: bool, seed: int | None, 
 
     try:
         scn = load_scenario(scenario, list(overrides), seed)
+        _check_animation(scn, animate, animate_every, animate_uav, overwrite)
         out = out or Path("runs") / f"{scn.name}-seed{scn.seed}-{run_key(scn)[:8]}"
         with run_folder(out, overwrite) as tmp:
             with Progress(transient=True, disable=not sys.stderr.isatty()) as bar:
                 task = bar.add_task(f"simulating {scn.name}", total=1.0)
-                rec = simulate(scn, progress=lambda done: bar.update(task, completed=done),
-                               record_to=tmp / "recording")
+                if animate is None:
+                    rec = simulate(scn, progress=lambda done: bar.update(task, completed=done),
+                                   record_to=tmp / "recording")
+                else:
+                    from swarmtrack.analysis.animation import simulate_animated
+
+                    rec, capture = simulate_animated(scn, animate_every or 1.0, animate_uav,
+                                                     progress=lambda done: bar.update(task, completed=done),
+                                                     record_to=tmp / "recording")
             metrics = {**summary(rec), "written_by": version()}
             (tmp / "scenario.yaml").write_text(f"# resolved by {version()}\n"
                                                + yaml.safe_dump(scn.model_dump(mode="json"), sort_keys=False))
@@ -86,7 +104,14 @@ def run_cmd(scenario: str, out: Path | None, overwrite: bool, seed: int | None, 
                 from swarmtrack.analysis.plots import save_run_figures
 
                 save_run_figures(rec, tmp)
-    except (ScenarioError, FilterDivergence, OutputError) as exc:
+            if animate is not None:
+                from swarmtrack.analysis.animation import render
+
+                with Progress(transient=True, disable=not sys.stderr.isatty()) as bar:
+                    task = bar.add_task(f"animating {len(capture.frames)} frames", total=1.0)
+                    render(capture, animate, f"{scn.name}, seed {scn.seed}", overwrite,
+                           progress=lambda done: bar.update(task, completed=done))
+    except (ScenarioError, FilterDivergence, OutputError, AnimationError) as exc:
         raise UsageFailure(str(exc)) from None
     except (KeyboardInterrupt, Terminated):
         click.echo("interrupted; nothing was written", err=True)
@@ -112,11 +137,31 @@ def run_cmd(scenario: str, out: Path | None, overwrite: bool, seed: int | None, 
     if offset is not None and math.isfinite(offset):
         facts.append(f"spacing offset {offset:.3f} m")
     click.echo(" | ".join([*facts, f"written to {out}"]))
+    if animate is not None:
+        click.echo(f"animation: {len(capture.frames)} frames written to {animate}")
     for w in metrics["warnings"]:
         click.echo(f"warning: {w['message']}", err=True)
     if strict and metrics["warnings"]:
         click.echo(f"--strict: {len(metrics['warnings'])} warning(s)", err=True)
         sys.exit(3)
+
+
+def _check_animation(scn, animate: Path | None, every: float | None, uav: int | None, overwrite: bool) -> None:
+    """Refuse, before anything runs, an animation that cannot be made: options without --animate, a scenario
+    without set-membership estimator, a UAV it does not have, a destination that cannot be written
+    (:func:`swarmtrack.analysis.animation.check_destination`)."""
+    from swarmtrack.analysis.animation import check_destination
+
+    if animate is None:
+        if every is not None or uav is not None:
+            raise UsageFailure("--animate-every and --animate-uav need --animate FILE")
+        return
+    if scn.estimator.kind != "setmembership":
+        raise UsageFailure(f"--animate: {scn.name} has estimator.kind {scn.estimator.kind}; the animation shows the "
+                           "sets of a set-membership estimator (estimator.kind: setmembership, e.g. ib21-fleet-6)")
+    if uav is not None and uav > scn.swarm.n_uavs:
+        raise UsageFailure(f"--animate-uav {uav}: {scn.name} has {scn.swarm.n_uavs} UAVs")
+    check_destination(animate, overwrite)
 
 
 @main.command("reproduce", epilog="\b\nPapers:\n" + "\n".join(f"  {k}  {p.title}" for k, p in sorted(PAPERS.items())))
@@ -130,20 +175,28 @@ def run_cmd(scenario: str, out: Path | None, overwrite: bool, seed: int | None, 
 @click.option("--no-figures", is_flag=True, help="skip the paper's figures")
 @click.option("--cluster", default=None, metavar="ADDRESS",
               help="run on Dask: tcp://HOST:PORT of a running scheduler, or 'local' for a LocalCluster of --workers")
+@click.option("--figure", default=None, metavar="NAME",
+              help="only one figure's experiments, figures and claims, for a paper that groups them (" + "; ".join(
+                  f"{k}: {', '.join(p.figure_groups)}" for k, p in sorted(PAPERS.items()) if p.figure_groups) + ")")
 def reproduce_cmd(paper: str, out: Path | None, runs: int, workers: int | None, overrides: tuple[str, ...],
-                  no_figures: bool, cluster: str | None) -> None:
+                  no_figures: bool, cluster: str | None, figure: str | None) -> None:
     """Run a paper's experiments over several seeds and check its claims.
 
     Every finished run is kept in OUT/runs and reused next time (keyed by its resolved scenario and the
-    swarmtrack version); Ctrl-C stops at once; the two reports are written together or not at all."""
-    from swarmtrack.analysis.reproduce import reproduce
+    swarmtrack version); Ctrl-C stops at once; the two reports are written together or not at all (with
+    --figure N: reproduction-figN.json and .md)."""
+    from swarmtrack.analysis.reproduce import figure_experiments, reproduce
     from swarmtrack.outputs import Terminated, terminate_as_exception
 
+    try:
+        figure_experiments(paper, figure)
+    except ValueError as exc:
+        raise UsageFailure(str(exc)) from None
     out = out or Path("runs") / f"reproduce-{paper}"
     try:
         with terminate_as_exception():
             reproduce(paper, out, runs=runs, workers=workers, figures=not no_figures, overrides=overrides,
-                      cluster=cluster)
+                      cluster=cluster, figure=figure)
     except ScenarioError as exc:
         raise UsageFailure(str(exc)) from None
     except (KeyboardInterrupt, Terminated):

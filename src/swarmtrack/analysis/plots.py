@@ -1048,17 +1048,10 @@ def phi_bands(runs, quantity: str) -> dict | None:
     return series_band(table, quantity)
 
 
-def plot_phi_bands(results: Mapping[str, Sequence], path: str | Path, quantities: Sequence[str] = ("phi_bar",),
-                   title: str | None = None) -> Path:
-    """IB21 Figs. 8-11: per setting (``results``: label → runs, each a :class:`Recording`, its summary or its
-    ``series``) the mean line and a ±1 std band over the runs (:func:`plot_band`) of each quantity of
-    :func:`~swarmtrack.analysis.metrics.series`: ``phi_bar`` (Figs. 8 left, 9, 10 left, 11 left), the parts
-    ``phi_unexplored``, ``phi_unidentified``, ``phi_identified`` (Figs. 8 right, 10 right) or ``solve_time``
-    (Fig. 11 right). One colour per setting, one line style per quantity."""
-    if not results:
-        raise ValueError("plot_phi_bands needs at least one setting")
-    fig = _new_figure((9.0, 5.0))
-    ax = fig.subplots()
+def _draw_phi_bands(ax: Axes, results: Mapping[str, Sequence], quantities: Sequence[str]) -> int:
+    """Per setting of ``results`` (label → runs) and quantity, the mean line and ±1 std band over the runs
+    (:func:`phi_bands`, :func:`plot_band`) on ``ax``: one colour per setting, one line style per quantity. Returns
+    the bands drawn (a setting whose runs recorded none of ``quantities`` draws none)."""
     entries = 0
     for k, (label, runs) in enumerate(results.items()):
         for j, q in enumerate(quantities):
@@ -1071,8 +1064,11 @@ def plot_phi_bands(results: Mapping[str, Sequence], path: str | Path, quantities
             line = plot_band(ax, band["t"], mean, std, f"{name} ({band['runs']} runs)", color=agent_color(k))
             line.set_linestyle(_QUANTITY_STYLES[j % len(_QUANTITY_STYLES)])
             entries += 1
-    if not entries:
-        ax.text(0.5, 0.5, f"no run recorded {', '.join(quantities)}", transform=ax.transAxes, ha="center")
+    return entries
+
+
+def _band_axes(ax: Axes, quantities: Sequence[str], entries: int) -> None:
+    """Axis labels, grid and legend of a panel of bands (:func:`_draw_phi_bands`)."""
     ax.set_xlabel("t [s]")
     ax.set_ylabel(PHI_LABELS["solve_time"] if tuple(quantities) == ("solve_time",)
                   else r"area, mean over UAVs [m$^2$]")
@@ -1080,13 +1076,48 @@ def plot_phi_bands(results: Mapping[str, Sequence], path: str | Path, quantities
     ax.grid(True, lw=0.4, alpha=0.5)
     if entries:
         _legend(ax, entries, outside=entries > 6)
+    else:
+        ax.text(0.5, 0.5, f"no run recorded {', '.join(quantities)}", transform=ax.transAxes, ha="center")
+
+
+def plot_phi_bands(results: Mapping[str, Sequence], path: str | Path, quantities: Sequence[str] = ("phi_bar",),
+                   title: str | None = None) -> Path:
+    """IB21 Figs. 8-11: per setting (``results``: label → runs, each a :class:`Recording`, its summary or its
+    ``series``) the mean line and a ±1 std band over the runs (:func:`plot_band`) of each quantity of
+    :func:`~swarmtrack.analysis.metrics.series`: ``phi_bar`` (Figs. 8 left, 9, 10 left, 11 left), the parts
+    ``phi_unexplored``, ``phi_unidentified``, ``phi_identified`` (Figs. 8 right, 10 right) or ``solve_time``
+    (Fig. 11 right). One colour per setting, one line style per quantity."""
+    if not results:
+        raise ValueError("plot_phi_bands needs at least one setting")
+    fig = _new_figure((9.0, 5.0))
+    ax = fig.subplots()
+    entries = _draw_phi_bands(ax, results, quantities)
+    _band_axes(ax, quantities, entries)
     what = ", ".join(PHI_LABELS.get(q, q) for q in quantities)
     ax.set_title(title or f"{what}: mean, \u00b11 std over runs", fontsize=10)
     return _save(fig, path)
 
 
+def plot_phi_parts_bands(results: Mapping[str, Sequence], path: str | Path, title: str | None = None) -> Path:
+    """IB21 Fig. 8 right / Fig. 10 right as bands: one panel per part of Φ̄, φ(X̄) (unexplored), φ(Xᵁ)
+    (unidentified) and φ(X) (identified), each the mean over the UAVs (m²), with per setting (``results``: label →
+    runs, as :func:`plot_phi_bands`) the mean line and ±1 std band over the runs; each panel has its own y scale
+    (φ(Xᵁ) and φ(X) are often a hundredth of φ(X̄))."""
+    if not results:
+        raise ValueError("plot_phi_parts_bands needs at least one setting")
+    parts = tuple(metrics.PHI_PARTS.values())
+    fig = _new_figure((15.0, 4.8))
+    axes = fig.subplots(1, len(parts))
+    for ax, q in zip(axes, parts, strict=True):
+        entries = _draw_phi_bands(ax, results, (q,))
+        _band_axes(ax, (q,), entries)
+        ax.set_title(PHI_LABELS[q], fontsize=10)
+    fig.suptitle(title or "Parts of the uncertainty: mean, \u00b11 std over runs", fontsize=10)
+    return _save(fig, path)
+
+
 __all__ += ["PHI_LABELS", "plot_uncertainty", "plot_uncertainty_per_uav", "plot_search_map", "phi_bands",
-            "plot_phi_bands"]
+            "plot_phi_bands", "plot_phi_parts_bands"]
 
 
 __all__ += ["MAX_POINTS", "slot_distances", "plot_formation_paths", "plot_formation_xy_time", "plot_slot_distance",

@@ -27,8 +27,8 @@ from swarmtrack.analysis.papers import PAPERS, Claim
 from swarmtrack.outputs import dump_json, version, write_together
 from swarmtrack.scenarios import Scenario, load_scenario
 
-__all__ = ["CACHE_FORMAT", "Claim", "cache_path", "package_version", "read_cached", "reproduce", "run_all",
-           "run_key", "run_one"]
+__all__ = ["CACHE_FORMAT", "Claim", "cache_path", "figure_experiments", "package_version", "read_cached",
+           "reproduce", "run_all", "run_key", "run_one"]
 
 #: Version of the cache file layout; a file with another one is run again.
 CACHE_FORMAT = 1
@@ -241,26 +241,45 @@ def _run_all(resolved: dict, cache: Path, workers: int | None, on_done, warn, cl
     return results
 
 
+def figure_experiments(paper: str, figure: str | None = None) -> tuple[str, ...]:
+    """The experiments a reproduction of ``paper`` runs: all of them, or those of one of its figure groups
+    (:attr:`Paper.figure_groups`). ValueError naming the choices for a figure the paper does not declare."""
+    spec = PAPERS[paper]
+    if figure is None:
+        return spec.experiments
+    if not spec.figure_groups:
+        raise ValueError(f"--figure: {paper} draws no figures from its runs by group; run it without --figure")
+    if figure not in spec.figure_groups:
+        raise ValueError(f"--figure {figure}: {paper} has figures {', '.join(spec.figure_groups)}")
+    return spec.figure_groups[figure]
+
+
 def reproduce(paper: str, out: Path, runs: int = 10, workers: int | None = None, quiet: bool = False,
-              figures: bool = True, overrides: Sequence[str] = (), cluster: str | None = None) -> dict:
+              figures: bool = True, overrides: Sequence[str] = (), cluster: str | None = None,
+              figure: str | None = None) -> dict:
     """Run, compare, check claims; writes ``reproduction.json`` and ``reproduction.md`` into ``out``, together
-    or not at all. ``overrides`` (``dotted.key=value``) apply to every experiment's scenario."""
+    or not at all. ``overrides`` (``dotted.key=value``) apply to every experiment's scenario. ``figure``: only the
+    experiments and figures of that figure group (:func:`figure_experiments`) and the claims on them, reported in
+    ``reproduction-fig<figure>.json`` and ``.md``."""
     from rich.console import Console
     from rich.progress import Progress
 
     spec = PAPERS[paper]
-    jobs = [(name, seed) for name in spec.experiments for seed in range(1, runs + 1)]
+    experiments = figure_experiments(paper, figure)
+    jobs = [(name, seed) for name in experiments for seed in range(1, runs + 1)]
     console = Console(quiet=quiet)
     with Progress(console=console, transient=True, disable=quiet) as progress:
         task = progress.add_task(f"reproduce {paper}", total=len(jobs))
         results = run_all(jobs, out / "runs", workers, on_done=lambda: progress.advance(task), overrides=overrides,
                           cluster=cluster)
-    by_scenario = {name: [results[(name, s)] for s in range(1, runs + 1)] for name in spec.experiments}
+    by_scenario = {name: [results[(name, s)] for s in range(1, runs + 1)] for name in experiments}
     diverged = {name: sum("diverged" in r for r in rs) for name, rs in by_scenario.items()}
     claims, table_md, numbers = spec.analyse(by_scenario)
-    report = {"paper": paper, "runs": runs, "overrides": list(overrides), "written_by": version(),
+    report = {"paper": paper, "runs": runs, "figure": figure, "overrides": list(overrides), "written_by": version(),
               "diverged": diverged, "numbers": numbers, "claims": [c.as_dict() for c in claims]}
-    lines = [f"# Reproduction of {paper.upper()} ({runs} seeds per experiment)", "", table_md, "", "## Claims", ""]
+    only = "" if figure is None else f", Fig. {figure}'s experiments only"
+    lines = [f"# Reproduction of {paper.upper()} ({runs} seeds per experiment{only})", "", table_md, "", "## Claims",
+             ""]
     lines += [f"- **{'holds' if c.holds else 'does NOT hold'}** `{c.id}`: {c.text}. Paper: {_fmt(c.paper)}; "
               f"project: {_fmt(c.project)}." for c in claims]
     if any(diverged.values()):
@@ -268,10 +287,15 @@ def reproduce(paper: str, out: Path, runs: int = 10, workers: int | None = None,
     if overrides:
         lines += ["", "Overrides: " + ", ".join(f"`{o}`" for o in overrides)]
     if figures:
-        drawn = spec.figures(out, overrides)
+        if spec.figure_groups:  # drawn from the runs
+            drawn = spec.figures(out, overrides, by_scenario, figure)
+            what = f"Figures (mean, \u00b11 std over {runs} seeds): "
+        else:
+            drawn, what = spec.figures(out, overrides), "Figures (seed 1): "
         if drawn:
-            lines += ["", "Figures (seed 1): " + ", ".join(p.name for p in drawn)]
-    write_together({out / "reproduction.json": dump_json(report), out / "reproduction.md": "\n".join(lines) + "\n"})
+            lines += ["", what + ", ".join(p.name for p in drawn)]
+    stem = "reproduction" if figure is None else f"reproduction-fig{figure}"  # a part never replaces the whole
+    write_together({out / f"{stem}.json": dump_json(report), out / f"{stem}.md": "\n".join(lines) + "\n"})
     console.print("\n".join(lines))
     return report
 

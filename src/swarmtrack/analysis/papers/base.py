@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +22,10 @@ class Paper:
     experiments: tuple[str, ...]  #: built-in scenario names, each run over seeds 1..runs
     analyse: Analyse
     figures: Callable[..., list[Path]]  #: ``figures(out, overrides)``: the paper's figures (seed 1) into a folder
+    #: Figures drawn from the runs themselves, by name (``"8"``) → the experiments they need. A paper that declares
+    #: them is called ``figures(out, overrides, by_scenario, figure)`` with its runs, and ``swarmtrack reproduce
+    #: --figure NAME`` runs only that group's experiments (its ``analyse`` then gets only those, and must cope).
+    figure_groups: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
 
 
 @dataclass

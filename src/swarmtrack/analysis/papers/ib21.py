@@ -6,11 +6,16 @@ the runs' ``set_membership`` metrics (:mod:`swarmtrack.analysis.metrics`): wheth
 Φ̄ and of its parts (from the runs' series), guarantee violations and empty-set alarms, the MPC's solve time. The
 mismatch values of Fig. 10 and the ranges of Fig. 11 are ours (the legends are lost; docs/set-membership.md).
 A full study is 16 settings × 30 runs of 400 s: use ``--runs`` and ``--set duration=…`` for a shorter one.
+
+The figures (:data:`FIGURES`) are Figs. 8-11 drawn from the same runs: per setting the mean line and ±1 std band over
+the runs of each run's ``series`` (Φ̄, its parts, the fleet's solve time per plan). ``reproduce ib21 --figure 8``
+runs only the experiments one figure needs (:data:`FIGURE_GROUPS`) and checks only the claims on them.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +34,14 @@ EXPERIMENTS = tuple(dict.fromkeys([*FLEET, *SPEED, *DECOYS, *NOISE, *COMM]))
 MATCHED = tuple(e for e in EXPERIMENTS if e != "ib21-noise-under")
 #: IB21 Fig. 11 right: 2 and 3 UAVs take about 3 and 5 times one UAV's control time.
 PAPER_TIME_RATIOS = {2: 3.0, 3: 5.0}
+
+
+#: The experiments each claim of :func:`analyse` reads (the guarantee: whichever ran, so always kept).
+CLAIM_NEEDS = {"ib21-fig8-three-or-fewer": ("ib21-fleet-2", "ib21-fleet-3"), "ib21-fig8-four-some": ("ib21-fleet-4",),
+               "ib21-fig8-five-or-more": ("ib21-fleet-5", "ib21-fleet-6"), "ib21-fig9-speed": tuple(SPEED),
+               "ib21-fig9-decoys": tuple(DECOYS), "ib21-fig10-over-slowest": tuple(NOISE),
+               "ib21-fig10-under-lost": ("ib21-noise-under",), "ib21-guarantee": (), "ib21-fig11-range": tuple(COMM),
+               "ib21-fig11-compute": tuple(FLEET)}
 
 
 def _sm(runs: list[dict]) -> list[dict]:
@@ -56,7 +69,10 @@ def _fraction(ok: int, n: int) -> str:
 
 
 def analyse(by_scenario: dict[str, list[dict]]) -> tuple[list[Claim], str, dict]:
-    """The statements of Sec. 6 on Figs. 8-11 beside the project's numbers."""
+    """The statements of Sec. 6 on Figs. 8-11 beside the project's numbers. Given only some experiments (one figure
+    group: ``reproduce --figure``), only the claims whose experiments all ran (:data:`CLAIM_NEEDS`) and their rows."""
+    ran = [e for e in EXPERIMENTS if e in by_scenario]
+    by_scenario = {e: by_scenario.get(e, []) for e in EXPERIMENTS}
     clear = {e: cleared(by_scenario[e]) for e in EXPERIMENTS}
     phi = {e: time_mean(by_scenario[e], "phi_bar") for e in EXPERIMENTS}
     claims = []
@@ -128,8 +144,9 @@ def analyse(by_scenario: dict[str, list[dict]]) -> tuple[list[Claim], str, dict]
                         "about 3× and 5× one UAV's time)", PAPER_TIME_RATIOS,
                         {"fleet total per plan (s)": solve}, linear))
 
+    claims = [c for c in claims if set(CLAIM_NEEDS[c.id]) <= set(ran)]
     rows = []
-    for e in EXPERIMENTS:
+    for e in ran:
         sm = _sm(by_scenario[e])
         rows.append([f"`{e}`", _fraction(*clear[e]), "—" if phi[e] is None else f"{phi[e]:.0f}",
                      str(int(sum(s["guarantee_violations"] for s in sm))),
@@ -137,16 +154,85 @@ def analyse(by_scenario: dict[str, list[dict]]) -> tuple[list[Claim], str, dict]
     md = "\n".join(["### IB21 Sec. 6: per setting", "",
                     markdown_table(["scenario", "X̄ cleared", "time-mean Φ̄ (m²)", "guarantee violations",
                                     "empty-set alarms", "runs"], rows)])
-    numbers = {"cleared": {e: list(clear[e]) for e in EXPERIMENTS}, "phi_bar_time_mean": phi,
-               "decoy_parts": parts, "solve_time_fleet_mean": solve}
+    numbers = {"cleared": {e: list(clear[e]) for e in ran}, "phi_bar_time_mean": {e: phi[e] for e in ran},
+               "decoy_parts": {e: parts[e] for e in DECOYS if e in ran},
+               "solve_time_fleet_mean": {FLEET[e]: solve[FLEET[e]] for e in FLEET if e in ran}}
     return claims, md, numbers
 
 
-def figures(out: Path, overrides: Sequence[str] = ()) -> list[Path]:
-    """None yet: the paper's figures are bands over runs (Figs. 8-11); ``swarmtrack sweep`` and ``summarize`` draw
-    Φ̄ and its parts as bands over seeds today (docs/set-membership.md)."""
-    return []
+@dataclass(frozen=True)
+class Panel:
+    """One panel of IB21 Figs. 8-11: the file ``name`` (``.png``), its ``title``, the settings drawn (legend label →
+    experiment) and the time series of the runs' ``series`` drawn for each (:func:`swarmtrack.analysis.metrics.series`);
+    ``parts``: one sub-panel per part of Φ̄ instead (:func:`swarmtrack.analysis.plots.plot_phi_parts_bands`)."""
+
+    name: str
+    title: str
+    settings: dict[str, str]
+    quantities: tuple[str, ...] = ("phi_bar",)
+    parts: bool = False
+
+
+_PARTS_OF = (2, 4, 6)  # Fig. 8 right: the parts for 2, 4 and 6 UAVs
+_BAND = "mean, \u00b11 std over runs"
+#: IB21 Figs. 8-11 by figure (the ``reproduce --figure`` names), each a tuple of panels drawn from the runs.
+FIGURES: dict[str, tuple[Panel, ...]] = {
+    "8": (Panel("ib21-fig8-left", f"IB21 Fig. 8 left: $\\bar\\Phi$ per fleet size (3 targets, 3 decoys; {_BAND})",
+                {f"$N_u$ = {n}": e for e, n in FLEET.items()}),
+          Panel("ib21-fig8-right", f"IB21 Fig. 8 right: the parts of $\\bar\\Phi$ for 2, 4 and 6 UAVs ({_BAND})",
+                {f"$N_u$ = {n}": e for e, n in FLEET.items() if n in _PARTS_OF}, parts=True)),
+    "9": (Panel("ib21-fig9-left", f"IB21 Fig. 9 left: $\\bar\\Phi$ per target speed (6 UAVs, 3 decoys; {_BAND})",
+                {"$V^t$ = 1.0 m/s": "ib21-fleet-6", **{f"$V^t$ = {v} m/s": e for e, v in SPEED.items()}}),
+          Panel("ib21-fig9-right", f"IB21 Fig. 9 right: $\\bar\\Phi$ per number of decoys (4 UAVs; {_BAND})",
+                {f"{n} decoys": e for e, n in DECOYS.items()}),
+          Panel("ib21-fig9-right-parts", f"IB21 Fig. 9 right: the parts of $\\bar\\Phi$ per number of decoys "
+                f"(4 UAVs; {_BAND})", {f"{n} decoys": e for e, n in DECOYS.items()}, parts=True)),
+    "10": (Panel("ib21-fig10-left", f"IB21 Fig. 10 left: $\\bar\\Phi$ per noise bound, true / assumed (5 UAVs, "
+                 f"no decoys; {_BAND})", {f"{b} m": e for e, b in NOISE.items()}),
+           Panel("ib21-fig10-right", f"IB21 Fig. 10 right: the parts of $\\bar\\Phi$ per noise bound, true / assumed "
+                 f"({_BAND})", {f"{b} m": e for e, b in NOISE.items()}, parts=True)),
+    "11": (Panel("ib21-fig11-left", f"IB21 Fig. 11 left: $\\bar\\Phi$ per communication range (6 UAVs; {_BAND})",
+                 {f"$d^c$ = {d} m": e for e, d in COMM.items()}),
+           Panel("ib21-fig11-right", f"IB21 Fig. 11 right: the fleet's control time per plan, sum over the UAVs "
+                 f"(3 targets, 3 decoys; {_BAND})", {f"$N_u$ = {n}": e for e, n in FLEET.items()}, ("solve_time",))),
+}
+#: The experiments each figure needs (``swarmtrack reproduce ib21 --figure 8`` runs only these).
+FIGURE_GROUPS = {k: tuple(dict.fromkeys(e for panel in panels for e in panel.settings.values()))
+                 for k, panels in FIGURES.items()}
+
+
+def _with_series(runs: list[dict]) -> list[dict]:
+    """The runs that finished and carry their time series."""
+    return [r for r in converged(runs) if "series" in r]
+
+
+def draw_panel(panel: Panel, by_scenario: dict[str, list[dict]], out: Path) -> Path | None:
+    """One panel of IB21 Figs. 8-11 into ``out/<name>.png``: per setting the mean line and ±1 std band over its runs
+    (each run's ``series``: Φ̄, its parts or the solve time); None when none of its experiments has a finished run."""
+    from swarmtrack.analysis import plots
+
+    results = {label: _with_series(by_scenario.get(e, [])) for label, e in panel.settings.items()}
+    results = {label: runs for label, runs in results.items() if runs}
+    if not results:
+        return None
+    path = Path(out) / f"{panel.name}.png"
+    if panel.parts:
+        return plots.plot_phi_parts_bands(results, path, title=panel.title)
+    return plots.plot_phi_bands(results, path, quantities=panel.quantities, title=panel.title)
+
+
+def figures(out: Path, overrides: Sequence[str] = (), by_scenario: dict[str, list[dict]] | None = None,
+            figure: str | None = None) -> list[Path]:
+    """IB21 Figs. 8-11 (all, or those of ``figure``) drawn from the runs of the reproduction (``by_scenario``, as
+    :func:`analyse` gets them): mean lines with ±1 std bands over the runs (:data:`FIGURES`). Nothing is simulated
+    here (``overrides`` reached the runs already); without runs there is nothing to draw."""
+    if by_scenario is None:
+        return []
+    Path(out).mkdir(parents=True, exist_ok=True)
+    chosen = FIGURES if figure is None else {figure: FIGURES[figure]}
+    drawn = [draw_panel(panel, by_scenario, out) for panels in chosen.values() for panel in panels]
+    return [p for p in drawn if p is not None]
 
 
 PAPER = Paper("ib21", "Ibenthal et al. 2021: guaranteed search and track among decoys (Sec. 6, Figs. 8-11)",
-              EXPERIMENTS, analyse, figures)
+              EXPERIMENTS, analyse, figures, FIGURE_GROUPS)

@@ -155,3 +155,24 @@ def test_divergence_names_the_uav_and_time():
     Y[0, 0, 0] = -1.0
     with pytest.raises(FilterDivergence, match="UAV 1.*not positive definite"):
         check_information(Y, y, 2.0)
+
+
+def test_own_position_uncertainty_adds_to_the_measurement_covariance():
+    """R + σ²I exactly in position form; the polar form agrees to first order (the UAV's own navigation error,
+    issue 11)."""
+    from swarmtrack.estimation.information import RangeBearingUpdate, _inv2
+    from swarmtrack.sensors.range_bearing import position_covariance
+
+    rng = np.random.default_rng(4)
+    sensor = rng.uniform(-5, 5, (200, 2))
+    rel = rng.uniform(-4, 4, (200, 2))
+    x_pos = sensor + rel
+    z = np.column_stack([np.hypot(rel[:, 0], rel[:, 1]), np.arctan2(rel[:, 1], rel[:, 0])])
+    own = 0.02
+    I, _ = RangeBearingUpdate(0.08, 0.02, own_sigma=own).contributions(x_pos, sensor, z)
+    R = position_covariance(z[:, 0], z[:, 1], 0.08, 0.02) + own**2 * np.eye(2)
+    np.testing.assert_allclose(_inv2(I), R, rtol=1e-9, atol=1e-15)
+    I_polar, _ = RangeBearingUpdate(0.08, 0.02, mode="polar", own_sigma=own).contributions(x_pos, sensor, z)
+    np.testing.assert_allclose(I_polar, I, rtol=1e-9)  # exact at the measured point: H Hᵀ = diag(1, 1/ρ²)
+    I_plain, _ = RangeBearingUpdate(0.08, 0.02).contributions(x_pos, sensor, z)
+    assert (np.linalg.eigvalsh(I_plain - I) > 0).all()  # less information than without the own error

@@ -184,9 +184,10 @@ def test_recover_matches_reference():
     assert _rel(P, P_ref) < RTOL
 
 
+@pytest.mark.parametrize("own", [0.0, 0.02])
 @pytest.mark.parametrize("min_range", [MIN_RANGE, 1e-4])
 @pytest.mark.parametrize("sig", [SIG, (0.4, 0.1)])
-def test_position_contributions_match_reference(sig, min_range):
+def test_position_contributions_match_reference(sig, min_range, own):
     rng = np.random.default_rng(6)
     n = 400
     sensor = rng.uniform(-30, 30, (n, 2))
@@ -196,8 +197,9 @@ def test_position_contributions_match_reference(sig, min_range):
     x_pos[50] = sensor[50]  # exactly on the sensor
     x_pos[51] = sensor[51] + np.array([-0.0, 0.0])
     z = np.column_stack([r + sig[0] * rng.standard_normal(n), ang + sig[1] * rng.standard_normal(n)])
-    I_ref, i_ref = RangeBearingUpdate(*sig, mode="position", min_range=min_range).contributions(x_pos, sensor, z)
-    I, i = cv_position_contributions(x_pos, sensor, z, sig[0], sig[1], min_range)
+    I_ref, i_ref = RangeBearingUpdate(*sig, mode="position", min_range=min_range, own_sigma=own).contributions(
+        x_pos, sensor, z)
+    I, i = cv_position_contributions(x_pos, sensor, z, sig[0], sig[1], min_range, own**2)
     assert _rel(I, I_ref) < RTOL
     assert _rel(i, i_ref) < RTOL
     np.testing.assert_array_equal(I[:, 0, 1], I[:, 1, 0])

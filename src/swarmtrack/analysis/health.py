@@ -16,6 +16,12 @@ For a guaranteed (set-membership) run, which records ``phi`` instead of a Gaussi
   hold it (``alarm_unexplained``) cannot happen under the assumptions either (with decoys it can: a decoy seen
   again after it was identified as one).
 
+For a run whose filters gate their neighbours or fuse late data (:class:`NetworkHealth`):
+
+* **Suspect neighbour**: the other UAVs' χ²-gates left out a UAV's broadcasts in more than :data:`SUSPECT` of the
+  steps it was heard (a faulty or lying member; the gating contained it).
+* **Stale data**: measurements or messages arrived later than the re-filtering window and were dropped.
+
 Each warning is a dict ``{kind, message, t_start, t_end[, uav]}`` (times in s, UAV numbers 1-based). The
 accumulators are O(N) per UAV plus O(steps) scalars: they stream over the recording's chunks.
 """
@@ -103,6 +109,67 @@ class Health:
         return warnings
 
 
+#: The fraction of steps with a gated broadcast beyond which a UAV is named a suspect.
+SUSPECT = 0.1
+
+
+class NetworkHealth:
+    """Per-UAV totals of the gating probes (``gated``: contributions a UAV left out; ``rejected``: receivers that
+    left out a UAV's) with each UAV's first and last rejection, and of ``stale`` (late data dropped)."""
+
+    PROBES = ("gated", "rejected", "stale")
+
+    def __init__(self, rec: Recording):
+        self.rec = rec
+        self.names = [p for p in self.PROBES if p in rec.meta["probes"]]
+        self.total = {p: np.zeros(rec.n_agents) for p in self.names}
+        self.steps_rejected = np.zeros(rec.n_agents)
+        self.steps = 0
+        self.first = np.full(rec.n_agents, np.nan)
+        self.last = np.full(rec.n_agents, np.nan)
+
+    def add(self, c, keep=None, err=None) -> None:
+        for p in self.names:
+            self.total[p] += c.probes[p].sum(axis=0)
+        self.steps += len(c.t)
+        if "rejected" in self.names:
+            hit = c.probes["rejected"] > 0
+            self.steps_rejected += hit.sum(axis=0)
+            for j in np.flatnonzero(hit.any(axis=0)):
+                at = c.t[hit[:, j]]
+                self.first[j] = at[0] if np.isnan(self.first[j]) else self.first[j]
+                self.last[j] = at[-1]
+
+    def counts(self) -> dict:
+        out = {f"{p}_per_uav": self.total[p].tolist() for p in self.names}
+        if "rejected" in self.names:
+            out["rejected_steps_fraction"] = (self.steps_rejected / max(self.steps, 1)).tolist()
+            out["rejected_window"] = [None if np.isnan(a) else [float(a), float(b)]
+                                      for a, b in zip(self.first, self.last, strict=True)]
+        return out
+
+    def result(self) -> list[dict]:
+        warnings = []
+        if "rejected" in self.names:
+            fraction = self.steps_rejected / max(self.steps, 1)
+            for j in np.flatnonzero(fraction > SUSPECT):
+                a, b = float(self.first[j]), float(self.last[j])
+                warnings.append({"kind": "suspect_neighbour", "uav": int(j) + 1, "t_start": a, "t_end": b,
+                                 "message": f"the other UAVs' gates left out UAV {j + 1}'s broadcasts at "
+                                            f"{100 * fraction[j]:.0f} % of the steps from t = {a:.1f} s to "
+                                            f"{b:.1f} s: a faulty or lying member"})
+        if "stale" in self.names and self.total["stale"].sum():
+            warnings.append({"kind": "stale_data", "t_start": 0.0, "t_end": float(self.rec.t_last),
+                             "message": f"{int(self.total['stale'].sum())} measurements or messages arrived later "
+                                        "than the re-filtering window and were dropped"})
+        return warnings
+
+
+def networked(rec: Recording) -> bool:
+    """The run recorded gating or late-data probes: :class:`NetworkHealth` applies."""
+    return any(p in rec.meta["probes"] for p in NetworkHealth.PROBES)
+
+
 def applies(rec: Recording) -> bool:
     """The checks need a followed target and a Gaussian estimate."""
     return rec.tracked is not None and {"estimate", "covariance"} <= set(rec.meta["probes"])
@@ -115,7 +182,8 @@ def guaranteed(rec: Recording) -> bool:
 
 def check(rec: Recording) -> list[dict]:
     """The warnings of one run (empty: nothing looked wrong)."""
-    accs = [acc(rec) for acc, wanted in ((Health, applies), (SetHealth, guaranteed)) if wanted(rec)]
+    accs = [acc(rec) for acc, wanted in ((Health, applies), (SetHealth, guaranteed), (NetworkHealth, networked))
+            if wanted(rec)]
     if not accs:
         return []
     for c in rec.chunks():

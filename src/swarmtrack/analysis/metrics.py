@@ -95,6 +95,10 @@ class _Rmse:
         self.sq[-1] += e2.sum(axis=0)
         self.count[-1] += len(e2)
 
+    def per_uav_position(self) -> list[float]:
+        """Each UAV's position RMSE over the whole judged run (m), e.g. to leave a faulty member out."""
+        return np.sqrt(self.sq[-1, :, :2].sum(axis=-1) / max(self.count[-1], 1)).tolist()
+
     def result(self) -> dict[str, dict[str, float]]:
         table = {}
         for p, name in enumerate([*self.names, "total"]):
@@ -623,6 +627,8 @@ def summary(rec: Recording) -> dict:
             accs["model_use"] = _ModelUse(rec)
     if health.guaranteed(rec):
         accs["set_membership"] = _SetMembership(rec)
+    if health.networked(rec):
+        accs["network"] = health.NetworkHealth(rec)
     if rec.tracked is not None:
         accs["target_distance"] = _TargetDistance(rec)
         if "setpoint" in rec.meta["probes"]:
@@ -631,6 +637,10 @@ def summary(rec: Recording) -> dict:
     out = {"warnings": [], **dict(zip(accs, _scan(rec, list(accs.values())), strict=True))}
     if "consistency" in out:
         out["nees"] = out["consistency"]["total"]["nees"]  # the run-wide figure, kept for comparison
+        out["position_rmse_per_uav"] = accs["rmse"].per_uav_position()
+    if "network" in out:  # its result() is the warnings
+        out["warnings"] += out["network"]
+        out["network"] = accs["network"].counts()
     out["inter_agent_distance"] = spacing(rec)
     if "formation" in out:
         out["warnings"] += _formation_warnings(out["formation"], out["inter_agent_distance"]["min"])

@@ -164,7 +164,7 @@ def _run_indexed(item: tuple[list[int], list[Scenario]]) -> list[tuple[int, dict
 
 def run_all(jobs: list[Job], cache: Path, workers: int | None, on_done: Callable[[], None] | None = None,
             warn: Callable[[str], None] = warn_stderr, overrides: Sequence[str] = (),
-            cluster: str | None = None) -> dict[Job, dict]:
+            cluster: str | None = None, resolve: Callable | None = None) -> dict[Job, dict]:
     """Metrics of every ``(scenario name, seed)`` job, from the cache where valid, else run (in parallel).
 
     Every job is resolved (:func:`load_scenario`, with ``overrides``) before anything runs, so a broken scenario
@@ -172,7 +172,8 @@ def run_all(jobs: list[Job], cache: Path, workers: int | None, on_done: Callable
     processes at once, so it loses only the runs in progress. ``cluster``: run on Dask instead (as
     :func:`swarmtrack.analysis.sweep.sweep`), the scheduler reached before any run.
     """
-    resolved = {job: load_scenario(job[0], overrides, seed=job[1]) for job in jobs}
+    resolve = resolve or (lambda name, extra: (name, list(extra)))  # a paper's variants: Paper.resolve
+    resolved = {job: load_scenario(*resolve(job[0], overrides), seed=job[1]) for job in jobs}
     client = None
     if cluster is not None:  # reached before anything is written
         from swarmtrack.analysis.sweep import dask_client
@@ -271,7 +272,7 @@ def reproduce(paper: str, out: Path, runs: int = 10, workers: int | None = None,
     with Progress(console=console, transient=True, disable=quiet) as progress:
         task = progress.add_task(f"reproduce {paper}", total=len(jobs))
         results = run_all(jobs, out / "runs", workers, on_done=lambda: progress.advance(task), overrides=overrides,
-                          cluster=cluster)
+                          cluster=cluster, resolve=spec.resolve)
     by_scenario = {name: [results[(name, s)] for s in range(1, runs + 1)] for name in experiments}
     diverged = {name: sum("diverged" in r for r in rs) for name, rs in by_scenario.items()}
     claims, table_md, numbers = spec.analyse(by_scenario)

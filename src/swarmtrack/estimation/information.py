@@ -221,8 +221,9 @@ class InformationEstimator:
     def share(self, t: float, nav: np.ndarray, own) -> dict:
         """Predict (L24 Sec. 3.1) and compute this UAV's own contribution (L24 eq. 6) for broadcast; a UAV that
         did not detect its target contributes zero information."""
-        self._gated[:] = 0.0
-        self._rejected[:] = 0.0
+        if self.gating == "chi2":
+            self._gated[:] = 0.0
+            self._rejected[:] = 0.0
         z, pos, seen = own.of_label(self.label)
         if self.compiled:
             from swarmtrack.estimation import kernels
@@ -275,8 +276,7 @@ class InformationEstimator:
             if self.gating == "ci":
                 self._fuse_ci(t, inbox)
                 return
-            I_n, i_n = self._neighbour_information(inbox, self._x_pred[..., :2],
-                                                   self.predicted_position_covariance(self.x, self.P))
+            I_n, i_n = self._neighbour_information(inbox)
             I = mine["info_matrix"] + I_n
             i = mine["info_vector"] + i_n
         else:
@@ -299,12 +299,13 @@ class InformationEstimator:
         check_information(Y, y, t)
         self.x, self.P = recover(Y, y)
 
-    def _neighbour_information(self, inbox, x_pos: np.ndarray, P_pos: np.ndarray):
+    def _neighbour_information(self, inbox):
         """The sums of what the links delivered (L24 eq. 7), without the contributions the χ²-gate leaves out
-        (:func:`swarmtrack.estimation.gating.chi2_gate`, against the prediction ``x_pos, P_pos``); late parts as
-        if current."""
+        (:func:`swarmtrack.estimation.gating.chi2_gate`, against this step's prediction); late parts as if
+        current."""
         if self.gating != "chi2":
             return inbox.sum("info_matrix"), inbox.sum("info_vector")
+        x_pos, P_pos = self._x_pred[..., :2], self.predicted_position_covariance(self.x, self.P)
         I, i = 0.0, 0.0
         for part in inbox.parts():
             I_p, i_p = self.gate(part.links, part.payloads, x_pos, P_pos)

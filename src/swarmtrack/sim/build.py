@@ -390,7 +390,8 @@ def run_meta(scenario: Scenario, slices: dict[str, slice], flown: dict[str, tupl
     net = scenario.network
     return {
         "scenario": scenario.name, "seed": scenario.seed, "dt": dt_estimation, "topology": net.topology,
-        "r_comm": net.r_comm, "groups": {name: [sl.start, sl.stop] for name, sl in slices.items()},
+        "r_comm": net.r_comm, "liar": None if net.liar is None else net.liar.uav - 1,
+        "groups": {name: [sl.start, sl.stop] for name, sl in slices.items()},
         "tracked": None if followed is None else slices["targets"].start + followed - 1,
         "phase_names": [] if followed is None else list(flown["targets"][followed - 1].phase_names),
         "object_phases": [list(p.phase_names) for p in flown["targets"] + flown["decoys"]]

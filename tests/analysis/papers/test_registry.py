@@ -6,11 +6,13 @@ from swarmtrack.analysis.papers import PAPERS, Paper
 from swarmtrack.scenarios import builtin_names
 
 
-def test_every_paper_is_registered_under_its_name_with_builtin_experiments():
+def test_every_paper_is_registered_under_its_name_with_builtin_experiments_or_variants():
     assert {"l24", "l23"} <= set(PAPERS)
     for key, paper in PAPERS.items():
         assert isinstance(paper, Paper) and paper.name == key and paper.title
-        assert paper.experiments and set(paper.experiments) <= set(builtin_names())
+        assert paper.experiments
+        # each experiment is a built-in scenario, or a declared variant of one
+        assert {paper.resolve(e)[0] for e in paper.experiments} <= set(builtin_names())
         assert callable(paper.analyse) and callable(paper.figures)
 
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -26,6 +26,16 @@ class Paper:
     #: them is called ``figures(out, overrides, by_scenario, figure)`` with its runs, and ``swarmtrack reproduce
     #: --figure NAME`` runs only that group's experiments (its ``analyse`` then gets only those, and must cope).
     figure_groups: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
+    #: Experiments that are a built-in scenario with overrides, by name → ``(scenario, overrides)`` (a study of one
+    #: scenario under many settings); the runs are named after the experiment.
+    variants: Mapping[str, tuple[str, tuple[str, ...]]] = field(default_factory=dict)
+
+    def resolve(self, experiment: str, overrides: Sequence[str] = ()) -> tuple[str, list[str]]:
+        """The built-in scenario and the overrides of ``experiment`` (the user's ``overrides`` last)."""
+        if experiment not in self.variants:
+            return experiment, list(overrides)
+        scenario, own = self.variants[experiment]
+        return scenario, [*own, f"name={experiment}", *overrides]
 
 
 @dataclass

@@ -1,0 +1,29 @@
+"""Bad delay, liar, gating and late-data settings are refused with the field and the cause named (exit 2)."""
+
+import pytest
+
+
+@pytest.mark.parametrize("scenario, override, words", [
+    ("robust-5", "network.delay=-0.1", ["network.delay", "greater than or equal to 0"]),
+    ("robust-5", "network.delay_max=-1", ["network.delay_max"]),
+    ("robust-5", "network={topology: full, delay: 0.5, delay_max: 0.2}", ["delay_max", "smaller than delay"]),
+    ("robust-5", "network.delay_max=1000", ["network.delay_max", "not shorter than the run"]),
+    ("w20-switching", "network.delay=0.1", ["network.delay", "'multimodel' estimator does not read time stamps"]),
+    ("robust-5", "network.liar={uav: 6}", ["network.liar.uav", "UAV 6", "1..5"]),
+    ("robust-5", "network.liar={uav: 0}", ["network.liar.uav"]),
+    ("robust-5", "network.liar={uav: 2, mode: loud}", ["network.liar.mode"]),
+    ("w20-switching", "network.liar={uav: 1}", ["network.liar", "estimator.kind information"]),
+    ("robust-5", "estimator.gating=maybe", ["estimator.gating"]),
+    ("robust-5", "estimator.gate_probability=1.5", ["estimator.gate_probability"]),
+    ("robust-5", "sensor.latency=0.12", ["sensor.latency", "whole number of estimation periods", "as_current"]),
+])
+def test_bad_network_settings_exit_2_naming_the_field(refused, scenario, override, words):
+    refused(scenario, override, words)
+
+
+def test_combinations_that_are_not_built_are_refused(refused):
+    refused("l24-cv", "estimator={kind: information, share: measurements, delayed_data: refilter}",
+            ["delayed_data refilter", "share information"])
+    refused("l24-cv", "estimator={kind: information, gating: ci, delayed_data: refilter}",
+            ["gating ci", "late data"])
+    refused("l24-cv", "estimator={kind: centralized, gating: chi2}", ["estimator.gating", "neighbours"])

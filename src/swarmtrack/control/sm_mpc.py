@@ -249,26 +249,31 @@ def evolve(region, rem: Removals, s: SMMPCSettings, area, *, use_own: bool = Tru
         if nb_masks is not None:
             kept = kept & nb_masks[k][None, :]
         if kept.any():  # eq. 49: once per distinct (parent, kept neighbours), not per candidate
-            parent = np.arange(len(a)) // branch
-            keys, first, group = np.unique(np.column_stack([parent, kept]), axis=0, return_index=True,
-                                           return_inverse=True)
-            unions: dict[bytes, shapely.Geometry] = {}
-            out = a[first].copy()
-            for g, row in enumerate(keys):
-                mask = row[1:].astype(bool)
-                if mask.any() and not out[g].is_empty:
-                    key = mask.tobytes()
-                    if key not in unions:
-                        unions[key] = rem.neighbours(k, mask)
-                    if shapely.intersects(out[g], unions[key]):  # a miss removes nothing: skip the overlay
-                        out[g] = pg.remove(np.array([out[g]], dtype=object),
-                                           np.array([unions[key]], dtype=object))[0]
-            a = out[group.ravel()]
-        if use_own and (own_last or k < s.horizon - 1):  # eq. 46
-            live = shapely.intersects(a, rem.own[k])  # a miss removes nothing: skip the overlay
-            if live.any():
-                a[live] = pg.remove(a[live], rem.own[k][live])
+            a = _remove_neighbours(a, kept, branch, rem, k)
+        if use_own and (own_last or k < s.horizon - 1):  # eq. 46 (a footprint that misses leaves the set as it is)
+            a = pg.remove(a, rem.own[k])
     return a
+
+
+def _remove_neighbours(a: np.ndarray, kept: np.ndarray, branch: int, rem: Removals, k: int) -> np.ndarray:
+    """Eq. 49 at step ``k``: each set ``a`` (n,) minus the union of the neighbours' footprints ``kept`` (n, L) keeps
+    for it, computed once per distinct (parent, kept neighbours) (the rows are coded as integers: L is small)."""
+    n, n_nb = kept.shape
+    if n == 1:
+        first, group = np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64)
+    else:
+        code = (np.arange(n) // branch) * (1 << n_nb) + kept.astype(np.int64) @ (1 << np.arange(n_nb))
+        _, first, group = np.unique(code, return_index=True, return_inverse=True)
+    unions: dict[bytes, shapely.Geometry] = {}
+    out = a[first].copy()
+    for g, row in enumerate(first):
+        mask = kept[row]
+        if mask.any() and not out[g].is_empty:
+            key = mask.tobytes()
+            if key not in unions:
+                unions[key] = rem.neighbours(k, mask)
+            out[g] = pg.remove(out[g], unions[key])  # a miss removes nothing: no overlay
+    return out[group.ravel()]
 
 
 def _minus_areas(sets: np.ndarray, corners: np.ndarray) -> np.ndarray:

@@ -234,3 +234,31 @@ def test_uavs_far_from_the_same_set_share_its_far_part_and_get_the_distances_of_
         np.testing.assert_array_equal(alone.distance, common.distance)
         assert alone.index == common.index
     assert len(shared) == 1  # built once for both
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_far_distances_part_by_part_equal_the_distance_to_the_whole_sets_rounds(seed):
+    """Late-mission sets (scattered blobs) far from the UAVs: the nearest parts' rounds only, with the bound
+    ``d(p, part) − hρ``, give the distance to the rounds of the whole set, and the plans of the full-set reference."""
+    rng = np.random.default_rng(seed)
+    region = shapely.union_all(shapely.buffer(shapely.points(rng.uniform(0, 400, (9, 2))), rng.uniform(2, 15, 9)))
+    n = 3
+    nav = np.stack([uav(*rng.uniform(0, 400, 2), rng.uniform(-np.pi, np.pi)) for _ in range(n)])
+    d = np.hypot(*(nav[:, None, :2] - nav[None, :, :2]).T)
+    links = (d <= 200) & ~np.eye(n, dtype=bool)
+    regions = np.array([region] * n, dtype=object)
+    fast = sm.plan_all(nav, regions, X0, S, links, nav)
+    exact = sm.plan_all(nav, regions, X0, S, links, nav, exact=True)
+    for f, e in zip(fast.choices, exact.choices, strict=True):
+        ok = np.isfinite(f.cost)
+        assert f.index == e.index and np.ptp(e.cost[ok] - f.cost[ok]) < 1e-6
+    # directly: against the rounds of the whole set, outside a box
+    own = sm.predict(nav[0], sm.candidates(S.inputs, S.horizon), S)
+    rem = sm.removals(own, np.zeros((0, S.horizon, 7)), S)
+    steady = [np.zeros(0, dtype=bool)] * S.horizon
+    xy = rem.xy[-1]
+    box = (*(xy.min(axis=0) - 5), *(xy.max(axis=0) + 5))
+    got = sm._far_nearest(region, rem, S, X0, xy, box, steady, True, {"shared": None})
+    whole = sm.evolve(region, rem, S, X0, use_own=False, nb_masks=steady, box=True)[0]
+    want = sm.set_distance(np.full(len(xy), shapely.difference(whole, shapely.box(*box)), dtype=object), xy)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)

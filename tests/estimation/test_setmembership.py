@@ -205,7 +205,7 @@ def test_fusing_sets_of_two_lineages_gives_their_intersection_and_reuses_the_bas
         assert_outer_and_close(b.unexplored[i], plain)
 
 
-def assert_outer_and_close(got, exact, margin=3e-6):
+def assert_outer_and_close(got, exact, margin=3 * pg.LOOSEN):
     """``got`` ⊇ ``exact`` (up to round-off) and no farther than ``margin`` from it: a loosened intersection."""
     assert shapely.difference(exact, got).area < 1e-9
     assert shapely.hausdorff_distance(got, exact) <= margin + 1e-9
@@ -239,5 +239,52 @@ def test_a_loosened_set_contains_the_set_with_its_edges_apart():
                                                                    12.0, quad_segs=3)))
     loose = pg.loosen(a)
     assert loose.is_valid and shapely.contains(loose, a)
-    assert shapely.hausdorff_distance(loose, a) <= 3 * pg.DELTA
-    assert shapely.distance(shapely.boundary(loose), shapely.boundary(a)) > 0.5 * pg.DELTA
+    assert shapely.hausdorff_distance(loose, a) <= 3 * pg.LOOSEN
+    assert shapely.distance(shapely.boundary(loose), shapely.boundary(a)) > 0.5 * pg.LOOSEN
+
+
+def _random_blobs(rng, n, radius, quad_segs=8):
+    return shapely.union_all(shapely.buffer(shapely.points(rng.uniform(0, 200, (n, 2))), radius, quad_segs=quad_segs))
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_within_on_sets_loosened_once_contains_the_exact_intersection(seed):
+    rng = np.random.default_rng(seed)
+    base = _random_blobs(rng, 8, 15.0)
+    cut = shapely.box(*rng.uniform(0, 200, 2), *rng.uniform(100, 200, 2))
+    small = shapely.union_all([shapely.difference(base, cut), _random_blobs(rng, 3, 5.0)])
+    big = [shapely.difference(base, shapely.box(*(c := rng.uniform(0, 180, 2)), *(c + 60))), _random_blobs(rng, 4, 9.0)]
+    exact = shapely.intersection(small, shapely.union_all(big))
+    loose: dict = {}
+    got = pg.within(small, *big, loose=loose)
+    assert got.is_valid and shapely.difference(got, small).area < 1e-12
+    assert_outer_and_close(got, exact)
+    pts = shapely.points(rng.uniform(0, 200, (20000, 2)))
+    assert (shapely.covers(got, pts) | ~shapely.covers(exact, pts)).all()
+    assert pg.within(small, *big, loose=loose).equals(got)  # the loosened sets reused
+
+
+def test_identity_shortcuts_return_the_same_object_and_are_exact():
+    a, far, near = shapely.box(0, 0, 10, 10), shapely.box(50, 50, 60, 60), shapely.box(5, 5, 20, 20)
+    assert pg.union_all([a, a, pg.EMPTY]) is a  # A ∪ A = A
+    assert pg.remove(a, far) is a  # A \ F = A when they do not meet
+    got = pg.remove(np.array([a, a], dtype=object), np.array([far, near], dtype=object))
+    assert got[0] is a and got[1].equals(shapely.difference(a, near))
+    assert pg.within(a, near, a) is a  # a ∩ (near ∪ a) = a
+
+
+def test_fusion_of_near_equal_sets_contains_the_exact_fusion():
+    """Eqs. 34, 36 with the loosened candidate union and holders, against the plain overlays."""
+    from swarmtrack.estimation.setmembership import _candidate, _held_by_all
+
+    rng = np.random.default_rng(11)
+    for _ in range(5):
+        base = _random_blobs(rng, 6, 12.0)
+        xs = np.array([shapely.difference(base, shapely.box(*(c := rng.uniform(0, 170, 2)), *(c + 80)))
+                       for _ in range(4)], dtype=object)
+        us = np.array([_random_blobs(rng, 2, 6.0) for _ in range(4)], dtype=object)
+        holders = [[xs[k], us[k]] for k in range(4)]
+        loose: dict = {}
+        got = _held_by_all(_candidate(xs, loose), holders, loose)
+        exact = shapely.intersection_all([shapely.union_all(xs)] + [shapely.union_all(h) for h in holders])
+        assert_outer_and_close(got, exact, margin=5 * pg.LOOSEN)

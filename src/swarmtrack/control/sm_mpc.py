@@ -249,26 +249,31 @@ def evolve(region, rem: Removals, s: SMMPCSettings, area, *, use_own: bool = Tru
         if nb_masks is not None:
             kept = kept & nb_masks[k][None, :]
         if kept.any():  # eq. 49: once per distinct (parent, kept neighbours), not per candidate
-            parent = np.arange(len(a)) // branch
-            keys, first, group = np.unique(np.column_stack([parent, kept]), axis=0, return_index=True,
-                                           return_inverse=True)
-            unions: dict[bytes, shapely.Geometry] = {}
-            out = a[first].copy()
-            for g, row in enumerate(keys):
-                mask = row[1:].astype(bool)
-                if mask.any() and not out[g].is_empty:
-                    key = mask.tobytes()
-                    if key not in unions:
-                        unions[key] = rem.neighbours(k, mask)
-                    if shapely.intersects(out[g], unions[key]):  # a miss removes nothing: skip the overlay
-                        out[g] = pg.remove(np.array([out[g]], dtype=object),
-                                           np.array([unions[key]], dtype=object))[0]
-            a = out[group.ravel()]
-        if use_own and (own_last or k < s.horizon - 1):  # eq. 46
-            live = shapely.intersects(a, rem.own[k])  # a miss removes nothing: skip the overlay
-            if live.any():
-                a[live] = pg.remove(a[live], rem.own[k][live])
+            a = _remove_neighbours(a, kept, branch, rem, k)
+        if use_own and (own_last or k < s.horizon - 1):  # eq. 46 (a footprint that misses leaves the set as it is)
+            a = pg.remove(a, rem.own[k])
     return a
+
+
+def _remove_neighbours(a: np.ndarray, kept: np.ndarray, branch: int, rem: Removals, k: int) -> np.ndarray:
+    """Eq. 49 at step ``k``: each set ``a`` (n,) minus the union of the neighbours' footprints ``kept`` (n, L) keeps
+    for it, computed once per distinct (parent, kept neighbours) (the rows are coded as integers: L is small)."""
+    n, n_nb = kept.shape
+    if n == 1:
+        first, group = np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64)
+    else:
+        code = (np.arange(n) // branch) * (1 << n_nb) + kept.astype(np.int64) @ (1 << np.arange(n_nb))
+        _, first, group = np.unique(code, return_index=True, return_inverse=True)
+    unions: dict[bytes, shapely.Geometry] = {}
+    out = a[first].copy()
+    for g, row in enumerate(first):
+        mask = kept[row]
+        if mask.any() and not out[g].is_empty:
+            key = mask.tobytes()
+            if key not in unions:
+                unions[key] = rem.neighbours(k, mask)
+            out[g] = pg.remove(out[g], unions[key])  # a miss removes nothing: no overlay
+    return out[group.ravel()]
 
 
 def _minus_areas(sets: np.ndarray, corners: np.ndarray) -> np.ndarray:
@@ -422,6 +427,9 @@ def _distances(region, rem: Removals, s: SMMPCSettings, area, xy_end, before, cu
     certified = near <= _box_gap(xy, exact_box)  # NaN (nothing inside) is not certified
     if s.distance == "nearest" and certified.all():
         return near
+    if s.distance == "nearest":
+        return np.nan_to_num(np.fmin(near, _far_nearest(region, rem, s, area, xy, exact_box, steady, box, far)),
+                             nan=0.0)
     if "set" not in far:  # ``far`` caches it for the plan's other calls
         plain = not any((rem.kept[k][:1] & steady[k][None, :]).any() for k in range(h))  # no footprint removed
         cache = far["shared"] if plain and far["shared"] is not None else {}
@@ -434,6 +442,46 @@ def _distances(region, rem: Removals, s: SMMPCSettings, area, xy_end, before, cu
     outer = set_distance(np.full(len(xy), far["set"], dtype=object), xy, s.distance)
     both = np.fmin(near, outer) if s.distance == "nearest" else np.fmax(near, outer)
     return np.nan_to_num(both, nan=0.0)
+
+
+def _far_nearest(region, rem: Removals, s: SMMPCSettings, area, xy, exact_box, steady, box, far: dict):
+    """The nearest distance (eq. 47's d, NaN if empty) from points ``xy`` to the part of the full-set rounds (without
+    the UAV's footprints, :func:`evolve` ``use_own=False``) outside ``exact_box``, computed part by part of X^A,
+    nearest parts first, with a bound that skips the others:
+
+    * every operation of the rounds acts part by part (a dilation of a union is the union of the dilations, clips
+      and removals are pointwise), so the set is the union of each part's rounds and its distance the minimum;
+    * a part's rounds lie within ``h·ρ`` of it (each buffer by ρ stays within ρ of its input; clips and removals
+      only remove), so its distance is at least ``d(p, part) − h·ρ``: a part whose bound is not below every point's
+      best distance so far cannot be nearer and is not evolved.
+
+    So the result is the distance to the whole set's rounds (the same value up to round-off), while only the parts
+    near the UAV are dilated. Each part's rounds are kept per plan in ``far`` (per fleet plan, with the sharing
+    rules of :func:`_distances`, when no footprint is removed)."""
+    h, rho = s.horizon, (0.0 if s.baseline else s.reach)
+    if "parts" not in far:
+        plain = not any((rem.kept[k][:1] & steady[k][None, :]).any() for k in range(h))  # no footprint removed
+        far["cache"] = far["shared"] if plain and far["shared"] is not None else {}
+        far["parts"] = shapely.get_parts(region)
+        far["rounds"] = {}
+    parts = far["parts"]
+    pts = shapely.points(xy)
+    bound = shapely.distance(parts[:, None], pts[None, :]) - h * rho - 1e-9  # (P, n)
+    best = np.full(len(xy), np.inf)
+    exact = shapely.box(*exact_box)
+    for p in np.argsort(bound.min(axis=1), kind="stable"):
+        if bound[p].min() >= best.max():
+            break  # this part and every later one are no nearer
+        if (bound[p] >= best).all():
+            continue
+        key = (id(region), int(p), box)
+        if key not in far["cache"]:
+            far["cache"][key] = (region, evolve(parts[p], rem, s, area, use_own=False, nb_masks=steady, box=box)[0])
+        if p not in far["rounds"]:
+            pg.OPS["difference"] += 1
+            far["rounds"][p] = shapely.difference(far["cache"][key][1], exact)
+        best = np.fmin(best, set_distance(np.full(len(xy), far["rounds"][p], dtype=object), xy, s.distance))
+    return np.where(np.isinf(best), np.nan, best)
 
 
 # --- the fleet, in index order (Sec. 5.3) ------------------------------------------------------------------------

@@ -154,6 +154,7 @@ def fuse(b: Beliefs, recv: np.ndarray, send: np.ndarray, sent: Beliefs) -> None:
     done: dict[tuple, int] = {}
     groups = {i: np.concatenate([[i], send[recv == i]]) for i in np.unique(recv).tolist()}
     bases = _Meets(sent.base, groups.values())  # intersections of predicted X̄, shared within this round
+    loose: dict = {}  # the neighbours' sets loosened whole, once this round (polygons.within)
     for i, group in groups.items():
         key = tuple(sorted(group.tolist()))
         if key in done:  # identical inputs, identical outputs
@@ -162,23 +163,51 @@ def fuse(b: Beliefs, recv: np.ndarray, send: np.ndarray, sent: Beliefs) -> None:
             b.identified[i] = b.identified[k]
         else:
             done[key] = i
-            _fuse_one(b, i, group, sent, bases)
+            _fuse_one(b, i, group, sent, bases, loose)
         if b.base is not None:
             b.base[i], b.cut[i] = b.unexplored[i], pg.EMPTY
         _check_lost(b, i)
 
 
-def _fuse_one(b: Beliefs, i: int, group: np.ndarray, sent: Beliefs, bases: _Meets | None = None) -> None:
+def _fuse_one(b: Beliefs, i: int, group: np.ndarray, sent: Beliefs, bases: _Meets | None = None,
+              loose: dict | None = None) -> None:
     bars, us = sent.unexplored[group], sent.unidentified[group]
     b.unexplored[i] = _common_unexplored(sent, group, bases)  # eq. 37
-    b.unidentified[i] = _held_by_all(pg.union_all(us), [[us[k], bars[k]] for k in range(len(group))])  # eq. 36
+    cand = _candidate(us, loose)
+    b.unidentified[i] = _held_by_all(cand, [[us[k], bars[k]] for k in range(len(group))], loose)  # eq. 36
     for j in range(b.n_ids):
         xs = sent.identified[group, j]
         if pg.is_empty(xs).all():
             b.identified[i, j] = pg.EMPTY  # eq. 35: dropped
             continue
         holders = [[xs[k], us[k], bars[k]] for k in range(len(group))]
-        b.identified[i, j] = _held_by_all(pg.union_all(xs), holders)  # eq. 34
+        b.identified[i, j] = _held_by_all(_candidate(xs, loose), holders, loose)  # eq. 34
+
+
+def _candidate(sets: np.ndarray, loose: dict | None):
+    """``∪ sets`` (the union of beliefs of eqs. 34, 36), as an outer approximation: the distinct sets, the first as
+    it is and the others :func:`polygons.loosen`-ed (from the round's ``loose`` cache, where the same objects are
+    loosened for :func:`polygons.within` anyway). The neighbours' sets share most of their edges exactly, GEOS's
+    slow case; ``A ∪ loosen(B) ⊇ A ∪ B``, wider by at most about ``2·LOOSEN`` along B's edges. Each union is kept in
+    ``loose`` too: another group of the round with the same distinct sets reuses it."""
+    distinct = list({id(g): g for g in sets if not g.is_empty}.values())
+    if len(distinct) < 2 or loose is None:
+        return pg.union_all(distinct)
+    key = ("union", *(id(g) for g in distinct))
+    hit = loose.get(key)
+    if hit is None:
+        operands = [distinct[0], *(_half_loose(g, loose) for g in distinct[1:])]
+        hit = loose[key] = (distinct, pg.union_all(operands))
+    return hit[1]
+
+
+def _half_loose(g, loose: dict):
+    """``loosen(g, LOOSEN / 2)``, once per object in ``loose``: half the margin of the holders' loosening, so the
+    candidate's edges fall neither on the sets' edges nor on the loosened holders' edges."""
+    key = ("half", id(g))
+    if key not in loose:
+        loose[key] = (g, pg.loosen(g, pg.LOOSEN / 2))
+    return loose[key][1]
 
 
 class _Meets:
@@ -247,11 +276,17 @@ def _common_unexplored(sent: Beliefs, group: np.ndarray, bases: _Meets | None = 
     return pg.remove(common, cuts) if not cuts.is_empty else common
 
 
-def _held_by_all(candidate, holders: list[list]):
+def _held_by_all(candidate, holders: list[list], loose: dict | None = None):
     """``candidate ∩ ⋂_ℓ (∪ holders[ℓ])``: the part of a (small) union of beliefs that no UAV proved empty (eqs. 34,
-    36 without complements)."""
+    36 without complements). A holder that includes the candidate itself (the same object) or repeats an earlier
+    holder's sets (the same objects) changes nothing and is skipped: exact."""
+    seen: set[tuple[int, ...]] = set()
     for parts in holders:
-        candidate = pg.within(candidate, *parts)
+        key = tuple(sorted(id(p) for p in parts))
+        if key in seen:
+            continue
+        seen.add(key)
+        candidate = pg.within(candidate, *parts, loose=loose)
     return candidate
 
 

@@ -4,7 +4,7 @@ Source documents are cited by short name: L24 (Lizzio et al., Drones 2024), L23 
 W20 (Wolfe, M.A.Sc. thesis 2020), IB21 (Ibenthal et al., Automatica 2021).
 """
 
-__version__ = "0.4.0"
+__version__ = "0.5.0"
 
 
 def load_run(path):

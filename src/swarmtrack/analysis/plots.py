@@ -1153,7 +1153,8 @@ def plot_degradation(curves: Mapping[str, Mapping[str, tuple]], xlabel: str, pat
         for k, (label, per) in enumerate(curves.items()):
             if m in per and len(per[m][0]):
                 x, mean, std = per[m]
-                ax.errorbar(x, mean, yerr=std, marker="o", capsize=3, label=label, color=agent_color(k))
+                ax.errorbar(x, mean, yerr=std, marker="o", capsize=3, label=label, color=agent_color(k),
+                            linestyle="none" if ticks is not None else "-")  # categories are not a curve
         ax.set_xlabel(xlabel)
         ax.set_ylabel(m)
         if m == "NEES":  # a consistent filter's 4 beside an overconfident one's hundreds

@@ -37,15 +37,11 @@ Job = tuple[str, int]  # (built-in scenario name, seed)
 
 
 def package_version() -> str:
-    """The installed swarmtrack version (the source tree's ``__version__`` when it is not installed)."""
-    from importlib.metadata import PackageNotFoundError, version
+    """The running swarmtrack's version: the source's ``__version__`` (an editable install's metadata keeps the version
+    it was installed at, so reading it would key caches with a stale version after an upgrade of the checkout)."""
+    from swarmtrack import __version__
 
-    try:
-        return version("swarmtrack")
-    except PackageNotFoundError:
-        from swarmtrack import __version__
-
-        return __version__
+    return __version__
 
 
 def run_key(scenario: Scenario, version: str | None = None) -> str:

@@ -8,8 +8,8 @@ from swarmtrack.analysis.papers.robustness import GROUPS, PAPER
 from swarmtrack.scenarios import load_scenario
 
 
-def _run(per_uav):
-    return {"position_rmse_per_uav": per_uav, "warnings": []}
+def _run(per_uav, liar=None):
+    return {"position_rmse_per_uav": per_uav, "warnings": [], **({} if liar is None else {"liar_uav": liar})}
 
 
 def _liar_runs(gated: float, ungated: float) -> dict:
@@ -19,10 +19,10 @@ def _liar_runs(gated: float, ungated: float) -> dict:
         return [x, x, 0.03, x, x]
 
     by = {name: [_run(clean)] * 2 for name in GROUPS["liar"]}
-    by["robust-liar-chi2"] = [_run(with_liar(gated))] * 2
-    by["robust-liar-random-chi2"] = [_run(with_liar(gated))] * 2
-    by["robust-liar-none"] = [_run(with_liar(ungated))] * 2
-    by["robust-liar-ci"] = [_run(with_liar(0.05))] * 2
+    by["robust-liar-chi2"] = [_run(with_liar(gated), 3)] * 2
+    by["robust-liar-random-chi2"] = [_run(with_liar(gated), 3)] * 2
+    by["robust-liar-none"] = [_run(with_liar(ungated), 3)] * 2
+    by["robust-liar-ci"] = [_run(with_liar(0.05), 3)] * 2
     return by
 
 

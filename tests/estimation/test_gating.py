@@ -23,24 +23,49 @@ def test_the_chi2_gate_keeps_consistent_contributions_and_leaves_out_a_far_one()
     claimed = np.array([[0.05, 0.0], [-0.05, 0.1], [3.0, 0.0]])  # UAV 3 claims a target 3 m away
     x_pos = np.zeros((N, 2))
     P_pos = np.broadcast_to(np.eye(2) * 0.01, (N, 2, 2))
-    I, i, (recv, send) = chi2_gate(full, _payloads(claimed), x_pos, P_pos, 0.999, N)
-    assert set(send.tolist()) == {2} and sorted(recv.tolist()) == [0, 1]
+    I, i, recv, send, ok = chi2_gate(full, _payloads(claimed), x_pos, P_pos, -2 * np.log1p(-0.999), N)
+    assert set(send[~ok].tolist()) == {2} and sorted(recv[~ok].tolist()) == [0, 1] and ok.sum() == 4
     np.testing.assert_allclose(I[0], np.eye(2) / 0.01)  # UAV 1 kept only UAV 2's
     np.testing.assert_allclose(I[2], 2 * np.eye(2) / 0.01)  # UAV 3 kept both honest ones
 
 
-def test_covariance_intersection_never_claims_more_than_the_plain_sum():
+def _ci_by_hand(Y, y, neighbours, pay):
+    """Covariance intersection receiver by receiver, ω by a dense scan of the fused covariance's determinant."""
+    Y, y = Y.copy(), y.copy()
+    omegas = np.linspace(0.001, 0.999, 9999)
+    for r, senders in neighbours.items():
+        for s in senders:
+            Yj = np.zeros((4, 4))
+            Yj[:2, :2] = pay["info_matrix"][s]
+            logdet = [np.linalg.slogdet(w * Y[r] + (1 - w) * Yj)[1] for w in omegas]  # of the information
+            w = omegas[int(np.argmax(logdet))]
+            Y[r] = w * Y[r] + (1 - w) * Yj
+            y[r] = w * y[r]
+            y[r, :2] += (1 - w) * pay["info_vector"][s]
+    return Y, y
+
+
+def test_covariance_intersection_picks_the_determinant_minimising_weight_on_an_irregular_graph():
     rng = np.random.default_rng(0)
-    A = rng.standard_normal((N, 4, 4))
+    n = 4
+    A = rng.standard_normal((n, 4, 4))
     Y = A @ np.swapaxes(A, -1, -2) + 4 * np.eye(4)
-    y = rng.standard_normal((N, 4))
-    full = ~np.eye(N, dtype=bool)
-    pay = _payloads(rng.standard_normal((N, 2)))
-    Yci, yci = covariance_intersection(Y, y, full, pay)
+    y = rng.standard_normal((n, 4))
+    links = np.zeros((n, n), dtype=bool)
+    neighbours = {0: [1, 2, 3], 1: [0], 3: [2]}  # UAV 3 hears nobody; the others 3, 1 and 1 neighbours
+    for r, senders in neighbours.items():
+        links[r, senders] = True
+    I = rng.standard_normal((n, 2, 2))
+    I = I @ np.swapaxes(I, -1, -2) * 50 + np.eye(2)
+    pay = {"info_matrix": I, "info_vector": rng.standard_normal((n, 2)), "seen": np.ones(n, dtype=bool)}
+    Yci, yci = covariance_intersection(Y, y, links, pay)
+    Yref, yref = _ci_by_hand(Y, y, neighbours, pay)
+    np.testing.assert_allclose(Yci, Yref, rtol=0.05)  # ω on a 49-value grid against a 9,999-value scan
+    np.testing.assert_array_equal(Yci[2], Y[2])  # nobody heard: unchanged
     Ysum = Y.copy()
-    Ysum[:, :2, :2] += pay["info_matrix"].sum(axis=0) - pay["info_matrix"]  # each receiver: the other two
-    assert (np.linalg.eigvalsh(Ysum - Yci) > -1e-9).all()  # the fused information never exceeds the sum's
-    assert (np.linalg.eigvalsh(Yci) > 0).all()
+    for r, senders in neighbours.items():
+        Ysum[r, :2, :2] += I[senders].sum(axis=0)
+    assert (np.linalg.eigvalsh(Ysum - Yci) > -1e-9).all()  # never more information than the plain sum
 
 
 @pytest.mark.parametrize("gating", ["none", "chi2"])

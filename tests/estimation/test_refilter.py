@@ -106,5 +106,7 @@ def test_data_older_than_the_window_is_dropped_and_counted():
         out = {**late.share(t, None, own), "seen": np.ones(N, dtype=bool)}  # sent anyway: neighbours drop it
         late.fuse(t, own, channel.deliver(full, out, t))
         stale += late.sample()["stale"]
-    assert stale.tolist() == [12 + 2 * 8] * N  # own every step; two neighbours' from step 4 on
+    # own: from step 4 on (before that, taken before the filter started: dropped, not counted); two neighbours': their
+    # messages arrive 4 steps after they were sent, 8 after they were taken, so from step 8 on
+    assert stale.tolist() == [8 + 2 * 4] * N
     assert np.isfinite(late.x).all()

@@ -16,9 +16,32 @@ import pytest
     ("robust-5", "estimator.gating=maybe", ["estimator.gating"]),
     ("robust-5", "estimator.gate_probability=1.5", ["estimator.gate_probability"]),
     ("robust-5", "sensor.latency=0.12", ["sensor.latency", "whole number of estimation periods", "as_current"]),
+    ("robust-5", "network.delay=1000", ["network.delay (1000 s)", "not shorter than the run"]),
+    ("robust-5", "network.liar={uav: 2, start: 1000}", ["network.liar.start", "before the end of the run"]),
+    ("robust-5", "network={topology: none, liar: {uav: 2}}", ["network.liar", "topology is none"]),
 ])
 def test_bad_network_settings_exit_2_naming_the_field(refused, scenario, override, words):
     refused(scenario, override, words)
+
+
+def _validate(*overrides):
+    from click.testing import CliRunner
+
+    from swarmtrack.cli import main
+
+    return CliRunner().invoke(main, ["validate", "robust-5", *[a for o in overrides for a in ("--set", o)]])
+
+
+def test_shared_raw_measurements_cannot_be_delayed_and_a_lone_uav_waits_for_nothing():
+    res = _validate("network.delay=0.1", "estimator={kind: information, share: measurements, delayed_data: as_current}")
+    assert res.exit_code == 2 and "network.delay needs estimator.share information" in res.output, res.output
+    from swarmtrack.scenarios import load_scenario
+    from swarmtrack.scenarios.schema import refiltered_steps
+
+    alone = load_scenario("robust-5", ["network={topology: none, delay: 0.1}"])  # valid: nobody to wait for
+    assert refiltered_steps(alone) == 0
+    assert refiltered_steps(load_scenario("robust-5", ["network.delay=0.1"])) == 2
+    assert refiltered_steps(load_scenario("robust-5", ["network.delay=0.100000025"])) == 3  # as the channel waits
 
 
 def test_combinations_that_are_not_built_are_refused(refused):

@@ -18,8 +18,8 @@ For a guaranteed (set-membership) run, which records ``phi`` instead of a Gaussi
 
 For a run whose filters gate their neighbours or fuse late data (:class:`NetworkHealth`):
 
-* **Suspect neighbour**: the other UAVs' χ²-gates left out a UAV's broadcasts in more than :data:`SUSPECT` of the
-  steps it was heard (a faulty or lying member; the gating contained it).
+* **Suspect neighbour**: the other UAVs' χ²-gates left out more than :data:`SUSPECT` of a UAV's contributions
+  that reached them (a faulty or lying member; the gating contained it).
 * **Stale data**: measurements or messages arrived later than the re-filtering window and were dropped.
 
 Each warning is a dict ``{kind, message, t_start, t_end[, uav]}`` (times in s, UAV numbers 1-based). The
@@ -109,41 +109,43 @@ class Health:
         return warnings
 
 
-#: The fraction of steps with a gated broadcast beyond which a UAV is named a suspect.
+#: The fraction of a UAV's delivered contributions gated beyond which it is named a suspect.
 SUSPECT = 0.1
 
 
 class NetworkHealth:
     """Per-UAV totals of the gating probes (``gated``: contributions a UAV left out; ``rejected``: receivers that
-    left out a UAV's) with each UAV's first and last rejection, and of ``stale`` (late data dropped)."""
+    left out a UAV's; ``delivered``: receivers that got a UAV's) with each UAV's first and last rejection, and of
+    ``stale`` (late data dropped)."""
 
-    PROBES = ("gated", "rejected", "stale")
+    PROBES = ("gated", "rejected", "delivered", "stale")
 
     def __init__(self, rec: Recording):
         self.rec = rec
         self.names = [p for p in self.PROBES if p in rec.meta["probes"]]
         self.total = {p: np.zeros(rec.n_agents) for p in self.names}
-        self.steps_rejected = np.zeros(rec.n_agents)
-        self.steps = 0
         self.first = np.full(rec.n_agents, np.nan)
         self.last = np.full(rec.n_agents, np.nan)
 
     def add(self, c, keep=None, err=None) -> None:
         for p in self.names:
             self.total[p] += c.probes[p].sum(axis=0)
-        self.steps += len(c.t)
         if "rejected" in self.names:
             hit = c.probes["rejected"] > 0
-            self.steps_rejected += hit.sum(axis=0)
             for j in np.flatnonzero(hit.any(axis=0)):
                 at = c.t[hit[:, j]]
                 self.first[j] = at[0] if np.isnan(self.first[j]) else self.first[j]
                 self.last[j] = at[-1]
 
+    def _rejected_fraction(self) -> np.ndarray:
+        """Per UAV, the fraction of its delivered contributions that receivers gated (0 when none was delivered)."""
+        delivered = self.total["delivered"]
+        return np.divide(self.total["rejected"], delivered, out=np.zeros_like(delivered), where=delivered > 0)
+
     def counts(self) -> dict:
         out = {f"{p}_per_uav": self.total[p].tolist() for p in self.names}
         if "rejected" in self.names:
-            out["rejected_steps_fraction"] = (self.steps_rejected / max(self.steps, 1)).tolist()
+            out["rejected_fraction"] = self._rejected_fraction().tolist()
             out["rejected_window"] = [None if np.isnan(a) else [float(a), float(b)]
                                       for a, b in zip(self.first, self.last, strict=True)]
         return out
@@ -151,12 +153,12 @@ class NetworkHealth:
     def result(self) -> list[dict]:
         warnings = []
         if "rejected" in self.names:
-            fraction = self.steps_rejected / max(self.steps, 1)
+            fraction = self._rejected_fraction()
             for j in np.flatnonzero(fraction > SUSPECT):
                 a, b = float(self.first[j]), float(self.last[j])
                 warnings.append({"kind": "suspect_neighbour", "uav": int(j) + 1, "t_start": a, "t_end": b,
-                                 "message": f"the other UAVs' gates left out UAV {j + 1}'s broadcasts at "
-                                            f"{100 * fraction[j]:.0f} % of the steps from t = {a:.1f} s to "
+                                 "message": f"the other UAVs' gates left out {100 * fraction[j]:.0f} % of UAV "
+                                            f"{j + 1}'s contributions that reached them, from t = {a:.1f} s to "
                                             f"{b:.1f} s: a faulty or lying member"})
         if "stale" in self.names and self.total["stale"].sum():
             warnings.append({"kind": "stale_data", "t_start": 0.0, "t_end": float(self.rec.t_last),

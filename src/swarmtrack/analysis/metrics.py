@@ -638,6 +638,8 @@ def summary(rec: Recording) -> dict:
     if "consistency" in out:
         out["nees"] = out["consistency"]["total"]["nees"]  # the run-wide figure, kept for comparison
         out["position_rmse_per_uav"] = accs["rmse"].per_uav_position()
+    if rec.meta.get("liar") is not None:  # which UAV lied (network.liar), 1-based: the others are the honest ones
+        out["liar_uav"] = rec.meta["liar"] + 1
     if "network" in out:  # its result() is the warnings
         out["warnings"] += out["network"]
         out["network"] = accs["network"].counts()

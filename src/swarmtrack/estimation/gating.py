@@ -8,15 +8,14 @@ measurement, the position ``q_j = I_j⁻¹ i_j`` with covariance ``I_j⁻¹``):
   left out (gated), and the receiver records whom it gated. A consistent neighbour is gated with probability
   ``1 − probability``.
 * ``ci``: covariance intersection (Julier and Uhlmann 1997): each contribution is fused as
-  ``Y ← ωY + (1 − ω)EI_jEᵀ``, ``y ← ωy + (1 − ω)Ei_j`` with ``ω`` minimising the trace of the fused covariance
-  (over a grid). It is consistent whatever the correlation between the pieces, but it rejects nothing: a bias is
-  only weighted down.
+  ``Y ← ωY + (1 − ω)EI_jEᵀ``, ``y ← ωy + (1 − ω)Ei_j`` with ``ω`` minimising the determinant of the fused
+  covariance (over a grid). It is consistent whatever the correlation between the pieces, but it rejects
+  nothing: a bias is only weighted down.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.stats import chi2
 
 from swarmtrack.estimation.information import position_nis
 from swarmtrack.network.links import edge_list
@@ -40,38 +39,49 @@ def delivered(links, payloads: dict) -> tuple[np.ndarray, np.ndarray]:
     return recv[keep], send[keep]
 
 
-def chi2_gate(links, payloads: dict, x_pos: np.ndarray, P_pos: np.ndarray, probability: float, n: int):
-    """The χ²-gated inbox sums ``(I (n, 2, 2), i (n, 2))`` and the ``(receivers, senders)`` of the gated links.
+def chi2_gate(links, payloads: dict, x_pos: np.ndarray, P_pos: np.ndarray, threshold: float, n: int):
+    """The χ²-gated inbox sums ``I (n, 2, 2), i (n, 2)``, and the ``receivers, senders`` of every delivered
+    contribution with ``ok``, whether it passed (``νᵀS⁻¹ν ≤ threshold``).
 
     ``x_pos`` (n, 2) and ``P_pos`` (n, 2, 2) are each receiver's predicted position and its covariance."""
     recv, send = delivered(links, payloads)
     I_e, i_e = payloads["info_matrix"][send], payloads["info_vector"][send]
-    nis = position_nis(_implied_positions(I_e, i_e), I_e, x_pos[recv], P_pos[recv])
-    ok = nis <= chi2.ppf(probability, 2)
+    ok = position_nis(_implied_positions(I_e, i_e), I_e, x_pos[recv], P_pos[recv]) <= threshold
     I = np.zeros((n, 2, 2))
     i = np.zeros((n, 2))
     np.add.at(I, recv[ok], I_e[ok])
     np.add.at(i, recv[ok], i_e[ok])
-    return I, i, (recv[~ok], send[~ok])
+    return I, i, recv, send, ok
+
+
+def ci_weight(C: np.ndarray, I_j: np.ndarray, d: int) -> np.ndarray:
+    """The ω of :data:`CI_WEIGHTS` minimising the determinant of the fused covariance ``(ωY + (1 − ω)EI_jEᵀ)⁻¹`` for
+    each receiver (``C`` (m, 2, 2) the position block of ``P = Y⁻¹``, ``I_j`` (m, 2, 2), ``E`` the position rows of
+    a ``d``-state filter).
+
+    By the matrix determinant lemma ``det(ωY + (1 − ω)EI_jEᵀ) = ωᵈ det Y det(I₂ + (1 − ω)/ω · I_j C)``: 2 x 2
+    algebra per ω. The determinant (not the trace) because it does not add m² to (m/s)², and because the position
+    block's trace alone falls again as ω → 0, which would throw away the receiver's velocity."""
+    K = I_j @ C  # (m, 2, 2)
+    a = ((1.0 - CI_WEIGHTS) / CI_WEIGHTS)[:, None]  # (weights, 1)
+    det2 = (1.0 + a * K[None, :, 0, 0]) * (1.0 + a * K[None, :, 1, 1]) - a * a * K[None, :, 0, 1] * K[None, :, 1, 0]
+    return CI_WEIGHTS[np.argmax(d * np.log(CI_WEIGHTS)[:, None] + np.log(det2), axis=0)]
 
 
 def covariance_intersection(Y: np.ndarray, y: np.ndarray, links, payloads: dict) -> tuple[np.ndarray, np.ndarray]:
     """Fuse every delivered contribution into each receiver's ``Y (n, d, d), y (n, d)`` by covariance intersection,
-    one neighbour at a time (the r-th neighbour of every receiver together), ``ω`` minimising ``tr(Y⁻¹)``."""
+    one neighbour at a time (the r-th neighbour of every receiver together), ω from :func:`ci_weight`."""
     recv, send = delivered(links, payloads)
     Y, y = Y.copy(), y.copy()
     rank = np.arange(recv.size) - np.searchsorted(recv, recv)  # receiver-major: position among its neighbours
-    w = CI_WEIGHTS[:, None, None, None]
+    E = np.eye(Y.shape[-1])[:, :2]
     for r in range(int(rank.max()) + 1 if rank.size else 0):
         at = rank == r
         rows, I_e, i_e = recv[at], payloads["info_matrix"][send[at]], payloads["info_vector"][send[at]]
-        Yj = np.zeros(Y[rows].shape)
-        Yj[:, :2, :2] = I_e
-        candidates = w * Y[rows][None] + (1.0 - w) * Yj[None]  # (weights, m, d, d)
-        eye = np.broadcast_to(np.eye(Y.shape[-1]), candidates.shape)
-        trace = np.trace(np.linalg.solve(candidates, eye), axis1=-2, axis2=-1)  # (weights, m)
-        omega = CI_WEIGHTS[np.argmin(trace, axis=0)]
-        Y[rows] = omega[:, None, None] * Y[rows] + (1.0 - omega)[:, None, None] * Yj
+        C = np.linalg.solve(Y[rows], np.broadcast_to(E, (len(rows), *E.shape)))[:, :2]  # (Y⁻¹)[:2, :2]
+        omega = ci_weight(C, I_e, Y.shape[-1])
+        Y[rows] *= omega[:, None, None]
+        Y[rows, :2, :2] += (1.0 - omega)[:, None, None] * I_e
         y[rows] *= omega[:, None]
         y[rows, :2] += (1.0 - omega)[:, None] * i_e
     return Y, y

@@ -215,15 +215,15 @@ class InformationEstimator:
                        Probe("detected", ()), Probe("nis", ()))
         self._gated = np.zeros(n_uavs)
         self._rejected = np.zeros(n_uavs)
-        if gating == "chi2":  # whom each UAV gated: how many it left out, and how many left each one's out
-            self.probes += (Probe("gated", ()), Probe("rejected", ()))
+        self._delivered = np.zeros(n_uavs)
+        self._threshold = -2.0 * np.log1p(-gate_probability)  # the χ²(2) quantile (χ²(2) is exponential, mean 2)
+        if gating == "chi2":  # whom each UAV gated: how many it left out, how many left each one's out, of how many
+            self.probes += (Probe("gated", ()), Probe("rejected", ()), Probe("delivered", ()))
 
     def share(self, t: float, nav: np.ndarray, own) -> dict:
         """Predict (L24 Sec. 3.1) and compute this UAV's own contribution (L24 eq. 6) for broadcast; a UAV that
         did not detect its target contributes zero information."""
-        if self.gating == "chi2":
-            self._gated[:] = 0.0
-            self._rejected[:] = 0.0
+        self._reset_gate_counts()
         z, pos, seen = own.of_label(self.label)
         if self.compiled:
             from swarmtrack.estimation import kernels
@@ -232,25 +232,31 @@ class InformationEstimator:
             u = self.update_rule
             I, i = kernels.cv_position_contributions(self._x_pred, pos, z, u.sigma_range, u.sigma_bearing,
                                                      u.min_range, u.own_sigma**2)
+            self._nis = kernels.position_nis(z, pos, self._x_pred[:, :2], self.P, self._F2, self._Q2, I)
+            self._own = self._contribution(I, i, z, pos, seen)
         else:
             self._Y_pred, self._y_pred, self._x_pred = predict(self.model, self.x, self.P)
-            x_pos = self._x_pred[:, :2]
-            if self.centralized:  # the fusion centre linearises everything at its own prediction
-                x_pos = np.broadcast_to(x_pos, pos.shape)
-            I, i = self.update_rule.contributions(x_pos, pos, z)
-        if self.compiled:
-            from swarmtrack.estimation import kernels
+            self._own = self._measured(z, pos, seen, self.x, self.P, self._x_pred)
+        return self._own if self.share_mode == "information" or self.centralized else {
+            "z": z, "sensor_pos": pos, "seen": seen}
 
-            self._nis = kernels.position_nis(z, pos, self._x_pred[:, :2], self.P, self._F2, self._Q2, I)
-        else:
-            self._nis = self._own_nis(z, pos, I, self.x, self.P, self._x_pred)
+    def _measured(self, z: np.ndarray, pos: np.ndarray, seen: np.ndarray, x: np.ndarray, P: np.ndarray,
+                  x_pred: np.ndarray) -> dict:
+        """Each UAV's own contribution (L24 eq. 6) linearised at ``x_pred``, predicted from the posterior ``x, P``
+        (the fusion centre linearises every measurement at its one prediction), and its NIS."""
+        x_pos = np.broadcast_to(x_pred[:, :2], pos.shape) if self.centralized else x_pred[:, :2]
+        I, i = self.update_rule.contributions(x_pos, pos, z)
+        self._nis = self._own_nis(z, pos, I, x, P, x_pred)
+        return self._contribution(I, i, z, pos, seen)
+
+    def _contribution(self, I, i, z, pos, seen) -> dict:
+        """The outbox row of each UAV: zero information and a NaN NIS where it saw nothing."""
         if not seen.all():  # unseen rows are NaN
             I[~seen] = 0.0
             i[~seen] = 0.0
-        self._own = {"info_matrix": I, "info_vector": i, "z": z, "sensor_pos": pos, "seen": seen}
+            self._nis[~seen] = np.nan
         self._detected = seen.astype(float)
-        return self._own if self.share_mode == "information" or self.centralized else {
-            "z": z, "sensor_pos": pos, "seen": seen}
+        return {"info_matrix": I, "info_vector": i, "z": z, "sensor_pos": pos, "seen": seen}
 
     def predicted_position_covariance(self, x: np.ndarray, P: np.ndarray) -> np.ndarray:
         """Position block (..., 2, 2) of ``P(k|k−1) = F P Fᵀ + Q`` predicted from the posterior ``x, P``."""
@@ -292,12 +298,22 @@ class InformationEstimator:
                 flags = kernels.cv_cycle(self._Y, self._y, self.x, self.P, m.dt, self._q, I, i)
             kernels.check_flags(flags, t)
             return
-        Y, y = add_position_information(self._Y_pred, self._y_pred, I, i)
-        if self._vz is not None:  # L24's fake vz = 0 measurement, local to every filter
+        self.x, self.P = self._update(*add_position_information(self._Y_pred, self._y_pred, I, i), t)
+
+    def _update(self, Y: np.ndarray, y: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """The posterior from the information after the measurements (L24 eq. 7), with L24's fake vz = 0
+        measurement (FS; local to every filter, never shared) and a divergence check."""
+        if self._vz is not None:
             k, w_vz = self._vz
             Y[:, k, k] += w_vz
         check_information(Y, y, t)
-        self.x, self.P = recover(Y, y)
+        return recover(Y, y)
+
+    def _reset_gate_counts(self) -> None:
+        if self.gating == "chi2":
+            self._gated[:] = 0.0
+            self._rejected[:] = 0.0
+            self._delivered[:] = 0.0
 
     def _neighbour_information(self, inbox):
         """The sums of what the links delivered (L24 eq. 7), without the contributions the χ²-gate leaves out
@@ -313,12 +329,15 @@ class InformationEstimator:
         return I, i
 
     def gate(self, links, payloads: dict, x_pos: np.ndarray, P_pos: np.ndarray):
-        """χ²-gated sums of one part of an inbox, counting the gated links (the ``gated``/``rejected`` probes)."""
+        """χ²-gated sums of one part of an inbox, counting the links (the ``gated``, ``rejected`` and ``delivered``
+        probes: per receiver the contributions it left out; per sender how many receivers left its out, and got
+        it)."""
         from swarmtrack.estimation.gating import chi2_gate
 
-        I, i, (recv, send) = chi2_gate(links, payloads, x_pos, P_pos, self.gate_probability, self.n)
-        np.add.at(self._gated, recv, 1.0)
-        np.add.at(self._rejected, send, 1.0)
+        I, i, recv, send, ok = chi2_gate(links, payloads, x_pos, P_pos, self._threshold, self.n)
+        np.add.at(self._gated, recv[~ok], 1.0)
+        np.add.at(self._rejected, send[~ok], 1.0)
+        np.add.at(self._delivered, send, 1.0)
         return I, i
 
     def _fuse_ci(self, t: float, inbox) -> None:
@@ -329,11 +348,7 @@ class InformationEstimator:
                                         self._own["info_vector"])
         for part in inbox.parts():
             Y, y = covariance_intersection(Y, y, part.links, part.payloads)
-        if self._vz is not None:
-            k, w_vz = self._vz
-            Y[:, k, k] += w_vz
-        check_information(Y, y, t)
-        self.x, self.P = recover(Y, y)
+        self.x, self.P = self._update(Y, y, t)
 
     def _received_measurements(self, inbox):
         """Raw measurements: each UAV linearises its own and every delivered measurement at its own prediction
@@ -362,5 +377,5 @@ class InformationEstimator:
         x, P = self.estimates()
         out = {"estimate": x, "covariance": P, "detected": self._detected, "nis": self._nis}
         if self.gating == "chi2":
-            out.update(gated=self._gated.copy(), rejected=self._rejected.copy())
+            out.update(gated=self._gated.copy(), rejected=self._rejected.copy(), delivered=self._delivered.copy())
         return out

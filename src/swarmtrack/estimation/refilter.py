@@ -7,14 +7,17 @@ after the filter has moved on; fusing it as current puts the target where it was
 and the information fused at each step; data stamped at step ``s`` is added to step ``s``'s sum and the filter runs
 again from ``s`` to now (prediction, L24 Sec. 3.1, and update, eq. 7, at every step in between).
 
-Why re-filtering rather than retrodiction (Bar-Shalom's A1/Bl1 out-of-sequence updates): it is exact (for the
-linear models, the same posterior as had every datum arrived in time; for the EKFs, each step is re-linearised at
-its re-predicted state), it takes any number of late items with any mix of lags and in any order (random channel
-delays reorder messages), and in information form a step's data is a plain sum, so the buffer is a few arrays. Its
+Why re-filtering rather than retrodiction (Bar-Shalom's A1/Bl1 out-of-sequence updates): the fusion is exact (for
+the linear models, given the contributions, the same posterior as had each arrived in time; the EKFs' motion model
+is re-linearised at every re-predicted step), it takes any number of late items with any mix of lags and in any
+order (random channel delays reorder messages), and in information form a step's data is a plain sum, so the buffer
+is a few arrays. A contribution itself is linearised once, at the prediction its sender had when it computed it
+(its ``R`` depends on the predicted range and bearing). Its
 cost, one predict-update per buffered step, is paid only while data is late: the window is the largest possible age
 (latency plus delay bound), and with neither the builder uses the plain filter (the clean case costs nothing).
 
-Data older than the window, or taken before the filter started, is dropped and counted (the ``stale`` probe).
+Data older than the window is dropped and counted (the ``stale`` probe); data taken before the filter started (a
+sensor's latency buffer at the start) is dropped without counting.
 Stamps are placed on the estimation grid: the schema requires a latency that is a whole number of estimation
 periods, and a message is delivered at an estimation step, so a stamp is always a step time.
 """
@@ -24,12 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from swarmtrack.estimation.base import Probe
-from swarmtrack.estimation.information import (
-    InformationEstimator,
-    check_information,
-    predict,
-    recover,
-)
+from swarmtrack.estimation.information import InformationEstimator, predict
 from swarmtrack.network.links import neighbour_sum
 
 
@@ -72,25 +70,16 @@ class RefilteringEstimator(InformationEstimator):
         self._acc_I[slot] = 0.0
         self._acc_i[slot] = 0.0
         self._stale[:] = 0.0
-        self._gated[:] = 0.0
-        self._rejected[:] = 0.0
+        self._reset_gate_counts()
         taken = t if own.taken is None else own.taken
         s = int(self._step_of(t, taken))
         z, pos, seen = own.of_label(self.label)
-        if not self._in_window(s):  # taken before the filter started or too long ago: dropped
-            self._stale += seen
+        if not self._in_window(s):  # dropped: counted when too old, not when taken before the filter started
+            self._stale += seen * (s >= 0)
             seen = np.zeros_like(seen)
         self._own_slot = s
         x, P = self._posterior(s - 1)
-        x_pred = self.model.f(x)
-        x_pos = np.broadcast_to(x_pred[:, :2], pos.shape) if self.centralized else x_pred[:, :2]
-        I, i = self.update_rule.contributions(x_pos, pos, z)
-        self._nis = self._own_nis(z, pos, I, x, P, x_pred)
-        I[~seen] = 0.0
-        i[~seen] = 0.0
-        self._own = {"info_matrix": I, "info_vector": i, "z": z, "sensor_pos": pos, "seen": seen,
-                     "taken": np.full(self.n, float(taken))}
-        self._detected = seen.astype(float)
+        self._own = {**self._measured(z, pos, seen, x, P, self.model.f(x)), "taken": np.full(self.n, float(taken))}
         return self._own
 
     def fuse(self, t: float, own, inbox) -> None:
@@ -106,16 +95,11 @@ class RefilteringEstimator(InformationEstimator):
             for part in inbox.parts():
                 first = min(first, self._add_part(t, part))
         for s in range(first, self._k + 1):
-            x, P = self._posterior(s - 1)
-            Y, y, _ = predict(self.model, x, P)
+            Y, y, _ = predict(self.model, *self._posterior(s - 1))
             slot = s % len(self._acc_I)
             Y[..., :2, :2] += self._acc_I[slot]
             y[..., :2] += self._acc_i[slot]
-            if self._vz is not None:  # L24's fake vz = 0 measurement, local to every filter and step
-                k, w_vz = self._vz
-                Y[:, k, k] += w_vz
-            check_information(Y, y, t)
-            self._post_x[slot], self._post_P[slot] = recover(Y, y)
+            self._post_x[slot], self._post_P[slot] = self._update(Y, y, t)
         self.x, self.P = self._posterior(self._k)
 
     def _add(self, s: int, I: np.ndarray, i: np.ndarray) -> int:
@@ -134,7 +118,8 @@ class RefilteringEstimator(InformationEstimator):
             if not rows.any():
                 continue
             if not self._in_window(int(s)):
-                self._stale += neighbour_sum(part.links, rows.astype(float))
+                if s >= 0:
+                    self._stale += neighbour_sum(part.links, rows.astype(float))
                 continue
             if self.gating == "chi2":  # against this UAV's prediction for the step the data was taken at
                 x, P = self._posterior(int(s) - 1)

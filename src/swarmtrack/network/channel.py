@@ -26,6 +26,12 @@ from swarmtrack.network.links import (
 from swarmtrack.network.messages import Inbox, Outbox
 
 
+def delay_steps(seconds, period: float):
+    """The estimation steps a message waits (int, or an int array for an array of delays): it arrives at the first
+    step at or after its delay ends (a delay of a whole number of steps, to round-off, takes that many)."""
+    return np.ceil(np.asarray(seconds, dtype=float) / period - 1e-9).astype(int)
+
+
 @dataclass
 class Channel:
     """Topology plus independent per-link message loss (probability ``loss_probability`` per message), and
@@ -80,7 +86,7 @@ class Channel:
         wait = np.full(edge_list(links)[0].size, self.delay)
         if self.delay_max > self.delay:
             wait += (self.delay_max - self.delay) * self.delay_rng.random(wait.size)
-        steps = np.ceil(wait / self.dt - 1e-9).astype(int)
+        steps = delay_steps(wait, self.dt)
         for m in np.unique(steps[steps > 0]):
             self._in_flight.setdefault(k + int(m), []).append(Inbox(subset(links, steps == m), outbox))
         return Inbox(subset(links, steps == 0), outbox, tuple(self._in_flight.pop(k, ())))

@@ -535,6 +535,8 @@ class FilterSpec(EstimatorSpec):
         if self.gating != "none" and (self.kind == "centralized" or self.share != "information"):
             raise ValueError("estimator.gating applies to neighbours' information contributions: it needs "
                              "kind information with share information")
+        if self.gating != "none" and scenario.network.topology == "none":
+            raise ValueError("estimator.gating has no neighbours to gate: network.topology is none")
         if self.delayed_data != "refilter" or not refiltered_steps(scenario):
             return
         if self.gating == "ci":
@@ -566,9 +568,16 @@ class FilterSpec(EstimatorSpec):
 
 
 def refiltered_steps(scenario: Scenario) -> int:
-    """How many estimation steps late a datum can arrive: the sensor's latency plus the network's delay bound."""
-    late = getattr(scenario.sensor, "latency", 0.0) + scenario.network.delay_bound()
-    return math.ceil(late * scenario.rates.estimation - 1e-6)
+    """How many estimation steps late a datum can arrive: the sensor's latency (a whole number of steps, checked)
+    plus the steps the channel holds a message (:func:`swarmtrack.network.channel.delay_steps`), for a filter that
+    hears neighbours (a fusion centre or a UAV without links gets no message)."""
+    from swarmtrack.network.channel import delay_steps
+
+    period = 1.0 / scenario.rates.estimation
+    steps = round(getattr(scenario.sensor, "latency", 0.0) / period)
+    if scenario.estimator.kind != "centralized" and scenario.network.topology != "none":
+        steps += int(delay_steps(scenario.network.delay_bound(), period))
+    return steps
 
 
 class InformationSpec(FilterSpec):
@@ -990,11 +999,16 @@ class Scenario(_Strict):
                     raise ValueError(f"network.edges names UAV {v}, but the swarm has UAVs 1..{n}")
         if self.network.delay_bound() > 0:
             if self.network.delay_bound() >= self.run_duration():
-                raise ValueError(f"network.delay_max ({self.network.delay_bound():g} s) is not shorter than the run "
+                field = "delay" if self.network.delay_max is None else "delay_max"
+                raise ValueError(f"network.{field} ({self.network.delay_bound():g} s) is not shorter than the run "
                                  f"({self.run_duration():g} s)")
             if self.estimator.kind not in ("information", "centralized"):
                 raise ValueError(f"network.delay needs estimator.kind information: the {self.estimator.kind!r} "
                                  "estimator does not read time stamps")
+            if getattr(self.estimator, "share", "information") != "information" and self.estimator.kind != \
+                    "centralized":
+                raise ValueError("network.delay needs estimator.share information: shared raw measurements are "
+                                 "fused as they arrive, and late ones would be lost")
         liar = self.network.liar
         if liar is not None:
             if not 1 <= liar.uav <= n:
@@ -1002,6 +1016,11 @@ class Scenario(_Strict):
             if self.estimator.kind != "information" or getattr(self.estimator, "share", None) != "information":
                 raise ValueError("network.liar corrupts information contributions: it needs estimator.kind "
                                  "information with share information")
+            if self.network.topology == "none":
+                raise ValueError("network.liar has nobody to lie to: network.topology is none")
+            if liar.start >= self.run_duration():
+                raise ValueError(f"network.liar.start ({liar.start:g} s) is not before the end of the run "
+                                 f"({self.run_duration():g} s)")
         for k, outage in enumerate(self.network.outages):
             for v in outage.uavs:
                 if not 1 <= v <= n:

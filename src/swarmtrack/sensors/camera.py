@@ -73,7 +73,8 @@ def invert(frame: np.ndarray, z: np.ndarray) -> np.ndarray:
 
 
 def sense(objects: np.ndarray, uavs: np.ndarray, stamped: np.ndarray, height: float, aim: np.ndarray,
-          tan_half: tuple[float, float], sigma: float, noise: np.ndarray, hidden: np.ndarray | None = None):
+          tan_half: tuple[float, float], sigma: float, noise: np.ndarray, hidden: np.ndarray | None = None,
+          taken: float | None = None):
     """One sensing step of every UAV's camera toward every labelled object (truth side).
 
     ``objects`` (M, 2) and ``uavs`` (N, 2) are true positions, ``stamped`` (N, 2) the navigation positions, ``aim``
@@ -94,4 +95,4 @@ def sense(objects: np.ndarray, uavs: np.ndarray, stamped: np.ndarray, height: fl
     owner, source = np.nonzero(seen)
     z = pc[owner, source, :2] + sigma * noise[owner, source]
     frame = ground_affine(C, stamped, height)[owner]
-    return Detections(owner, z, stamped[owner], source, len(uavs), frame=frame), source
+    return Detections(owner, z, stamped[owner], source, len(uavs), frame=frame, taken=taken), source

@@ -136,6 +136,7 @@ def sense(
     noise: np.ndarray,
     max_range: float | None = None,
     hidden: np.ndarray | None = None,
+    taken: float | None = None,
 ):
     """One range-bearing sensing step of every UAV towards every labelled object (truth side; L24 Sec. 3.2).
 
@@ -143,8 +144,8 @@ def sense(
     UAVs stamp on their measurements, ``noise`` (N, M, 2) standard normal draws for every (UAV, object) pair,
     in range or not (so the draws do not depend on the geometry). The sensor is a cooperative one (a marker
     it can read), so each detection carries its object's index as its label. Returns the
-    :class:`~swarmtrack.sensors.detections.Detections` (UAV-major order) and, for the world only, the index of
-    the object each came from. ``hidden`` (N, M): pairs an occluder hides (no detection).
+    :class:`~swarmtrack.sensors.detections.Detections` (UAV-major order, stamped ``taken``) and, for the world
+    only, the index of the object each came from. ``hidden`` (N, M): pairs an occluder hides (no detection).
     """
     from swarmtrack.sensors.detections import Detections
 
@@ -159,11 +160,12 @@ def sense(
             inside &= _range_bearing(objects[source], uavs[owner])[2] <= max_range
         owner, source, z = owner[inside], source[inside], z[inside]
         grid = None
-    return Detections(owner, z, stamped[owner], source, n, grid), source
+    return Detections(owner, z, stamped[owner], source, n, grid, taken=taken), source
 
 
 def sense_worlds(objects: np.ndarray, uavs: np.ndarray, stamped: np.ndarray, sigma_range: float,
-                 sigma_bearing: float, noise: np.ndarray, labels: np.ndarray, max_range: float | None = None):
+                 sigma_bearing: float, noise: np.ndarray, labels: np.ndarray, max_range: float | None = None,
+                 taken: float | None = None):
     """:func:`sense` for a batch of B worlds of one layout, each UAV towards its own world's objects only:
     ``objects`` (B, M, 2), ``uavs`` and ``stamped`` (B, N, 2), ``noise`` (B, N, M, 2), ``labels`` (B, M) each
     object's label. The detections of world b's UAV i are those of UAV ``b·N + i``; the pairs of each world are
@@ -178,7 +180,7 @@ def sense_worlds(objects: np.ndarray, uavs: np.ndarray, stamped: np.ndarray, sig
     if max_range is not None:
         inside = _range_bearing(objects[:, None, :, :], uavs[:, :, None, :])[2].reshape(-1) <= max_range
         owner, source, z = owner[inside], source[inside], z[inside]
-    return Detections(owner, z, stamped.reshape(-1, 2)[owner], source, worlds * n, None), source
+    return Detections(owner, z, stamped.reshape(-1, 2)[owner], source, worlds * n, None, taken=taken), source
 
 
 @functools.lru_cache(maxsize=8)

@@ -67,14 +67,14 @@ class RangeBearingSensor:
     sensed: tuple[str, ...] = ("targets", "decoys")
     name = "range_bearing"
 
-    def detect(self, objects, uavs, stamped, noise, t: float, aim):
+    def detect(self, objects, uavs, stamped, noise, t: float, aim, taken: float | None = None):
         return range_bearing.sense(objects, uavs, stamped, self.sigma_range, self.sigma_bearing, noise,
-                                   self.max_range, hidden_by(self.occluders, objects, len(uavs), t))
+                                   self.max_range, hidden_by(self.occluders, objects, len(uavs), t), taken)
 
-    def detect_worlds(self, objects, uavs, stamped, noise, labels):
+    def detect_worlds(self, objects, uavs, stamped, noise, labels, taken: float | None = None):
         """A batch of worlds, each UAV towards its own world's objects (no occluders: they name one world's UAVs)."""
         return range_bearing.sense_worlds(objects, uavs, stamped, self.sigma_range, self.sigma_bearing, noise,
-                                          labels, self.max_range)
+                                          labels, self.max_range, taken)
 
 
 @dataclass(frozen=True)
@@ -127,14 +127,14 @@ class CameraSensor:
     sensed: tuple[str, ...] = ("targets", "decoys")
     name = "camera"
 
-    def detect(self, objects, uavs, stamped, noise, t: float, aim):
+    def detect(self, objects, uavs, stamped, noise, t: float, aim, taken: float | None = None):
         from swarmtrack.sensors import camera
 
         n = len(uavs)
         aim = np.broadcast_to(self.home, (n, 2)) if aim is None else np.asarray(aim, dtype=float)
         aim = np.where(np.isfinite(aim).all(axis=-1, keepdims=True), aim, self.home)  # no estimate yet: home
         hidden = hidden_by(self.occluders, objects, n, t)
-        return camera.sense(objects, uavs, stamped, self.height, aim, self.tan_half, self.sigma, noise, hidden)
+        return camera.sense(objects, uavs, stamped, self.height, aim, self.tan_half, self.sigma, noise, hidden, taken)
 
 
 @dataclass(frozen=True)
@@ -395,6 +395,7 @@ class World:
             det, source = self.sensor.detect_world(self)
             return det, self._sensed[source]
         lagged = len(self._history) > 1
+        taken = (self._tick - (len(self._history) - 1)) * self.dt  # when what the sensor reports was taken
         then = self._history[(self._tick + 1) % len(self._history)] if lagged else self._all_truth()[:, :2]
         uavs = then[self.slices["uavs"]]
         sensed = self._sensed
@@ -408,19 +409,13 @@ class World:
                 for j, label in enumerate(row):
                     noise[b, :, j] = self._sensor_rngs[label].standard_normal((n, 2))
             det, source = self.sensor.detect_worlds(then[sensed[labels]], uavs.reshape(self.worlds, n, 2),
-                                                    stamped.reshape(self.worlds, n, 2), noise, labels)
-            return self._stamped(det), sensed[source]
+                                                    stamped.reshape(self.worlds, n, 2), noise, labels, taken)
+            return det, sensed[source]
         noise = np.empty((len(uavs), len(sensed), 2))
         for j, rng in enumerate(self._sensor_rngs):
             noise[:, j] = rng.standard_normal((len(uavs), 2))
-        det, source = self.sensor.detect(then[sensed], uavs, stamped, noise, self.t, aim)
-        return self._stamped(det), sensed[source]
-
-    def _stamped(self, det):
-        """The detections, stamped with the time they were taken (the latency buffer's age before now). Set on the
-        object the sensor just made (no one else holds it yet): a copy would cost a tenth of a clean step."""
-        object.__setattr__(det, "taken", (self._tick - (len(self._history) - 1)) * self.dt)
-        return det
+        det, source = self.sensor.detect(then[sensed], uavs, stamped, noise, self.t, aim, taken)
+        return det, sensed[source]
 
     # --- physics -----------------------------------------------------------------------------------------
     def advance(self, commands: dict[str, np.ndarray], ticks: int) -> None:

@@ -19,6 +19,7 @@ import numpy as np
 
 from swarmtrack.analysis.papers.base import Claim, Paper, converged, mean_std_ci
 from swarmtrack.analysis.report import markdown_table
+from swarmtrack.estimation.gating import GATINGS
 
 BASE = "robust-5"
 LOSS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5)
@@ -27,7 +28,6 @@ DELAY = (0.0, 0.25, 0.5, 1.0)  # s, each message's delay uniform in [0, value]
 DROPOUTS = (0, 1, 2, 3)  # UAVs out of the network, each for 30 s, one after the other from t = 20 s
 MM_DROPOUTS = (0, 1)  # w20-switching (3 UAVs, 74 s): UAV 2 out from 20 to 50 s
 LIAR = "network.liar={uav: 3, mode: bias, offset: [1.0, 0.0]}"  # claims the target 1 m off
-GATINGS = ("none", "chi2", "ci")
 MODELS = ("cv", "ct", "fs")
 #: The L24 scenarios' sensor latency (s), inferred from L24 Tables 1-3 (docs/tracking-swarm.md).
 LATENCY = 0.15
@@ -70,8 +70,6 @@ GROUPS = {
                                                             for k in ("refilter", "no-latency")),
 }
 EXPERIMENTS = tuple(dict.fromkeys(e for group in GROUPS.values() for e in group))
-#: The liar of :data:`LIAR`, 0-based: the honest UAVs are the others.
-LIAR_UAV = 2
 
 
 def _values(runs: list[dict], get) -> list[float]:
@@ -92,10 +90,16 @@ def position_rmse(r: dict, phase: str = "total") -> float:
     return float(np.hypot(row["x"], row["y"]))
 
 
-def honest_rmse(r: dict) -> float:
-    """The position RMSE of the UAVs other than the liar (mean over them)."""
+def honest_rmse(r: dict, liar: int) -> float:
+    """The position RMSE of the UAVs other than UAV ``liar`` (1-based; mean over them)."""
     per = np.asarray(r["position_rmse_per_uav"], dtype=float)
-    return float(np.delete(per, LIAR_UAV).mean())
+    return float(np.delete(per, liar - 1).mean())
+
+
+def liar_of(by: dict) -> int:
+    """The UAV that lied in the liar runs (their summaries' ``liar_uav``); the runs without a liar are judged on the
+    same UAVs."""
+    return next(r["liar_uav"] for r in converged(by[_name("liar", "none")]) if "liar_uav" in r)
 
 
 def _nees(r: dict, phase: str = "total") -> float:
@@ -174,10 +178,13 @@ def analyse(by_scenario: dict[str, list[dict]]) -> tuple[list[Claim], str, dict]
                                        str(lost[_name("dropout", k)] + lost.get(_name("mm-dropout", k), 0))]
                                       for k in DROPOUTS]))
     if "liar" in ran:
-        clean = _stat(by, _name("loss", 0.0), honest_rmse)
-        rows = {"no liar": clean, "no liar, chi2 gate": _stat(by, "robust-clean-chi2", honest_rmse)}
-        rows.update({f"liar, gating {g}": _stat(by, _name("liar", g), honest_rmse) for g in GATINGS})
-        rows["random liar, chi2 gate"] = _stat(by, "robust-liar-random-chi2", honest_rmse)
+        def honest(r):
+            return honest_rmse(r, liar_of(by))
+
+        clean = _stat(by, _name("loss", 0.0), honest)
+        rows = {"no liar": clean, "no liar, chi2 gate": _stat(by, "robust-clean-chi2", honest)}
+        rows.update({f"liar, gating {g}": _stat(by, _name("liar", g), honest) for g in GATINGS})
+        rows["random liar, chi2 gate"] = _stat(by, "robust-liar-random-chi2", honest)
         numbers["liar"] = rows
         ratio = {k: v["mean"] / clean["mean"] for k, v in rows.items()}
         claims.append(Claim("robust-liar-gated", "With one liar among five UAVs (full topology), the χ²-gate keeps "
@@ -297,7 +304,7 @@ def figures(out: Path, overrides: Sequence[str] = (), by_scenario: dict | None =
                  "liar, χ² gate": _name("liar", "chi2"), "liar, CI": _name("liar", "ci"),
                  "random liar, χ² gate": "robust-liar-random-chi2"}
         xs = list(names)
-        stats = [_stat(by, n, honest_rmse) for n in names.values()]
+        stats = [_stat(by, n, lambda r: honest_rmse(r, liar_of(by))) for n in names.values()]
         drawn.append(plots.plot_degradation({"honest UAVs": {"position RMSE [m]": (
             list(range(len(xs))), [s["mean"] for s in stats], [s["std"] for s in stats])}}, "setting",
             out / "robustness-liar.png", ticks=xs))

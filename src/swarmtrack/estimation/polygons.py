@@ -231,9 +231,8 @@ def within(small, *big, loose: dict | None = None):
     big = np.array(list({id(g): g for g in big if not g.is_empty}.values()), dtype=object)
     if loose is not None and len(big):
         big = np.array([within_loosened(g, loose) for g in big], dtype=object)
-    parts = shapely.get_parts(small)
     pieces = []
-    for part in parts:
+    for part in parts(small):
         local = _local_union(big, part.bounds, loose is not None)
         if local.is_empty:
             continue
@@ -241,7 +240,7 @@ def within(small, *big, loose: dict | None = None):
             pieces.append(part)
             continue
         OPS["intersection"] += 1
-        pieces.extend(shapely.get_parts(shapely.intersection(part, local)))
+        pieces.extend(parts(shapely.intersection(part, local)))
     pieces = [p for p in pieces if not p.is_empty]
     if not pieces:
         return EMPTY
@@ -250,6 +249,15 @@ def within(small, *big, loose: dict | None = None):
     if all(p.geom_type == "Polygon" for p in pieces):
         return shapely.MultiPolygon(pieces)
     return union_all(pieces)  # a degenerate contact (line, point) is kept, as the overlay would
+
+
+def parts(g) -> np.ndarray:
+    """``shapely.get_parts(g)`` of one geometry, with a polygon's own (itself) without the call."""
+    if g.geom_type == "Polygon":
+        out = np.empty(1, dtype=object)
+        out[0] = g
+        return out
+    return shapely.get_parts(g)
 
 
 def within_loosened(g, loose: dict):

@@ -66,6 +66,7 @@ full set, without the UAV's footprints, and ``d = min`` (``max`` for Hausdorff) 
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 import time
@@ -148,7 +149,13 @@ def input_order(inputs) -> np.ndarray:
 
 def candidates(inputs, horizon: int) -> np.ndarray:
     """All sequences of U_d^h (C, h), C = |U_d|^h, lexicographic over :func:`input_order`, first input major (so
-    candidates sharing a prefix of length κ are contiguous blocks of ``|U_d|^(h−κ)``)."""
+    candidates sharing a prefix of length κ are contiguous blocks of ``|U_d|^(h−κ)``). A fresh copy of a table built
+    once per (inputs, horizon)."""
+    return _candidates(tuple(float(u) for u in np.atleast_1d(inputs)), int(horizon)).copy()
+
+
+@functools.lru_cache(maxsize=64)
+def _candidates(inputs: tuple[float, ...], horizon: int) -> np.ndarray:
     order = input_order(inputs)
     return np.array(list(itertools.product(order, repeat=horizon)), dtype=float).reshape(-1, horizon)
 
@@ -214,8 +221,17 @@ def removals(own_states: np.ndarray, nb_states: np.ndarray, s: SMMPCSettings,
     return Removals(own, xy, nb, kept, corners, nb_corners)
 
 
+_BOXES: dict[int, tuple[object, bool]] = {}
+
+
 def _is_box(area) -> bool:
-    return bool(shapely.equals(area, shapely.box(*area.bounds)))
+    """Whether X0 is a rectangle, once per area object (kept with its answer, so its id stays its own)."""
+    hit = _BOXES.get(id(area))
+    if hit is None or hit[0] is not area:
+        if len(_BOXES) > 64:
+            _BOXES.clear()
+        hit = _BOXES[id(area)] = (area, bool(shapely.equals(area, shapely.box(*area.bounds))))
+    return hit[1]
 
 
 def evolve(region, rem: Removals, s: SMMPCSettings, area, *, use_own: bool = True,

@@ -23,6 +23,7 @@ from __future__ import annotations
 import collections
 import math
 
+import numba
 import numpy as np
 import shapely
 
@@ -78,9 +79,94 @@ def dilate(sets: np.ndarray, r: float, *, quad_segs: int = QUAD_SEGS, eps: float
     grow = np.where(big, r + eps, r)
     if big.any():
         OPS["simplify"] += int(big.sum())
-        sets = np.where(big, shapely.simplify(sets, eps, preserve_topology=True), sets)
+        sets = sets.copy()
+        sets[big] = simplify_outer(sets[big], eps)
     OPS["buffer"] += len(sets)
     return shapely.buffer(sets, circumscribed(grow, quad_segs), quad_segs=quad_segs)
+
+
+@numba.njit(cache=True)
+def _dp_keep(xy: np.ndarray, rings: np.ndarray, eps: float) -> np.ndarray:  # pragma: no cover (compiled)
+    """Douglas-Peucker on each closed ring ``xy[rings[k]:rings[k+1]]`` (first point repeated last): which vertices
+    stay. Every vertex dropped lies within ``eps`` of the segment between the two kept ones around it (distance to
+    the segment, not the line). A ring left with fewer than 4 points keeps all of its own."""
+    keep = np.zeros(len(xy), dtype=np.bool_)
+    stack = np.empty((len(xy) + 2, 2), dtype=np.int64)
+    for k in range(len(rings) - 1):
+        a0, b0 = rings[k], rings[k + 1] - 1
+        keep[a0] = True
+        keep[b0] = True
+        top = 0
+        stack[0, 0], stack[0, 1] = a0, b0
+        top = 1
+        while top > 0:
+            top -= 1
+            a, b = stack[top, 0], stack[top, 1]
+            if b - a < 2:
+                continue
+            ax, ay, bx, by = xy[a, 0], xy[a, 1], xy[b, 0], xy[b, 1]
+            dx, dy = bx - ax, by - ay
+            ll = dx * dx + dy * dy
+            far, worst = -1.0, a
+            for m in range(a + 1, b):
+                px, py = xy[m, 0] - ax, xy[m, 1] - ay
+                if ll > 0.0:
+                    t = (px * dx + py * dy) / ll
+                    t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
+                else:
+                    t = 0.0
+                ex, ey = px - t * dx, py - t * dy
+                d2 = ex * ex + ey * ey
+                if d2 > far:
+                    far, worst = d2, m
+            if far > eps * eps:
+                keep[worst] = True
+                stack[top, 0], stack[top, 1] = a, worst
+                stack[top + 1, 0], stack[top + 1, 1] = worst, b
+                top += 2
+        n = 0
+        for m in range(a0, b0 + 1):
+            if keep[m]:
+                n += 1
+        if n < 4:
+            for m in range(a0, b0 + 1):
+                keep[m] = True
+    return keep
+
+
+def simplify_outer(sets: np.ndarray, eps: float) -> np.ndarray:
+    """Each set with its rings simplified (Douglas-Peucker, tolerance ``eps``) so that ``A ⊆ S ⊕ D(eps)``: the
+    dilation of S by ``r + eps`` contains that of A by r (what :func:`dilate` needs).
+
+    Why it is outer: each ring R of A becomes a ring R' of S made of a subsequence of its vertices, each dropped
+    vertex (so each dropped stretch of R, the ε-neighbourhood of a segment being convex) within ε of the chord R'
+    replaces it by. Mapping each point of R to its projection on that chord and moving it there in a straight line
+    is a homotopy from R to R' that never leaves ``R' ⊕ D(ε)``, so any point x farther than ε from every ring of S
+    has the same winding number about R and R' for every ring. S keeps every ring of A in its polygon (no ring is
+    dropped: one left with < 4 points keeps all its vertices), so when S is *valid*, x lies in S exactly when it
+    lies in A (A is valid, as GEOS's operations return it). Hence ``A \\ S ⊆ ∂S ⊕ D(ε)``. Where S is not valid
+    (a ring crossing itself or another), the set is simplified by GEOS's topology-preserving simplifier instead,
+    whose result is within Hausdorff distance ε of A in the same way. No GEOS call but the validity test: several
+    times faster than the topology-preserving simplifier on the estimator's sets."""
+    sets = np.asarray(sets, dtype=object)
+    out = sets.copy()
+    kinds = shapely.get_type_id(sets)
+    ours = ((kinds == 3) | (kinds == 6)) & ~shapely.is_empty(sets)  # polygons, multipolygons
+    if ours.any():
+        kind, xy, offsets = shapely.to_ragged_array(sets[ours])  # as multipolygons
+        rings = offsets[0].astype(np.int64)
+        keep = _dp_keep(np.ascontiguousarray(xy), rings, float(eps))
+        counts = np.add.reduceat(keep.astype(np.int64), rings[:-1])
+        simple = shapely.from_ragged_array(kind, xy[keep], (np.concatenate([[0], np.cumsum(counts)]), *offsets[1:]))
+        single = kinds[ours] == 3
+        simple[single] = shapely.get_geometry(simple[single], 0)
+        bad = ~shapely.is_valid(simple)
+        if bad.any():
+            simple[bad] = shapely.simplify(sets[ours][bad], eps, preserve_topology=True)
+        out[ours] = simple
+    if (~ours).any():
+        out[~ours] = shapely.simplify(sets[~ours], eps, preserve_topology=True)
+    return out
 
 
 def clip(sets: np.ndarray, area) -> np.ndarray:
@@ -145,9 +231,8 @@ def within(small, *big, loose: dict | None = None):
     big = np.array(list({id(g): g for g in big if not g.is_empty}.values()), dtype=object)
     if loose is not None and len(big):
         big = np.array([within_loosened(g, loose) for g in big], dtype=object)
-    parts = shapely.get_parts(small)
     pieces = []
-    for part in parts:
+    for part in parts(small):
         local = _local_union(big, part.bounds, loose is not None)
         if local.is_empty:
             continue
@@ -155,7 +240,7 @@ def within(small, *big, loose: dict | None = None):
             pieces.append(part)
             continue
         OPS["intersection"] += 1
-        pieces.extend(shapely.get_parts(shapely.intersection(part, local)))
+        pieces.extend(parts(shapely.intersection(part, local)))
     pieces = [p for p in pieces if not p.is_empty]
     if not pieces:
         return EMPTY
@@ -164,6 +249,15 @@ def within(small, *big, loose: dict | None = None):
     if all(p.geom_type == "Polygon" for p in pieces):
         return shapely.MultiPolygon(pieces)
     return union_all(pieces)  # a degenerate contact (line, point) is kept, as the overlay would
+
+
+def parts(g) -> np.ndarray:
+    """``shapely.get_parts(g)`` of one geometry, with a polygon's own (itself) without the call."""
+    if g.geom_type == "Polygon":
+        out = np.empty(1, dtype=object)
+        out[0] = g
+        return out
+    return shapely.get_parts(g)
 
 
 def within_loosened(g, loose: dict):

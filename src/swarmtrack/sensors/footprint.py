@@ -185,10 +185,15 @@ def cone_g(uav_xyz, obj_xyz, axis, half_aperture) -> np.ndarray:
     """(n, m) ``g = Δᵀa − ‖Δ‖‖a‖cos λ`` with ``Δ = p_uav − p_obj`` (IB21 eqs. 50, 52, 53 as printed): ``≥ 0`` iff the
     UAV is in the closed one-nappe cone of half-aperture ``λ`` (scalar or (m,)) with vertex at the object and axis
     ``axis`` (m, 3). ``uav_xyz`` (n, 3), ``obj_xyz`` (m, 3)."""
+    dot, lengths = _cone_terms(uav_xyz, obj_xyz, axis)
+    return dot - lengths * np.cos(half_aperture)
+
+
+def _cone_terms(uav_xyz, obj_xyz, axis) -> tuple[np.ndarray, np.ndarray]:
+    """``Δᵀa`` and ``‖Δ‖‖a‖`` (n, m) of :func:`cone_g`, which depend on no aperture (computed once for several)."""
     d = np.asarray(uav_xyz, dtype=float)[:, None, :] - np.asarray(obj_xyz, dtype=float)[None, :, :]
     a = np.asarray(axis, dtype=float)
-    dot = np.einsum("nmk,mk->nm", d, a)
-    return dot - np.linalg.norm(d, axis=-1) * np.linalg.norm(a, axis=-1) * np.cos(half_aperture)
+    return np.einsum("nmk,mk->nm", d, a), np.linalg.norm(d, axis=-1) * np.linalg.norm(a, axis=-1)
 
 
 def in_cone(uav_xyz, obj_xyz, axis, half_aperture) -> np.ndarray:
@@ -239,8 +244,9 @@ def identify(uav_xyz, obj_xyz, axis, is_decoy, J=None, *, aperture_true: float =
     if m == 0:
         return np.zeros((n, 0), dtype=int)
     half_g = np.where(is_decoy, aperture_decoy_identify, aperture_true) / 2
-    g = cone_g(uav_xyz, obj_xyz, axis, half_g)  # eq. 50 for targets, eq. 52 for decoys
-    g_inner = cone_g(uav_xyz, obj_xyz, axis, aperture_decoy_reveal / 2)  # eq. 53 as printed
+    dot, lengths = _cone_terms(uav_xyz, obj_xyz, axis)  # cone_g's terms, once for both cones (the same numbers)
+    g = dot - lengths * np.cos(half_g)  # eq. 50 for targets, eq. 52 for decoys
+    g_inner = dot - lengths * np.cos(aperture_decoy_reveal / 2)  # eq. 53 as printed
     q = -g_inner if confusion == "outside_inner_cone" else g_inner
     confused_as = np.full(m, IDENTIFIED_FALSE)
     confused_as[is_decoy] = J

@@ -100,7 +100,8 @@ class RefilteringEstimator(InformationEstimator):
             Y[..., :2, :2] += self._acc_I[slot]
             y[..., :2] += self._acc_i[slot]
             self._post_x[slot], self._post_P[slot] = self._update(Y, y, t)
-        self.x, self.P = self._posterior(self._k)
+        x, P = self._posterior(self._k)
+        self.x, self.P = x.copy(), P.copy()  # the ring's rows are rewritten by later steps
 
     def _add(self, s: int, I: np.ndarray, i: np.ndarray) -> int:
         slot = s % len(self._acc_I)

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import functools
 import math
-import os
 import sys
 import time
 from pathlib import Path
@@ -312,17 +311,13 @@ def _matrix_lines(name: str, M) -> list[str]:
 
 
 def _free_destination(path: Path, option: str, overwrite: bool) -> None:
-    """Refuse a --out / --save-log that is a folder, an existing file without --overwrite, or a place in a folder
-    that does not exist (none is created) or cannot be written to."""
-    if path.is_dir():
-        raise UsageFailure(f"{option} {path}: is a folder, not a file")
-    if (path.exists() or path.is_symlink()) and not overwrite:
-        raise UsageFailure(f"{option} {path}: the file exists; add --overwrite to replace it")
-    parent = path.absolute().parent
-    if not parent.is_dir():
-        raise UsageFailure(f"{option} {path}: no folder {parent}")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise UsageFailure(f"{option} {path}: cannot write in {parent}")
+    """Refuse a --out / --save-log that cannot receive the file (:func:`swarmtrack.outputs.check_file_destination`)."""
+    from swarmtrack.outputs import OutputError, check_file_destination
+
+    try:
+        check_file_destination(path, option, overwrite)
+    except OutputError as exc:
+        raise UsageFailure(str(exc)) from None
 
 
 @main.command("identify")

@@ -72,19 +72,26 @@ def signals_held():
 
 
 @contextmanager
-def partial_files(paths: list[Path]):
+def partial_files(paths: list[Path], *, keep_suffix: bool = False, overwrite: bool = True):
     """One fresh hidden temporary file beside each of ``paths`` (``mkstemp``: never an existing file), to write
     in the block; afterwards they replace ``paths`` together (signals held), or, on an error, are removed.
-    Only files this function created are ever deleted."""
+    Only files this function created are ever deleted. ``keep_suffix``: the temporary name ends in the path's
+    suffix (for writers that pick the format by it). ``overwrite`` False: a path that appeared meanwhile is never
+    replaced (:class:`OutputError`, nothing moved)."""
     made = []
     try:
         for path in paths:
             path.parent.mkdir(parents=True, exist_ok=True)
-            fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
+            suffix = f".partial{path.suffix}" if keep_suffix else ".partial"
+            fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=path.parent)
             os.close(fd)
             made.append(Path(name))
         yield made
         with signals_held():
+            if not overwrite:
+                for path in paths:
+                    if path.exists() or path.is_symlink():
+                        raise OutputError(f"{path}: the file appeared meanwhile; add --overwrite to replace it")
             for tmp, path in zip(made, paths, strict=True):
                 os.replace(tmp, path)
     finally:
@@ -143,6 +150,20 @@ def in_compiler(frame) -> bool:
             return True
         frame = frame.f_back
     return False
+
+
+def check_file_destination(path: Path, option: str, overwrite: bool) -> None:
+    """Refuse a file destination given as ``option`` (:class:`OutputError`): a folder, an existing file without
+    ``overwrite``, a place in a folder that does not exist (none is created) or cannot be written to."""
+    if path.is_dir():
+        raise OutputError(f"{option} {path}: is a folder, not a file")
+    if (path.exists() or path.is_symlink()) and not overwrite:
+        raise OutputError(f"{option} {path}: the file exists; add --overwrite to replace it")
+    parent = path.absolute().parent
+    if not parent.is_dir():
+        raise OutputError(f"{option} {path}: no folder {parent}")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise OutputError(f"{option} {path}: cannot write in {parent}")
 
 
 def check_destination(out: Path, overwrite: bool) -> None:

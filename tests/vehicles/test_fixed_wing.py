@@ -71,27 +71,6 @@ def test_yaw_rate_saturates_at_the_limit_in_both_directions():
     assert free[0, fw.PSI_DOT] > 4.0
 
 
-def test_one_step_equals_the_sec6_rows_written_out():
-    rng = np.random.default_rng(3)
-    n = 5
-    s = np.column_stack([rng.uniform(-50, 50, (n, 2)), rng.uniform(80, 120, n), rng.uniform(-0.2, 0.2, n),
-                         rng.uniform(-4, 4, n), rng.uniform(-0.5, 0.5, n), rng.uniform(-1, 1, n)])
-    u = rng.uniform(-0.5, 0.5, n)
-    V, T = P.speed, DT
-    x1, x2, x3, x4, x5, x6, x7 = s.T
-    expected = np.column_stack([
-        x1 + T * np.cos(x4) * np.cos(x5) * V,
-        x2 + T * np.cos(x4) * np.sin(x5) * V,
-        x3 + T * np.sin(x4) * V,
-        x4,
-        x5 + T * x6,
-        np.clip(x6 + T * x7, -0.6, 0.6),
-        u,
-    ])
-    np.testing.assert_allclose(fw.step(s, u, P, T), expected, rtol=0, atol=1e-12)
-    np.testing.assert_allclose(fw.step(s, u[:, None], P, T), expected, rtol=0, atol=1e-12)  # (n, 1) inputs too
-
-
 def test_the_input_reaches_the_yaw_rate_after_two_ticks_and_the_heading_after_three():
     s0 = fw.initial_state([[0.0, 0.0]], [0.0])
     s1 = fw.step(s0, [0.4], P, DT)

@@ -21,14 +21,15 @@ Files are written beside their destination under a hidden temporary name and ren
 
 from __future__ import annotations
 
-import os
-import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import shapely
+
+from swarmtrack.estimation.polygons import union_all
+from swarmtrack.outputs import OutputError, check_file_destination, partial_files
 
 __all__ = ["FORMATS", "AnimationError", "Frame", "FrameCapture", "check_destination", "render", "simulate_animated",
            "view_sets"]
@@ -127,19 +128,13 @@ def simulate_animated(scenario, every: float = 1.0, uav: int | None = None,
     return step_loop(sim, recorder, progress), capture
 
 
-def _union(sets) -> shapely.Geometry:
-    """The union of an object array of sets, each distinct object once (UAVs that fused the same inputs share them)."""
-    distinct = {id(s): s for s in np.asarray(sets, dtype=object).ravel() if s is not None and not s.is_empty}
-    return shapely.union_all(list(distinct.values())) if distinct else shapely.Polygon()
-
-
 def view_sets(beliefs, uav: int | None = None) -> dict[str, shapely.Geometry]:
     """The sets a frame draws, from the UAVs' ``beliefs`` (:class:`~swarmtrack.estimation.setmembership.Beliefs`):
     ``unexplored`` X̄, ``unidentified`` Xᵁ and ``identified`` X = ∪_j X_j, each the union over the UAVs (``uav``
     None) or UAV ``uav``'s own (1-based)."""
     rows = slice(None) if uav is None else slice(uav - 1, uav)
-    return {"unexplored": _union(beliefs.unexplored[rows]), "unidentified": _union(beliefs.unidentified[rows]),
-            "identified": _union(beliefs.identified[rows])}
+    return {name: union_all(np.asarray(getattr(beliefs, name)[rows], dtype=object).ravel())
+            for name in ("unexplored", "unidentified", "identified")}  # each distinct object once
 
 
 def _polygonal(geom):
@@ -237,15 +232,10 @@ def check_destination(path: Path, overwrite: bool = False) -> None:
     if path.suffix.lower() not in FORMATS:
         raise AnimationError(f"--animate {path}: the file must end in {' or '.join(FORMATS)}")
     _writer(path.suffix.lower())
-    if path.is_dir():
-        raise AnimationError(f"--animate {path}: is a folder, not a file")
-    if (path.exists() or path.is_symlink()) and not overwrite:
-        raise AnimationError(f"--animate {path}: the file exists; add --overwrite to replace it")
-    parent = path.absolute().parent
-    if not parent.is_dir():
-        raise AnimationError(f"--animate {path}: no folder {parent}")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise AnimationError(f"--animate {path}: cannot write in {parent}")
+    try:
+        check_file_destination(path, "--animate", overwrite)
+    except OutputError as exc:
+        raise AnimationError(str(exc)) from None
 
 
 def render(capture: FrameCapture, path: Path, title: str = "", overwrite: bool = False,
@@ -253,30 +243,23 @@ def render(capture: FrameCapture, path: Path, title: str = "", overwrite: bool =
     """Write the captured frames to ``path`` (.gif or .mp4) through a hidden temporary file renamed into place when
     complete, ``title`` above each (with the view, t and Φ̄); ``progress``: told the fraction of frames drawn.
     Returns ``path``."""
-    from swarmtrack.outputs import signals_held
-
     path = Path(path)
     check_destination(path, overwrite)
     if not capture.frames:
         raise AnimationError("no frame was captured")
     uav = capture.uav
     canvas = _Canvas(capture, title + (" (sets: union over the UAVs)" if uav is None else f" (sets: UAV {uav}'s)"))
-    fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".partial{path.suffix}", dir=path.absolute().parent)
-    os.close(fd)
-    tmp = Path(name)
-    try:
-        writer = _writer(path.suffix.lower())
-        with writer.saving(canvas.fig, str(tmp), DPI):
-            for k, frame in enumerate(capture.frames):
-                canvas.draw(frame)
-                writer.grab_frame()
-                if progress is not None:
-                    progress((k + 1) / len(capture.frames))
-        with signals_held():
-            if path.exists() and not overwrite:  # appeared while the run ran: never replaced
-                raise AnimationError(f"--animate {path}: the file appeared meanwhile; add --overwrite to replace it")
-            os.replace(tmp, path)
+    try:  # a file that appeared while the run ran is never replaced without overwrite
+        with partial_files([path.absolute()], keep_suffix=True, overwrite=overwrite) as (tmp,):
+            writer = _writer(path.suffix.lower())
+            with writer.saving(canvas.fig, str(tmp), DPI):
+                for k, frame in enumerate(capture.frames):
+                    canvas.draw(frame)
+                    writer.grab_frame()
+                    if progress is not None:
+                        progress((k + 1) / len(capture.frames))
+    except OutputError as exc:
+        raise AnimationError(f"--animate {exc}") from None
     finally:
-        tmp.unlink(missing_ok=True)
         canvas.fig.clear()
     return path

@@ -55,10 +55,10 @@ full set, without the UAV's footprints, and ``d = min`` (``max`` for Hausdorff) 
 
 * ``nav``: each UAV's (N, 7) fixed-wing navigation state ``[x, y, z, γ, ψ, ψ̇, ψ̈]`` (exact, IB21 assumes known UAV
   states); the world hands the fixed-wing navigation state (extra columns beyond 7 are ignored).
-* Each UAV's aggregated set X^A (eq. 43) as an (N,) object array of shapely geometries (None or empty: nothing left).
-  The set-membership estimator is to expose it as ``view().region`` (a new optional ``TargetView`` field,
-  :func:`swarmtrack.estimation.setmembership.aggregated` of its beliefs); until then the controller takes a
-  ``regions`` callable ``TargetView → (N,)`` at construction, and :func:`plan_all` takes the array directly.
+* Each UAV's aggregated set X^A (eq. 43) as an (N,) object array of shapely geometries (None or empty: nothing left):
+  the set-membership estimator's ``view().region`` (:func:`swarmtrack.estimation.setmembership.aggregated` of its
+  beliefs), or a ``regions`` callable ``TargetView → (N,)`` given at construction; :func:`plan_all` takes the array
+  directly.
 * The inbox of the beacons it broadcast (``{"state": (N, 7)}``), with the links that carried them: UAV i reads
   neighbour ℓ's state, and the plan ℓ made earlier in the same call, only where ``links[i, ℓ]`` (A19; with no delays
   this is Sec. 5.3's waiting rule).
@@ -570,7 +570,7 @@ class SetMembershipMPC:
     (N, 1) rad/s².
 
     ``area``: X0 (a shapely geometry). ``regions``: ``TargetView → (N,)`` X^A per UAV (default: ``view.region``,
-    what the set-membership estimator is to expose). ``start``: s before which every UAV flies straight.
+    what the set-membership estimator exposes). ``start``: s before which every UAV flies straight.
     Broadcasts each UAV's state (its beacon for eq. 48); reads a neighbour's plan only over the links that carried
     its beacon."""
 

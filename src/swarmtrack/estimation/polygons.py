@@ -96,7 +96,6 @@ def _dp_keep(xy: np.ndarray, rings: np.ndarray, eps: float) -> np.ndarray:  # pr
         a0, b0 = rings[k], rings[k + 1] - 1
         keep[a0] = True
         keep[b0] = True
-        top = 0
         stack[0, 0], stack[0, 1] = a0, b0
         top = 1
         while top > 0:

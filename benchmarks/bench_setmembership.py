@@ -16,6 +16,14 @@ Beside it: the set operations per estimation step (``polygons.OPS``, by kind; th
 a UAV's sets (the estimator's ``vertices`` probe: mean and maximum over UAVs and steps), the guarantee violations
 (must be 0) and the final mean uncertainty Φ̄ (so a speed-up that changes behaviour shows).
 
+References measured in the same run (machines here differ by up to 2x; no other library does this job):
+
+* ``geos_cycle_ms``: a fixed GEOS workload, the estimator's own kind of cycle on a fixed set (dilate by 0.5 m, clip
+  to X0, remove a footprint, intersect with a neighbour's copy), per cycle; the mission's wall in these cycles
+  (``wall_in_cycles``) compares machines;
+* ``mpc_exact_ms`` beside ``mpc_local_ms``: the SM-MPC's full-set reference path (``exact=True``) and the default
+  local-window path on the same fleet plans, replayed from ``REPLAYED`` plans recorded during the mission.
+
 Run: ``PYTHONPATH=src .venv/bin/python benchmarks/bench_setmembership.py [--json] [--quick] [--duration S]``
 (400 s simulated; ``--quick``: 30 s). ``--json`` prints one flat JSON object ``{name: value}`` instead of the table.
 """
@@ -38,7 +46,7 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 import shapely  # noqa: E402
 
-from swarmtrack.control.sm_mpc import SetMembershipMPC  # noqa: E402
+from swarmtrack.control.sm_mpc import SetMembershipMPC, plan_all  # noqa: E402
 from swarmtrack.estimation import polygons as pg  # noqa: E402
 from swarmtrack.estimation.setmembership import SetMembershipEstimator  # noqa: E402
 from swarmtrack.scenarios import load_scenario  # noqa: E402
@@ -47,6 +55,8 @@ from swarmtrack.sim.engine import simulate  # noqa: E402
 SCENARIO = "ib21-fleet-6"
 DURATION, QUICK_DURATION = 400.0, 30.0
 GOAL_WALL_S = 20.0  # the 400 s mission
+TIE_M2 = 1e-6  # eq. 47 costs closer than this are a tie
+REPLAYED = 40  # fleet plans recorded for the MPC reference (one every 10 control periods)
 
 
 @contextlib.contextmanager
@@ -79,7 +89,8 @@ def mission(duration: float) -> dict[str, float]:
                "view": (SetMembershipEstimator, "view"), "mpc": (SetMembershipMPC, "command")}
     spent = dict.fromkeys(methods, 0.0)
     pg.OPS.clear()
-    with timed(spent, methods):
+    recorded: list[tuple] = []
+    with timed(spent, methods), recording(recorded):
         t0 = time.perf_counter()
         rec = simulate(scn)
         wall = time.perf_counter() - t0
@@ -98,7 +109,76 @@ def mission(duration: float) -> dict[str, float]:
            "vertices_max": float(vertices.max()), "guarantee_violations": float(violations.sum()),
            "phi_final_mean": float(phi.mean())}
     out.update({f"ops_{k}_per_step": v / steps for k, v in sorted(ops.items())})
+    out["geos_cycle_ms"] = geos_cycle_ms()
+    out["wall_in_cycles"] = wall / (out["geos_cycle_ms"] / 1e3)
+    out.update(mpc_reference(recorded[:: max(1, len(recorded) // REPLAYED)][:REPLAYED]))
     return out
+
+
+@contextlib.contextmanager
+def recording(out: list):
+    """Record the inputs of every fleet plan (``plan_all``'s arguments) while the block runs."""
+    original = SetMembershipMPC.command
+
+    def command(self, t, nav, view, inbox, dt):
+        if t >= self._next - 1e-9:
+            out.append((nav.copy(), self.region_of(view), self.area, self.s,
+                        None if inbox is None else inbox.links, None if inbox is None else inbox.payloads.get("state")))
+        return original(self, t, nav, view, inbox, dt)
+
+    SetMembershipMPC.command = command
+    try:
+        yield out
+    finally:
+        SetMembershipMPC.command = original
+
+
+def mpc_reference(plans: list[tuple]) -> dict[str, float]:
+    """The recorded fleet plans replayed through the local-window path and the full-set reference (``exact=True``),
+    interleaved: ms per UAV and plan of each, and the share of UAVs whose local pick has the exact best cost (to
+    ``TIE_M2``: a tie within round-off may be broken the other way, the tolerance of ``choose`` being relative)."""
+    local = exact = 0.0
+    same = uavs = 0
+    for nav, regions, area, s, links, beacons in plans:
+        state = nav[:, -7:]
+        t0 = time.perf_counter()
+        a = plan_all(state, regions, area, s, links, beacons)
+        t1 = time.perf_counter()
+        b = plan_all(state, regions, area, s, links, beacons, exact=True)
+        exact += time.perf_counter() - t1
+        local += t1 - t0
+        for ca, cb in zip(a.choices, b.choices, strict=True):  # the local pick costs what the exact best does
+            same += int(cb.cost[ca.index] <= cb.cost[cb.index] + TIE_M2)
+        uavs += len(state)
+    return {"mpc_local_ms": 1e3 * local / max(uavs, 1), "mpc_exact_ms": 1e3 * exact / max(uavs, 1),
+            "mpc_same_plans": same / max(uavs, 1)}
+
+
+def geos_cycle_ms(cycles: int = 200) -> float:
+    """The machine's speed on the estimator's kind of work, same run: ms per cycle of dilate (0.5 m), clip to X0,
+    remove a footprint and intersect with a neighbour's copy, on a fixed set (X0 minus 40 footprints along a seeded
+    path, about 300 vertices). Best of 3."""
+    area = shapely.box(0, 0, 400, 400)
+    rng = np.random.default_rng(0)
+    xy, psi = np.array([60.0, 60.0]), 0.0
+    cut = []
+    for _ in range(40):
+        psi += rng.uniform(-0.4, 0.4)
+        xy = np.clip(xy + 8.3 * np.array([np.cos(psi), np.sin(psi)]), 40, 360)
+        cut.append(shapely.affinity.rotate(shapely.box(*(xy - 41.4), *(xy + 41.4)), psi, use_radians=True))
+    start = shapely.difference(area, shapely.union_all(cut))
+    other = shapely.affinity.translate(start, 0.3, -0.2)
+    best = np.inf
+    for _ in range(3):
+        t0 = time.perf_counter()
+        a = start
+        for k in range(cycles):
+            a = shapely.buffer(a, 0.5, quad_segs=8)
+            a = shapely.intersection(a, area)
+            a = shapely.difference(a, cut[k % len(cut)])
+            a = shapely.intersection(a, other)
+        best = min(best, (time.perf_counter() - t0) / cycles)
+    return 1e3 * best
 
 
 def main(argv=None) -> None:
@@ -122,6 +202,11 @@ def main(argv=None) -> None:
                       ("rest (world, sensor, monitor, ...)", "rest_s")):
         print(f"{name:<34} {r[key]:>8.2f} {100 * r[key] / r['wall_s']:>6.1f}%")
     print(f"   SM-MPC per UAV and plan: {r['mpc_ms_per_uav_plan']:.2f} ms")
+    print(f"\nreferences, same run: a GEOS cycle (dilate, clip, remove, intersect) {r['geos_cycle_ms']:.3f} ms, "
+          f"so the mission is {r['wall_in_cycles']:,.0f} cycles")
+    print(f"   SM-MPC on {REPLAYED} replayed fleet plans, ms per UAV and plan: local window {r['mpc_local_ms']:.2f}, "
+          f"full-set reference {r['mpc_exact_ms']:.2f} ({r['mpc_exact_ms'] / r['mpc_local_ms']:.1f}x); "
+          f"the local pick has the exact best cost (to {TIE_M2:g} m²) for {100 * r['mpc_same_plans']:.1f} % of the UAVs")
     kinds = ", ".join(f"{k[4:-9]} {v:.2f}" for k, v in r.items() if k.startswith("ops_") and k != "ops_per_step")
     print(f"\nset operations per estimation step: {r['ops_per_step']:.1f} ({kinds})")
     print(f"vertices per UAV (all its sets): mean {r['vertices_mean']:.0f}, max {r['vertices_max']:.0f}")

@@ -206,7 +206,7 @@ def main(argv=None) -> None:
           f"so the mission is {r['wall_in_cycles']:,.0f} cycles")
     print(f"   SM-MPC on {REPLAYED} replayed fleet plans, ms per UAV and plan: local window {r['mpc_local_ms']:.2f}, "
           f"full-set reference {r['mpc_exact_ms']:.2f} ({r['mpc_exact_ms'] / r['mpc_local_ms']:.1f}x); "
-          f"the local pick has the exact best cost (to {TIE_M2:g} m²) for {100 * r['mpc_same_plans']:.1f} % of the UAVs")
+          f"the local pick has the exact best cost (to {TIE_M2:g} m²) for {100 * r['mpc_same_plans']:.1f} % of UAVs")
     kinds = ", ".join(f"{k[4:-9]} {v:.2f}" for k, v in r.items() if k.startswith("ops_") and k != "ops_per_step")
     print(f"\nset operations per estimation step: {r['ops_per_step']:.1f} ({kinds})")
     print(f"vertices per UAV (all its sets): mean {r['vertices_mean']:.0f}, max {r['vertices_max']:.0f}")

@@ -32,6 +32,10 @@ A list L is the identified sets that are not empty (eqs. 29, 35: an emptied set 
 The **alarms** (counts per UAV) flag what cannot happen under the assumptions with no decoys: a detection whose box
 meets no set that could hold it (``unexplained``; with decoys, a decoy seen again after it was identified as one),
 and every set of a UAV empty (``all_empty``: every target lost, the paper's sign of a wrong noise bound).
+
+**Delayed messages** (IB21 Sec. 4.5, ``estimator.delayed_data: refilter``): every broadcast is stamped with the time
+its sets describe, and :class:`ReplayingSetMembershipEstimator` fuses late sets at that time and replays the updates
+since; without network delays the builder uses the plain :class:`SetMembershipEstimator`.
 """
 
 from __future__ import annotations

@@ -9,6 +9,8 @@ import pytest
     ("robust-5", "network={topology: full, delay: 0.5, delay_max: 0.2}", ["delay_max", "smaller than delay"]),
     ("robust-5", "network.delay_max=1000", ["network.delay_max", "not shorter than the run"]),
     ("w20-switching", "network.delay=0.1", ["network.delay", "'multimodel' estimator does not read time stamps"]),
+    ("ib21-fleet-6", "network.delay_max=0.5", ["network.delay", "estimator.delayed_data: refilter"]),
+    ("ib21-fleet-6", "estimator.delayed_data=as_current", ["estimator.delayed_data", "refused", "refilter"]),
     ("robust-5", "network.liar={uav: 6}", ["network.liar.uav", "UAV 6", "1..5"]),
     ("robust-5", "network.liar={uav: 0}", ["network.liar.uav"]),
     ("robust-5", "network.liar={uav: 2, mode: loud}", ["network.liar.mode"]),
@@ -50,3 +52,23 @@ def test_combinations_that_are_not_built_are_refused(refused):
     refused("l24-cv", "estimator={kind: information, gating: ci, delayed_data: refilter}",
             ["gating ci", "late data"])
     refused("l24-cv", "estimator={kind: centralized, gating: chi2}", ["estimator.gating", "neighbours"])
+
+
+def test_the_set_membership_estimator_replays_over_the_delay_bound_rounded_up_to_sharing_periods():
+    from swarmtrack.estimation.setmembership import ReplayingSetMembershipEstimator, SetMembershipEstimator
+    from swarmtrack.scenarios import load_scenario
+    from swarmtrack.sim.build import build
+
+    def window(*overrides):
+        scn = load_scenario("ib21-fleet-2", ["duration=5", *overrides])
+        return scn.estimator.replayed_periods(scn)
+
+    on = "estimator.delayed_data=refilter"
+    assert window(on, "network.delay=0.5") == 1 and window(on, "network.delay_max=1.0") == 2  # T^c = 0.5 s
+    assert window(on, "network.delay=0.01") == 1 and window(on, "network.delay_max=0.51") == 2  # rounded up
+    assert window(on, "network.delay=0.500000025") == 2  # as the channel waits (delay_steps: 11 steps of 0.05 s)
+    assert window(on) == 0 and window(on, "network={topology: none, delay: 0.5}") == 0
+    late = build(load_scenario("ib21-fleet-2", ["duration=5", on, "network.delay_max=1.0"])).stack.estimator
+    assert type(late) is ReplayingSetMembershipEstimator and late.window == 2
+    plain = build(load_scenario("ib21-fleet-2", ["duration=5", on])).stack.estimator
+    assert type(plain) is SetMembershipEstimator  # no delay: the plain estimator, nothing kept

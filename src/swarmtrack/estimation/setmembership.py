@@ -32,6 +32,10 @@ A list L is the identified sets that are not empty (eqs. 29, 35: an emptied set 
 The **alarms** (counts per UAV) flag what cannot happen under the assumptions with no decoys: a detection whose box
 meets no set that could hold it (``unexplained``; with decoys, a decoy seen again after it was identified as one),
 and every set of a UAV empty (``all_empty``: every target lost, the paper's sign of a wrong noise bound).
+
+**Delayed messages** (IB21 Sec. 4.5, ``estimator.delayed_data: refilter``): every broadcast is stamped with the time
+its sets describe, and :class:`ReplayingSetMembershipEstimator` fuses late sets at that time and replays the updates
+since; without network delays the builder uses the plain :class:`SetMembershipEstimator`.
 """
 
 from __future__ import annotations
@@ -147,12 +151,15 @@ def _explain(b: Beliefs, i: int, boxes: np.ndarray, labels: np.ndarray, Xu, Xbar
             b.alarms["unexplained"][i] += 1
 
 
-def fuse(b: Beliefs, recv: np.ndarray, send: np.ndarray, sent: Beliefs) -> None:
+def fuse(b: Beliefs, recv: np.ndarray, send: np.ndarray, sent: Beliefs, own: np.ndarray | None = None) -> None:
     """IB21 eqs. 31-37: every UAV that heard from someone fuses its own and its neighbours' corrected sets (``sent``,
     the sets as broadcast; row ℓ read by UAV i only where a link ``i ← ℓ`` delivered it). All sets describe the same
-    time. UAVs with the same closed neighbourhood fuse the same inputs: computed once, the result shared."""
+    time. UAVs with the same closed neighbourhood fuse the same inputs: computed once, the result shared.
+
+    ``own`` (N,): the row of ``sent`` holding each UAV's own corrected sets (default: its own row, the sets it
+    broadcast); Sec. 4.5's replay (:class:`ReplayingSetMembershipEstimator`) passes the sets it recomputed."""
     done: dict[tuple, int] = {}
-    groups = {i: np.concatenate([[i], send[recv == i]]) for i in np.unique(recv).tolist()}
+    groups = {i: np.concatenate([[i if own is None else own[i]], send[recv == i]]) for i in np.unique(recv).tolist()}
     bases = _Meets(sent.base, groups.values())  # intersections of predicted X̄, shared within this round
     loose: dict = {}  # the neighbours' sets loosened whole, once this round (polygons.within)
     for i, group in groups.items():
@@ -372,28 +379,40 @@ class SetMembershipEstimator:
         if len(rows):
             if own.footprint is None:
                 raise ValueError("the set-membership estimator needs a sensor that reports footprints")
-            predict(self.beliefs, rows, t, self.speed, self.area)
             regions = pg.inner(shapely.polygons(own.footprint[rows]))
+            frames = []
             for i, region in zip(rows, regions, strict=True):
                 mine = own.owner == i
-                correct(self.beliefs, i, region, own.z[mine], own.label[mine], self.bound)
+                frames.append((i, region, own.z[mine], own.label[mine]))
+            self._update(t, rows, frames)
             self.updates[rows] += 1
             self._view = None
         if not self._sharing:
             return {}
         b = self.beliefs
         return {"unexplored": b.unexplored.copy(), "unidentified": b.unidentified.copy(),
-                "identified": b.identified.copy(), "unexplored_base": b.base.copy(), "unexplored_cut": b.cut.copy()}
+                "identified": b.identified.copy(), "unexplored_base": b.base.copy(), "unexplored_cut": b.cut.copy(),
+                "taken": np.full(self.n, float(t))}  # the time the sets describe (IB21 Sec. 4.5's stamp)
+
+    def _update(self, t: float, rows: np.ndarray, frames: list[tuple]) -> None:
+        self._advance(self.beliefs, t, rows, frames)
+
+    def _advance(self, b: Beliefs, t: float, rows: np.ndarray, frames: list[tuple]) -> None:
+        """Algorithm 1 lines 1-10 for the UAVs ``rows``: prediction to ``t`` (eqs. 12-15), then the correction by
+        each one's frame, ``frames`` = ``[(i, footprint, z, labels), …]`` (eqs. 16-29)."""
+        predict(b, rows, t, self.speed, self.area)
+        for i, region, z, labels in frames:
+            correct(b, i, region, z, labels, self.bound)
 
     def fuse(self, t: float, own, inbox) -> None:
         """At a sharing time, fuse what the links delivered (IB21 eqs. 31-37, Algorithm 1 lines 11-16)."""
         if not self._sharing:
             return
-        got = inbox.payloads
-        sent = Beliefs(got["unexplored"], got["unidentified"], got["identified"], self.beliefs.t,
-                       base=got.get("unexplored_base"), cut=got.get("unexplored_cut"))
         recv, send = inbox.edges()
-        fuse(self.beliefs, recv, send, sent)
+        fuse(self.beliefs, recv, send, _received(inbox.payloads))
+        self._refresh()
+
+    def _refresh(self) -> None:
         region = aggregated(self.beliefs)  # X^A once, for Φ and the view
         self._phi = uncertainty(self.beliefs, region)
         self._view = self._make_view(region)
@@ -429,3 +448,149 @@ class SetMembershipEstimator:
     def current(self, t: float) -> np.ndarray:
         """(N,) the UAVs whose sets describe time ``t`` (updated at ``t``): the guarantee is about the sets' time."""
         return np.abs(self.beliefs.t - t) < 1e-9
+
+
+def _received(got: dict) -> Beliefs:
+    """The broadcast sets of one sharing time (:meth:`SetMembershipEstimator.share`'s payload) as :class:`Beliefs`."""
+    return Beliefs(got["unexplored"], got["unidentified"], got["identified"], got["taken"],
+                   base=got.get("unexplored_base"), cut=got.get("unexplored_cut"))
+
+
+class ReplayingSetMembershipEstimator(SetMembershipEstimator):
+    """IB21 Sec. 4.5: a neighbour's sets that arrive late are fused at the time they describe, and the UAV's updates
+    since are replayed, over a window of the last ``window`` (δ̄) sharing times.
+
+    Every broadcast carries the time its sets describe (``taken``). A message is fused at the first sharing time
+    after it arrived (a channel delivers at an estimation step: the delay rounded up to whole sharing periods). Each
+    UAV keeps, for the sharing times ``m − δ̄ .. m``: its corrected sets ``X_{i,k|k}`` before the fusion (the
+    snapshots ``_pre``), the messages it fused at each (``_heard``: the payload and the links), and its own frames
+    (footprint, detections, labels) of every update (``_frames``, the identification frames between sharing
+    times too). A UAV that got sets of time ``k − δ'`` re-fuses, at ``k − δ'``, its corrected sets with every
+    message of that time it has (eqs. 31-37: the result is the one it would have had, had the late message arrived
+    in time), then for ``k − δ' + 1 .. k`` predicts (eqs. 12-15), corrects by its own frames (eqs. 16-29) and fuses
+    the messages of each time again. No sets of different times are ever fused. A UAV's recomputed sets are fused as
+    its own row (``fuse``'s ``own``), its neighbours' as they broadcast them.
+
+    Where the paper fuses the late sets with the already fused ``X_{i,k−δ'}``, this re-fuses from ``X_{i,k−δ'|k−δ'}``
+    with all messages of that time: both are outer approximations; this one equals on-time arrival. Sets older than
+    the window are dropped and counted (probe ``stale``, the health check's ``stale_data`` warning); ``late`` counts
+    the late messages fused. The alarm counts of the replayed updates are recounted (they replace the first count).
+    The cost, one replay of up to δ̄ periods per UAV that got late sets, is paid only with delays: without them the
+    builder uses the plain estimator."""
+
+    def __init__(self, *args, window: int, **kwargs):
+        super().__init__(*args, **kwargs)
+        if window < 1:
+            raise ValueError("the replay window must be at least one sharing period")
+        self.window = int(window)
+        self._pre: dict[int, Beliefs] = {}  # sharing index -> the corrected sets before the fusion
+        self._heard: dict[int, tuple[dict, list, list]] = {}  # sharing index -> (payload, receivers, senders)
+        self._frames: list[tuple] = []  # (sharing index at or after it, t, rows, frames) of every update
+        self._waiting: list[tuple] = []  # (payload, receivers, senders) delivered since the last sharing time
+        self._late = np.zeros(self.n)
+        self._stale = np.zeros(self.n)
+        self.probes = (*self.probes, Probe("late", ()), Probe("stale", ()))
+
+    def _index(self, t: float) -> int:
+        return round(t / self.period)
+
+    def _update(self, t: float, rows: np.ndarray, frames: list[tuple]) -> None:
+        at = t if self._sharing else self._next_share  # an identification frame belongs to the next sharing time
+        self._frames.append((self._index(at), t, rows, frames))
+        super()._update(t, rows, frames)
+
+    def share(self, t: float, nav: np.ndarray, own) -> dict:
+        out = super().share(t, nav, own)
+        if self._sharing:
+            self._pre[self._index(t)] = self.beliefs.copy()
+        return out
+
+    def fuse(self, t: float, own, inbox) -> None:
+        """Collect what arrived (a message between sharing times waits for the next one); at a sharing time ``m``,
+        file each message under the time its sets describe, drop and count those older than ``m − δ̄``, and replay
+        every UAV from the earliest time it got sets of (:meth:`_replay`)."""
+        for part in inbox.parts():
+            recv, send = part.edges()
+            if "taken" in part.payloads and len(recv):  # nothing is broadcast between sharing times
+                self._waiting.append((part.payloads, recv, send))
+        if not self._sharing:
+            return
+        m = self._index(t)
+        self._forget(m - self.window)
+        self._late[:] = 0.0
+        self._stale[:] = 0.0
+        start = np.full(self.n, m)  # per UAV, the earliest sharing time it re-fuses
+        for payloads, recv, send in self._waiting:
+            s = self._index(payloads["taken"][send[0]])  # one part: one sending time
+            if s < m - self.window:
+                np.add.at(self._stale, recv, 1.0)
+                continue
+            heard = self._heard.setdefault(s, (payloads, [], []))
+            heard[1].append(recv)
+            heard[2].append(send)
+            if s < m:
+                np.minimum.at(start, recv, s)
+                np.add.at(self._late, recv, 1.0)
+        self._waiting = []
+        self._replay(m, start)
+        self._refresh()
+
+    def _forget(self, oldest: int) -> None:
+        """Drop what a replay from the sharing time ``oldest`` on no longer needs."""
+        for kept in (self._pre, self._heard):
+            for s in [s for s in kept if s < oldest]:
+                del kept[s]
+        self._frames = [f for f in self._frames if f[0] > oldest]
+
+    def _replay(self, m: int, start: np.ndarray) -> None:
+        """From the earliest ``start`` to ``m``: each UAV joins at its ``start`` with its corrected sets of that
+        time, is fused with every message of each time (eqs. 31-37), predicted and corrected by its own frames up to
+        the next (eqs. 12-29). With nothing late, this is the plain fusion at ``m``."""
+        s0 = int(start.min())
+        w = self._pre[s0].copy()
+        rows = np.arange(self.n)
+        for s in range(s0, m + 1):
+            if s > s0:
+                old = rows[start < s]
+                for tag, t, updated, frames in self._frames:
+                    keep = np.isin(updated, old)
+                    if tag == s and keep.any():
+                        self._advance(w, t, updated[keep], [f for f, k in zip(frames, keep, strict=True) if k])
+                _put(self._pre[s], w, old)  # their corrected sets at s, recomputed
+                _put(w, self._pre[s], rows[start == s])
+            if s not in self._heard:
+                continue
+            payloads, recv, send = self._heard[s]
+            recv, send = np.concatenate(recv), np.concatenate(send)
+            on = start[recv] <= s
+            sent = _received(payloads)
+            own = np.where([_same_row(w, sent, i) for i in rows], rows, rows + self.n)
+            if (own >= self.n).any():
+                sent = _stacked(sent, w)
+            fuse(w, recv[on], send[on], sent, own)
+        _put(self.beliefs, w, rows)
+
+    def sample(self) -> dict[str, np.ndarray]:
+        return {**super().sample(), "late": self._late.copy(), "stale": self._stale.copy()}
+
+
+def _put(dst: Beliefs, src: Beliefs, rows: np.ndarray) -> None:
+    """Rows ``rows`` of ``src``'s sets, times, lineage and alarm counts into ``dst``."""
+    for name in ("unexplored", "unidentified", "identified", "t", "base", "cut"):
+        getattr(dst, name)[rows] = getattr(src, name)[rows]
+    for name, counts in dst.alarms.items():
+        counts[rows] = src.alarms[name][rows]
+
+
+def _same_row(a: Beliefs, b: Beliefs, i: int) -> bool:
+    """Whether UAV i's sets in ``a`` are the very objects of ``b`` (what it broadcast: nothing was recomputed)."""
+    return (a.unexplored[i] is b.unexplored[i] and a.unidentified[i] is b.unidentified[i]
+            and a.base[i] is b.base[i] and a.cut[i] is b.cut[i]
+            and all(x is y for x, y in zip(a.identified[i], b.identified[i], strict=True)))
+
+
+def _stacked(sent: Beliefs, own: Beliefs) -> Beliefs:
+    """The broadcast rows, then the recomputed own rows (row ``N + i``: UAV i's), for :func:`fuse`'s ``own``."""
+    return Beliefs(*(np.concatenate([getattr(sent, f), getattr(own, f)])
+                     for f in ("unexplored", "unidentified", "identified", "t")),
+                   base=np.concatenate([sent.base, own.base]), cut=np.concatenate([sent.cut, own.cut]))

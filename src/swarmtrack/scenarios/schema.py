@@ -714,9 +714,25 @@ class SetMembershipSpec(EstimatorSpec):
     noise_bound: HalfWidths = Field((5.0, 5.0), description=(
         "m, the ASSUMED noise half-widths per axis (the guarantee needs them to contain the true ones)"))
     period: Time = Field(0.5, gt=0, description="s, between exchanges T^c (IB21: 0.5)")
+    delayed_data: Literal["refused", "refilter"] = Field("refused", description=(
+        "refused: network.delay is refused; refilter: a late neighbour's sets are fused at the time they describe "
+        "and the updates since are replayed (IB21 Sec. 4.5), over a window of the delay bound in periods"))
 
     def speed_bound(self, scenario: Scenario) -> float:
         return self.target_speed if self.target_speed is not None else scenario.targets.speed
+
+    def replayed_periods(self, scenario: Scenario) -> int:
+        """δ̄ of IB21 Sec. 4.5: how many sharing periods late a neighbour's sets can be fused, 0 without delays or
+        neighbours. A message waits :func:`~swarmtrack.network.channel.delay_steps` estimation steps and is fused
+        at the first sharing time after it arrived: the delay bound rounded up to whole periods."""
+        from swarmtrack.network.channel import delay_steps
+
+        if self.delayed_data != "refilter" or scenario.network.topology == "none":
+            return 0
+        dt = 1.0 / scenario.rates.estimation
+        steps = int(delay_steps(scenario.network.delay_bound(), dt))
+        per_period = round(self.period / dt)  # a whole number of steps (checked)
+        return -(-steps // per_period)
 
     def check(self, scenario: Scenario) -> None:
         if scenario.sensor.kind != "footprint":
@@ -1002,7 +1018,12 @@ class Scenario(_Strict):
                 field = "delay" if self.network.delay_max is None else "delay_max"
                 raise ValueError(f"network.{field} ({self.network.delay_bound():g} s) is not shorter than the run "
                                  f"({self.run_duration():g} s)")
-            if self.estimator.kind not in ("information", "centralized"):
+            if self.estimator.kind == "setmembership":
+                if self.estimator.delayed_data != "refilter":
+                    raise ValueError("network.delay needs estimator.delayed_data: refilter with estimator.kind "
+                                     "setmembership (a late neighbour's sets are fused at their time and the updates "
+                                     "since replayed, IB21 Sec. 4.5)")
+            elif self.estimator.kind not in ("information", "centralized"):
                 raise ValueError(f"network.delay needs estimator.kind information: the {self.estimator.kind!r} "
                                  "estimator does not read time stamps")
             if getattr(self.estimator, "share", "information") != "information" and self.estimator.kind != \

@@ -23,7 +23,7 @@ from swarmtrack.estimation.information import InformationEstimator, RangeBearing
 from swarmtrack.estimation.measurements import CameraFrameMeasurement, RangeBearingMeasurement
 from swarmtrack.estimation.multimodel import MultiModelEstimator
 from swarmtrack.estimation.refilter import RefilteringEstimator
-from swarmtrack.estimation.setmembership import SetMembershipEstimator
+from swarmtrack.estimation.setmembership import ReplayingSetMembershipEstimator, SetMembershipEstimator
 from swarmtrack.models import make_model
 from swarmtrack.network.channel import Channel
 from swarmtrack.network.faults import Liar
@@ -148,11 +148,13 @@ def _mpc(spec: MPCSpec, ctx: Context) -> MPCController:
 
 
 def _setmembership(spec: SetMembershipSpec, ctx: Context) -> SetMembershipEstimator:
+    """IB21's estimator; with network delays and ``delayed_data: refilter``, the one that replays (Sec. 4.5)."""
     import shapely
 
-    return SetMembershipEstimator(ctx.n_uavs, ctx.scenario.targets.size(), shapely.box(*spec.area),
-                                  speed=spec.speed_bound(ctx.scenario), bound=tuple(spec.noise_bound),
-                                  period=spec.period)
+    window = spec.replayed_periods(ctx.scenario)
+    kind, extra = (ReplayingSetMembershipEstimator, {"window": window}) if window else (SetMembershipEstimator, {})
+    return kind(ctx.n_uavs, ctx.scenario.targets.size(), shapely.box(*spec.area),
+                speed=spec.speed_bound(ctx.scenario), bound=tuple(spec.noise_bound), period=spec.period, **extra)
 
 
 def _sm_mpc(spec: SMMPCSpec, ctx: Context) -> SetMembershipMPC:

@@ -20,7 +20,8 @@ For a run whose filters gate their neighbours or fuse late data (:class:`Network
 
 * **Suspect neighbour**: the other UAVs' χ²-gates left out more than :data:`SUSPECT` of a UAV's contributions
   that reached them (a faulty or lying member; the gating contained it).
-* **Stale data**: measurements or messages arrived later than the re-filtering window and were dropped.
+* **Stale data**: measurements or messages arrived later than the window an estimator keeps for late data (the
+  information filter's re-filtering, the set-membership replay) and were dropped.
 
 Each warning is a dict ``{kind, message, t_start, t_end[, uav]}`` (times in s, UAV numbers 1-based). The
 accumulators are O(N) per UAV plus O(steps) scalars: they stream over the recording's chunks.
@@ -163,7 +164,8 @@ class NetworkHealth:
         if "stale" in self.names and self.total["stale"].sum():
             warnings.append({"kind": "stale_data", "t_start": 0.0, "t_end": float(self.rec.t_last),
                              "message": f"{int(self.total['stale'].sum())} measurements or messages arrived later "
-                                        "than the re-filtering window and were dropped"})
+                                        "than the window the estimator keeps for late data (re-filtering, replay) "
+                                        "and were dropped"})
         return warnings
 
 

@@ -157,7 +157,7 @@ def mpc_reference(plans: list[tuple]) -> dict[str, float]:
 def geos_cycle_ms(cycles: int = 200) -> float:
     """The machine's speed on the estimator's kind of work, same run: ms per cycle of dilate (0.5 m), clip to X0,
     remove a footprint and intersect with a neighbour's copy, on a fixed set (X0 minus 40 footprints along a seeded
-    path, about 300 vertices). Best of 3."""
+    path, about 110 vertices). Best of 3."""
     area = shapely.box(0, 0, 400, 400)
     rng = np.random.default_rng(0)
     xy, psi = np.array([60.0, 60.0]), 0.0

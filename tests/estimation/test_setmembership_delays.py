@@ -46,7 +46,8 @@ def world(seed: int, steps: int):
 def run(est, frames, deliver, steps=None, totals=None):
     """Drive ``est`` through ``frames`` (the steps ``steps``, default all); ``deliver(k, outbox)`` gives step k's
     inbox. Returns the guarantee violations counted on the UAVs whose sets describe the step (the truth-side monitor's
-    rule); adds the ``late`` and ``stale`` probes of every sharing time to ``totals``."""
+    rule); adds the ``late`` and ``stale`` probes of every step to ``totals`` (as the recorder and the health check
+    do: a message counts once)."""
     violations = 0
     for k in range(len(frames)) if steps is None else steps:
         objs, det = frames[k]
@@ -54,7 +55,7 @@ def run(est, frames, deliver, steps=None, totals=None):
         est.fuse(t, det, deliver(k, est.share(t, None, det)))
         now = est.current(t)
         violations += int((~est.containing(objs, np.arange(N_T))[now]).sum())
-        if totals is not None and k % round(PERIOD / DT) == 0:
+        if totals is not None:  # every step, as the recorder sums them
             for name in totals:
                 totals[name] += est.sample()[name].sum()
     return violations
@@ -77,7 +78,8 @@ def test_the_guarantee_holds_with_random_delays_up_to_one_second(seed):
     assert violations == 0
     assert sum(int(a.sum()) for a in est.beliefs.alarms.values()) == 0  # no target lost, no detection unexplained
     sent = 40 * N * (N - 1)  # 40 sharing times, every link
-    assert totals["late"] > 0.5 * sent and totals["stale"] == 0  # most messages came late, none beyond the window
+    assert 0.5 * sent < totals["late"] <= sent and totals["stale"] == 0  # most came late (each counted once), none
+    # beyond the window
     assert pg.area(est.beliefs.unexplored).max() < 0.5 * AREA.area  # and the sets did learn something
 
 
@@ -193,3 +195,49 @@ def test_with_nothing_late_the_replaying_estimator_gives_the_plain_sets_bit_for_
         run(est, frames, _one_late(hold=0))
     assert [g.wkb for g in _all_sets(plain)] == [g.wkb for g in _all_sets(replaying)]
     assert (plain.beliefs.t == replaying.beliefs.t).all() and replaying.sample()["late"].sum() == 0
+
+
+def _held(sends: dict[int, int], hold: int | None, cut_from_1_to_2: bool = False):
+    """Step k's inbox: nobody hears UAV 0 (so UAVs 1 and 2 broadcast what they alone learn); UAV 0 hears UAV ℓ only at
+    the steps ``sends`` ``{k: ℓ}``, and that message arrives ``hold`` steps later (0: on time; None: never), and with
+    ``cut_from_1_to_2`` UAV 0 also hears UAV 2 at every step while UAV 2 never hears UAV 1."""
+    flight: dict[int, list] = {}
+
+    def deliver(k, outbox):
+        links = FULL.copy()
+        links[:, 0] = False
+        links[0] = False
+        if cut_from_1_to_2:
+            links[2, 1] = False
+            links[0, 2] = True
+        if k in sends:
+            if hold == 0:
+                links[0, sends[k]] = True
+            elif hold is not None:
+                flight.setdefault(k + hold, []).append(Inbox(_only(0, sends[k]), outbox))
+        return Inbox(links, outbox, tuple(flight.pop(k, ())))
+
+    return deliver
+
+
+STEP_S1 = round(S1 * PERIOD / DT)
+REPLAYS = {  # late messages whose replay fuses again on the way (what _one_late's missions never do)
+    "on-time messages fused again during the replay": ({STEP_S1: 1}, True),
+    "a second late message replayed over the first one's": ({STEP_S1: 1, STEP_S1 + 2 * round(PERIOD / DT): 2}, False),
+}
+
+
+@pytest.mark.parametrize("case", sorted(REPLAYS))
+def test_a_replay_that_fuses_again_stays_with_the_on_time_sets(case):
+    """The replay fuses UAV 0's *recomputed* sets (``fuse``'s ``own``) with the messages of each time again, and keeps
+    its recomputed corrected sets for later replays: the result stays with the on-time one, up to the loosening that
+    new objects change (a few tenths of a m² at most here), far closer than ignoring the message."""
+    sends, relay = REPLAYS[case]
+    frames = world(3, 160)
+    runs = {hold: (make(window=3), _held(sends, hold, relay)) for hold in (0, HOLD, None)}
+    for est, deliver in runs.values():
+        run(est, frames, deliver)
+    on_time = _sets(runs[0][0])
+    late = max(shapely.symmetric_difference(a, b).area for a, b in zip(on_time, _sets(runs[HOLD][0]), strict=True))
+    ignored = max(shapely.symmetric_difference(a, b).area for a, b in zip(on_time, _sets(runs[None][0]), strict=True))
+    assert late < 0.5 and ignored > 1.0 and late < 0.25 * ignored

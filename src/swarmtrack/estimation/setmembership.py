@@ -472,7 +472,9 @@ class ReplayingSetMembershipEstimator(SetMembershipEstimator):
     its own row (``fuse``'s ``own``), its neighbours' as they broadcast them.
 
     Where the paper fuses the late sets with the already fused ``X_{i,k−δ'}``, this re-fuses from ``X_{i,k−δ'|k−δ'}``
-    with all messages of that time: both are outer approximations; this one equals on-time arrival. Sets older than
+    with all messages of that time: both are outer approximations; this one gives the sets of an on-time arrival, up
+    to the loosening of operands (:func:`polygons.loosen`), which recomputed sets, being new objects, receive
+    differently (tests: < 1e-6 m² when the replay fuses nothing on the way, < 0.5 m² when it does). Sets older than
     the window are dropped and counted (probe ``stale``, the health check's ``stale_data`` warning); ``late`` counts
     the late messages fused. The alarm counts of the replayed updates are recounted (they replace the first count).
     The cost, one replay of up to δ̄ periods per UAV that got late sets, is paid only with delays: without them the
@@ -485,7 +487,7 @@ class ReplayingSetMembershipEstimator(SetMembershipEstimator):
         self.window = int(window)
         self._pre: dict[int, Beliefs] = {}  # sharing index -> the corrected sets before the fusion
         self._heard: dict[int, tuple[dict, list, list]] = {}  # sharing index -> (payload, receivers, senders)
-        self._frames: list[tuple] = []  # (sharing index at or after it, t, rows, frames) of every update
+        self._frames: dict[int, list[tuple]] = {}  # sharing index at or after it -> (t, rows, frames) of each update
         self._waiting: list[tuple] = []  # (payload, receivers, senders) delivered since the last sharing time
         self._late = np.zeros(self.n)
         self._stale = np.zeros(self.n)
@@ -496,7 +498,7 @@ class ReplayingSetMembershipEstimator(SetMembershipEstimator):
 
     def _update(self, t: float, rows: np.ndarray, frames: list[tuple]) -> None:
         at = t if self._sharing else self._next_share  # an identification frame belongs to the next sharing time
-        self._frames.append((self._index(at), t, rows, frames))
+        self._frames.setdefault(self._index(at), []).append((t, rows, frames))
         super()._update(t, rows, frames)
 
     def share(self, t: float, nav: np.ndarray, own) -> dict:
@@ -508,7 +510,10 @@ class ReplayingSetMembershipEstimator(SetMembershipEstimator):
     def fuse(self, t: float, own, inbox) -> None:
         """Collect what arrived (a message between sharing times waits for the next one); at a sharing time ``m``,
         file each message under the time its sets describe, drop and count those older than ``m − δ̄``, and replay
-        every UAV from the earliest time it got sets of (:meth:`_replay`)."""
+        every UAV from the earliest time it got sets of (:meth:`_replay`). The ``late`` and ``stale`` probes count
+        this step's (0 between sharing times), so that their sum over the recorded steps is the number of messages."""
+        self._late[:] = 0.0
+        self._stale[:] = 0.0
         for part in inbox.parts():
             recv, send = part.edges()
             if "taken" in part.payloads and len(recv):  # nothing is broadcast between sharing times
@@ -517,8 +522,6 @@ class ReplayingSetMembershipEstimator(SetMembershipEstimator):
             return
         m = self._index(t)
         self._forget(m - self.window)
-        self._late[:] = 0.0
-        self._stale[:] = 0.0
         start = np.full(self.n, m)  # per UAV, the earliest sharing time it re-fuses
         for payloads, recv, send in self._waiting:
             s = self._index(payloads["taken"][send[0]])  # one part: one sending time
@@ -537,10 +540,9 @@ class ReplayingSetMembershipEstimator(SetMembershipEstimator):
 
     def _forget(self, oldest: int) -> None:
         """Drop what a replay from the sharing time ``oldest`` on no longer needs."""
-        for kept in (self._pre, self._heard):
-            for s in [s for s in kept if s < oldest]:
+        for kept, first in ((self._pre, oldest), (self._heard, oldest), (self._frames, oldest + 1)):
+            for s in [s for s in kept if s < first]:  # the frames up to ``oldest`` are in its corrected sets
                 del kept[s]
-        self._frames = [f for f in self._frames if f[0] > oldest]
 
     def _replay(self, m: int, start: np.ndarray) -> None:
         """From the earliest ``start`` to ``m``: each UAV joins at its ``start`` with its corrected sets of that
@@ -552,9 +554,9 @@ class ReplayingSetMembershipEstimator(SetMembershipEstimator):
         for s in range(s0, m + 1):
             if s > s0:
                 old = rows[start < s]
-                for tag, t, updated, frames in self._frames:
+                for t, updated, frames in self._frames.get(s, ()):
                     keep = np.isin(updated, old)
-                    if tag == s and keep.any():
+                    if keep.any():
                         self._advance(w, t, updated[keep], [f for f, k in zip(frames, keep, strict=True) if k])
                 _put(self._pre[s], w, old)  # their corrected sets at s, recomputed
                 _put(w, self._pre[s], rows[start == s])

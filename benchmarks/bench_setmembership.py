@@ -46,7 +46,8 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 import shapely  # noqa: E402
 
-from swarmtrack.control.sm_mpc import SetMembershipMPC, plan_all  # noqa: E402
+from swarmtrack.control import sm_mpc  # noqa: E402
+from swarmtrack.control.sm_mpc import SetMembershipMPC  # noqa: E402
 from swarmtrack.estimation import polygons as pg  # noqa: E402
 from swarmtrack.estimation.setmembership import SetMembershipEstimator  # noqa: E402
 from swarmtrack.scenarios import load_scenario  # noqa: E402
@@ -117,20 +118,19 @@ def mission(duration: float) -> dict[str, float]:
 
 @contextlib.contextmanager
 def recording(out: list):
-    """Record the inputs of every fleet plan (``plan_all``'s arguments) while the block runs."""
-    original = SetMembershipMPC.command
+    """Record the arguments of every fleet plan (``sm_mpc.plan_all``, which the controller calls) while the block
+    runs."""
+    original = sm_mpc.plan_all
 
-    def command(self, t, nav, view, inbox, dt):
-        if t >= self._next - 1e-9:
-            out.append((nav.copy(), self.region_of(view), self.area, self.s,
-                        None if inbox is None else inbox.links, None if inbox is None else inbox.payloads.get("state")))
-        return original(self, t, nav, view, inbox, dt)
+    def plan_all(*args, **kwargs):
+        out.append((args, kwargs))
+        return original(*args, **kwargs)
 
-    SetMembershipMPC.command = command
+    sm_mpc.plan_all = plan_all
     try:
         yield out
     finally:
-        SetMembershipMPC.command = original
+        sm_mpc.plan_all = original
 
 
 def mpc_reference(plans: list[tuple]) -> dict[str, float]:
@@ -139,17 +139,16 @@ def mpc_reference(plans: list[tuple]) -> dict[str, float]:
     ``TIE_M2``: a tie within round-off may be broken the other way, the tolerance of ``choose`` being relative)."""
     local = exact = 0.0
     same = uavs = 0
-    for nav, regions, area, s, links, beacons in plans:
-        state = nav[:, -7:]
+    for args, kwargs in plans:
         t0 = time.perf_counter()
-        a = plan_all(state, regions, area, s, links, beacons)
+        a = sm_mpc.plan_all(*args, **kwargs)
         t1 = time.perf_counter()
-        b = plan_all(state, regions, area, s, links, beacons, exact=True)
+        b = sm_mpc.plan_all(*args, **{**kwargs, "exact": True})
         exact += time.perf_counter() - t1
         local += t1 - t0
         for ca, cb in zip(a.choices, b.choices, strict=True):  # the local pick costs what the exact best does
             same += int(cb.cost[ca.index] <= cb.cost[cb.index] + TIE_M2)
-        uavs += len(state)
+        uavs += len(a.plans)
     return {"mpc_local_ms": 1e3 * local / max(uavs, 1), "mpc_exact_ms": 1e3 * exact / max(uavs, 1),
             "mpc_same_plans": same / max(uavs, 1)}
 

@@ -357,10 +357,10 @@ class SetMembershipEstimator:
 
     def __init__(self, n_uavs: int, n_ids: int, area, *, speed: float, bound, period: float = 0.5):
         self.n, self.area, self.speed, self.bound, self.period = n_uavs, area, speed, tuple(bound), period
-        self.beliefs = Beliefs.start(n_uavs, n_ids, area)
+        self.beliefs = self._start(n_uavs, n_ids, area)
         self._next_share = 0.0
         self._sharing = False
-        self._phi = uncertainty(self.beliefs)
+        self._phi = self._uncertainty(self._aggregated())
         self.updates = np.zeros(n_uavs, dtype=np.int64)
         self._view: TargetView | None = None  # the view of the current sets (they change only at updates)
         self.probes = (Probe("phi", ()), Probe("phi_unexplored", ()), Probe("phi_unidentified", ()),
@@ -379,7 +379,7 @@ class SetMembershipEstimator:
         if len(rows):
             if own.footprint is None:
                 raise ValueError("the set-membership estimator needs a sensor that reports footprints")
-            regions = pg.inner(shapely.polygons(own.footprint[rows]))
+            regions = self._regions(own.footprint[rows])
             frames = []
             for i, region in zip(rows, regions, strict=True):
                 mine = own.owner == i
@@ -389,10 +389,18 @@ class SetMembershipEstimator:
             self._view = None
         if not self._sharing:
             return {}
+        return self._message(t)
+
+    def _regions(self, corners: np.ndarray) -> np.ndarray:
+        """What the correction removes for footprints ``corners`` (n, 4, 2): inner approximations, as polygons."""
+        return pg.inner(shapely.polygons(corners))
+
+    def _message(self, t: float) -> dict:
+        """Eq. 30's message: the corrected sets, stamped with the time they describe (IB21 Sec. 4.5's stamp)."""
         b = self.beliefs
         return {"unexplored": b.unexplored.copy(), "unidentified": b.unidentified.copy(),
                 "identified": b.identified.copy(), "unexplored_base": b.base.copy(), "unexplored_cut": b.cut.copy(),
-                "taken": np.full(self.n, float(t))}  # the time the sets describe (IB21 Sec. 4.5's stamp)
+                "taken": np.full(self.n, float(t))}
 
     def _update(self, t: float, rows: np.ndarray, frames: list[tuple]) -> None:
         self._advance(self.beliefs, t, rows, frames)
@@ -412,9 +420,18 @@ class SetMembershipEstimator:
         fuse(self.beliefs, recv, send, _received(inbox.payloads))
         self._refresh()
 
+    def _start(self, n_uavs: int, n_ids: int, area) -> Beliefs:
+        return Beliefs.start(n_uavs, n_ids, area)
+
+    def _aggregated(self) -> np.ndarray:
+        return aggregated(self.beliefs)
+
+    def _uncertainty(self, region: np.ndarray) -> dict[str, np.ndarray]:
+        return uncertainty(self.beliefs, region)
+
     def _refresh(self) -> None:
-        region = aggregated(self.beliefs)  # X^A once, for Φ and the view
-        self._phi = uncertainty(self.beliefs, region)
+        region = self._aggregated()  # X^A once, for Φ and the view
+        self._phi = self._uncertainty(region)
         self._view = self._make_view(region)
 
     def view(self) -> TargetView:
@@ -425,21 +442,34 @@ class SetMembershipEstimator:
         return self._view
 
     def _make_view(self, region: np.ndarray | None = None) -> TargetView:
-        region = aggregated(self.beliefs) if region is None else region
-        centre = shapely.get_coordinates(shapely.centroid(region), include_z=False)
+        region = self._aggregated() if region is None else region
         state = np.full((self.n, 4), np.nan)
-        live = ~pg.is_empty(region)
-        state[live, :2] = centre
+        state[:, :2] = self._centres(region)
         return TargetView(state, region=region)
+
+    def _centres(self, region: np.ndarray) -> np.ndarray:
+        """(N, 2) the centroid of each aggregated set, NaN where empty."""
+        out = np.full((len(region), 2), np.nan)
+        live = ~pg.is_empty(region)
+        out[live] = shapely.get_coordinates(shapely.centroid(region[live]), include_z=False)
+        return out
 
     def sample(self) -> dict[str, np.ndarray]:
         b, phi = self.beliefs, self._phi
-        vertices = shapely.get_num_coordinates(b.unexplored) + shapely.get_num_coordinates(b.unidentified) \
-            + shapely.get_num_coordinates(b.identified).sum(axis=1)
         return {"phi": phi["phi"], "phi_unexplored": phi["unexplored"], "phi_unidentified": phi["unidentified"],
-                "phi_identified": phi["identified"], "n_identified": (~pg.is_empty(b.identified)).sum(axis=1) * 1.0,
-                "vertices": vertices * 1.0, "set_updates": self.updates * 1.0,
+                "phi_identified": phi["identified"], "n_identified": self._listed().sum(axis=1) * 1.0,
+                "vertices": self._size() * 1.0, "set_updates": self.updates * 1.0,
                 "alarm_unexplained": b.alarms["unexplained"] * 1.0, "alarm_all_empty": b.alarms["all_empty"] * 1.0}
+
+    def _listed(self) -> np.ndarray:
+        """(N, n_ids) whether each target is in each UAV's list L (its set not empty)."""
+        return ~pg.is_empty(self.beliefs.identified)
+
+    def _size(self) -> np.ndarray:
+        """(N,) the vertices of each UAV's sets (the ``vertices`` probe: what the set operations cost grows with)."""
+        b = self.beliefs
+        return shapely.get_num_coordinates(b.unexplored) + shapely.get_num_coordinates(b.unidentified) \
+            + shapely.get_num_coordinates(b.identified).sum(axis=1)
 
     def containing(self, points: np.ndarray, ids: np.ndarray) -> np.ndarray:
         """For the truth-side monitor only: :func:`containing` on the current sets."""

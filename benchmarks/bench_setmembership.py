@@ -18,13 +18,16 @@ a UAV's sets (the estimator's ``vertices`` probe: mean and maximum over UAVs and
 
 References measured in the same run (machines here differ by up to 2x; no other library does this job):
 
-* ``geos_cycle_ms``: a fixed GEOS workload, the estimator's own kind of cycle on a fixed set (dilate by 0.5 m, clip
-  to X0, remove a footprint, intersect with a neighbour's copy), per cycle; the mission's wall in these cycles
-  (``wall_in_cycles``) compares machines;
+* the other set representation (``--sets both``, the default): ``estimator.sets: polygons`` and ``raster`` on the
+  same mission, one after the other;
+* ``geos_cycle_ms``: a fixed GEOS workload, the polygon estimator's own kind of cycle on a fixed set (dilate by
+  0.5 m, clip to X0, remove a footprint, intersect with a neighbour's copy), per cycle; each mission's wall in these
+  cycles compares machines;
 * ``mpc_exact_ms`` beside ``mpc_local_ms``: the SM-MPC's full-set reference path (``exact=True``) and the default
   local-window path on the same fleet plans, replayed from ``REPLAYED`` plans recorded during the mission.
 
-Run: ``PYTHONPATH=src .venv/bin/python benchmarks/bench_setmembership.py [--json] [--quick] [--duration S]``
+Run: ``PYTHONPATH=src .venv/bin/python benchmarks/bench_setmembership.py [--json] [--quick] [--duration S]
+[--sets polygons|raster|both]``
 (400 s simulated; ``--quick``: 30 s). ``--json`` prints one flat JSON object ``{name: value}`` instead of the table.
 """
 
@@ -50,6 +53,7 @@ from swarmtrack.control import sm_mpc  # noqa: E402
 from swarmtrack.control.sm_mpc import SetMembershipMPC  # noqa: E402
 from swarmtrack.estimation import polygons as pg  # noqa: E402
 from swarmtrack.estimation.setmembership import SetMembershipEstimator  # noqa: E402
+from swarmtrack.estimation.setmembership_raster import RasterSetMembershipEstimator  # noqa: E402
 from swarmtrack.scenarios import load_scenario  # noqa: E402
 from swarmtrack.sim.engine import simulate  # noqa: E402
 
@@ -83,11 +87,13 @@ def timed(spent: dict[str, float], methods: dict[str, tuple[type, str]]):
             setattr(cls, attr, original)
 
 
-def mission(duration: float) -> dict[str, float]:
-    simulate(load_scenario(SCENARIO, ["duration=2"]))  # warm-up
-    scn = load_scenario(SCENARIO, [f"duration={duration:g}"])
-    methods = {"share": (SetMembershipEstimator, "share"), "fuse": (SetMembershipEstimator, "fuse"),
-               "view": (SetMembershipEstimator, "view"), "mpc": (SetMembershipMPC, "command")}
+def mission(duration: float, sets: str = "polygons") -> dict[str, float]:
+    """One mission with the sets held as ``sets`` (``estimator.sets``), timed and split."""
+    simulate(load_scenario(SCENARIO, ["duration=2", f"estimator.sets={sets}"]))  # warm-up (numba caches)
+    scn = load_scenario(SCENARIO, [f"duration={duration:g}", f"estimator.sets={sets}"])
+    kind = RasterSetMembershipEstimator if sets == "raster" else SetMembershipEstimator
+    methods = {"share": (kind, "share"), "fuse": (kind, "fuse"), "view": (kind, "view"),
+               "mpc": (SetMembershipMPC, "command")}
     spent = dict.fromkeys(methods, 0.0)
     pg.OPS.clear()
     recorded: list[tuple] = []
@@ -110,9 +116,8 @@ def mission(duration: float) -> dict[str, float]:
            "vertices_max": float(vertices.max()), "guarantee_violations": float(violations.sum()),
            "phi_final_mean": float(phi.mean())}
     out.update({f"ops_{k}_per_step": v / steps for k, v in sorted(ops.items())})
-    out["geos_cycle_ms"] = geos_cycle_ms()
-    out["wall_in_cycles"] = wall / (out["geos_cycle_ms"] / 1e3)
-    out.update(mpc_reference(recorded[:: max(1, len(recorded) // REPLAYED)][:REPLAYED]))
+    if sets == "polygons":  # the full-set reference exists for the polygon planner
+        out.update(mpc_reference(recorded[:: max(1, len(recorded) // REPLAYED)][:REPLAYED]))
     return out
 
 
@@ -185,14 +190,28 @@ def main(argv=None) -> None:
     parser.add_argument("--json", action="store_true", help="print one flat JSON object {name: value} instead")
     parser.add_argument("--quick", action="store_true", help=f"a {QUICK_DURATION:g} s mission (smoke test)")
     parser.add_argument("--duration", type=float, default=None, help="simulated seconds (default 400)")
+    parser.add_argument("--sets", choices=("polygons", "raster", "both"), default="both",
+                        help="estimator.sets to time (default both: each the other's same-run reference)")
     args = parser.parse_args(argv)
     duration = args.duration or (QUICK_DURATION if args.quick else DURATION)
-    r = mission(duration)
+    kinds = ("polygons", "raster") if args.sets == "both" else (args.sets,)
+    runs = {k: mission(duration, k) for k in kinds}
+    cycle = geos_cycle_ms()
     if args.json:
-        print(json.dumps({k: round(v, 4 if abs(v) < 100 else 1) for k, v in r.items()}))
+        flat = {"geos_cycle_ms": cycle}
+        for k, r in runs.items():
+            flat.update({f"{k}_{name}": v for name, v in r.items()})
+        print(json.dumps({k: round(v, 4 if abs(v) < 100 else 1) for k, v in flat.items()}))
         return
     print(f"IB21 {SCENARIO}, one core, shapely {shapely.__version__} / GEOS {shapely.geos_version_string}")
-    print(f"\n{r['duration_s']:.0f} s simulated in {r['wall_s']:.2f} s wall: {r['rtf']:.1f}x real time")
+    for k, r in runs.items():
+        report(k, r, duration, cycle)
+
+
+def report(sets: str, r: dict[str, float], duration: float, cycle: float) -> None:
+    print(f"\nestimator.sets={sets}: {r['duration_s']:.0f} s simulated in {r['wall_s']:.2f} s wall: "
+          f"{r['rtf']:.1f}x real time ({r['wall_s'] / (cycle / 1e3):,.0f} GEOS cycles of {cycle:.3f} ms, a fixed "
+          f"dilate-clip-remove-intersect measured in the same run)")
     header = f"{'part':<34} {'s':>8} {'share':>7}"
     print(header)
     print("-" * len(header))
@@ -201,17 +220,20 @@ def main(argv=None) -> None:
                       ("rest (world, sensor, monitor, ...)", "rest_s")):
         print(f"{name:<34} {r[key]:>8.2f} {100 * r[key] / r['wall_s']:>6.1f}%")
     print(f"   SM-MPC per UAV and plan: {r['mpc_ms_per_uav_plan']:.2f} ms")
-    print(f"\nreferences, same run: a GEOS cycle (dilate, clip, remove, intersect) {r['geos_cycle_ms']:.3f} ms, "
-          f"so the mission is {r['wall_in_cycles']:,.0f} cycles")
-    print(f"   SM-MPC on {REPLAYED} replayed fleet plans, ms per UAV and plan: local window {r['mpc_local_ms']:.2f}, "
-          f"full-set reference {r['mpc_exact_ms']:.2f} ({r['mpc_exact_ms'] / r['mpc_local_ms']:.1f}x); "
-          f"the local pick has the exact best cost (to {TIE_M2:g} m²) for {100 * r['mpc_same_plans']:.1f} % of UAVs")
-    kinds = ", ".join(f"{k[4:-9]} {v:.2f}" for k, v in r.items() if k.startswith("ops_") and k != "ops_per_step")
-    print(f"\nset operations per estimation step: {r['ops_per_step']:.1f} ({kinds})")
-    print(f"vertices per UAV (all its sets): mean {r['vertices_mean']:.0f}, max {r['vertices_max']:.0f}")
+    if "mpc_local_ms" in r:
+        print(f"   SM-MPC on {REPLAYED} replayed fleet plans, ms per UAV and plan: local window "
+              f"{r['mpc_local_ms']:.2f}, full-set reference {r['mpc_exact_ms']:.2f} "
+              f"({r['mpc_exact_ms'] / r['mpc_local_ms']:.1f}x); the local pick has the exact best cost (to "
+              f"{TIE_M2:g} m²) for {100 * r['mpc_same_plans']:.1f} % of UAVs")
+    if sets == "polygons":
+        kinds = ", ".join(f"{k[4:-9]} {v:.2f}" for k, v in r.items() if k.startswith("ops_") and k != "ops_per_step")
+        print(f"set operations per estimation step: {r['ops_per_step']:.1f} ({kinds})")
+        print(f"vertices per UAV (all its sets): mean {r['vertices_mean']:.0f}, max {r['vertices_max']:.0f}")
+    else:
+        print(f"cells stored per UAV (all its sets): mean {r['vertices_mean']:.0f}, max {r['vertices_max']:.0f}")
     print(f"guarantee violations: {r['guarantee_violations']:.0f}; final mean Φ: {r['phi_final_mean']:.0f} m²")
     if duration == DURATION:
-        print(f"\nGoal: the 400 s mission ≤ {GOAL_WALL_S:.0f} s wall: {r['wall_s']:.1f} s "
+        print(f"Goal: the 400 s mission ≤ {GOAL_WALL_S:.0f} s wall: {r['wall_s']:.1f} s "
               f"({'MET' if r['wall_s'] <= GOAL_WALL_S else 'NOT MET'})")
 
 

@@ -130,3 +130,25 @@ def test_cell_area_is_the_square_less_the_disc_about_its_centre():
 def test_a_bad_cell_size_is_refused():
     with pytest.raises(ValueError, match="cell"):
         rs.Grid.over(AREA, 0.0)
+
+
+def test_the_compiled_fill_equals_its_reference_beyond_the_window():
+    rng = np.random.default_rng(7)
+    f = rs.dilate(GRID, rs.union(GRID, [rs.box(GRID, (40, 40, 52, 47)), rs.box(GRID, (60, 45, 66, 70))]), 2.5)
+    win = (0, 0, 120, 110)
+    got = rs.values(GRID, f, win)
+    want = rs._beyond(GRID, f, win)
+    i0, j0, i1, j1 = f.window
+    want[i0:i1, j0:j1] = f.data
+    assert np.allclose(got, want, rtol=0, atol=1e-9)
+    assert rng is not None
+
+
+def test_the_compiled_removal_and_area_equal_their_readable_references():
+    rng = np.random.default_rng(8)
+    f = rs.dilate(GRID, rs.box(GRID, (60, 60, 100, 90)), 3.0)
+    corners = rotated_square(rng, 40.0) * 0.3 + 55.0
+    got = rs.remove(GRID, f, corners)
+    d = rs.depth(GRID, corners, f.window) - rs.DELTA
+    assert np.array_equal(rs.values(GRID, got, f.window), np.maximum(f.data, d))
+    assert rs.area(GRID, got) == pytest.approx(rs.cell_area(got.data, GRID.cell).sum(), rel=1e-12)

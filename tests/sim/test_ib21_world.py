@@ -41,7 +41,24 @@ def test_fixed_wings_fly_at_their_speed_and_walkers_stay_in_the_area(short):
     assert (objs >= 0).all() and (objs <= 400).all()
 
 
+def test_raster_sets_keep_the_guarantee_end_to_end_and_shrink_like_the_polygons():
+    """``estimator.sets: raster``: the raster estimator and the SM-MPC on its fields, 20 s of ib21-fleet-6."""
+    from swarmtrack.sim.build import build
+
+    sim = build(load_scenario("ib21-fleet-6", ["duration=1", "estimator.sets=raster"]))
+    assert type(sim.stack.estimator).__name__ == "RasterSetMembershipEstimator"
+    assert sim.stack.controller.grid is not None and sim.stack.controller.grid.cell == 1.0
+    raster = simulate(load_scenario("ib21-fleet-6", ["duration=20", "estimator.sets=raster"])).frame("uavs")
+    assert raster["guarantee_violations"].max() == 0 and raster["alarm_all_empty"].max() == 0
+    assert (raster["yaw_accel"] != 0).any()
+    first, last = raster[raster.t == raster.t.min()], raster[raster.t == raster.t.max()]
+    assert last["phi"].mean() < first["phi"].mean() - 20_000  # 20 s of search
+
+
 @pytest.mark.parametrize("override, words", [
+    ("estimator.sets=voxels", ["estimator.sets", "polygons", "raster"]),
+    ("estimator.cell=0", ["estimator.cell"]),
+    ("estimator={kind: setmembership, sets: raster, delayed_data: refilter}", ["delayed_data", "sets: polygons"]),
     ("swarm.nav_position_std=0.02", ["swarm.nav_position_std", "no bound"]),
     ("swarm.vehicle=quadrotor", ["footprint needs swarm.vehicle: fixed_wing"]),
     ("estimator.noise_bound=[0, 5]", ["estimator.noise_bound", "positive"]),

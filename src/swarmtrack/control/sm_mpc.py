@@ -197,9 +197,10 @@ class Removals:
 
 
 def removals(own_states: np.ndarray, nb_states: np.ndarray, s: SMMPCSettings,
-             neighbours: bool = True) -> Removals:
+             neighbours: bool = True, polygons: bool = True) -> Removals:
     """The per-level removals of one UAV: ``own_states`` (C, h, 7) its predicted states for every candidate,
-    ``nb_states`` (L, h, 7) its lower-indexed neighbours' predicted states (eq. 48 with ``c = d^c − ‖Δp‖ ≥ 0``)."""
+    ``nb_states`` (L, h, 7) its lower-indexed neighbours' predicted states (eq. 48 with ``c = d^c − ‖Δp‖ ≥ 0``).
+    ``polygons`` False: the corners only (``own`` and ``nb`` empty), for a planner that needs no shapely polygon."""
     h = s.horizon
     branch = len(s.inputs)
     nb_states = nb_states if neighbours else nb_states[:0]
@@ -213,9 +214,9 @@ def removals(own_states: np.ndarray, nb_states: np.ndarray, s: SMMPCSettings,
         nodes = own_states[::stride, k]
         c = own_corners[::stride, k]
         corners.append(c)
-        own.append(footprint_polygons(c))
+        own.append(footprint_polygons(c) if polygons else pg.empty(0))
         xy.append(nodes[:, :2])
-        nb.append(footprint_polygons(nb_corners[:, k]) if len(nb_states) else pg.empty(0))
+        nb.append(footprint_polygons(nb_corners[:, k]) if len(nb_states) and polygons else pg.empty(0))
         gap = nodes[:, None, :2] - nb_states[None, :, k, :2]
         kept.append(np.einsum("nli,nli->nl", gap, gap) <= s.comm_range ** 2)
     return Removals(own, xy, nb, kept, corners, nb_corners)
@@ -518,10 +519,20 @@ class FleetPlan:
 
 
 def plan_all(nav, regions, area, s: SMMPCSettings = DEFAULT_SETTINGS, links=None, beacons=None,
-             exact: bool | None = None) -> FleetPlan:
+             exact: bool | None = None, grid=None) -> FleetPlan:
     """Sec. 5.3's sequential rounds in index order: UAV i plans from its own ``nav`` (N, 7) row and ``regions[i]``
     (its X^A), with the plans of the lower-indexed neighbours ℓ computed before it in this call, read only where
-    ``links[i, ℓ]`` carried ℓ's beacon (``beacons`` (N, 7), the broadcast states; default ``nav``)."""
+    ``links[i, ℓ]`` carried ℓ's beacon (``beacons`` (N, 7), the broadcast states; default ``nav``). ``grid``: the
+    regions are raster fields on it (:mod:`swarmtrack.estimation.raster`), planned by
+    :func:`swarmtrack.control.sm_mpc_raster.plan_one_raster`."""
+    if grid is not None:
+        from swarmtrack.control.sm_mpc_raster import plan_one_raster
+
+        def plan(region, own_states, nb_states, shared):
+            return plan_one_raster(grid, region, own_states, nb_states, s, shared=shared)
+    else:
+        def plan(region, own_states, nb_states, shared):
+            return plan_one(region, own_states, nb_states, area, s, exact, shared=shared)
     nav = np.asarray(nav, dtype=float)[:, :fw.STATE_DIM]
     n = len(nav)
     beacons = nav if beacons is None else np.asarray(beacons, dtype=float)[:, :fw.STATE_DIM]
@@ -536,12 +547,18 @@ def plan_all(nav, regions, area, s: SMMPCSettings = DEFAULT_SETTINGS, links=None
     plans = np.zeros((n, s.horizon))
     out = FleetPlan(plans, np.zeros(n), np.full(n, shared), np.zeros(n), np.zeros(n), [])
     common: dict = {}  # what UAVs with the same X^A can share (plan_one)
+    chosen = np.zeros(n, dtype=np.int64)
     for i in range(n):
         t0 = time.perf_counter()
         lower = send[(recv == i) & (send < i)]
-        nb = predict(beacons[lower], plans[lower], s) if len(lower) else np.zeros((0, s.horizon, fw.STATE_DIM))
-        choice = plan_one(regions[i], own[i], nb, area, s, exact, shared=common)
-        plans[i] = choice.plan
+        if not len(lower):
+            nb = np.zeros((0, s.horizon, fw.STATE_DIM))
+        elif np.array_equal(beacons[lower], nav[lower]):  # their broadcast state is the one the fleet rollout used
+            nb = own[lower, chosen[lower]]
+        else:
+            nb = predict(beacons[lower], plans[lower], s)
+        choice = plan(regions[i], own[i], nb, common)
+        plans[i], chosen[i] = choice.plan, choice.index
         out.solve_time[i] += time.perf_counter() - t0
         out.cost[i] = choice.cost[choice.index]
         out.neighbours[i] = len(lower)
@@ -570,14 +587,15 @@ class SetMembershipMPC:
     (N, 1) rad/s².
 
     ``area``: X0 (a shapely geometry). ``regions``: ``TargetView → (N,)`` X^A per UAV (default: ``view.region``,
-    what the set-membership estimator exposes). ``start``: s before which every UAV flies straight.
+    what the set-membership estimator exposes); ``grid``: they are raster fields on it (``estimator.sets: raster``).
+    ``start``: s before which every UAV flies straight.
     Broadcasts each UAV's state (its beacon for eq. 48); reads a neighbour's plan only over the links that carried
     its beacon."""
 
     def __init__(self, area, settings: SMMPCSettings = DEFAULT_SETTINGS, *,
                  regions: Callable[[TargetView], np.ndarray] | None = None, start: float = 0.0,
-                 n_uavs: int = 0):
-        self.area, self.s, self.start, self.n = area, settings, start, n_uavs
+                 n_uavs: int = 0, grid=None):
+        self.area, self.s, self.start, self.n, self.grid = area, settings, start, n_uavs, grid
         self.region_of = regions or _view_region
         self._next = start
         self.u: np.ndarray | None = None
@@ -598,7 +616,7 @@ class SetMembershipMPC:
         if t >= self._next - 1e-9:
             links = None if inbox is None else inbox.links
             beacons = None if inbox is None else inbox.payloads.get("state")
-            plan = plan_all(_own_state(nav), self.region_of(view), self.area, self.s, links, beacons)
+            plan = plan_all(_own_state(nav), self.region_of(view), self.area, self.s, links, beacons, grid=self.grid)
             self.u = plan.plans[:, 0].copy()
             self.last = plan
             self._values.update(solve_time=plan.solve_time, cost=plan.cost, neighbours=plan.neighbours,

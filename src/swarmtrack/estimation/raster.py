@@ -35,6 +35,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 import shapely
 
@@ -142,17 +143,38 @@ def full(grid: Grid) -> Field:
 
 def values(grid: Grid, f: Field, window: tuple[int, int, int, int]) -> np.ndarray:
     """The lower bounds of ``f`` on the cells ``window`` = ``(i0, j0, i1, j1)``: its stored values where it has them,
-    the distance to its core's rectangle elsewhere (``+inf`` for an empty set)."""
+    :func:`_beyond`'s elsewhere (``+inf`` for an empty set)."""
     i0, j0, i1, j1 = window
     if f.is_empty:
         return np.full((i1 - i0, j1 - j0), np.inf)
     fi0, fj0, fi1, fj1 = f.window
     if fi0 <= i0 and fj0 <= j0 and i1 <= fi1 and j1 <= fj1:  # inside the stored window: a view
         return f.data[i0 - fi0:i1 - fi0, j0 - fj0:j1 - fj0]
-    out = _beyond(grid, f, window)
-    a0, b0, a1, b1 = max(i0, fi0), max(j0, fj0), min(i1, fi1), min(j1, fj1)
-    if a0 < a1 and b0 < b1:
-        out[a0 - i0:a1 - i0, b0 - j0:b1 - j0] = f.data[a0 - fi0:a1 - fi0, b0 - fj0:b1 - fj0]
+    return _fill(f.data, fi0, fj0, i0, j0, i1, j1, np.asarray(f.core, dtype=np.int64), _support(grid, f),
+                 _NORMALS, grid.cell)
+
+
+@numba.njit(cache=True)
+def _fill(data, fi0, fj0, i0, j0, i1, j1, core, support, normals, c):  # pragma: no cover (compiled)
+    """:func:`values` off the stored window, one pass: the stored value where there is one, else the greater of the
+    distance to the core's rectangle and to each supporting half-plane (:func:`_beyond`, its readable reference)."""
+    out = np.empty((i1 - i0, j1 - j0))
+    h, w = data.shape
+    for a in range(i1 - i0):
+        i = i0 + a
+        y = (i + 0.5) * c
+        dy = max(core[0] * c - y, y - core[2] * c, 0.0)
+        for b in range(j1 - j0):
+            j = j0 + b
+            if fi0 <= i < fi0 + h and fj0 <= j < fj0 + w:
+                out[a, b] = data[i - fi0, j - fj0]
+                continue
+            x = (j + 0.5) * c
+            dx = max(core[1] * c - x, x - core[3] * c, 0.0)
+            v = math.sqrt(dx * dx + dy * dy)
+            for k in range(len(support)):
+                v = max(v, x * normals[k, 0] + y * normals[k, 1] - support[k])
+            out[a, b] = v
     return out
 
 
@@ -173,14 +195,27 @@ def _beyond(grid: Grid, f: Field, window: tuple[int, int, int, int]) -> np.ndarr
     dy = np.maximum(np.maximum(ci0 * c - y, y - ci1 * c), 0.0)
     dx = np.maximum(np.maximum(cj0 * c - x, x - cj1 * c), 0.0)
     out = np.hypot(dy[:, None], dx[None, :])
-    mi, mj = np.nonzero(members(grid, f))
-    if len(mi):
-        py, px = (f.i0 + mi + 0.5) * c, (f.j0 + mj + 0.5) * c
-        corner = c / 2 * (np.abs(_NORMALS[:, 0]) + np.abs(_NORMALS[:, 1]))
-        support = (np.outer(_NORMALS[:, 0], px) + np.outer(_NORMALS[:, 1], py)).max(axis=1) + corner
-        for (nx_, ny_), h in zip(_NORMALS, support, strict=True):
-            np.maximum(out, y[:, None] * ny_ + x[None, :] * nx_ - h, out=out)
+    for (nx_, ny_), h in zip(_NORMALS, _support(grid, f), strict=True):
+        np.maximum(out, y[:, None] * ny_ + x[None, :] * nx_ - h, out=out)
     return out
+
+
+def _support(grid: Grid, f: Field) -> np.ndarray:
+    """(16,) the support of the member cells' squares along :data:`_NORMALS` (grid coordinates from the corner),
+    kept on the field (it is immutable)."""
+    hit = f.__dict__.get("_support")
+    if hit is None:
+        member = members(grid, f)
+        rows = np.flatnonzero(member.any(axis=1))  # non-empty: f has members after trim
+        first = member[rows].argmax(axis=1)  # a linear function's maximum is at a row's first or last member
+        last = member.shape[1] - 1 - member[rows, ::-1].argmax(axis=1)
+        c = grid.cell
+        py = (f.i0 + np.concatenate([rows, rows]) + 0.5) * c
+        px = (f.j0 + np.concatenate([first, last]) + 0.5) * c
+        corner = c / 2 * (np.abs(_NORMALS[:, 0]) + np.abs(_NORMALS[:, 1]))
+        hit = (np.outer(_NORMALS[:, 0], px) + np.outer(_NORMALS[:, 1], py)).max(axis=1) + corner
+        f.__dict__["_support"] = hit
+    return hit
 
 
 def trim(grid: Grid, f: Field) -> Field:
@@ -190,15 +225,36 @@ def trim(grid: Grid, f: Field) -> Field:
     remade as the core with :data:`MARGIN` cells about it (:func:`_window`)."""
     if f.is_empty:
         return EMPTY
-    member = members(grid, f)
-    rows, cols = np.flatnonzero(member.any(axis=1)), np.flatnonzero(member.any(axis=0))
-    if not len(rows):
+    r0, c0, r1, c1 = _bbox(f.data, grid.slack + DELTA)
+    if r0 >= r1:
         return EMPTY
-    core = (f.i0 + int(rows[0]), f.j0 + int(cols[0]), f.i0 + int(rows[-1]) + 1, f.j0 + int(cols[-1]) + 1)
+    core = (f.i0 + r0, f.j0 + c0, f.i0 + r1, f.j0 + c1)
     win = _window(grid, core, f.window)
     if win == f.window and core == f.core:
         return f
     return Field(win[0], win[1], values(grid, f, win), core)
+
+
+@numba.njit(cache=True)
+def _bbox(data, member):  # pragma: no cover (compiled)
+    """The rows ``[r0, r1)`` and columns ``[c0, c1)`` holding every value ``≤ member`` (``r0 ≥ r1`` when none)."""
+    h, w = data.shape
+    r0, c0, r1, c1 = h, w, 0, 0
+    for i in range(h):
+        lo, hi = -1, -1
+        for j in range(w):
+            if data[i, j] <= member:
+                lo = j
+                break
+        if lo < 0:
+            continue
+        for j in range(w - 1, lo - 1, -1):
+            if data[i, j] <= member:
+                hi = j
+                break
+        r0, r1 = min(r0, i), i + 1
+        c0, c1 = min(c0, lo), max(c1, hi + 1)
+    return r0, c0, r1, c1
 
 
 def _grown(grid: Grid, box: tuple[int, int, int, int], m: int) -> tuple[int, int, int, int]:
@@ -233,6 +289,23 @@ def union(grid: Grid, fields) -> Field:
     out = values(grid, live[0], win).copy()
     for f in live[1:]:
         np.minimum(out, values(grid, f, win), out=out)
+    return Field(win[0], win[1], out, _cover([f.core for f in live]))
+
+
+def union_near(grid: Grid, fields) -> Field:
+    """``∪ fields`` for a set that is measured and searched but not predicted further (X^A, eq. 43): the least bound
+    on each field's own window, ``+inf`` on the cells of the cover that none holds. The member cells are those of the
+    exact union, and so are the bounds within each field's band of kept cells (a dilation by less than that band,
+    e.g. the SM-MPC's h·V^t·T^c, finds the same members); farther off, the values are not lower bounds."""
+    live = list({id(f): f for f in fields if not f.is_empty}.values())
+    if len(live) <= 1:
+        return live[0] if live else EMPTY
+    win = _cover([f.window for f in live])
+    out = np.full((win[2] - win[0], win[3] - win[1]), np.inf)
+    for f in live:
+        i0, j0, i1, j1 = f.window
+        part = out[i0 - win[0]:i1 - win[0], j0 - win[1]:j1 - win[1]]
+        np.minimum(part, f.data, out=part)
     return Field(win[0], win[1], out, _cover([f.core for f in live]))
 
 
@@ -301,7 +374,7 @@ def dilate(grid: Grid, f: Field, r: float) -> Field:
     out = values(grid, f, win) - r
     if grid.outside is not None:
         np.maximum(out, grid.outside[win[0]:win[2], win[1]:win[3]], out=out)
-    return trim(grid, Field(win[0], win[1], out, core))
+    return Field(win[0], win[1], out, core)  # no member is lost: the grown core holds the set, untrimmed
 
 
 def box(grid: Grid, b) -> Field:
@@ -328,39 +401,70 @@ def boxes(grid: Grid, z: np.ndarray, bound) -> list[Field]:
 
 def depth(grid: Grid, corners: np.ndarray, window: tuple[int, int, int, int]) -> np.ndarray:
     """For the convex polygon ``corners`` (K, 2) (in either order), the distance from each centre of ``window`` to its
-    boundary inside it (the least distance to an edge's line) and a non-positive number outside."""
+    boundary inside it (the least distance to an edge's line) and a non-positive number outside: the readable
+    reference of :func:`_raise`."""
     i0, j0, i1, j1 = window
-    c = np.asarray(corners, dtype=float)
+    c, normal = _inward(corners)
     y = grid.y0 + (np.arange(i0, i1) + 0.5) * grid.cell
     x = grid.x0 + (np.arange(j0, j1) + 0.5) * grid.cell
-    edge = np.roll(c, -1, axis=0) - c
-    turn = np.sign(np.sum(c[:, 0] * np.roll(c[:, 1], -1) - np.roll(c[:, 0], -1) * c[:, 1]))  # +1: counter-clockwise
-    normal = turn * np.column_stack([-edge[:, 1], edge[:, 0]]) / np.hypot(edge[:, 0], edge[:, 1])[:, None]  # inward
     out = np.full((i1 - i0, j1 - j0), np.inf)
     for (px, py), (nx_, ny_) in zip(c, normal, strict=True):
         np.minimum(out, (y[:, None] - py) * ny_ + (x[None, :] - px) * nx_, out=out)
     return out
 
 
+def _inward(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The corners (K, 2) as floats and the inward unit normals (K, 2) of the edges that start at them."""
+    c = np.asarray(corners, dtype=float)
+    nxt = c[(np.arange(len(c)) + 1) % len(c)]
+    edge = nxt - c
+    turn = 1.0 if np.sum(c[:, 0] * nxt[:, 1] - nxt[:, 0] * c[:, 1]) > 0 else -1.0  # counter-clockwise: +1
+    return c, turn * np.column_stack([-edge[:, 1], edge[:, 0]]) / np.hypot(edge[:, 0], edge[:, 1])[:, None]
+
+
 def remove(grid: Grid, f: Field, corners: np.ndarray) -> Field:
     """``A \\ F`` for the convex footprint F (``corners`` (K, 2)), shrunk by :data:`DELTA` (eqs. 21, 26, 28): the bound
-    raised to F's depth inside F. A footprint that misses the window changes nothing (the same object back)."""
+    raised to F's depth inside F (:func:`depth`, compiled in :func:`_raise`). A footprint that changes nothing gives
+    the same object back; the core is recut only if a member cell stopped being one."""
     if f.is_empty:
         return f
-    c = np.asarray(corners, dtype=float)
+    c, normal = _inward(corners)
     i0, i1 = grid.span(c[:, 1].min(), c[:, 1].max(), 0)
     j0, j1 = grid.span(c[:, 0].min(), c[:, 0].max(), 1)
     fi0, fj0, fi1, fj1 = f.window
     a0, b0, a1, b1 = max(i0, fi0), max(j0, fj0), min(i1, fi1), min(j1, fj1)
     if a0 >= a1 or b0 >= b1:
         return f
-    d = depth(grid, c, (a0, b0, a1, b1)) - DELTA
-    part = f.data[a0 - fi0:a1 - fi0, b0 - fj0:b1 - fj0]
-    if not (d > part).any():
+    args = (a0 - fi0, b0 - fj0, a1 - fi0, b1 - fj0, grid.y0 + (a0 + 0.5) * grid.cell,
+            grid.x0 + (b0 + 0.5) * grid.cell, grid.cell, c, normal, DELTA, grid.slack + DELTA)
+    if _raise(f.data, *args, False) == 0:
         return f
     data = f.data.copy()
-    np.maximum(part, d, out=data[a0 - fi0:a1 - fi0, b0 - fj0:b1 - fj0])
-    return trim(grid, Field(f.i0, f.j0, data, f.core))
+    lost = _raise(data, *args, True)
+    out = Field(f.i0, f.j0, data, f.core)
+    return trim(grid, out) if lost == 2 else out
+
+
+@numba.njit(cache=True)
+def _raise(data, r0, c0, r1, c1, y0, x0, c, corners, normals, delta, member, write):  # pragma: no cover (compiled)
+    """``data[r0:r1, c0:c1] = max(data, depth − delta)`` (cell (r0, c0)'s centre at ``(x0, y0)``; ``write`` False:
+    only look). Returns 0 if nothing rises, 1 if something does, 2 if a member cell (``≤ member``) stops being one."""
+    out = 0
+    for a in range(r1 - r0):
+        y = y0 + a * c
+        for b in range(c1 - c0):
+            x = x0 + b * c
+            d = np.inf
+            for k in range(len(corners)):
+                d = min(d, (y - corners[k, 1]) * normals[k, 1] + (x - corners[k, 0]) * normals[k, 0])
+            d -= delta
+            v = data[r0 + a, c0 + b]
+            if d > v:
+                if not write:
+                    return 1
+                out = max(out, 2 if (v <= member < d) else 1)
+                data[r0 + a, c0 + b] = d
+    return out
 
 
 def redistance(grid: Grid, f: Field, block: int = 4) -> Field:
@@ -377,18 +481,45 @@ def redistance(grid: Grid, f: Field, block: int = 4) -> Field:
         return f
     from scipy import ndimage
 
-    h, w = f.data.shape
-    H, W = -(-h // block), -(-w // block)
-    m = np.zeros((H * block, W * block), dtype=bool)
-    m[:h, :w] = members(grid, f)
-    coarse = m.reshape(H, block, W, block).any(axis=(1, 3))
+    coarse = _blocks(f.data, block, grid.slack + DELTA)
     if coarse.all():
         return f
     far = ndimage.distance_transform_edt(~coarse) * (block * grid.cell) - (2 * block - 1) * grid.slack
-    lift = np.repeat(np.repeat(far, block, axis=0), block, axis=1)[:h, :w]
-    if not (lift > f.data).any():
-        return f
-    return Field(f.i0, f.j0, np.maximum(f.data, lift), f.core)
+    data = _lift(f.data, far, block)
+    return f if data is None else Field(f.i0, f.j0, data, f.core)
+
+
+@numba.njit(cache=True)
+def _blocks(data, block, member):  # pragma: no cover (compiled)
+    """(H, W) whether each ``block`` × ``block`` block of ``data`` holds a value ``≤ member``."""
+    h, w = data.shape
+    out = np.zeros(((h + block - 1) // block, (w + block - 1) // block), dtype=np.bool_)
+    for i in range(h):
+        for j in range(w):
+            if data[i, j] <= member:
+                out[i // block, j // block] = True
+    return out
+
+
+@numba.njit(cache=True)
+def _lift(data, far, block):  # pragma: no cover (compiled)
+    """``max(data, far)`` with ``far`` per block, or None if it changes nothing."""
+    h, w = data.shape
+    changed = False
+    for i in range(h):
+        for j in range(w):
+            if far[i // block, j // block] > data[i, j]:
+                changed = True
+                break
+        if changed:
+            break
+    if not changed:
+        return None
+    out = np.empty_like(data)
+    for i in range(h):
+        for j in range(w):
+            out[i, j] = max(data[i, j], far[i // block, j // block])
+    return out
 
 
 def members(grid: Grid, f: Field) -> np.ndarray:
@@ -399,8 +530,24 @@ def members(grid: Grid, f: Field) -> np.ndarray:
 def area(grid: Grid, f: Field) -> float:
     """φ of the outer approximation (m², 0 for an empty set): in each cell's square, the points p with
     ``|p − g| ≥ v(g)`` (the others are nearer the centre than the set is), so the square's area less that of its
-    intersection with the disc of radius ``v(g)`` about the centre (:func:`cell_area`)."""
-    return 0.0 if f.is_empty else float(cell_area(f.data, grid.cell).sum())
+    intersection with the disc of radius ``v(g)`` about the centre (:func:`cell_area`, summed by :func:`_area`)."""
+    return 0.0 if f.is_empty else float(_area(f.data, grid.cell))
+
+
+@numba.njit(cache=True)
+def _area(data, c):  # pragma: no cover (compiled)
+    """Σ :func:`cell_area` over ``data``, one pass (whole cells for ``v ≤ 0``, nothing from ``c/√2``)."""
+    a, slack, full = c / 2, c / math.sqrt(2.0), 0
+    part = 0.0
+    for v in data.ravel():
+        if v <= 0.0:
+            full += 1
+        elif v < slack - DELTA:
+            disc = math.pi * v * v
+            if v > a:
+                disc -= 4 * (v * v * math.acos(a / v) - a * math.sqrt(v * v - a * a))
+            part += c * c - disc
+    return full * c * c + part
 
 
 def cell_area(v: np.ndarray, c: float) -> np.ndarray:
@@ -415,28 +562,65 @@ def cell_area(v: np.ndarray, c: float) -> np.ndarray:
 
 
 def holds(grid: Grid, f: Field, points: np.ndarray, tolerance: float = 1e-6) -> np.ndarray:
-    """(P,) whether each point may lie in the set: inside the window's rectangle and ``v(g) ≤ |p − g|`` at the cell g
+    """(P,) whether each point may lie in the set: inside the core's rectangle and ``v(g) ≤ |p − g|`` at the cell g
     whose square holds it (a point of the set always passes, module docstring): the guarantee's check."""
     p = np.asarray(points, dtype=float).reshape(-1, 2)
     if f.is_empty:
         return np.zeros(len(p), dtype=bool)
-    i0, j0, i1, j1 = f.core
-    c = grid.cell
-    inside = ((p[:, 0] >= grid.x0 + j0 * c - tolerance) & (p[:, 0] <= grid.x0 + j1 * c + tolerance)
-              & (p[:, 1] >= grid.y0 + i0 * c - tolerance) & (p[:, 1] <= grid.y0 + i1 * c + tolerance))
-    i, j = grid.cells(p)
-    i, j = np.clip(i, i0, i1 - 1), np.clip(j, j0, j1 - 1)
-    gx, gy = grid.x0 + (j + 0.5) * c, grid.y0 + (i + 0.5) * c
-    v = f.data[i - f.i0, j - f.j0]
-    return inside & (v <= np.hypot(p[:, 0] - gx, p[:, 1] - gy) + tolerance)
+    return _holds(f.data, f.i0, f.j0, np.asarray(f.core, dtype=np.int64), grid.x0, grid.y0, grid.cell, p, tolerance)
+
+
+@numba.njit(cache=True)
+def _holds(data, i0, j0, core, x0, y0, c, p, tol):  # pragma: no cover (compiled)
+    out = np.zeros(len(p), dtype=np.bool_)
+    for k in range(len(p)):
+        x, y = p[k, 0], p[k, 1]
+        if not (x0 + core[1] * c - tol <= x <= x0 + core[3] * c + tol
+                and y0 + core[0] * c - tol <= y <= y0 + core[2] * c + tol):
+            continue
+        j = min(max(int(math.floor((x - x0) / c)), core[1]), core[3] - 1)
+        i = min(max(int(math.floor((y - y0) / c)), core[0]), core[2] - 1)
+        gx, gy = x0 + (j + 0.5) * c, y0 + (i + 0.5) * c
+        out[k] = data[i - i0, j - j0] <= math.sqrt((x - gx) ** 2 + (y - gy) ** 2) + tol
+    return out
+
+
+def meets(grid: Grid, small: Field, *holders) -> bool:
+    """Whether ``small ∩ (∪ holders)`` has a member cell (:func:`meet` without building it)."""
+    if small.is_empty:
+        return False
+    live = [h for h in holders if not h.is_empty]
+    if not live:
+        return False
+    if any(h is small for h in live):
+        return True
+    win = small.window
+    held = values(grid, live[0], win)
+    for h in live[1:]:
+        held = np.minimum(held, values(grid, h, win))
+    return bool((np.maximum(small.data, held) <= grid.slack + DELTA).any())
 
 
 def centroid(grid: Grid, f: Field) -> np.ndarray:
     """The centroid (2,) of the member cells (NaN for an empty set)."""
     if f.is_empty:
         return np.full(2, np.nan)
-    i, j = np.nonzero(members(grid, f))
-    return np.array([grid.x0 + (f.j0 + j.mean() + 0.5) * grid.cell, grid.y0 + (f.i0 + i.mean() + 0.5) * grid.cell])
+    i, j = _mean_member(f.data, grid.slack + DELTA)
+    return np.array([grid.x0 + (f.j0 + j + 0.5) * grid.cell, grid.y0 + (f.i0 + i + 0.5) * grid.cell])
+
+
+@numba.njit(cache=True)
+def _mean_member(data, member):  # pragma: no cover (compiled)
+    """The mean row and column of the values ``≤ member``."""
+    n, si, sj = 0, 0.0, 0.0
+    h, w = data.shape
+    for i in range(h):
+        for j in range(w):
+            if data[i, j] <= member:
+                n += 1
+                si += i
+                sj += j
+    return si / n, sj / n
 
 
 def to_polygon(grid: Grid, f: Field) -> shapely.Geometry:

@@ -113,7 +113,7 @@ def _explain(b: RasterBeliefs, i: int, boxes: list, labels: np.ndarray, Xu, Xbar
     for m in np.flatnonzero(labels != IDENTIFIED_FALSE):
         j = labels[m]
         holders = [Xu, Xbar, b.identified[i, j]] if j >= 0 else [Xu, Xbar, *b.identified[i]]
-        if rs.meet(b.grid, boxes[m], *holders).is_empty:
+        if not rs.meets(b.grid, boxes[m], *holders):
             b.alarms["unexplained"][i] += 1
 
 
@@ -182,7 +182,7 @@ def aggregated(b: RasterBeliefs) -> np.ndarray:
         row = (b.unexplored[i], b.unidentified[i], *b.identified[i])
         key = tuple(id(f) for f in row)
         if key not in done:
-            done[key] = rs.union(b.grid, row)
+            done[key] = rs.union_near(b.grid, row)  # measured and planned on, never predicted
         out[i] = done[key]
     return out
 
@@ -195,7 +195,7 @@ def _areas(grid: rs.Grid, fields) -> np.ndarray:
 def uncertainty(b: RasterBeliefs, region: np.ndarray) -> dict[str, np.ndarray]:
     """IB21 eq. 10 and its parts (N,) each (m²; overlaps count once): φ(X^A), φ(X̄), φ(Xᵁ), φ(∪_j X_j), each the
     area of the outer approximation (:func:`raster.area`)."""
-    ids = [rs.union(b.grid, row) for row in b.identified]
+    ids = [rs.union_near(b.grid, row) for row in b.identified]  # measured only
     return {"phi": _areas(b.grid, region), "unexplored": _areas(b.grid, b.unexplored),
             "unidentified": _areas(b.grid, b.unidentified), "identified": _areas(b.grid, ids)}
 

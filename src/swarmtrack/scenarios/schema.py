@@ -717,6 +717,10 @@ class SetMembershipSpec(EstimatorSpec):
     delayed_data: Literal["refused", "refilter"] = Field("refused", description=(
         "refused: network.delay is refused; refilter: a late neighbour's sets are fused at the time they describe "
         "and the updates since are replayed (IB21 Sec. 4.5), over a window of the delay bound in periods"))
+    sets: Literal["polygons", "raster"] = Field("polygons", description=(
+        "how the sets are held: polygons (shapely, exact up to outward margins of micrometres) or raster (grids of "
+        "distance lower bounds, outer by up to a cell's half-diagonal along their edges, several times faster)"))
+    cell: Length = Field(1.0, gt=0, le=50, description="m, the side of a raster cell (sets: raster)")
 
     def speed_bound(self, scenario: Scenario) -> float:
         return self.target_speed if self.target_speed is not None else scenario.targets.speed
@@ -743,6 +747,9 @@ class SetMembershipSpec(EstimatorSpec):
         ratio = self.period * scenario.rates.estimation
         if abs(ratio - round(ratio)) > 1e-9:
             raise ValueError(f"estimator.period {self.period:g} s must be a whole number of estimation steps")
+        if self.sets == "raster" and self.delayed_data == "refilter":
+            raise ValueError("estimator.delayed_data: refilter needs estimator.sets: polygons (the raster sets do not "
+                             "replay late messages yet)")
 
 
 class SMMPCSpec(ControllerSpec):

@@ -153,6 +153,10 @@ def _setmembership(spec: SetMembershipSpec, ctx: Context) -> SetMembershipEstima
 
     window = spec.replayed_periods(ctx.scenario)
     kind, extra = (ReplayingSetMembershipEstimator, {"window": window}) if window else (SetMembershipEstimator, {})
+    if spec.sets == "raster":
+        from swarmtrack.estimation.setmembership_raster import RasterSetMembershipEstimator
+
+        kind, extra = RasterSetMembershipEstimator, {"cell": spec.cell}
     return kind(ctx.n_uavs, ctx.scenario.targets.size(), shapely.box(*spec.area),
                 speed=spec.speed_bound(ctx.scenario), bound=tuple(spec.noise_bound), period=spec.period, **extra)
 
@@ -170,7 +174,13 @@ def _sm_mpc(spec: SMMPCSpec, ctx: Context) -> SetMembershipMPC:
                              spec.distance, sc.estimator.speed_bound(sc), sc.network.r_comm,
                              Model(f.speed, f.altitude, f.yaw_rate_max), tan_half(sensor.opening, sensor.convention),
                              sensor.orientation, spec.baseline)
-    return SetMembershipMPC(shapely.box(*sc.estimator.area), settings, n_uavs=ctx.n_uavs)
+    area = shapely.box(*sc.estimator.area)
+    grid = None
+    if sc.estimator.sets == "raster":  # the estimator's X^A are fields on this grid
+        from swarmtrack.estimation.raster import Grid
+
+        grid = Grid.over(area, sc.estimator.cell)
+    return SetMembershipMPC(area, settings, n_uavs=ctx.n_uavs, grid=grid)
 
 
 #: ``kind`` → builder ``(settings, Context) -> Estimator``.

@@ -1,0 +1,688 @@
+"""Set-membership MPC (IB21 Sec. 5, eqs. 44-49) on raster sets (:mod:`swarmtrack.estimation.raster`).
+
+The same controller as :mod:`swarmtrack.control.sm_mpc` (read its docstring: eq. 47's cost, the candidates, the
+prediction, eq. 48's neighbours, the baseline, the ties), with X^A held as a :class:`~swarmtrack.estimation.raster.
+Field` v of distance lower bounds on a :class:`~swarmtrack.estimation.raster.Grid` of cells of side c. Per candidate
+(the semantics, :func:`reference_costs`)::
+
+    v ← values(X^A)
+    for k = 1 … h:
+        v ← v − V^t·T^c,  v ← max(v, outside)           eq. 44 (dilation, exact for a distance field; clip to X0)
+        v ← max(v, depth(F_ℓ(x^P_{ℓ,k})) − DELTA)  for each neighbour ℓ kept by eq. 48      eq. 49
+        v ← max(v, depth(F_i(x^P_{i,k})) − DELTA)                                          eq. 46
+    φ = Σ_g cell_area(v(g)),   d = distance from p_{i,k+h} to the member squares (v ≤ c/√2 + DELTA)
+
+(the baseline: no dilation, no clip, no neighbours, as :func:`sm_mpc.evolve`). ``d``: ``"nearest"`` the distance to
+the nearest member cell's square (0 inside one), ``"hausdorff"`` to the farthest point of those squares; 0 when no
+cell is a member. The member test is :func:`raster.members`' (the cells the estimator reports).
+
+**Closed form.** Subtracting r and taking a max commute exactly in floating point (rounding is monotone), so after
+the h rounds ``v_c(g) = max(B(g), T_c(g))`` with the candidate-independent base ``B = max(v0 − h·r, outside,
+steady neighbour terms)`` and ``T_c`` the max of the candidate's own and varying-neighbour terms, each
+``depth − DELTA`` lowered by r once per later round. A neighbour footprint is *steady* at step κ when eq. 48 keeps
+it for every candidate, *varying* when for some only (one that none keeps is ignored).
+
+**Window R** (the area term). Let R be the cells whose squares meet the bounding box of the varying footprints (the
+UAV's own at k+1 … k+h for every candidate and the varying neighbours'). A cell outside R lies outside every term
+of ``T_c``, so ``v_c = B`` there for every candidate: the area outside R is one constant. The area reported is
+``Σ_{g ∈ R} cell_area(v_c(g))``, so **the costs equal the true costs (:func:`reference_costs` on the whole grid)
+minus one constant, the same for every candidate**, and the pick is the same (tested). Unlike the polygon local
+window, no margin is needed: the raster operations are pointwise, so nothing spreads between cells.
+
+**The kernel** (:func:`kernel_costs`, numba) never evaluates R cell by cell per candidate. Every term is a convex
+footprint, so per row of R the cells where it can raise v (``term > 0``, a liberal interval) and where it makes a
+cell empty (``term ≥ c/√2 + 2·DELTA``, a conservative interval) are intervals, computed once per footprint and row
+(:func:`_spans`, the row through the footprint's edge lines). Per candidate and row: the area of the empty cells is
+a difference of row prefix sums of ``cell_area(B)``; only the cells between the two unions (a band about one cell
+wide along the footprints' edges) are evaluated exactly. So a candidate costs O(rows + perimeter/c), not O(|R|).
+
+**The distance** needs the member cells outside R too. They are those of ``G = max(v0 − h·r, outside)`` not covered
+by a steady or candidate term; per row the kernel keeps, lazily, the next and previous G-member of every column
+(:class:`MemberRows`, built only for rows the search reaches, per Field and shareable through ``shared`` between
+the UAVs of one fleet plan holding the same Field object). The nearest search visits rows in order of their gap to
+p and stops at the best distance found; within a row it jumps over covered intervals and non-members, so it costs
+O(rows × terms) even for a set far away. Cells in the margins of the intervals are checked exactly.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from swarmtrack.control import sm_mpc as sm
+from swarmtrack.control.sm_mpc import DEFAULT_SETTINGS, SMMPCSettings
+from swarmtrack.estimation import raster as rs
+
+#: Margin (m) of the interval guesses on a footprint's depth: a cell within it of an interval's threshold is
+#: evaluated exactly (round-off is ~1e-13 m at these coordinates).
+EPS = 1e-7
+DELTA = rs.DELTA
+
+
+# --- the readable reference ----------------------------------------------------------------------------------------
+
+
+def reference_costs(grid: rs.Grid, region: rs.Field, rem: sm.Removals, xy: np.ndarray, s: SMMPCSettings,
+                    window: tuple[int, int, int, int] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Area and distance terms (C,) of eq. 47 by the rounds of eqs. 44, 46, 48-49 literally (module docstring), on
+    the cells ``window`` (default: the whole grid, the true costs): ``rem`` from :func:`sm_mpc.removals`, ``xy``
+    (C, 2) the predicted positions at k+h. The distance only sees member cells inside the window."""
+    h, branch, c = s.horizon, len(s.inputs), grid.cell
+    i0, j0, i1, j1 = (0, 0, grid.ny, grid.nx) if window is None else window
+    n = len(rem.corners[-1])
+    if region is None or region.is_empty:
+        return np.zeros(n), np.zeros(n)
+    v0 = rs.values(grid, region, (i0, j0, i1, j1))
+    out = None if s.baseline or grid.outside is None else grid.outside[i0:i1, j0:j1]
+    r = s.target_speed * s.period
+    xl = grid.x0 + np.arange(j0, j1) * c
+    yl = grid.y0 + np.arange(i0, i1) * c
+    areas, dist = np.zeros(n), np.zeros(n)
+    for cand in range(n):
+        v = v0.copy()
+        for k in range(h):
+            node = cand // branch ** (h - 1 - k)
+            if not s.baseline:
+                v = v - r
+                if out is not None:
+                    v = np.maximum(v, out)
+            for ell in np.flatnonzero(rem.kept[k][node]):
+                v = np.maximum(v, rs.depth(grid, rem.nb_corners[ell, k], (i0, j0, i1, j1)) - DELTA)
+            v = np.maximum(v, rs.depth(grid, rem.corners[k][node], (i0, j0, i1, j1)) - DELTA)
+        areas[cand] = rs.cell_area(v, c).sum()
+        ii, jj = np.nonzero(v <= grid.slack + DELTA)
+        if len(ii):
+            dist[cand] = _square_distance(xy[cand], xl[jj], yl[ii], c, s.distance).min() if s.distance == "nearest" \
+                else _square_distance(xy[cand], xl[jj], yl[ii], c, s.distance).max()
+    return areas, dist
+
+
+def _square_distance(p, xl, yl, c, kind):
+    """Distance from p to the squares with lower-left corners (xl, yl): nearest point or farthest corner."""
+    xr, yr = xl + c, yl + c
+    if kind == "nearest":
+        dx = np.maximum(np.maximum(xl - p[0], p[0] - xr), 0.0)
+        dy = np.maximum(np.maximum(yl - p[1], p[1] - yr), 0.0)
+    else:
+        dx = np.maximum(np.abs(xl - p[0]), np.abs(xr - p[0]))
+        dy = np.maximum(np.abs(yl - p[1]), np.abs(yr - p[1]))
+    return np.hypot(dx, dy)
+
+
+# --- what one plan removes, as terms ------------------------------------------------------------------------------
+
+
+@dataclass
+class Scene:
+    """One plan's footprints as terms: ``lines`` (F, 4, 4) each footprint's edge lines ``(px, py, nx, ny)`` (a point
+    and the inward unit normal, :func:`raster.depth`'s), ``lag`` (F,) the rounds after its step (its term is
+    lowered by r that many times), ``terms`` (C, T) the footprints of each candidate (own and varying neighbours',
+    −1 padded), ``steady`` (S,) those removed for every candidate, ``window`` R in cells ``(i0, j0, i1, j1)``,
+    ``rows`` the rows ``[t0, t1)`` of the per-row intervals (R's and the steady footprints')."""
+
+    lines: np.ndarray
+    lag: np.ndarray
+    terms: np.ndarray
+    steady: np.ndarray
+    window: tuple[int, int, int, int]
+    rows: tuple[int, int]
+
+
+def edge_lines(corners: np.ndarray) -> np.ndarray:
+    """(F, K, 4) ``(px, py, nx, ny)`` of convex polygons ``corners`` (F, K, 2), inward normals, computed as
+    :func:`raster.depth` does (so the depths agree bit for bit)."""
+    c = np.asarray(corners, dtype=float)
+    edge = np.roll(c, -1, axis=1) - c
+    turn = np.sign(np.sum(c[..., 0] * np.roll(c[..., 1], -1, axis=1) - np.roll(c[..., 0], -1, axis=1) * c[..., 1],
+                          axis=1))
+    normal = turn[:, None, None] * np.stack([-edge[..., 1], edge[..., 0]], axis=-1) \
+        / np.hypot(edge[..., 0], edge[..., 1])[..., None]
+    return np.ascontiguousarray(np.concatenate([c, normal], axis=-1))
+
+
+def scene(grid: rs.Grid, rem: sm.Removals, s: SMMPCSettings) -> Scene:
+    """The terms of one plan (eqs. 46, 48-49): the UAV's own footprint at each step for the node of each
+    candidate, and each neighbour footprint eq. 48 keeps at step κ, steady or varying (module docstring)."""
+    h, branch = s.horizon, len(s.inputs)
+    n = len(rem.corners[-1])
+    corners, lag, steady, varying = [], [], [], []
+    node = [np.arange(n) // branch ** (h - 1 - k) for k in range(h)]
+    cols = []  # per term column: (footprint id per candidate, or −1)
+    for k in range(h):
+        base = sum(len(c) for c in corners)
+        corners.append(rem.corners[k])
+        lag += [h - 1 - k] * len(rem.corners[k])
+        cols.append(base + node[k])
+    for k in range(h):
+        kept = rem.kept[k]
+        if not kept.size:
+            continue
+        for ell in np.flatnonzero(kept.any(axis=0)):
+            fid = sum(len(c) for c in corners)
+            corners.append(rem.nb_corners[ell, k][None])
+            lag.append(h - 1 - k)
+            if kept[:, ell].all():
+                steady.append(fid)
+            else:
+                varying.append(corners[-1][0])
+                cols.append(np.where(kept[node[k], ell], fid, -1))
+    allc = np.concatenate(corners)
+    pts = np.concatenate([np.concatenate(rem.corners).reshape(-1, 2)] + [v for v in varying])
+    i0, i1 = grid.span(pts[:, 1].min(), pts[:, 1].max(), 0)
+    j0, j1 = grid.span(pts[:, 0].min(), pts[:, 0].max(), 1)
+    t0, t1 = i0, i1
+    for fid in steady:
+        a, b = grid.span(allc[fid, :, 1].min(), allc[fid, :, 1].max(), 0)
+        if a < b:
+            t0, t1 = (a, b) if t0 >= t1 else (min(t0, a), max(t1, b))
+    return Scene(edge_lines(allc), np.array(lag, dtype=np.int64), np.ascontiguousarray(np.stack(cols, axis=1)),
+                 np.array(steady, dtype=np.int64), (i0, j0, i1, j1), (t0, t1))
+
+
+# --- the G-members per row, lazily ------------------------------------------------------------------------------
+
+
+@dataclass
+class MemberRows:
+    """Per row of the grid, the columns of the cells of ``G = max(v0 − h·r, outside)`` that are members (the only
+    cells that can be members of a candidate's set, removals only raise v): ``nxt[i, j]`` the first member column
+    ≥ j (nx if none), ``prv[i, j]`` the last ≤ j (−1), ``has[i]``; filled by the kernel row by row as the searches
+    reach them (``ready[i]``). Only the rows and columns of ``box`` (the Field's window grown by the reach of the
+    rounds) can hold members."""
+
+    field: rs.Field
+    nxt: np.ndarray
+    prv: np.ndarray
+    ready: np.ndarray
+    has: np.ndarray
+    box: np.ndarray  # (4,) int64: i0, j0, i1, j1
+
+
+def member_rows(grid: rs.Grid, region: rs.Field, s: SMMPCSettings, shared: dict | None = None) -> MemberRows:
+    """The (lazy) :class:`MemberRows` of ``region`` for these settings, kept in ``shared`` per Field object (so the
+    UAVs of one fleet plan holding the same Field fill it once)."""
+    r = 0.0 if s.baseline else s.target_speed * s.period
+    key = ("raster-members", id(region), id(grid), s.horizon, r, s.baseline)
+    hit = None if shared is None else shared.get(key)
+    if hit is not None and hit.field is region:
+        return hit
+    m = math.ceil((s.horizon * r + grid.slack + 2 * DELTA) / grid.cell + 0.5) + 1
+    i0, j0, i1, j1 = region.window
+    box = np.array([max(0, i0 - m), max(0, j0 - m), min(grid.ny, i1 + m), min(grid.nx, j1 + m)], dtype=np.int64)
+    rows = MemberRows(region, np.empty((grid.ny, grid.nx), dtype=np.int32), np.empty((grid.ny, grid.nx),
+                      dtype=np.int32), np.zeros(grid.ny, dtype=np.uint8), np.zeros(grid.ny, dtype=np.uint8), box)
+    if shared is not None:
+        shared[key] = rows
+    return rows
+
+
+# --- the plan ------------------------------------------------------------------------------------------------------
+
+
+def plan_one_raster(grid: rs.Grid, region: rs.Field | None, own_states: np.ndarray, nb_states: np.ndarray,
+                    s: SMMPCSettings = DEFAULT_SETTINGS, shared: dict | None = None, prune: bool = True) -> sm.Choice:
+    """Eq. 47 minimised over U_d^h for one UAV whose X^A is the raster ``region`` (a :class:`raster.Field` on
+    ``grid``; None or empty: every cost 0, index 0), ``own_states`` (C, h, 7) and ``nb_states`` (L, h, 7) as
+    :func:`sm_mpc.plan_one`. ``cost`` and ``area`` are over the window R (the true ones less one constant for all
+    candidates, module docstring); ``window`` is R as ``(x0, y0, x1, y1)``. ``prune`` (as :func:`sm_mpc.plan_one`):
+    the distance only for the candidates whose area term leaves them a chance, the others' cost ``inf``.
+    ``shared``: a dict kept across the UAVs of one fleet plan (:func:`member_rows`)."""
+    cands = sm.candidates(s.inputs, s.horizon)
+    if region is None or region.is_empty:
+        zero = np.zeros(len(cands))
+        return sm.Choice(0, cands[0], zero, zero.copy(), zero.copy())
+    rem = sm.removals(own_states, nb_states, s, neighbours=not s.baseline)
+    k = RasterKernel(grid, region, scene(grid, rem, s), rem.xy[-1], s, member_rows(grid, region, s, shared))
+    areas = k.areas()
+    dist = np.full(len(areas), np.inf)
+    need = np.ones(len(areas), dtype=bool)
+    if prune:
+        first = sm.choose(areas)
+        dist[first] = k.distances(np.array([first]))[0]
+        bound = areas[first] + s.alpha * dist[first]
+        need = areas <= bound + 1e-9 + 1e-12 * abs(bound)
+        need[first] = False
+    rows = np.flatnonzero(need)
+    if len(rows):
+        dist[rows] = k.distances(rows)
+    cost = areas + s.alpha * dist
+    index = sm.choose(cost)
+    i0, j0, i1, j1 = k.sc.window
+    c = grid.cell
+    window = (grid.x0 + j0 * c, grid.y0 + i0 * c, grid.x0 + j1 * c, grid.y0 + i1 * c)
+    return sm.Choice(index, cands[index], cost, areas, dist, 0, window)
+
+
+class RasterKernel:
+    """One plan's compiled costs (module docstring): :meth:`areas` over R for every candidate, :meth:`distances` for
+    some; equal to :func:`reference_costs` (area on ``sc.window``, distance on the whole grid) up to the order of
+    the sums."""
+
+    def __init__(self, grid: rs.Grid, region: rs.Field, sc: Scene, xy: np.ndarray, s: SMMPCSettings,
+                 rows: MemberRows | None = None):
+        self.grid, self.region, self.sc, self.s = grid, region, sc, s
+        self.xy = np.ascontiguousarray(xy, dtype=float)
+        self.rows = member_rows(grid, region, s) if rows is None else rows
+        self.clip = not s.baseline and grid.outside is not None
+        self.outside = grid.outside if self.clip else np.zeros((1, 1))
+        self.geo = np.array([grid.x0, grid.y0, grid.cell, 0.0 if s.baseline else s.target_speed * s.period])
+        self.spans = _spans(sc.lines, sc.lag, self.geo, sc.rows[0], sc.rows[1], grid.nx, grid.slack)
+        self.win = np.array(sc.window, dtype=np.int64)
+
+    def areas(self) -> np.ndarray:
+        """Σ_R cell_area(v_c) (C,)."""
+        sc, g = self.sc, self.region
+        base, ab, prefix = _base_window(g.data, g.i0, g.j0, self.geo, self.s.horizon, self.outside, self.clip,
+                                        self.win, sc.lines, sc.lag, sc.steady, self.spans, sc.rows[0])
+        return _areas(sc.terms, sc.lines, sc.lag, self.spans, sc.rows[0], base, ab, prefix, self.win, self.geo,
+                      self.grid.slack)
+
+    def distances(self, which: np.ndarray) -> np.ndarray:
+        """d of eq. 47 for the candidates ``which``."""
+        sc, g, m = self.sc, self.region, self.rows
+        return _distances(np.asarray(which, dtype=np.int64), sc.terms, sc.steady, sc.lines, sc.lag, self.spans,
+                          sc.rows[0], sc.rows[1], self.geo, self.grid.slack, self.xy, self.s.distance == "hausdorff",
+                          g.data, g.i0, g.j0, self.s.horizon, self.outside, self.clip, m.nxt, m.prv, m.ready, m.has,
+                          m.box)
+
+
+def kernel_costs(grid: rs.Grid, region: rs.Field, sc: Scene, xy: np.ndarray, s: SMMPCSettings,
+                 rows: MemberRows | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Area over R and distance terms (C,) of every candidate by the compiled kernel (:class:`RasterKernel`)."""
+    k = RasterKernel(grid, region, sc, xy, s, rows)
+    return k.areas(), k.distances(np.arange(len(sc.terms)))
+
+
+# --- numba kernels -----------------------------------------------------------------------------------------------
+
+
+@numba.njit(cache=True, inline="always")
+def _term(lines, lag, f, x, y, r):
+    """A footprint's term at (x, y): its depth (:func:`raster.depth`) − DELTA, lowered by r per later round."""
+    d = np.inf
+    for e in range(lines.shape[1]):
+        v = (y - lines[f, e, 1]) * lines[f, e, 3] + (x - lines[f, e, 0]) * lines[f, e, 2]
+        if v < d:
+            d = v
+    d = d - DELTA
+    for _ in range(lag[f]):
+        d = d - r
+    return d
+
+
+@numba.njit(cache=True, inline="always")
+def _g(data, fi0, fj0, i, j, c, h, r, outside, clip):
+    """``G`` at cell (i, j): the Field's value (:func:`raster.values`) after h rounds of eq. 44 without removals."""
+    hh, ww = data.shape
+    a, b = i - fi0, j - fj0
+    if 0 <= a < hh and 0 <= b < ww:
+        v = data[a, b]
+    else:
+        y, x = (i + 0.5) * c, (j + 0.5) * c
+        dy = max(max(fi0 * c - y, y - (fi0 + hh) * c), 0.0)
+        dx = max(max(fj0 * c - x, x - (fj0 + ww) * c), 0.0)
+        v = math.hypot(dy, dx)
+    if r != 0.0 or clip:
+        for _ in range(h):
+            v = v - r
+            if clip and outside[i, j] > v:
+                v = outside[i, j]
+    return v
+
+
+@numba.njit(cache=True, inline="always")
+def _cell_area(v, c, slack):
+    """:func:`raster.cell_area` of one value."""
+    if v >= slack - DELTA:
+        return 0.0
+    if v <= 0.0:  # the formula gives exactly c² here
+        return c * c
+    r = min(max(v, 0.0), slack)
+    a = c / 2
+    ra = max(r, a)
+    seg = 4 * (ra ** 2 * math.acos(min(a / ra, 1.0)) - a * math.sqrt(max(ra ** 2 - a ** 2, 0.0)))
+    disc = math.pi * r ** 2 - (seg if r > a else 0.0)
+    return c * c - disc
+
+
+@numba.njit(cache=True, inline="always")
+def _interval(lines, f, y, tau, x0, c, nx):
+    """Columns [a, b) of the row at ``y`` whose centres have depth ≥ ``tau`` in footprint f (the row meets each edge's
+    half-plane in a half-line; the caller widens or narrows ``tau`` by EPS)."""
+    lo, hi = 0.0, nx - 1.0
+    for e in range(lines.shape[1]):
+        px, py, nxe, nye = lines[f, e, 0], lines[f, e, 1], lines[f, e, 2], lines[f, e, 3]
+        a = (y - py) * nye
+        if nxe > 0:
+            jb = (px + (tau - a) / nxe - x0) / c - 0.5
+            if jb > lo:
+                lo = jb
+        elif nxe < 0:
+            jb = (px + (tau - a) / nxe - x0) / c - 0.5
+            if jb < hi:
+                hi = jb
+        elif a < tau:
+            return 0, 0
+    if not lo <= hi:
+        return 0, 0
+    return int(math.ceil(lo)), int(math.floor(hi)) + 1
+
+
+@numba.njit(cache=True)
+def _spans(lines, lag, geo, t0, t1, nx, slack):
+    """(F, t1 − t0, 4) per footprint and row: ``[ua, ub)`` a superset of the cells where its term is > 0 (it may
+    raise v where v > 0) and ``[da, db)`` a subset of those where it is > c/√2 + 2·DELTA (the cell is empty)."""
+    x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
+    out = np.zeros((lines.shape[0], max(t1 - t0, 0), 4), dtype=np.int64)
+    for f in range(lines.shape[0]):
+        shift = DELTA + lag[f] * r
+        for i in range(t0, t1):
+            y = y0 + (i + 0.5) * c
+            ua, ub = _interval(lines, f, y, shift - EPS, x0, c, nx)
+            if ua < ub:
+                da, db = _interval(lines, f, y, shift + slack + 2 * DELTA + EPS, x0, c, nx)
+                out[f, i - t0, 0], out[f, i - t0, 1] = ua, ub
+                out[f, i - t0, 2], out[f, i - t0, 3] = da, max(da, db)
+    return out
+
+
+@numba.njit(cache=True)
+def _base_window(data, fi0, fj0, geo, h, outside, clip, win, lines, lag, steady, spans, t0):
+    """On R: ``B`` (v without the candidates' terms), ``cell_area(B)`` and its row prefix sums."""
+    x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
+    i0, j0, i1, j1 = win[0], win[1], win[2], win[3]
+    slack = c / math.sqrt(2.0)
+    base = np.empty((i1 - i0, j1 - j0))
+    ab = np.empty((i1 - i0, j1 - j0))
+    prefix = np.zeros((i1 - i0, j1 - j0 + 1))
+    for i in range(i0, i1):
+        for j in range(j0, j1):
+            base[i - i0, j - j0] = _g(data, fi0, fj0, i, j, c, h, r, outside, clip)
+        y = y0 + (i + 0.5) * c
+        for f in steady:
+            a, b = max(spans[f, i - t0, 0], j0), min(spans[f, i - t0, 1], j1)
+            for j in range(a, b):
+                t = _term(lines, lag, f, x0 + (j + 0.5) * c, y, r)
+                if t > base[i - i0, j - j0]:
+                    base[i - i0, j - j0] = t
+        acc = 0.0
+        for j in range(j0, j1):
+            a = _cell_area(base[i - i0, j - j0], c, slack)
+            ab[i - i0, j - j0] = a
+            acc += a
+            prefix[i - i0, j - j0 + 1] = acc
+    return base, ab, prefix
+
+
+@numba.njit(cache=True)
+def _merge(lo, hi, n):
+    """Sort the intervals [lo[k], hi[k]) k < n by start and merge the overlapping ones in place; returns their
+    number."""
+    for a in range(1, n):
+        x, y = lo[a], hi[a]
+        b = a - 1
+        while b >= 0 and lo[b] > x:
+            lo[b + 1], hi[b + 1] = lo[b], hi[b]
+            b -= 1
+        lo[b + 1], hi[b + 1] = x, y
+    m = 0
+    for a in range(n):
+        if lo[a] >= hi[a]:
+            continue
+        if m and lo[a] <= hi[m - 1]:
+            if hi[a] > hi[m - 1]:
+                hi[m - 1] = hi[a]
+        else:
+            lo[m], hi[m] = lo[a], hi[a]
+            m += 1
+    return m
+
+
+@numba.njit(cache=True)
+def _removed_area(ids, nid, lines, lag, spans, t0, base, ab, prefix, win, geo, slack, ulo, uhi, dlo, dhi):
+    """``Σ_R cell_area(B) − Σ_R cell_area(v_c)`` for the candidate whose terms are ``ids[:nid]``: per row, the empty
+    cells' share by prefix sums over the union of the deep intervals, and the band between it and the union of
+    the liberal intervals cell by cell."""
+    x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
+    i0, j0, i1, j1 = win[0], win[1], win[2], win[3]
+    out = 0.0
+    for i in range(i0, i1):
+        n = 0
+        for q in range(nid):
+            f = ids[q]
+            ua, ub = max(spans[f, i - t0, 0], j0), min(spans[f, i - t0, 1], j1)
+            if ua < ub:
+                ulo[n], uhi[n] = ua, ub
+                dlo[n], dhi[n] = max(spans[f, i - t0, 2], j0), min(spans[f, i - t0, 3], j1)
+                n += 1
+        if n == 0:
+            continue
+        mu = _merge(ulo, uhi, n)
+        md = _merge(dlo, dhi, n)
+        row = i - i0
+        for q in range(md):
+            out += prefix[row, dhi[q] - j0] - prefix[row, dlo[q] - j0]
+        y = y0 + (i + 0.5) * c
+        for q in range(mu):
+            j = ulo[q]
+            while j < uhi[q]:
+                jumped = False
+                for p in range(md):
+                    if dlo[p] <= j < dhi[p]:
+                        j = dhi[p]
+                        jumped = True
+                        break
+                if jumped:
+                    continue
+                a = ab[row, j - j0]
+                if a > 0.0:
+                    v = base[row, j - j0]
+                    x = x0 + (j + 0.5) * c
+                    for p in range(nid):
+                        f = ids[p]
+                        if spans[f, i - t0, 0] <= j < spans[f, i - t0, 1]:
+                            t = _term(lines, lag, f, x, y, r)
+                            if t > v:
+                                v = t
+                    out += a - _cell_area(v, c, slack)
+                j += 1
+    return out
+
+
+@numba.njit(cache=True)
+def _ensure_row(i, data, fi0, fj0, c, h, r, outside, clip, thr, nxt, prv, ready, has, box):
+    """Fill row i of the G-member columns (:class:`MemberRows`) if not done yet."""
+    if ready[i]:
+        return
+    nx = nxt.shape[1]
+    last = -1
+    inside = box[0] <= i < box[2]
+    for j in range(nx):
+        if inside and box[1] <= j < box[3] and _g(data, fi0, fj0, i, j, c, h, r, outside, clip) <= thr:
+            last = j
+        prv[i, j] = last
+    has[i] = 1 if last >= 0 else 0
+    following = nx
+    for j in range(nx - 1, -1, -1):
+        if prv[i, j] == j:
+            following = j
+        nxt[i, j] = following
+    ready[i] = 1
+
+
+@numba.njit(cache=True, inline="always")
+def _covered(ids, nid, lines, lag, spans, t0, t1, i, j, x, y, r, thr):
+    """Whether some term of ``ids[:nid]`` makes cell (i, j) a non-member (exactly)."""
+    if i < t0 or i >= t1:
+        return False
+    for q in range(nid):
+        f = ids[q]
+        if spans[f, i - t0, 0] <= j < spans[f, i - t0, 1] and _term(lines, lag, f, x, y, r) > thr:
+            return True
+    return False
+
+
+@numba.njit(cache=True)
+def _row_covers(ids, nid, spans, t0, t1, i, lo, hi):
+    """The deep intervals of ``ids[:nid]`` on row i (sorted, merged) into lo/hi; returns their number."""
+    if i < t0 or i >= t1:
+        return 0
+    n = 0
+    for q in range(nid):
+        f = ids[q]
+        if spans[f, i - t0, 2] < spans[f, i - t0, 3]:
+            lo[n], hi[n] = spans[f, i - t0, 2], spans[f, i - t0, 3]
+            n += 1
+    return _merge(lo, hi, n)
+
+
+@numba.njit(cache=True)
+def _first_free(i, j, step, nxt, prv, ids, nid, lines, lag, spans, t0, t1, lo, hi, m, geo, thr, px, py, dy, best):
+    """From column j in direction ``step`` (±1), the first G-member of row i not covered by a term, or −1 when
+    none is nearer than ``best`` (the row's vertical gap ``dy``; ``best`` inf: no bound)."""
+    x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
+    nx = nxt.shape[1]
+    y = y0 + (i + 0.5) * c
+    while 0 <= j < nx:
+        j = nxt[i, j] if step > 0 else prv[i, j]
+        if j < 0 or j >= nx:
+            return -1
+        xl = x0 + j * c
+        dx = max(max(xl - px, px - (xl + c)), 0.0)
+        if math.hypot(dx, dy) >= best:
+            return -1
+        jumped = False
+        for q in range(m):
+            if lo[q] <= j < hi[q]:
+                j = hi[q] if step > 0 else lo[q] - 1
+                jumped = True
+                break
+        if jumped:
+            continue
+        if _covered(ids, nid, lines, lag, spans, t0, t1, i, j, x0 + (j + 0.5) * c, y, r, thr):
+            j += step
+            continue
+        return j
+    return -1
+
+
+@numba.njit(cache=True)
+def _nearest(px, py, ids, nid, lines, lag, spans, t0, t1, geo, thr, data, fi0, fj0, h, outside, clip, nxt, prv,
+             ready, has, box, lo, hi):
+    """Nearest distance from (px, py) to the member squares of one candidate (0 if none): rows in order of their
+    gap to p, stopping at the best distance found; in each row the nearest free member on either side."""
+    x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
+    nx = nxt.shape[1]
+    ip = int(math.floor((py - y0) / c))
+    jp = int(math.floor((px - x0) / c))
+    dn, up = min(ip, box[2] - 1), max(ip + 1, box[0])
+    best = np.inf
+    while True:
+        gdn = max(max(y0 + dn * c - py, py - (y0 + (dn + 1) * c)), 0.0) if dn >= box[0] else np.inf
+        gup = max(max(y0 + up * c - py, py - (y0 + (up + 1) * c)), 0.0) if up < box[2] else np.inf
+        if min(gdn, gup) >= best:
+            break
+        if gdn <= gup:
+            i, dy = dn, gdn
+            dn -= 1
+        else:
+            i, dy = up, gup
+            up += 1
+        _ensure_row(i, data, fi0, fj0, c, h, r, outside, clip, thr, nxt, prv, ready, has, box)
+        if not has[i]:
+            continue
+        m = _row_covers(ids, nid, spans, t0, t1, i, lo, hi)
+        for step in (1, -1):
+            start = max(jp, 0) if step > 0 else min(jp - 1, nx - 1)
+            j = _first_free(i, start, step, nxt, prv, ids, nid, lines, lag, spans, t0, t1, lo, hi, m, geo, thr,
+                            px, py, dy, best)
+            if j >= 0:
+                xl = x0 + j * c
+                dx = max(max(xl - px, px - (xl + c)), 0.0)
+                best = min(best, math.hypot(dx, dy))
+    return 0.0 if best == np.inf else best
+
+
+@numba.njit(cache=True)
+def _farthest(px, py, ids, nid, lines, lag, spans, t0, t1, geo, thr, data, fi0, fj0, h, outside, clip, nxt, prv,
+              ready, has, box, lo, hi):
+    """Farthest distance from (px, py) to the member squares (their farthest corners) of one candidate (0 if
+    none): per row, the first free member from either end; rows whose raw extreme members cannot beat the best
+    are skipped."""
+    x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
+    nx = nxt.shape[1]
+    best = -1.0
+    for i in range(box[0], box[2]):
+        _ensure_row(i, data, fi0, fj0, c, h, r, outside, clip, thr, nxt, prv, ready, has, box)
+        if not has[i]:
+            continue
+        yl = y0 + i * c
+        dy = max(abs(yl - py), abs(yl + c - py))
+        a, b = nxt[i, 0], prv[i, nx - 1]
+        bound = math.hypot(max(abs(x0 + a * c - px), abs(x0 + (b + 1) * c - px)), dy)
+        if bound <= best:
+            continue
+        m = _row_covers(ids, nid, spans, t0, t1, i, lo, hi)
+        for start, step in ((0, 1), (nx - 1, -1)):
+            j = _first_free(i, start, step, nxt, prv, ids, nid, lines, lag, spans, t0, t1, lo, hi, m, geo, thr,
+                            px, py, 0.0, np.inf)
+            if j >= 0:
+                xl = x0 + j * c
+                best = max(best, math.hypot(max(abs(xl - px), abs(xl + c - px)), dy))
+    return max(best, 0.0)
+
+
+@numba.njit(cache=True)
+def _candidate_ids(terms, cand, ids):
+    """The footprint ids of a candidate's terms into ``ids``; returns their number."""
+    nid = 0
+    for q in range(terms.shape[1]):
+        if terms[cand, q] >= 0:
+            ids[nid] = terms[cand, q]
+            nid += 1
+    return nid
+
+
+@numba.njit(cache=True)
+def _areas(terms, lines, lag, spans, t0, base, ab, prefix, win, geo, slack):
+    """Per candidate, the area over R: ``Σ_R cell_area(B)`` less what its terms remove."""
+    n, width = terms.shape
+    total = 0.0
+    for row in range(prefix.shape[0]):
+        total += prefix[row, prefix.shape[1] - 1]
+    ids = np.empty(width, dtype=np.int64)
+    ulo, uhi = np.empty(width, dtype=np.int64), np.empty(width, dtype=np.int64)
+    dlo, dhi = np.empty(width, dtype=np.int64), np.empty(width, dtype=np.int64)
+    areas = np.empty(n)
+    for cand in range(n):
+        nid = _candidate_ids(terms, cand, ids)
+        areas[cand] = total - _removed_area(ids, nid, lines, lag, spans, t0, base, ab, prefix, win, geo, slack,
+                                            ulo, uhi, dlo, dhi)
+    return areas
+
+
+@numba.njit(cache=True)
+def _distances(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, hausdorff, data, fi0, fj0, h,
+               outside, clip, nxt, prv, ready, has, box):
+    """d of eq. 47 for the candidates ``which``: nearest or farthest member square, with the steady terms."""
+    k = terms.shape[1] + len(steady)
+    ids = np.empty(k, dtype=np.int64)
+    lo, hi = np.empty(k, dtype=np.int64), np.empty(k, dtype=np.int64)
+    out = np.empty(len(which))
+    thr = slack + DELTA
+    for q in range(len(which)):
+        cand = which[q]
+        nid = _candidate_ids(terms, cand, ids)
+        for p in range(len(steady)):
+            ids[nid + p] = steady[p]
+        nid += len(steady)
+        if hausdorff:
+            out[q] = _farthest(xy[cand, 0], xy[cand, 1], ids, nid, lines, lag, spans, t0, t1, geo, thr, data, fi0,
+                               fj0, h, outside, clip, nxt, prv, ready, has, box, lo, hi)
+        else:
+            out[q] = _nearest(xy[cand, 0], xy[cand, 1], ids, nid, lines, lag, spans, t0, t1, geo, thr, data, fi0,
+                              fj0, h, outside, clip, nxt, prv, ready, has, box, lo, hi)
+    return out

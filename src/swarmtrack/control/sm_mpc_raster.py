@@ -132,54 +132,117 @@ class Scene:
 
 
 def edge_lines(corners: np.ndarray) -> np.ndarray:
-    """(F, K, 4) ``(px, py, nx, ny)`` of convex polygons ``corners`` (F, K, 2), inward normals, computed as
-    :func:`raster.depth` does (so the depths agree bit for bit)."""
-    c = np.asarray(corners, dtype=float)
-    edge = np.roll(c, -1, axis=1) - c
-    turn = np.sign(np.sum(c[..., 0] * np.roll(c[..., 1], -1, axis=1) - np.roll(c[..., 0], -1, axis=1) * c[..., 1],
-                          axis=1))
-    normal = turn[:, None, None] * np.stack([-edge[..., 1], edge[..., 0]], axis=-1) \
-        / np.hypot(edge[..., 0], edge[..., 1])[..., None]
-    return np.ascontiguousarray(np.concatenate([c, normal], axis=-1))
+    """(F, K, 4) ``(px, py, nx, ny)`` of convex polygons ``corners`` (F, K, 2), inward normals, computed with
+    :func:`raster.depth`'s arithmetic (so the depths agree bit for bit)."""
+    return _edge_lines(np.ascontiguousarray(corners, dtype=float))
+
+
+@numba.njit(cache=True)
+def _edge_lines(c):
+    f, k = c.shape[0], c.shape[1]
+    out = np.empty((f, k, 4))
+    for q in range(f):
+        area = 0.0
+        for e in range(k):
+            n = (e + 1) % k
+            area += c[q, e, 0] * c[q, n, 1] - c[q, n, 0] * c[q, e, 1]
+        turn = np.sign(area)
+        for e in range(k):
+            n = (e + 1) % k
+            ex, ey = c[q, n, 0] - c[q, e, 0], c[q, n, 1] - c[q, e, 1]
+            norm = math.hypot(ex, ey)
+            out[q, e, 0], out[q, e, 1] = c[q, e, 0], c[q, e, 1]
+            out[q, e, 2], out[q, e, 3] = turn * -ey / norm, turn * ex / norm
+    return out
 
 
 def scene(grid: rs.Grid, rem: sm.Removals, s: SMMPCSettings) -> Scene:
     """The terms of one plan (eqs. 46, 48-49): the UAV's own footprint at each step for the node of each
     candidate, and each neighbour footprint eq. 48 keeps at step κ, steady or varying (module docstring)."""
-    h, branch = s.horizon, len(s.inputs)
-    n = len(rem.corners[-1])
-    corners, lag, steady, varying = [], [], [], []
-    node = [np.arange(n) // branch ** (h - 1 - k) for k in range(h)]
-    cols = []  # per term column: (footprint id per candidate, or −1)
-    for k in range(h):
-        base = sum(len(c) for c in corners)
-        corners.append(rem.corners[k])
-        lag += [h - 1 - k] * len(rem.corners[k])
-        cols.append(base + node[k])
-    for k in range(h):
-        kept = rem.kept[k]
-        if not kept.size:
-            continue
-        for ell in np.flatnonzero(kept.any(axis=0)):
-            fid = sum(len(c) for c in corners)
-            corners.append(rem.nb_corners[ell, k][None])
-            lag.append(h - 1 - k)
-            if kept[:, ell].all():
-                steady.append(fid)
-            else:
-                varying.append(corners[-1][0])
-                cols.append(np.where(kept[node[k], ell], fid, -1))
-    allc = np.concatenate(corners)
-    pts = np.concatenate([np.concatenate(rem.corners).reshape(-1, 2)] + [v for v in varying])
-    i0, i1 = grid.span(pts[:, 1].min(), pts[:, 1].max(), 0)
-    j0, j1 = grid.span(pts[:, 0].min(), pts[:, 0].max(), 1)
+    own = np.concatenate(rem.corners)
+    kept = np.concatenate(rem.kept) if rem.nb_corners.shape[0] else np.zeros((len(own), 0), dtype=bool)
+    lines, lag, terms, steady, box = _assemble(own, np.array([len(c) for c in rem.corners], dtype=np.int64),
+                                                kept, np.ascontiguousarray(rem.nb_corners, dtype=float),
+                                                len(s.inputs))
+    i0, i1 = grid.span(box[1], box[3], 0)
+    j0, j1 = grid.span(box[0], box[2], 1)
     t0, t1 = i0, i1
-    for fid in steady:
-        a, b = grid.span(allc[fid, :, 1].min(), allc[fid, :, 1].max(), 0)
-        if a < b:
-            t0, t1 = (a, b) if t0 >= t1 else (min(t0, a), max(t1, b))
-    return Scene(edge_lines(allc), np.array(lag, dtype=np.int64), np.ascontiguousarray(np.stack(cols, axis=1)),
-                 np.array(steady, dtype=np.int64), (i0, j0, i1, j1), (t0, t1))
+    if len(steady):
+        a, b = grid.span(box[4], box[5], 0)
+        t0, t1 = (a, b) if t0 >= t1 else (min(t0, a), max(t1, b))
+    return Scene(lines, lag, terms, steady, (i0, j0, i1, j1), (t0, t1))
+
+
+@numba.njit(cache=True)
+def _assemble(own, sizes, kept, nb, branch):
+    """:func:`scene`'s tables from the own corners of every level ``own`` (Σ n_κ, 4, 2) (``sizes`` n_κ), eq. 48's
+    ``kept`` (Σ n_κ, L) and the neighbours' corners ``nb`` (L, h, 4, 2); ``box``: the varying footprints' bounding
+    box and the steady ones' y-extent."""
+    h, n_nb = len(sizes), kept.shape[1]
+    n = sizes[h - 1]
+    offs = np.zeros(h + 1, dtype=np.int64)
+    for k in range(h):
+        offs[k + 1] = offs[k] + sizes[k]
+    kind = np.zeros((h, n_nb), dtype=np.int64)  # 0 ignored, 1 steady, 2 varying
+    n_st = n_var = 0
+    for k in range(h):
+        for ell in range(n_nb):
+            some, every = False, True
+            for q in range(offs[k], offs[k + 1]):
+                some = some or kept[q, ell]
+                every = every and kept[q, ell]
+            if every and sizes[k]:
+                kind[k, ell] = 1
+                n_st += 1
+            elif some:
+                kind[k, ell] = 2
+                n_var += 1
+    total = offs[h] + n_st + n_var
+    corners = np.empty((total, 4, 2))
+    corners[:offs[h]] = own
+    lag = np.empty(total, dtype=np.int64)
+    terms = np.full((n, h + n_var), -1, dtype=np.int64)
+    steady = np.empty(n_st, dtype=np.int64)
+    box = np.array([np.inf, np.inf, -np.inf, -np.inf, np.inf, -np.inf])
+    for k in range(h):
+        stride = branch ** (h - 1 - k)
+        lag[offs[k]:offs[k + 1]] = h - 1 - k
+        for cand in range(n):
+            terms[cand, k] = offs[k] + cand // stride
+    fid, col, st = offs[h], h, 0
+    for k in range(h):
+        stride = branch ** (h - 1 - k)
+        for ell in range(n_nb):
+            if kind[k, ell] == 0:
+                continue
+            corners[fid] = nb[ell, k]
+            lag[fid] = h - 1 - k
+            if kind[k, ell] == 1:
+                steady[st] = fid
+                st += 1
+            else:
+                for cand in range(n):
+                    if kept[offs[k] + cand // stride, ell]:
+                        terms[cand, col] = fid
+                col += 1
+            fid += 1
+    for q in range(total):
+        varying = q < offs[h] or not _is_steady(q, steady)
+        for e in range(4):
+            x, y = corners[q, e, 0], corners[q, e, 1]
+            if varying:
+                box[0], box[1], box[2], box[3] = min(box[0], x), min(box[1], y), max(box[2], x), max(box[3], y)
+            else:
+                box[4], box[5] = min(box[4], y), max(box[5], y)
+    return _edge_lines(corners), lag, terms, steady, box
+
+
+@numba.njit(cache=True)
+def _is_steady(q, steady):
+    for s in steady:
+        if s == q:
+            return True
+    return False
 
 
 # --- the G-members per row, lazily ------------------------------------------------------------------------------
@@ -313,24 +376,32 @@ def _term(lines, lag, f, x, y, r):
     return d
 
 
-@numba.njit(cache=True, inline="always")
-def _g(data, fi0, fj0, i, j, c, h, r, outside, clip):
-    """``G`` at cell (i, j): the Field's value (:func:`raster.values`) after h rounds of eq. 44 without removals."""
+@numba.njit(cache=True)
+def _g_row(data, fi0, fj0, i, j0, j1, c, h, r, outside, clip, out):
+    """``G`` on cells (i, j0 … j1−1) into ``out[:j1 − j0]``: the Field's values (:func:`raster.values`) after h rounds
+    of eq. 44 without removals (simple loops, vectorised by LLVM)."""
     hh, ww = data.shape
-    a, b = i - fi0, j - fj0
-    if 0 <= a < hh and 0 <= b < ww:
-        v = data[a, b]
+    a = i - fi0
+    if 0 <= a < hh:
+        ja, jb = min(max(j0, fj0), j1), max(min(j1, fj0 + ww), j0)
+        for j in range(ja, jb):
+            out[j - j0] = data[a, j - fj0]
     else:
-        y, x = (i + 0.5) * c, (j + 0.5) * c
+        ja, jb = j0, j0
+    if ja > j0 or jb < j1:  # off the stored window: the distance to its rectangle
+        y = (i + 0.5) * c
         dy = max(max(fi0 * c - y, y - (fi0 + hh) * c), 0.0)
-        dx = max(max(fj0 * c - x, x - (fj0 + ww) * c), 0.0)
-        v = math.hypot(dy, dx)
+        for j in range(j0, j1):
+            if j < ja or j >= jb:
+                x = (j + 0.5) * c
+                out[j - j0] = math.hypot(dy, max(max(fj0 * c - x, x - (fj0 + ww) * c), 0.0))
     if r != 0.0 or clip:
         for _ in range(h):
-            v = v - r
-            if clip and outside[i, j] > v:
-                v = outside[i, j]
-    return v
+            for j in range(j1 - j0):
+                out[j] = out[j] - r
+            if clip:
+                for j in range(j1 - j0):
+                    out[j] = max(out[j], outside[i, j0 + j])
 
 
 @numba.njit(cache=True, inline="always")
@@ -374,12 +445,18 @@ def _interval(lines, f, y, tau, x0, c, nx):
 @numba.njit(cache=True)
 def _spans(lines, lag, geo, t0, t1, nx, slack):
     """(F, t1 − t0, 4) per footprint and row: ``[ua, ub)`` a superset of the cells where its term is > 0 (it may
-    raise v where v > 0) and ``[da, db)`` a subset of those where it is > c/√2 + 2·DELTA (the cell is empty)."""
+    raise v where v > 0) and ``[da, db)`` a subset of those where it is > c/√2 + 2·DELTA (the cell is empty); only
+    the rows whose centres lie within the footprint's y-extent are visited (the others stay empty)."""
     x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
     out = np.zeros((lines.shape[0], max(t1 - t0, 0), 4), dtype=np.int64)
     for f in range(lines.shape[0]):
         shift = DELTA + lag[f] * r
-        for i in range(t0, t1):
+        ymin, ymax = np.inf, -np.inf
+        for e in range(lines.shape[1]):
+            ymin, ymax = min(ymin, lines[f, e, 1]), max(ymax, lines[f, e, 1])
+        a = max(t0, int(math.floor((ymin - y0) / c - 0.5)))
+        b = min(t1, int(math.ceil((ymax - y0) / c - 0.5)) + 1)
+        for i in range(a, b):
             y = y0 + (i + 0.5) * c
             ua, ub = _interval(lines, f, y, shift - EPS, x0, c, nx)
             if ua < ub:
@@ -399,8 +476,7 @@ def _base_window(data, fi0, fj0, geo, h, outside, clip, win, lines, lag, steady,
     ab = np.empty((i1 - i0, j1 - j0))
     prefix = np.zeros((i1 - i0, j1 - j0 + 1))
     for i in range(i0, i1):
-        for j in range(j0, j1):
-            base[i - i0, j - j0] = _g(data, fi0, fj0, i, j, c, h, r, outside, clip)
+        _g_row(data, fi0, fj0, i, j0, j1, c, h, r, outside, clip, base[i - i0])
         y = y0 + (i + 0.5) * c
         for f in steady:
             a, b = max(spans[f, i - t0, 0], j0), min(spans[f, i - t0, 1], j1)
@@ -499,10 +575,17 @@ def _ensure_row(i, data, fi0, fj0, c, h, r, outside, clip, thr, nxt, prv, ready,
         return
     nx = nxt.shape[1]
     last = -1
-    inside = box[0] <= i < box[2]
-    for j in range(nx):
-        if inside and box[1] <= j < box[3] and _g(data, fi0, fj0, i, j, c, h, r, outside, clip) <= thr:
-            last = j
+    b0, b1 = (box[1], box[3]) if box[0] <= i < box[2] else (nx, nx)
+    for j in range(b0):
+        prv[i, j] = -1
+    if b0 < b1:
+        g = np.empty(b1 - b0)
+        _g_row(data, fi0, fj0, i, b0, b1, c, h, r, outside, clip, g)
+        for j in range(b0, b1):
+            if g[j - b0] <= thr:
+                last = j
+            prv[i, j] = last
+    for j in range(b1, nx):
         prv[i, j] = last
     has[i] = 1 if last >= 0 else 0
     following = nx

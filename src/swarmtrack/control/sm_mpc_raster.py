@@ -250,18 +250,23 @@ def _is_steady(q, steady):
 
 @dataclass
 class MemberRows:
-    """Per row of the grid, the columns of the cells of ``G = max(v0 − h·r, outside)`` that are members (the only
-    cells that can be members of a candidate's set, removals only raise v): ``nxt[i, j]`` the first member column
-    ≥ j (nx if none), ``prv[i, j]`` the last ≤ j (−1), ``has[i]``; filled by the kernel row by row as the searches
-    reach them (``ready[i]``). Only the rows and columns of ``box`` (the Field's window grown by the reach of the
-    rounds) can hold members."""
+    """The Field's values where members of a candidate's set can be, and per row of the grid the columns of the
+    cells of ``G = max(v0 − h·r, outside)`` that are members (the only cells that can be members of a candidate's
+    set: removals only raise v): ``nxt[i, j]`` the first member column ≥ j (nx if none), ``prv[i, j]`` the last ≤ j
+    (−1), ``has[i]``; filled by the kernel row by row as the searches reach them (``ready[i]``).
+
+    Members lie in the *box*, the Field's window grown by the reach of the h dilations (off its window, the Field's
+    bound is at least the distance to the window's rectangle). ``src`` holds the Field's stored values and
+    :func:`raster.values` on the four strips of the box about them (so the kernel asks the raster module for the
+    bounds off the window rather than recomputing them), ``fw`` the window and the box ``(i0, j0, i1, j1)`` × 2."""
 
     field: rs.Field
+    src: tuple
+    fw: np.ndarray
     nxt: np.ndarray
     prv: np.ndarray
     ready: np.ndarray
     has: np.ndarray
-    box: np.ndarray  # (4,) int64: i0, j0, i1, j1
 
 
 def member_rows(grid: rs.Grid, region: rs.Field, s: SMMPCSettings, shared: dict | None = None) -> MemberRows:
@@ -274,9 +279,16 @@ def member_rows(grid: rs.Grid, region: rs.Field, s: SMMPCSettings, shared: dict 
         return hit
     m = math.ceil((s.horizon * r + grid.slack + 2 * DELTA) / grid.cell + 0.5) + 1
     i0, j0, i1, j1 = region.window
-    box = np.array([max(0, i0 - m), max(0, j0 - m), min(grid.ny, i1 + m), min(grid.nx, j1 + m)], dtype=np.int64)
-    rows = MemberRows(region, np.empty((grid.ny, grid.nx), dtype=np.int32), np.empty((grid.ny, grid.nx),
-                      dtype=np.int32), np.zeros(grid.ny, dtype=np.uint8), np.zeros(grid.ny, dtype=np.uint8), box)
+    b0, b1, b2, b3 = max(0, i0 - m), max(0, j0 - m), min(grid.ny, i1 + m), min(grid.nx, j1 + m)
+    src = (region.data,
+           np.ascontiguousarray(rs.values(grid, region, (b0, b1, i0, b3)), dtype=float),
+           np.ascontiguousarray(rs.values(grid, region, (i1, b1, b2, b3)), dtype=float),
+           np.ascontiguousarray(rs.values(grid, region, (i0, b1, i1, j0)), dtype=float),
+           np.ascontiguousarray(rs.values(grid, region, (i0, j1, i1, b3)), dtype=float))
+    fw = np.array([i0, j0, i1, j1, b0, b1, b2, b3], dtype=np.int64)
+    rows = MemberRows(region, src, fw, np.empty((grid.ny, grid.nx), dtype=np.int32),
+                      np.empty((grid.ny, grid.nx), dtype=np.int32), np.zeros(grid.ny, dtype=np.uint8),
+                      np.zeros(grid.ny, dtype=np.uint8))
     if shared is not None:
         shared[key] = rows
     return rows
@@ -337,19 +349,18 @@ class RasterKernel:
 
     def areas(self) -> np.ndarray:
         """Σ_R cell_area(v_c) (C,)."""
-        sc, g = self.sc, self.region
-        base, ab, prefix = _base_window(g.data, g.i0, g.j0, self.geo, self.s.horizon, self.outside, self.clip,
+        sc, m = self.sc, self.rows
+        base, ab, prefix = _base_window(m.src, m.fw, self.geo, self.s.horizon, self.outside, self.clip,
                                         self.win, sc.lines, sc.lag, sc.steady, self.spans, sc.rows[0])
         return _areas(sc.terms, sc.lines, sc.lag, self.spans, sc.rows[0], base, ab, prefix, self.win, self.geo,
                       self.grid.slack)
 
     def distances(self, which: np.ndarray) -> np.ndarray:
         """d of eq. 47 for the candidates ``which``."""
-        sc, g, m = self.sc, self.region, self.rows
+        sc, m = self.sc, self.rows
         return _distances(np.asarray(which, dtype=np.int64), sc.terms, sc.steady, sc.lines, sc.lag, self.spans,
                           sc.rows[0], sc.rows[1], self.geo, self.grid.slack, self.xy, self.s.distance == "hausdorff",
-                          g.data, g.i0, g.j0, self.s.horizon, self.outside, self.clip, m.nxt, m.prv, m.ready, m.has,
-                          m.box)
+                          m.src, m.fw, self.s.horizon, self.outside, self.clip, m.nxt, m.prv, m.ready, m.has)
 
 
 def kernel_costs(grid: rs.Grid, region: rs.Field, sc: Scene, xy: np.ndarray, s: SMMPCSettings,
@@ -377,24 +388,27 @@ def _term(lines, lag, f, x, y, r):
 
 
 @numba.njit(cache=True)
-def _g_row(data, fi0, fj0, i, j0, j1, c, h, r, outside, clip, out):
-    """``G`` on cells (i, j0 … j1−1) into ``out[:j1 − j0]``: the Field's values (:func:`raster.values`) after h rounds
-    of eq. 44 without removals (simple loops, vectorised by LLVM)."""
-    hh, ww = data.shape
-    a = i - fi0
-    if 0 <= a < hh:
-        ja, jb = min(max(j0, fj0), j1), max(min(j1, fj0 + ww), j0)
-        for j in range(ja, jb):
-            out[j - j0] = data[a, j - fj0]
-    else:
-        ja, jb = j0, j0
-    if ja > j0 or jb < j1:  # off the stored window: the distance to its rectangle
-        y = (i + 0.5) * c
-        dy = max(max(fi0 * c - y, y - (fi0 + hh) * c), 0.0)
-        for j in range(j0, j1):
-            if j < ja or j >= jb:
-                x = (j + 0.5) * c
-                out[j - j0] = math.hypot(dy, max(max(fj0 * c - x, x - (fj0 + ww) * c), 0.0))
+def _g_row(src, fw, i, j0, j1, h, r, outside, clip, out):
+    """``G`` on cells (i, j0 … j1−1) into ``out[:j1 − j0]``: the Field's values after h rounds of eq. 44 without
+    removals. ``src`` (stored values, top, bottom, left and right strips of :func:`raster.values` about them) and
+    ``fw`` (stored window, box) as :class:`MemberRows`; ``+inf`` off the box (no member there)."""
+    data, top, bottom, left, right = src
+    fi0, fj0, fi1, fj1, b0, b1, b2, b3 = fw[0], fw[1], fw[2], fw[3], fw[4], fw[5], fw[6], fw[7]
+    for j in range(j1 - j0):
+        out[j] = np.inf
+    if b0 <= i < b2:
+        ja, jb = max(j0, b1), min(j1, b3)
+        if i < fi0 or i >= fi1:
+            strip, row = (top, i - b0) if i < fi0 else (bottom, i - fi1)
+            for j in range(ja, jb):
+                out[j - j0] = strip[row, j - b1]
+        else:
+            for j in range(ja, min(jb, fj0)):
+                out[j - j0] = left[i - fi0, j - b1]
+            for j in range(max(ja, fj0), min(jb, fj1)):
+                out[j - j0] = data[i - fi0, j - fj0]
+            for j in range(max(ja, fj1), jb):
+                out[j - j0] = right[i - fi0, j - fj1]
     if r != 0.0 or clip:
         for _ in range(h):
             for j in range(j1 - j0):
@@ -467,7 +481,7 @@ def _spans(lines, lag, geo, t0, t1, nx, slack):
 
 
 @numba.njit(cache=True)
-def _base_window(data, fi0, fj0, geo, h, outside, clip, win, lines, lag, steady, spans, t0):
+def _base_window(src, fw, geo, h, outside, clip, win, lines, lag, steady, spans, t0):
     """On R: ``B`` (v without the candidates' terms), ``cell_area(B)`` and its row prefix sums."""
     x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
     i0, j0, i1, j1 = win[0], win[1], win[2], win[3]
@@ -476,7 +490,7 @@ def _base_window(data, fi0, fj0, geo, h, outside, clip, win, lines, lag, steady,
     ab = np.empty((i1 - i0, j1 - j0))
     prefix = np.zeros((i1 - i0, j1 - j0 + 1))
     for i in range(i0, i1):
-        _g_row(data, fi0, fj0, i, j0, j1, c, h, r, outside, clip, base[i - i0])
+        _g_row(src, fw, i, j0, j1, h, r, outside, clip, base[i - i0])
         y = y0 + (i + 0.5) * c
         for f in steady:
             a, b = max(spans[f, i - t0, 0], j0), min(spans[f, i - t0, 1], j1)
@@ -569,18 +583,18 @@ def _removed_area(ids, nid, lines, lag, spans, t0, base, ab, prefix, win, geo, s
 
 
 @numba.njit(cache=True)
-def _ensure_row(i, data, fi0, fj0, c, h, r, outside, clip, thr, nxt, prv, ready, has, box):
+def _ensure_row(i, src, fw, h, r, outside, clip, thr, nxt, prv, ready, has):
     """Fill row i of the G-member columns (:class:`MemberRows`) if not done yet."""
     if ready[i]:
         return
     nx = nxt.shape[1]
     last = -1
-    b0, b1 = (box[1], box[3]) if box[0] <= i < box[2] else (nx, nx)
+    b0, b1 = (fw[5], fw[7]) if fw[4] <= i < fw[6] else (nx, nx)
     for j in range(b0):
         prv[i, j] = -1
     if b0 < b1:
         g = np.empty(b1 - b0)
-        _g_row(data, fi0, fj0, i, b0, b1, c, h, r, outside, clip, g)
+        _g_row(src, fw, i, b0, b1, h, r, outside, clip, g)
         for j in range(b0, b1):
             if g[j - b0] <= thr:
                 last = j
@@ -653,19 +667,19 @@ def _first_free(i, j, step, nxt, prv, ids, nid, lines, lag, spans, t0, t1, lo, h
 
 
 @numba.njit(cache=True)
-def _nearest(px, py, ids, nid, lines, lag, spans, t0, t1, geo, thr, data, fi0, fj0, h, outside, clip, nxt, prv,
-             ready, has, box, lo, hi):
+def _nearest(px, py, ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h, outside, clip, nxt, prv, ready,
+             has, lo, hi):
     """Nearest distance from (px, py) to the member squares of one candidate (0 if none): rows in order of their
     gap to p, stopping at the best distance found; in each row the nearest free member on either side."""
     x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
     nx = nxt.shape[1]
     ip = int(math.floor((py - y0) / c))
     jp = int(math.floor((px - x0) / c))
-    dn, up = min(ip, box[2] - 1), max(ip + 1, box[0])
+    dn, up = min(ip, fw[6] - 1), max(ip + 1, fw[4])
     best = np.inf
     while True:
-        gdn = max(max(y0 + dn * c - py, py - (y0 + (dn + 1) * c)), 0.0) if dn >= box[0] else np.inf
-        gup = max(max(y0 + up * c - py, py - (y0 + (up + 1) * c)), 0.0) if up < box[2] else np.inf
+        gdn = max(max(y0 + dn * c - py, py - (y0 + (dn + 1) * c)), 0.0) if dn >= fw[4] else np.inf
+        gup = max(max(y0 + up * c - py, py - (y0 + (up + 1) * c)), 0.0) if up < fw[6] else np.inf
         if min(gdn, gup) >= best:
             break
         if gdn <= gup:
@@ -674,7 +688,7 @@ def _nearest(px, py, ids, nid, lines, lag, spans, t0, t1, geo, thr, data, fi0, f
         else:
             i, dy = up, gup
             up += 1
-        _ensure_row(i, data, fi0, fj0, c, h, r, outside, clip, thr, nxt, prv, ready, has, box)
+        _ensure_row(i, src, fw, h, r, outside, clip, thr, nxt, prv, ready, has)
         if not has[i]:
             continue
         m = _row_covers(ids, nid, spans, t0, t1, i, lo, hi)
@@ -690,16 +704,16 @@ def _nearest(px, py, ids, nid, lines, lag, spans, t0, t1, geo, thr, data, fi0, f
 
 
 @numba.njit(cache=True)
-def _farthest(px, py, ids, nid, lines, lag, spans, t0, t1, geo, thr, data, fi0, fj0, h, outside, clip, nxt, prv,
-              ready, has, box, lo, hi):
+def _farthest(px, py, ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h, outside, clip, nxt, prv, ready,
+              has, lo, hi):
     """Farthest distance from (px, py) to the member squares (their farthest corners) of one candidate (0 if
     none): per row, the first free member from either end; rows whose raw extreme members cannot beat the best
     are skipped."""
     x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
     nx = nxt.shape[1]
     best = -1.0
-    for i in range(box[0], box[2]):
-        _ensure_row(i, data, fi0, fj0, c, h, r, outside, clip, thr, nxt, prv, ready, has, box)
+    for i in range(fw[4], fw[6]):
+        _ensure_row(i, src, fw, h, r, outside, clip, thr, nxt, prv, ready, has)
         if not has[i]:
             continue
         yl = y0 + i * c
@@ -748,8 +762,8 @@ def _areas(terms, lines, lag, spans, t0, base, ab, prefix, win, geo, slack):
 
 
 @numba.njit(cache=True)
-def _distances(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, hausdorff, data, fi0, fj0, h,
-               outside, clip, nxt, prv, ready, has, box):
+def _distances(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, hausdorff, src, fw, h, outside,
+               clip, nxt, prv, ready, has):
     """d of eq. 47 for the candidates ``which``: nearest or farthest member square, with the steady terms."""
     k = terms.shape[1] + len(steady)
     ids = np.empty(k, dtype=np.int64)
@@ -763,9 +777,9 @@ def _distances(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, 
             ids[nid + p] = steady[p]
         nid += len(steady)
         if hausdorff:
-            out[q] = _farthest(xy[cand, 0], xy[cand, 1], ids, nid, lines, lag, spans, t0, t1, geo, thr, data, fi0,
-                               fj0, h, outside, clip, nxt, prv, ready, has, box, lo, hi)
+            out[q] = _farthest(xy[cand, 0], xy[cand, 1], ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h,
+                               outside, clip, nxt, prv, ready, has, lo, hi)
         else:
-            out[q] = _nearest(xy[cand, 0], xy[cand, 1], ids, nid, lines, lag, spans, t0, t1, geo, thr, data, fi0,
-                              fj0, h, outside, clip, nxt, prv, ready, has, box, lo, hi)
+            out[q] = _nearest(xy[cand, 0], xy[cand, 1], ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h,
+                              outside, clip, nxt, prv, ready, has, lo, hi)
     return out

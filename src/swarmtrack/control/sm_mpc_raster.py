@@ -427,56 +427,57 @@ def _cell_area(v, c, slack):
         return c * c
     r = min(max(v, 0.0), slack)
     a = c / 2
+    if r <= a:  # the disc lies in the square (the segments' term is 0)
+        return c * c - (math.pi * r ** 2 - 0.0)
     ra = max(r, a)
     seg = 4 * (ra ** 2 * math.acos(min(a / ra, 1.0)) - a * math.sqrt(max(ra ** 2 - a ** 2, 0.0)))
-    disc = math.pi * r ** 2 - (seg if r > a else 0.0)
-    return c * c - disc
-
-
-@numba.njit(cache=True, inline="always")
-def _interval(lines, f, y, tau, x0, c, nx):
-    """Columns [a, b) of the row at ``y`` whose centres have depth ≥ ``tau`` in footprint f (the row meets each edge's
-    half-plane in a half-line; the caller widens or narrows ``tau`` by EPS)."""
-    lo, hi = 0.0, nx - 1.0
-    for e in range(lines.shape[1]):
-        px, py, nxe, nye = lines[f, e, 0], lines[f, e, 1], lines[f, e, 2], lines[f, e, 3]
-        a = (y - py) * nye
-        if nxe > 0:
-            jb = (px + (tau - a) / nxe - x0) / c - 0.5
-            if jb > lo:
-                lo = jb
-        elif nxe < 0:
-            jb = (px + (tau - a) / nxe - x0) / c - 0.5
-            if jb < hi:
-                hi = jb
-        elif a < tau:
-            return 0, 0
-    if not lo <= hi:
-        return 0, 0
-    return int(math.ceil(lo)), int(math.floor(hi)) + 1
+    return c * c - (math.pi * r ** 2 - seg)
 
 
 @numba.njit(cache=True)
 def _spans(lines, lag, geo, t0, t1, nx, slack):
     """(F, t1 − t0, 4) per footprint and row: ``[ua, ub)`` a superset of the cells where its term is > 0 (it may
     raise v where v > 0) and ``[da, db)`` a subset of those where it is > c/√2 + 2·DELTA (the cell is empty); only
-    the rows whose centres lie within the footprint's y-extent are visited (the others stay empty)."""
+    the rows whose centres lie within the footprint's y-extent are visited (the others stay empty). The row at y
+    meets each edge's half-plane ``(y − py)·ny + (x − px)·nx ≥ τ`` in a half-line of columns ``j ≥ k + τ·s`` (or
+    ≤, as nx > 0 or < 0), so both intervals come from one pass; the thresholds are widened or narrowed by EPS for
+    the round-off."""
     x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
-    out = np.zeros((lines.shape[0], max(t1 - t0, 0), 4), dtype=np.int64)
-    for f in range(lines.shape[0]):
+    n_f, n_e = lines.shape[0], lines.shape[1]
+    out = np.zeros((n_f, max(t1 - t0, 0), 4), dtype=np.int64)
+    inv, k0 = np.empty(n_e), np.empty(n_e)
+    for f in range(n_f):
         shift = DELTA + lag[f] * r
+        tau_u, tau_d = shift - EPS, shift + slack + 2 * DELTA + EPS
         ymin, ymax = np.inf, -np.inf
-        for e in range(lines.shape[1]):
+        for e in range(n_e):
             ymin, ymax = min(ymin, lines[f, e, 1]), max(ymax, lines[f, e, 1])
-        a = max(t0, int(math.floor((ymin - y0) / c - 0.5)))
-        b = min(t1, int(math.ceil((ymax - y0) / c - 0.5)) + 1)
-        for i in range(a, b):
+            inv[e] = 1.0 / (lines[f, e, 2] * c) if lines[f, e, 2] != 0.0 else 0.0
+            k0[e] = (lines[f, e, 0] - x0) / c - 0.5
+        a0 = max(t0, int(math.floor((ymin - y0) / c - 0.5)))
+        b0 = min(t1, int(math.ceil((ymax - y0) / c - 0.5)) + 1)
+        for i in range(a0, b0):
             y = y0 + (i + 0.5) * c
-            ua, ub = _interval(lines, f, y, shift - EPS, x0, c, nx)
-            if ua < ub:
-                da, db = _interval(lines, f, y, shift + slack + 2 * DELTA + EPS, x0, c, nx)
+            ulo, uhi, dlo, dhi = 0.0, nx - 1.0, 0.0, nx - 1.0
+            for e in range(n_e):
+                a = (y - lines[f, e, 1]) * lines[f, e, 3]
+                if inv[e] != 0.0:
+                    k = k0[e] - a * inv[e]
+                    ju, jd = k + tau_u * inv[e], k + tau_d * inv[e]
+                    if inv[e] > 0:
+                        ulo, dlo = max(ulo, ju), max(dlo, jd)
+                    else:
+                        uhi, dhi = min(uhi, ju), min(dhi, jd)
+                elif a < tau_u:
+                    ulo, uhi = 1.0, 0.0
+                elif a < tau_d:
+                    dlo, dhi = 1.0, 0.0
+            if ulo <= uhi:
+                ua, ub = int(math.ceil(ulo)), int(math.floor(uhi)) + 1
                 out[f, i - t0, 0], out[f, i - t0, 1] = ua, ub
-                out[f, i - t0, 2], out[f, i - t0, 3] = da, max(da, db)
+                if dlo <= dhi:
+                    da, db = max(int(math.ceil(dlo)), ua), min(int(math.floor(dhi)) + 1, ub)
+                    out[f, i - t0, 2], out[f, i - t0, 3] = da, max(da, db)
     return out
 
 
@@ -569,7 +570,7 @@ def _removed_area(ids, nid, lines, lag, spans, t0, base, ab, prefix, win, geo, s
                     continue
                 a = ab[row, j - j0]
                 if a > 0.0:
-                    v = base[row, j - j0]
+                    v = b0 = base[row, j - j0]
                     x = x0 + (j + 0.5) * c
                     for p in range(nid):
                         f = ids[p]
@@ -577,7 +578,8 @@ def _removed_area(ids, nid, lines, lag, spans, t0, base, ab, prefix, win, geo, s
                             t = _term(lines, lag, f, x, y, r)
                             if t > v:
                                 v = t
-                    out += a - _cell_area(v, c, slack)
+                    if v > b0:
+                        out += a - _cell_area(v, c, slack)
                 j += 1
     return out
 

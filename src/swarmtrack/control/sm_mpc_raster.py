@@ -557,16 +557,14 @@ def _removed_area(ids, nid, lines, lag, spans, t0, base, ab, prefix, win, geo, s
         for q in range(md):
             out += prefix[row, dhi[q] - j0] - prefix[row, dlo[q] - j0]
         y = y0 + (i + 0.5) * c
+        w = 0  # the merged deep intervals lie in the merged liberal ones, both sorted: walk the gaps
         for q in range(mu):
             j = ulo[q]
             while j < uhi[q]:
-                jumped = False
-                for p in range(md):
-                    if dlo[p] <= j < dhi[p]:
-                        j = dhi[p]
-                        jumped = True
-                        break
-                if jumped:
+                while w < md and dhi[w] <= j:
+                    w += 1
+                if w < md and dlo[w] <= j:
+                    j = dhi[w]
                     continue
                 a = ab[row, j - j0]
                 if a > 0.0:

@@ -346,21 +346,31 @@ class RasterKernel:
         self.geo = np.array([grid.x0, grid.y0, grid.cell, 0.0 if s.baseline else s.target_speed * s.period])
         self.spans = _spans(sc.lines, sc.lag, self.geo, sc.rows[0], sc.rows[1], grid.nx, grid.slack)
         self.win = np.array(sc.window, dtype=np.int64)
+        self._base = self._members = None
+
+    def base(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """On R: B (v without the candidates' terms), cell_area(B) and its row prefix sums (once per plan)."""
+        if self._base is None:
+            sc, m = self.sc, self.rows
+            self._base = _base_window(m.src, m.fw, self.geo, self.s.horizon, self.outside, self.clip, self.win,
+                                      sc.lines, sc.lag, sc.steady, self.spans, sc.rows[0])
+        return self._base
 
     def areas(self) -> np.ndarray:
         """Σ_R cell_area(v_c) (C,)."""
-        sc, m = self.sc, self.rows
-        base, ab, prefix = _base_window(m.src, m.fw, self.geo, self.s.horizon, self.outside, self.clip,
-                                        self.win, sc.lines, sc.lag, sc.steady, self.spans, sc.rows[0])
-        return _areas(sc.terms, sc.lines, sc.lag, self.spans, sc.rows[0], base, ab, prefix, self.win, self.geo,
+        sc = self.sc
+        return _areas(sc.terms, sc.lines, sc.lag, self.spans, sc.rows[0], *self.base(), self.win, self.geo,
                       self.grid.slack)
 
     def distances(self, which: np.ndarray) -> np.ndarray:
         """d of eq. 47 for the candidates ``which``."""
         sc, m = self.sc, self.rows
+        if self._members is None:
+            self._members = _range_members(self.base()[0], self.grid.slack + DELTA, self.sc.window[1])
         return _distances(np.asarray(which, dtype=np.int64), sc.terms, sc.steady, sc.lines, sc.lag, self.spans,
                           sc.rows[0], sc.rows[1], self.geo, self.grid.slack, self.xy, self.s.distance == "hausdorff",
-                          m.src, m.fw, self.s.horizon, self.outside, self.clip, m.nxt, m.prv, m.ready, m.has)
+                          m.src, m.fw, self.s.horizon, self.outside, self.clip, m.nxt, m.prv, m.ready, m.has,
+                          self.win, *self._members)
 
 
 def kernel_costs(grid: rs.Grid, region: rs.Field, sc: Scene, xy: np.ndarray, s: SMMPCSettings,
@@ -637,20 +647,23 @@ def _row_covers(ids, nid, spans, t0, t1, i, lo, hi):
 
 
 @numba.njit(cache=True)
-def _first_free(i, j, step, nxt, prv, ids, nid, lines, lag, spans, t0, t1, lo, hi, m, geo, thr, px, py, dy, best):
-    """From column j in direction ``step`` (±1), the first G-member of row i not covered by a term, or −1 when
-    none is nearer than ``best`` (the row's vertical gap ``dy``; ``best`` inf: no bound)."""
+def _first_free(i, row, j, step, nxt, prv, a, b, ids, nid, lines, lag, spans, t0, t1, lo, hi, m, geo, thr, px, dy,
+                best):
+    """From column j of grid row i in direction ``step`` (±1), the first member not covered by a term, searched in
+    columns [a, b) with the next/previous member columns of that range ``nxt``/``prv`` (their row ``row``, column
+    j − a; b and a − 1 when none). Returns (column, 0), or (−1, 0) if there is none before the range's end, or
+    (−1, 1) if none is nearer than ``best`` (``dy`` the row's gap to p; ``best`` inf: no bound)."""
     x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
-    nx = nxt.shape[1]
     y = y0 + (i + 0.5) * c
-    while 0 <= j < nx:
-        j = nxt[i, j] if step > 0 else prv[i, j]
-        if j < 0 or j >= nx:
-            return -1
+    bound = best * best * (1 + 1e-9) - dy * dy  # dx² beyond which the distance is surely ≥ best (no hypot)
+    while a <= j < b:
+        j = nxt[row, j - a] if step > 0 else prv[row, j - a]
+        if j < a or j >= b:
+            return -1, 0
         xl = x0 + j * c
         dx = max(max(xl - px, px - (xl + c)), 0.0)
-        if math.hypot(dx, dy) >= best:
-            return -1
+        if dx * dx > bound:
+            return -1, 1
         jumped = False
         for q in range(m):
             if lo[q] <= j < hi[q]:
@@ -662,19 +675,42 @@ def _first_free(i, j, step, nxt, prv, ids, nid, lines, lag, spans, t0, t1, lo, h
         if _covered(ids, nid, lines, lag, spans, t0, t1, i, j, x0 + (j + 0.5) * c, y, r, thr):
             j += step
             continue
-        return j
-    return -1
+        return j, 0
+    return -1, 0
+
+
+@numba.njit(cache=True)
+def _range_members(base, thr, j0):
+    """Next/previous member columns (absolute; j1 and j0 − 1 when none) of each row of the window values
+    ``base`` whose first column is j0: the members of R without the lazy rows."""
+    n, w = base.shape
+    nxt, prv = np.empty((n, w), dtype=np.int32), np.empty((n, w), dtype=np.int32)
+    for i in range(n):
+        last = j0 - 1
+        for j in range(w):
+            if base[i, j] <= thr:
+                last = j0 + j
+            prv[i, j] = last
+        following = j0 + w
+        for j in range(w - 1, -1, -1):
+            if prv[i, j] == j0 + j:
+                following = j0 + j
+            nxt[i, j] = following
+    return nxt, prv
 
 
 @numba.njit(cache=True)
 def _nearest(px, py, ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h, outside, clip, nxt, prv, ready,
-             has, lo, hi):
+             has, lo, hi, win, wnxt, wprv):
     """Nearest distance from (px, py) to the member squares of one candidate (0 if none): rows in order of their
-    gap to p, stopping at the best distance found; in each row the nearest free member on either side."""
+    gap to p, stopping at the best distance found; in each row the nearest free member on either side, first
+    within R (``win``, its members ``wnxt``/``wprv`` from the plan's base values) when p's column is in it, then
+    beyond it with the lazy rows of the grid (built only if a member there could still be nearer)."""
     x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
     nx = nxt.shape[1]
     ip = int(math.floor((py - y0) / c))
     jp = int(math.floor((px - x0) / c))
+    in_cols = win[1] <= jp < win[3]
     dn, up = min(ip, fw[6] - 1), max(ip + 1, fw[4])
     best = np.inf
     while True:
@@ -688,18 +724,26 @@ def _nearest(px, py, ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h, 
         else:
             i, dy = up, gup
             up += 1
-        _ensure_row(i, src, fw, h, r, outside, clip, thr, nxt, prv, ready, has)
-        if not has[i]:
-            continue
         m = _row_covers(ids, nid, spans, t0, t1, i, lo, hi)
         for step in (1, -1):
-            start = max(jp, 0) if step > 0 else min(jp - 1, nx - 1)
-            j = _first_free(i, start, step, nxt, prv, ids, nid, lines, lag, spans, t0, t1, lo, hi, m, geo, thr,
-                            px, py, dy, best)
-            if j >= 0:
-                xl = x0 + j * c
-                dx = max(max(xl - px, px - (xl + c)), 0.0)
-                best = min(best, math.hypot(dx, dy))
+            start = jp if step > 0 else jp - 1
+            found, cut = -1, 0
+            if in_cols and win[0] <= i < win[2]:
+                found, cut = _first_free(i, i - win[0], start, step, wnxt, wprv, win[1], win[3], ids, nid, lines,
+                                         lag, spans, t0, t1, lo, hi, m, geo, thr, px, dy, best)
+                start = win[3] if step > 0 else win[1] - 1
+            elif not 0 <= start < nx:
+                start = max(start, 0) if step > 0 else min(start, nx - 1)
+            if found < 0 and cut == 0 and 0 <= start < nx:
+                xl = x0 + start * c
+                if math.hypot(max(max(xl - px, px - (xl + c)), 0.0), dy) < best:
+                    _ensure_row(i, src, fw, h, r, outside, clip, thr, nxt, prv, ready, has)
+                    if has[i]:
+                        found, cut = _first_free(i, i, start, step, nxt, prv, 0, nx, ids, nid, lines, lag, spans,
+                                                 t0, t1, lo, hi, m, geo, thr, px, dy, best)
+            if found >= 0:
+                xl = x0 + found * c
+                best = min(best, math.hypot(max(max(xl - px, px - (xl + c)), 0.0), dy))
     return 0.0 if best == np.inf else best
 
 
@@ -724,8 +768,8 @@ def _farthest(px, py, ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h,
             continue
         m = _row_covers(ids, nid, spans, t0, t1, i, lo, hi)
         for start, step in ((0, 1), (nx - 1, -1)):
-            j = _first_free(i, start, step, nxt, prv, ids, nid, lines, lag, spans, t0, t1, lo, hi, m, geo, thr,
-                            px, py, 0.0, np.inf)
+            j, _ = _first_free(i, i, start, step, nxt, prv, 0, nx, ids, nid, lines, lag, spans, t0, t1, lo, hi, m,
+                               geo, thr, px, 0.0, np.inf)
             if j >= 0:
                 xl = x0 + j * c
                 best = max(best, math.hypot(max(abs(xl - px), abs(xl + c - px)), dy))
@@ -763,7 +807,7 @@ def _areas(terms, lines, lag, spans, t0, base, ab, prefix, win, geo, slack):
 
 @numba.njit(cache=True)
 def _distances(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, hausdorff, src, fw, h, outside,
-               clip, nxt, prv, ready, has):
+               clip, nxt, prv, ready, has, win, wnxt, wprv):
     """d of eq. 47 for the candidates ``which``: nearest or farthest member square, with the steady terms."""
     k = terms.shape[1] + len(steady)
     ids = np.empty(k, dtype=np.int64)
@@ -781,5 +825,5 @@ def _distances(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, 
                                outside, clip, nxt, prv, ready, has, lo, hi)
         else:
             out[q] = _nearest(xy[cand, 0], xy[cand, 1], ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h,
-                              outside, clip, nxt, prv, ready, has, lo, hi)
+                              outside, clip, nxt, prv, ready, has, lo, hi, win, wnxt, wprv)
     return out

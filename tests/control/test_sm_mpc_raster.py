@@ -90,7 +90,8 @@ def test_the_kernel_equals_the_numpy_reference(case, distance):
     """Areas over R equal the reference's on R, distances the reference's on the whole grid (1e-9), with steady
     and varying neighbours, a non-rectangular X0 (the clip), the baseline, and neighbours at the edge of d^c."""
     rng = np.random.default_rng(["box", "odd_area", "baseline", "near_range"].index(case))
-    area = X0 if case != "odd_area" else shapely.Polygon([(0, 0), (300, 0), (300, 150), (160, 300), (0, 300)])
+    area = shapely.box(0, 0, 250, 250) if case != "odd_area" else \
+        shapely.Polygon([(0, 0), (250, 0), (250, 120), (130, 250), (0, 250)])
     grid = rs.Grid.over(area, 1.0)
     s = sm.SMMPCSettings(distance=distance, baseline=case == "baseline",
                          comm_range=120.0 if case == "near_range" else 200.0)
@@ -111,6 +112,28 @@ def test_the_kernel_equals_the_numpy_reference(case, distance):
         assert checked_steady  # neighbours removed for every candidate were exercised
     if case == "near_range":
         assert checked_varying  # and neighbours eq. 48 keeps for some candidates only
+
+
+@pytest.mark.parametrize("horizon, inputs", [(1, (0.0, 0.25, -0.25, 0.5, -0.5)), (3, (0.0, 0.5, -0.5))])
+def test_the_kernel_equals_the_numpy_reference_at_other_horizons(horizon, inputs):
+    area = shapely.box(0, 0, 250, 250)
+    grid = rs.Grid.over(area, 1.0)
+    s = sm.SMMPCSettings(horizon=horizon, inputs=inputs, comm_range=150.0)
+    rng = np.random.default_rng(horizon)
+    poly = random_region(rng, area, n_cuts=3)
+    state = uav(125, 125, rng.uniform(-np.pi, np.pi), 0.1)
+    nav = np.stack([uav(60, 150, 0.5), uav(150, 40, 2.0)])
+    nb = sm.predict(nav, np.zeros((2, horizon)), s)
+    nb[1, :, :2] += state[:2] + np.array([150.0, 0.0]) - nb[1, -1, :2]  # at d^c at k+h: kept for some candidates
+    region = field_of(poly, grid)
+    rem = sm.removals(own_states(state, s), nb, s)
+    sc = smr.scene(grid, rem, s)
+    areas, dist = smr.kernel_costs(grid, region, sc, rem.xy[-1], s)
+    ref_area, _ = smr.reference_costs(grid, region, rem, rem.xy[-1], s, sc.window)
+    _, ref_dist = smr.reference_costs(grid, region, rem, rem.xy[-1], s)
+    assert len(areas) == len(inputs) ** horizon
+    np.testing.assert_allclose(areas, ref_area, rtol=0, atol=1e-9 * np.abs(ref_area).max())
+    np.testing.assert_allclose(dist, ref_dist, rtol=0, atol=1e-9)
 
 
 def test_the_kernel_equals_the_reference_for_a_set_far_from_the_uav_and_off_its_stored_window():

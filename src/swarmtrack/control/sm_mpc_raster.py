@@ -527,6 +527,24 @@ def _base_window(src, fw, geo, h, outside, clip, win, lines, lag, steady, spans,
     return base, ab, prefix
 
 
+@numba.njit(cache=True, inline="always")
+def _merge2(lo, hi):
+    """:func:`_merge` of two intervals (the usual row: the UAV's own footprints at k+1 and k+2)."""
+    a0, b0, a1, b1 = lo[0], hi[0], lo[1], hi[1]
+    if a0 >= b0:
+        lo[0], hi[0] = a1, b1
+        return 1 if a1 < b1 else 0
+    if a1 >= b1:
+        return 1
+    if a1 < a0:
+        a0, b0, a1, b1 = a1, b1, a0, b0
+    if a1 <= b0:
+        lo[0], hi[0] = a0, max(b0, b1)
+        return 1
+    lo[0], hi[0], lo[1], hi[1] = a0, b0, a1, b1
+    return 2
+
+
 @numba.njit(cache=True)
 def _merge(lo, hi, n):
     """Sort the intervals [lo[k], hi[k]) k < n by start and merge the overlapping ones in place; returns their
@@ -570,8 +588,16 @@ def _removed_area(ids, nid, lines, lag, spans, t0, base, ab, prefix, win, geo, s
                 n += 1
         if n == 0:
             continue
-        mu = _merge(ulo, uhi, n)
-        md = _merge(dlo, dhi, n)
+        if n == 1:
+            mu = md = 1
+            if dlo[0] >= dhi[0]:
+                md = 0
+        elif n == 2:
+            mu = _merge2(ulo, uhi)
+            md = _merge2(dlo, dhi)
+        else:
+            mu = _merge(ulo, uhi, n)
+            md = _merge(dlo, dhi, n)
         row = i - i0
         for q in range(md):
             out += prefix[row, dhi[q] - j0] - prefix[row, dlo[q] - j0]

@@ -289,11 +289,8 @@ def member_rows(grid: rs.Grid, region: rs.Field, s: SMMPCSettings, shared: dict 
     m = math.ceil((s.horizon * r + grid.slack + 2 * DELTA) / grid.cell + 0.5) + 1
     i0, j0, i1, j1 = region.window
     b0, b1, b2, b3 = max(0, i0 - m), max(0, j0 - m), min(grid.ny, i1 + m), min(grid.nx, j1 + m)
-    src = (region.data,
-           np.ascontiguousarray(rs.values(grid, region, (b0, b1, i0, b3)), dtype=float),
-           np.ascontiguousarray(rs.values(grid, region, (i1, b1, b2, b3)), dtype=float),
-           np.ascontiguousarray(rs.values(grid, region, (i0, b1, i1, j0)), dtype=float),
-           np.ascontiguousarray(rs.values(grid, region, (i0, j1, i1, b3)), dtype=float))
+    src = (region.data, _strip(grid, region, (b0, b1, i0, b3)), _strip(grid, region, (i1, b1, b2, b3)),
+           _strip(grid, region, (i0, b1, i1, j0)), _strip(grid, region, (i0, j1, i1, b3)))
     fw = np.array([i0, j0, i1, j1, b0, b1, b2, b3], dtype=np.int64)
     rows = MemberRows(region, src, fw, np.empty((grid.ny, grid.nx), dtype=np.int32),
                       np.empty((grid.ny, grid.nx), dtype=np.int32), np.zeros(grid.ny, dtype=np.uint8),
@@ -301,6 +298,14 @@ def member_rows(grid: rs.Grid, region: rs.Field, s: SMMPCSettings, shared: dict 
     if shared is not None:
         shared[key] = rows
     return rows
+
+
+def _strip(grid: rs.Grid, region: rs.Field, window: tuple[int, int, int, int]) -> np.ndarray:
+    """:func:`raster.values` on ``window`` (a part of the box off the Field's stored window), C-ordered floats."""
+    i0, j0, i1, j1 = window
+    if i0 >= i1 or j0 >= j1:
+        return np.zeros((max(i1 - i0, 0), max(j1 - j0, 0)))
+    return np.ascontiguousarray(rs.values(grid, region, window), dtype=float)
 
 
 # --- the plan ------------------------------------------------------------------------------------------------------

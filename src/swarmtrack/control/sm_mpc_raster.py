@@ -104,8 +104,8 @@ def reference_costs(grid: rs.Grid, region: rs.Field, rem: sm.Removals, xy: np.nd
         areas[cand] = rs.cell_area(v, c).sum()
         ii, jj = np.nonzero(v <= grid.slack + DELTA)
         if len(ii):
-            dist[cand] = _square_distance(xy[cand], xl[jj], yl[ii], c, s.distance).min() if s.distance == "nearest" \
-                else _square_distance(xy[cand], xl[jj], yl[ii], c, s.distance).max()
+            d = _square_distance(xy[cand], xl[jj], yl[ii], c, s.distance)
+            dist[cand] = d.min() if s.distance == "nearest" else d.max()
     return areas, dist
 
 

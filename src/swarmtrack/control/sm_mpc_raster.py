@@ -1,0 +1,869 @@
+"""Set-membership MPC (IB21 Sec. 5, eqs. 44-49) on raster sets (:mod:`swarmtrack.estimation.raster`).
+
+The same controller as :mod:`swarmtrack.control.sm_mpc` (read its docstring: eq. 47's cost, the candidates, the
+prediction, eq. 48's neighbours, the baseline, the ties), with X^A held as a :class:`~swarmtrack.estimation.raster.
+Field` v of distance lower bounds on a :class:`~swarmtrack.estimation.raster.Grid` of cells of side c. Per candidate
+(the semantics, :func:`reference_costs`)::
+
+    v ← values(X^A)
+    for k = 1 … h:
+        v ← v − V^t·T^c,  v ← max(v, outside)           eq. 44 (dilation, exact for a distance field; clip to X0)
+        v ← max(v, depth(F_ℓ(x^P_{ℓ,k})) − DELTA)  for each neighbour ℓ kept by eq. 48      eq. 49
+        v ← max(v, depth(F_i(x^P_{i,k})) − DELTA)                                          eq. 46
+    φ = Σ_g cell_area(v(g)),   d = distance from p_{i,k+h} to the member squares (v ≤ c/√2 + DELTA)
+
+(the baseline: no dilation, no clip, no neighbours, as :func:`sm_mpc.evolve`). ``d``: ``"nearest"`` the distance to
+the nearest member cell's square (0 inside one), ``"hausdorff"`` to the farthest point of those squares; 0 when no
+cell is a member. The member test is :func:`raster.members`' (the cells the estimator reports).
+
+**Closed form.** Subtracting r and taking a max commute exactly in floating point (rounding is monotone), so after
+the h rounds ``v_c(g) = max(B(g), T_c(g))`` with the candidate-independent base ``B = max(v0 − h·r, outside,
+steady neighbour terms)`` and ``T_c`` the max of the candidate's own and varying-neighbour terms, each
+``depth − DELTA`` lowered by r once per later round. A neighbour footprint is *steady* at step κ when eq. 48 keeps
+it for every candidate, *varying* when for some only (one that none keeps is ignored).
+
+**Window R** (the area term). Let R be the cells whose squares meet the bounding box of the varying footprints (the
+UAV's own at k+1 … k+h for every candidate and the varying neighbours'). A cell outside R lies outside every term
+of ``T_c``, so ``v_c = B`` there for every candidate: the area outside R is one constant. The area reported is
+``Σ_{g ∈ R} cell_area(v_c(g))``, so **the costs equal the true costs (:func:`reference_costs` on the whole grid)
+minus one constant, the same for every candidate**, and the pick is the same (tested). Unlike the polygon local
+window, no margin is needed: the raster operations are pointwise, so nothing spreads between cells.
+
+**The kernel** (:func:`kernel_costs`, numba) never evaluates R cell by cell per candidate. Every term is a convex
+footprint, so per row of R the cells where it can raise v (``term > 0``, a liberal interval) and where it makes a
+cell empty (``term ≥ c/√2 + 2·DELTA``, a conservative interval) are intervals, computed once per footprint and row
+(:func:`_spans`, the row through the footprint's edge lines). Per candidate and row: the area of the empty cells is
+a difference of row prefix sums of ``cell_area(B)``; only the cells between the two unions (a band about one cell
+wide along the footprints' edges) are evaluated exactly. So a candidate costs O(rows + perimeter/c), not O(|R|).
+
+**The distance** needs member cells outside R too: those of ``G = max(v0 − h·r, outside)`` (candidate-independent;
+removals only raise v) not covered by a steady or candidate term. The nearest search visits rows in order of their
+gap to p and stops at the best distance found; in each row it takes the nearest free member on either side of p,
+jumping over non-members and covered intervals (cells in the intervals' margins are checked exactly), first within
+R with next/previous member columns built once per plan from B, then beyond R with the lazy rows of the grid
+(:class:`MemberRows`, built only for the rows a search reaches beyond R, kept per Field object and shared through
+``shared`` between the UAVs of one fleet plan holding the same Field). p lies in its own last footprint, inside
+R, so when X^A is near the UAV the search never leaves R; for a set far away it costs O(rows × terms). The Field's
+bounds off its stored window come from :func:`raster.values` (on four strips about the window, once per Field),
+so the kernel follows that function's definition rather than recomputing it. As :func:`sm_mpc.plan_one` does,
+``prune`` computes the distance only for the candidates whose area term leaves them a chance (usually one).
+
+**Cost** (ib21-like scenes, 6 UAVs, 1 m cells; see the timing helper in ``tests/control/test_sm_mpc_raster.py``):
+≈ 0.2 ms for all 25 candidates' areas, ≈ 0.05 ms for the distance, the rest :func:`sm_mpc.removals` (≈ 0.2 ms, most
+of it building the shapely footprints this planner does not use) and Python glue.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from swarmtrack.control import sm_mpc as sm
+from swarmtrack.control.sm_mpc import DEFAULT_SETTINGS, SMMPCSettings
+from swarmtrack.estimation import raster as rs
+
+#: Margin (m) of the interval guesses on a footprint's depth: a cell within it of an interval's threshold is
+#: evaluated exactly (round-off is ~1e-13 m at these coordinates).
+EPS = 1e-7
+DELTA = rs.DELTA
+
+
+# --- the readable reference ----------------------------------------------------------------------------------------
+
+
+def reference_costs(grid: rs.Grid, region: rs.Field, rem: sm.Removals, xy: np.ndarray, s: SMMPCSettings,
+                    window: tuple[int, int, int, int] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Area and distance terms (C,) of eq. 47 by the rounds of eqs. 44, 46, 48-49 literally (module docstring), on
+    the cells ``window`` (default: the whole grid, the true costs): ``rem`` from :func:`sm_mpc.removals`, ``xy``
+    (C, 2) the predicted positions at k+h. The distance only sees member cells inside the window."""
+    h, branch, c = s.horizon, len(s.inputs), grid.cell
+    i0, j0, i1, j1 = (0, 0, grid.ny, grid.nx) if window is None else window
+    n = len(rem.corners[-1])
+    if region is None or region.is_empty:
+        return np.zeros(n), np.zeros(n)
+    v0 = rs.values(grid, region, (i0, j0, i1, j1))
+    out = None if s.baseline or grid.outside is None else grid.outside[i0:i1, j0:j1]
+    r = s.target_speed * s.period
+    xl = grid.x0 + np.arange(j0, j1) * c
+    yl = grid.y0 + np.arange(i0, i1) * c
+    areas, dist = np.zeros(n), np.zeros(n)
+    for cand in range(n):
+        v = v0.copy()
+        for k in range(h):
+            node = cand // branch ** (h - 1 - k)
+            if not s.baseline:
+                v = v - r
+                if out is not None:
+                    v = np.maximum(v, out)
+            for ell in np.flatnonzero(rem.kept[k][node]):
+                v = np.maximum(v, rs.depth(grid, rem.nb_corners[ell, k], (i0, j0, i1, j1)) - DELTA)
+            v = np.maximum(v, rs.depth(grid, rem.corners[k][node], (i0, j0, i1, j1)) - DELTA)
+        areas[cand] = rs.cell_area(v, c).sum()
+        ii, jj = np.nonzero(v <= grid.slack + DELTA)
+        if len(ii):
+            d = _square_distance(xy[cand], xl[jj], yl[ii], c, s.distance)
+            dist[cand] = d.min() if s.distance == "nearest" else d.max()
+    return areas, dist
+
+
+def _square_distance(p, xl, yl, c, kind):
+    """Distance from p to the squares with lower-left corners (xl, yl): nearest point or farthest corner."""
+    xr, yr = xl + c, yl + c
+    if kind == "nearest":
+        dx = np.maximum(np.maximum(xl - p[0], p[0] - xr), 0.0)
+        dy = np.maximum(np.maximum(yl - p[1], p[1] - yr), 0.0)
+    else:
+        dx = np.maximum(np.abs(xl - p[0]), np.abs(xr - p[0]))
+        dy = np.maximum(np.abs(yl - p[1]), np.abs(yr - p[1]))
+    return np.hypot(dx, dy)
+
+
+# --- what one plan removes, as terms ------------------------------------------------------------------------------
+
+
+@dataclass
+class Scene:
+    """One plan's footprints as terms: ``lines`` (F, 4, 4) each footprint's edge lines ``(px, py, nx, ny)`` (a point
+    and the inward unit normal, :func:`raster.depth`'s), ``lag`` (F,) the rounds after its step (its term is
+    lowered by r that many times), ``terms`` (C, T) the footprints of each candidate (own and varying neighbours',
+    −1 padded), ``steady`` (S,) those removed for every candidate, ``window`` R in cells ``(i0, j0, i1, j1)``,
+    ``rows`` the rows ``[t0, t1)`` of the per-row intervals (R's and the steady footprints')."""
+
+    lines: np.ndarray
+    lag: np.ndarray
+    terms: np.ndarray
+    steady: np.ndarray
+    window: tuple[int, int, int, int]
+    rows: tuple[int, int]
+
+
+def edge_lines(corners: np.ndarray) -> np.ndarray:
+    """(F, K, 4) ``(px, py, nx, ny)`` of convex polygons ``corners`` (F, K, 2), inward normals, computed with
+    :func:`raster.depth`'s arithmetic (so the depths agree bit for bit)."""
+    return _edge_lines(np.ascontiguousarray(corners, dtype=float))
+
+
+@numba.njit(cache=True)
+def _edge_lines(c):
+    f, k = c.shape[0], c.shape[1]
+    out = np.empty((f, k, 4))
+    for q in range(f):
+        area = 0.0
+        for e in range(k):
+            n = (e + 1) % k
+            area += c[q, e, 0] * c[q, n, 1] - c[q, n, 0] * c[q, e, 1]
+        turn = np.sign(area)
+        for e in range(k):
+            n = (e + 1) % k
+            ex, ey = c[q, n, 0] - c[q, e, 0], c[q, n, 1] - c[q, e, 1]
+            norm = math.hypot(ex, ey)
+            out[q, e, 0], out[q, e, 1] = c[q, e, 0], c[q, e, 1]
+            out[q, e, 2], out[q, e, 3] = turn * -ey / norm, turn * ex / norm
+    return out
+
+
+def scene(grid: rs.Grid, rem: sm.Removals, s: SMMPCSettings) -> Scene:
+    """The terms of one plan (eqs. 46, 48-49): the UAV's own footprint at each step for the node of each
+    candidate, and each neighbour footprint eq. 48 keeps at step κ, steady or varying (module docstring)."""
+    own = np.concatenate(rem.corners)
+    kept = np.concatenate(rem.kept) if rem.nb_corners.shape[0] else np.zeros((len(own), 0), dtype=bool)
+    lines, lag, terms, steady, box = _assemble(own, np.array([len(c) for c in rem.corners], dtype=np.int64),
+                                                kept, np.ascontiguousarray(rem.nb_corners, dtype=float),
+                                                len(s.inputs))
+    i0, i1 = grid.span(box[1], box[3], 0)
+    j0, j1 = grid.span(box[0], box[2], 1)
+    t0, t1 = i0, i1
+    if len(steady):
+        a, b = grid.span(box[4], box[5], 0)
+        t0, t1 = (a, b) if t0 >= t1 else (min(t0, a), max(t1, b))
+    return Scene(lines, lag, terms, steady, (i0, j0, i1, j1), (t0, t1))
+
+
+@numba.njit(cache=True)
+def _assemble(own, sizes, kept, nb, branch):
+    """:func:`scene`'s tables from the own corners of every level ``own`` (Σ n_κ, 4, 2) (``sizes`` n_κ), eq. 48's
+    ``kept`` (Σ n_κ, L) and the neighbours' corners ``nb`` (L, h, 4, 2); ``box``: the varying footprints' bounding
+    box and the steady ones' y-extent."""
+    h, n_nb = len(sizes), kept.shape[1]
+    n = sizes[h - 1]
+    offs = np.zeros(h + 1, dtype=np.int64)
+    for k in range(h):
+        offs[k + 1] = offs[k] + sizes[k]
+    kind = np.zeros((h, n_nb), dtype=np.int64)  # 0 ignored, 1 steady, 2 varying
+    n_st = n_var = 0
+    for k in range(h):
+        for ell in range(n_nb):
+            some, every = False, True
+            for q in range(offs[k], offs[k + 1]):
+                some = some or kept[q, ell]
+                every = every and kept[q, ell]
+            if every and sizes[k]:
+                kind[k, ell] = 1
+                n_st += 1
+            elif some:
+                kind[k, ell] = 2
+                n_var += 1
+    total = offs[h] + n_st + n_var
+    corners = np.empty((total, 4, 2))
+    corners[:offs[h]] = own
+    lag = np.empty(total, dtype=np.int64)
+    terms = np.full((n, h + n_var), -1, dtype=np.int64)
+    steady = np.empty(n_st, dtype=np.int64)
+    box = np.array([np.inf, np.inf, -np.inf, -np.inf, np.inf, -np.inf])
+    for k in range(h):
+        stride = branch ** (h - 1 - k)
+        lag[offs[k]:offs[k + 1]] = h - 1 - k
+        for cand in range(n):
+            terms[cand, k] = offs[k] + cand // stride
+    fid, col, st = offs[h], h, 0
+    for k in range(h):
+        stride = branch ** (h - 1 - k)
+        for ell in range(n_nb):
+            if kind[k, ell] == 0:
+                continue
+            corners[fid] = nb[ell, k]
+            lag[fid] = h - 1 - k
+            if kind[k, ell] == 1:
+                steady[st] = fid
+                st += 1
+            else:
+                for cand in range(n):
+                    if kept[offs[k] + cand // stride, ell]:
+                        terms[cand, col] = fid
+                col += 1
+            fid += 1
+    for q in range(total):
+        varying = q < offs[h] or not _is_steady(q, steady)
+        for e in range(4):
+            x, y = corners[q, e, 0], corners[q, e, 1]
+            if varying:
+                box[0], box[1], box[2], box[3] = min(box[0], x), min(box[1], y), max(box[2], x), max(box[3], y)
+            else:
+                box[4], box[5] = min(box[4], y), max(box[5], y)
+    return _edge_lines(corners), lag, terms, steady, box
+
+
+@numba.njit(cache=True)
+def _is_steady(q, steady):
+    for s in steady:
+        if s == q:
+            return True
+    return False
+
+
+# --- the G-members per row, lazily ------------------------------------------------------------------------------
+
+
+@dataclass
+class MemberRows:
+    """The Field's values where members of a candidate's set can be, and per row of the grid the columns of the
+    cells of ``G = max(v0 − h·r, outside)`` that are members (the only cells that can be members of a candidate's
+    set: removals only raise v): ``nxt[i, j]`` the first member column ≥ j (nx if none), ``prv[i, j]`` the last ≤ j
+    (−1), ``has[i]``; filled by the kernel row by row as the searches reach them (``ready[i]``).
+
+    Members lie in the *box*, the Field's window grown by the reach of the h dilations (off its window, the Field's
+    bound is at least the distance to the window's rectangle). ``src`` holds the Field's stored values and
+    :func:`raster.values` on the four strips of the box about them (so the kernel asks the raster module for the
+    bounds off the window rather than recomputing them), ``fw`` the window and the box ``(i0, j0, i1, j1)`` × 2."""
+
+    field: rs.Field
+    src: tuple
+    fw: np.ndarray
+    nxt: np.ndarray
+    prv: np.ndarray
+    ready: np.ndarray
+    has: np.ndarray
+
+
+def member_rows(grid: rs.Grid, region: rs.Field, s: SMMPCSettings, shared: dict | None = None) -> MemberRows:
+    """The (lazy) :class:`MemberRows` of ``region`` for these settings, kept in ``shared`` per Field object (so the
+    UAVs of one fleet plan holding the same Field fill it once)."""
+    r = 0.0 if s.baseline else s.target_speed * s.period
+    key = ("raster-members", id(region), id(grid), s.horizon, r, s.baseline)
+    hit = None if shared is None else shared.get(key)
+    if hit is not None and hit.field is region:
+        return hit
+    m = math.ceil((s.horizon * r + grid.slack + 2 * DELTA) / grid.cell + 0.5) + 1
+    i0, j0, i1, j1 = region.window
+    b0, b1, b2, b3 = max(0, i0 - m), max(0, j0 - m), min(grid.ny, i1 + m), min(grid.nx, j1 + m)
+    src = (region.data, _strip(grid, region, (b0, b1, i0, b3)), _strip(grid, region, (i1, b1, b2, b3)),
+           _strip(grid, region, (i0, b1, i1, j0)), _strip(grid, region, (i0, j1, i1, b3)))
+    fw = np.array([i0, j0, i1, j1, b0, b1, b2, b3], dtype=np.int64)
+    rows = MemberRows(region, src, fw, np.empty((grid.ny, grid.nx), dtype=np.int32),
+                      np.empty((grid.ny, grid.nx), dtype=np.int32), np.zeros(grid.ny, dtype=np.uint8),
+                      np.zeros(grid.ny, dtype=np.uint8))
+    if shared is not None:
+        shared[key] = rows
+    return rows
+
+
+def _strip(grid: rs.Grid, region: rs.Field, window: tuple[int, int, int, int]) -> np.ndarray:
+    """:func:`raster.values` on ``window`` (a part of the box off the Field's stored window), C-ordered floats."""
+    i0, j0, i1, j1 = window
+    if i0 >= i1 or j0 >= j1:
+        return np.zeros((max(i1 - i0, 0), max(j1 - j0, 0)))
+    return np.ascontiguousarray(rs.values(grid, region, window), dtype=float)
+
+
+# --- the plan ------------------------------------------------------------------------------------------------------
+
+
+def plan_one_raster(grid: rs.Grid, region: rs.Field | None, own_states: np.ndarray, nb_states: np.ndarray,
+                    s: SMMPCSettings = DEFAULT_SETTINGS, shared: dict | None = None, prune: bool = True) -> sm.Choice:
+    """Eq. 47 minimised over U_d^h for one UAV whose X^A is the raster ``region`` (a :class:`raster.Field` on
+    ``grid``; None or empty: every cost 0, index 0), ``own_states`` (C, h, 7) and ``nb_states`` (L, h, 7) as
+    :func:`sm_mpc.plan_one`. ``cost`` and ``area`` are over the window R (the true ones less one constant for all
+    candidates, module docstring); ``window`` is R as ``(x0, y0, x1, y1)``. ``prune`` (as :func:`sm_mpc.plan_one`):
+    the distance only for the candidates whose area term leaves them a chance, the others' cost ``inf``.
+    ``shared``: a dict kept across the UAVs of one fleet plan (:func:`member_rows`)."""
+    cands = sm.candidates(s.inputs, s.horizon)
+    if region is None or region.is_empty:
+        zero = np.zeros(len(cands))
+        return sm.Choice(0, cands[0], zero, zero.copy(), zero.copy())
+    rem = sm.removals(own_states, nb_states, s, neighbours=not s.baseline)
+    k = RasterKernel(grid, region, scene(grid, rem, s), rem.xy[-1], s, member_rows(grid, region, s, shared))
+    areas = k.areas()
+    dist = np.full(len(areas), np.inf)
+    need = np.ones(len(areas), dtype=bool)
+    if prune:
+        first = sm.choose(areas)
+        dist[first] = k.distances(np.array([first]))[0]
+        bound = areas[first] + s.alpha * dist[first]
+        need = areas <= bound + 1e-9 + 1e-12 * abs(bound)
+        need[first] = False
+    rows = np.flatnonzero(need)
+    if len(rows):
+        dist[rows] = k.distances(rows)
+    cost = areas + s.alpha * dist
+    index = sm.choose(cost)
+    i0, j0, i1, j1 = k.sc.window
+    c = grid.cell
+    window = (grid.x0 + j0 * c, grid.y0 + i0 * c, grid.x0 + j1 * c, grid.y0 + i1 * c)
+    return sm.Choice(index, cands[index], cost, areas, dist, 0, window)
+
+
+class RasterKernel:
+    """One plan's compiled costs (module docstring): :meth:`areas` over R for every candidate, :meth:`distances` for
+    some; equal to :func:`reference_costs` (area on ``sc.window``, distance on the whole grid) up to the order of
+    the sums."""
+
+    def __init__(self, grid: rs.Grid, region: rs.Field, sc: Scene, xy: np.ndarray, s: SMMPCSettings,
+                 rows: MemberRows | None = None):
+        self.grid, self.region, self.sc, self.s = grid, region, sc, s
+        self.xy = np.ascontiguousarray(xy, dtype=float)
+        self.rows = member_rows(grid, region, s) if rows is None else rows
+        self.clip = not s.baseline and grid.outside is not None
+        self.outside = grid.outside if self.clip else np.zeros((1, 1))
+        self.geo = np.array([grid.x0, grid.y0, grid.cell, 0.0 if s.baseline else s.target_speed * s.period])
+        self.spans = _spans(sc.lines, sc.lag, self.geo, sc.rows[0], sc.rows[1], grid.nx, grid.slack)
+        self.win = np.array(sc.window, dtype=np.int64)
+        self._base = self._members = None
+
+    def base(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """On R: B (v without the candidates' terms), cell_area(B) and its row prefix sums (once per plan)."""
+        if self._base is None:
+            sc, m = self.sc, self.rows
+            self._base = _base_window(m.src, m.fw, self.geo, self.s.horizon, self.outside, self.clip, self.win,
+                                      sc.lines, sc.lag, sc.steady, self.spans, sc.rows[0])
+        return self._base
+
+    def areas(self) -> np.ndarray:
+        """Σ_R cell_area(v_c) (C,)."""
+        sc = self.sc
+        return _areas(sc.terms, sc.lines, sc.lag, self.spans, sc.rows[0], *self.base(), self.win, self.geo,
+                      self.grid.slack)
+
+    def distances(self, which: np.ndarray) -> np.ndarray:
+        """d of eq. 47 for the candidates ``which``."""
+        sc, m = self.sc, self.rows
+        if self._members is None:
+            self._members = _range_members(self.base()[0], self.grid.slack + DELTA, self.sc.window[1])
+        return _distances(np.asarray(which, dtype=np.int64), sc.terms, sc.steady, sc.lines, sc.lag, self.spans,
+                          sc.rows[0], sc.rows[1], self.geo, self.grid.slack, self.xy, self.s.distance == "hausdorff",
+                          m.src, m.fw, self.s.horizon, self.outside, self.clip, m.nxt, m.prv, m.ready, m.has,
+                          self.win, *self._members)
+
+
+def kernel_costs(grid: rs.Grid, region: rs.Field, sc: Scene, xy: np.ndarray, s: SMMPCSettings,
+                 rows: MemberRows | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Area over R and distance terms (C,) of every candidate by the compiled kernel (:class:`RasterKernel`)."""
+    k = RasterKernel(grid, region, sc, xy, s, rows)
+    return k.areas(), k.distances(np.arange(len(sc.terms)))
+
+
+# --- numba kernels -----------------------------------------------------------------------------------------------
+
+
+@numba.njit(cache=True, inline="always")
+def _term(lines, lag, f, x, y, r):
+    """A footprint's term at (x, y): its depth (:func:`raster.depth`) − DELTA, lowered by r per later round."""
+    d = np.inf
+    for e in range(lines.shape[1]):
+        v = (y - lines[f, e, 1]) * lines[f, e, 3] + (x - lines[f, e, 0]) * lines[f, e, 2]
+        if v < d:
+            d = v
+    d = d - DELTA
+    for _ in range(lag[f]):
+        d = d - r
+    return d
+
+
+@numba.njit(cache=True)
+def _g_row(src, fw, i, j0, j1, h, r, outside, clip, out):
+    """``G`` on cells (i, j0 … j1−1) into ``out[:j1 − j0]``: the Field's values after h rounds of eq. 44 without
+    removals. ``src`` (stored values, top, bottom, left and right strips of :func:`raster.values` about them) and
+    ``fw`` (stored window, box) as :class:`MemberRows`; ``+inf`` off the box (no member there)."""
+    data, top, bottom, left, right = src
+    fi0, fj0, fi1, fj1, b0, b1, b2, b3 = fw[0], fw[1], fw[2], fw[3], fw[4], fw[5], fw[6], fw[7]
+    for j in range(j1 - j0):
+        out[j] = np.inf
+    if b0 <= i < b2:
+        ja, jb = max(j0, b1), min(j1, b3)
+        if i < fi0 or i >= fi1:
+            strip, row = (top, i - b0) if i < fi0 else (bottom, i - fi1)
+            for j in range(ja, jb):
+                out[j - j0] = strip[row, j - b1]
+        else:
+            for j in range(ja, min(jb, fj0)):
+                out[j - j0] = left[i - fi0, j - b1]
+            for j in range(max(ja, fj0), min(jb, fj1)):
+                out[j - j0] = data[i - fi0, j - fj0]
+            for j in range(max(ja, fj1), jb):
+                out[j - j0] = right[i - fi0, j - fj1]
+    if r != 0.0 or clip:
+        for _ in range(h):
+            for j in range(j1 - j0):
+                out[j] = out[j] - r
+            if clip:
+                for j in range(j1 - j0):
+                    out[j] = max(out[j], outside[i, j0 + j])
+
+
+@numba.njit(cache=True, inline="always")
+def _cell_area(v, c, slack):
+    """:func:`raster.cell_area` of one value."""
+    if v >= slack - DELTA:
+        return 0.0
+    if v <= 0.0:  # the formula gives exactly c² here
+        return c * c
+    r = min(max(v, 0.0), slack)
+    a = c / 2
+    if r <= a:  # the disc lies in the square (the segments' term is 0)
+        return c * c - (math.pi * r ** 2 - 0.0)
+    ra = max(r, a)
+    seg = 4 * (ra ** 2 * math.acos(min(a / ra, 1.0)) - a * math.sqrt(max(ra ** 2 - a ** 2, 0.0)))
+    return c * c - (math.pi * r ** 2 - seg)
+
+
+@numba.njit(cache=True)
+def _spans(lines, lag, geo, t0, t1, nx, slack):
+    """(F, t1 − t0, 4) per footprint and row: ``[ua, ub)`` a superset of the cells where its term is > 0 (it may
+    raise v where v > 0) and ``[da, db)`` a subset of those where it is > c/√2 + 2·DELTA (the cell is empty); only
+    the rows whose centres lie within the footprint's y-extent are visited (the others stay empty). The row at y
+    meets each edge's half-plane ``(y − py)·ny + (x − px)·nx ≥ τ`` in a half-line of columns ``j ≥ k + τ·s`` (or
+    ≤, as nx > 0 or < 0), so both intervals come from one pass; the thresholds are widened or narrowed by EPS for
+    the round-off."""
+    x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
+    n_f, n_e = lines.shape[0], lines.shape[1]
+    out = np.zeros((n_f, max(t1 - t0, 0), 4), dtype=np.int64)
+    inv, k0 = np.empty(n_e), np.empty(n_e)
+    for f in range(n_f):
+        shift = DELTA + lag[f] * r
+        tau_u, tau_d = shift - EPS, shift + slack + 2 * DELTA + EPS
+        ymin, ymax = np.inf, -np.inf
+        for e in range(n_e):
+            ymin, ymax = min(ymin, lines[f, e, 1]), max(ymax, lines[f, e, 1])
+            inv[e] = 1.0 / (lines[f, e, 2] * c) if lines[f, e, 2] != 0.0 else 0.0
+            k0[e] = (lines[f, e, 0] - x0) / c - 0.5
+        a0 = max(t0, int(math.floor((ymin - y0) / c - 0.5)))
+        b0 = min(t1, int(math.ceil((ymax - y0) / c - 0.5)) + 1)
+        for i in range(a0, b0):
+            y = y0 + (i + 0.5) * c
+            ulo, uhi, dlo, dhi = 0.0, nx - 1.0, 0.0, nx - 1.0
+            for e in range(n_e):
+                a = (y - lines[f, e, 1]) * lines[f, e, 3]
+                if inv[e] != 0.0:
+                    k = k0[e] - a * inv[e]
+                    ju, jd = k + tau_u * inv[e], k + tau_d * inv[e]
+                    if inv[e] > 0:
+                        ulo, dlo = max(ulo, ju), max(dlo, jd)
+                    else:
+                        uhi, dhi = min(uhi, ju), min(dhi, jd)
+                elif a < tau_u:
+                    ulo, uhi = 1.0, 0.0
+                elif a < tau_d:
+                    dlo, dhi = 1.0, 0.0
+            if ulo <= uhi:
+                ua, ub = int(math.ceil(ulo)), int(math.floor(uhi)) + 1
+                out[f, i - t0, 0], out[f, i - t0, 1] = ua, ub
+                if dlo <= dhi:
+                    da, db = max(int(math.ceil(dlo)), ua), min(int(math.floor(dhi)) + 1, ub)
+                    out[f, i - t0, 2], out[f, i - t0, 3] = da, max(da, db)
+    return out
+
+
+@numba.njit(cache=True)
+def _base_window(src, fw, geo, h, outside, clip, win, lines, lag, steady, spans, t0):
+    """On R: ``B`` (v without the candidates' terms), ``cell_area(B)`` and its row prefix sums."""
+    x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
+    i0, j0, i1, j1 = win[0], win[1], win[2], win[3]
+    slack = c / math.sqrt(2.0)
+    base = np.empty((i1 - i0, j1 - j0))
+    ab = np.empty((i1 - i0, j1 - j0))
+    prefix = np.zeros((i1 - i0, j1 - j0 + 1))
+    for i in range(i0, i1):
+        _g_row(src, fw, i, j0, j1, h, r, outside, clip, base[i - i0])
+        y = y0 + (i + 0.5) * c
+        for f in steady:
+            a, b = max(spans[f, i - t0, 0], j0), min(spans[f, i - t0, 1], j1)
+            for j in range(a, b):
+                t = _term(lines, lag, f, x0 + (j + 0.5) * c, y, r)
+                if t > base[i - i0, j - j0]:
+                    base[i - i0, j - j0] = t
+        acc = 0.0
+        for j in range(j0, j1):
+            a = _cell_area(base[i - i0, j - j0], c, slack)
+            ab[i - i0, j - j0] = a
+            acc += a
+            prefix[i - i0, j - j0 + 1] = acc
+    return base, ab, prefix
+
+
+@numba.njit(cache=True, inline="always")
+def _merge2(lo, hi):
+    """:func:`_merge` of two intervals (the usual row: the UAV's own footprints at k+1 and k+2)."""
+    a0, b0, a1, b1 = lo[0], hi[0], lo[1], hi[1]
+    if a0 >= b0:
+        lo[0], hi[0] = a1, b1
+        return 1 if a1 < b1 else 0
+    if a1 >= b1:
+        return 1
+    if a1 < a0:
+        a0, b0, a1, b1 = a1, b1, a0, b0
+    if a1 <= b0:
+        lo[0], hi[0] = a0, max(b0, b1)
+        return 1
+    lo[0], hi[0], lo[1], hi[1] = a0, b0, a1, b1
+    return 2
+
+
+@numba.njit(cache=True)
+def _merge(lo, hi, n):
+    """Sort the intervals [lo[k], hi[k]) k < n by start and merge the overlapping ones in place; returns their
+    number."""
+    for a in range(1, n):
+        x, y = lo[a], hi[a]
+        b = a - 1
+        while b >= 0 and lo[b] > x:
+            lo[b + 1], hi[b + 1] = lo[b], hi[b]
+            b -= 1
+        lo[b + 1], hi[b + 1] = x, y
+    m = 0
+    for a in range(n):
+        if lo[a] >= hi[a]:
+            continue
+        if m and lo[a] <= hi[m - 1]:
+            if hi[a] > hi[m - 1]:
+                hi[m - 1] = hi[a]
+        else:
+            lo[m], hi[m] = lo[a], hi[a]
+            m += 1
+    return m
+
+
+@numba.njit(cache=True)
+def _removed_area(ids, nid, lines, lag, spans, t0, base, ab, prefix, win, geo, slack, ulo, uhi, dlo, dhi):
+    """``Σ_R cell_area(B) − Σ_R cell_area(v_c)`` for the candidate whose terms are ``ids[:nid]``: per row, the empty
+    cells' share by prefix sums over the union of the deep intervals, and the band between it and the union of
+    the liberal intervals cell by cell."""
+    x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
+    i0, j0, i1, j1 = win[0], win[1], win[2], win[3]
+    out = 0.0
+    for i in range(i0, i1):
+        n = 0
+        for q in range(nid):
+            f = ids[q]
+            ua, ub = max(spans[f, i - t0, 0], j0), min(spans[f, i - t0, 1], j1)
+            if ua < ub:
+                ulo[n], uhi[n] = ua, ub
+                dlo[n], dhi[n] = max(spans[f, i - t0, 2], j0), min(spans[f, i - t0, 3], j1)
+                n += 1
+        if n == 0:
+            continue
+        if n == 1:
+            mu = md = 1
+            if dlo[0] >= dhi[0]:
+                md = 0
+        elif n == 2:
+            mu = _merge2(ulo, uhi)
+            md = _merge2(dlo, dhi)
+        else:
+            mu = _merge(ulo, uhi, n)
+            md = _merge(dlo, dhi, n)
+        row = i - i0
+        for q in range(md):
+            out += prefix[row, dhi[q] - j0] - prefix[row, dlo[q] - j0]
+        y = y0 + (i + 0.5) * c
+        w = 0  # the merged deep intervals lie in the merged liberal ones, both sorted: walk the gaps
+        for q in range(mu):
+            j = ulo[q]
+            while j < uhi[q]:
+                while w < md and dhi[w] <= j:
+                    w += 1
+                if w < md and dlo[w] <= j:
+                    j = dhi[w]
+                    continue
+                a = ab[row, j - j0]
+                if a > 0.0:
+                    v = b0 = base[row, j - j0]
+                    x = x0 + (j + 0.5) * c
+                    for p in range(nid):
+                        f = ids[p]
+                        if spans[f, i - t0, 0] <= j < spans[f, i - t0, 1]:
+                            t = _term(lines, lag, f, x, y, r)
+                            if t > v:
+                                v = t
+                    if v > b0:
+                        out += a - _cell_area(v, c, slack)
+                j += 1
+    return out
+
+
+@numba.njit(cache=True)
+def _ensure_row(i, src, fw, h, r, outside, clip, thr, nxt, prv, ready, has):
+    """Fill row i of the G-member columns (:class:`MemberRows`) if not done yet."""
+    if ready[i]:
+        return
+    nx = nxt.shape[1]
+    last = -1
+    b0, b1 = (fw[5], fw[7]) if fw[4] <= i < fw[6] else (nx, nx)
+    for j in range(b0):
+        prv[i, j] = -1
+    if b0 < b1:
+        g = np.empty(b1 - b0)
+        _g_row(src, fw, i, b0, b1, h, r, outside, clip, g)
+        for j in range(b0, b1):
+            if g[j - b0] <= thr:
+                last = j
+            prv[i, j] = last
+    for j in range(b1, nx):
+        prv[i, j] = last
+    has[i] = 1 if last >= 0 else 0
+    following = nx
+    for j in range(nx - 1, -1, -1):
+        if prv[i, j] == j:
+            following = j
+        nxt[i, j] = following
+    ready[i] = 1
+
+
+@numba.njit(cache=True, inline="always")
+def _covered(ids, nid, lines, lag, spans, t0, t1, i, j, x, y, r, thr):
+    """Whether some term of ``ids[:nid]`` makes cell (i, j) a non-member (exactly)."""
+    if i < t0 or i >= t1:
+        return False
+    for q in range(nid):
+        f = ids[q]
+        if spans[f, i - t0, 0] <= j < spans[f, i - t0, 1] and _term(lines, lag, f, x, y, r) > thr:
+            return True
+    return False
+
+
+@numba.njit(cache=True)
+def _row_covers(ids, nid, spans, t0, t1, i, lo, hi):
+    """The deep intervals of ``ids[:nid]`` on row i (sorted, merged) into lo/hi; returns their number."""
+    if i < t0 or i >= t1:
+        return 0
+    n = 0
+    for q in range(nid):
+        f = ids[q]
+        if spans[f, i - t0, 2] < spans[f, i - t0, 3]:
+            lo[n], hi[n] = spans[f, i - t0, 2], spans[f, i - t0, 3]
+            n += 1
+    return _merge(lo, hi, n)
+
+
+@numba.njit(cache=True)
+def _first_free(i, row, j, step, nxt, prv, a, b, ids, nid, lines, lag, spans, t0, t1, lo, hi, m, geo, thr, px, dy,
+                best):
+    """From column j of grid row i in direction ``step`` (±1), the first member not covered by a term, searched in
+    columns [a, b) with the next/previous member columns of that range ``nxt``/``prv`` (their row ``row``, column
+    j − a; b and a − 1 when none). Returns (column, 0), or (−1, 0) if there is none before the range's end, or
+    (−1, 1) if none is nearer than ``best`` (``dy`` the row's gap to p; ``best`` inf: no bound)."""
+    x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
+    y = y0 + (i + 0.5) * c
+    bound = best * best * (1 + 1e-9) - dy * dy  # dx² beyond which the distance is surely ≥ best (no hypot)
+    while a <= j < b:
+        j = nxt[row, j - a] if step > 0 else prv[row, j - a]
+        if j < a or j >= b:
+            return -1, 0
+        xl = x0 + j * c
+        dx = max(max(xl - px, px - (xl + c)), 0.0)
+        if dx * dx > bound:
+            return -1, 1
+        jumped = False
+        for q in range(m):
+            if lo[q] <= j < hi[q]:
+                j = hi[q] if step > 0 else lo[q] - 1
+                jumped = True
+                break
+        if jumped:
+            continue
+        if _covered(ids, nid, lines, lag, spans, t0, t1, i, j, x0 + (j + 0.5) * c, y, r, thr):
+            j += step
+            continue
+        return j, 0
+    return -1, 0
+
+
+@numba.njit(cache=True)
+def _range_members(base, thr, j0):
+    """Next/previous member columns (absolute; j1 and j0 − 1 when none) of each row of the window values
+    ``base`` whose first column is j0: the members of R without the lazy rows."""
+    n, w = base.shape
+    nxt, prv = np.empty((n, w), dtype=np.int32), np.empty((n, w), dtype=np.int32)
+    for i in range(n):
+        last = j0 - 1
+        for j in range(w):
+            if base[i, j] <= thr:
+                last = j0 + j
+            prv[i, j] = last
+        following = j0 + w
+        for j in range(w - 1, -1, -1):
+            if prv[i, j] == j0 + j:
+                following = j0 + j
+            nxt[i, j] = following
+    return nxt, prv
+
+
+@numba.njit(cache=True)
+def _nearest(px, py, ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h, outside, clip, nxt, prv, ready,
+             has, lo, hi, win, wnxt, wprv):
+    """Nearest distance from (px, py) to the member squares of one candidate (0 if none): rows in order of their
+    gap to p, stopping at the best distance found; in each row the nearest free member on either side, first
+    within R (``win``, its members ``wnxt``/``wprv`` from the plan's base values) when p's column is in it, then
+    beyond it with the lazy rows of the grid (built only if a member there could still be nearer)."""
+    x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
+    nx = nxt.shape[1]
+    ip = int(math.floor((py - y0) / c))
+    jp = int(math.floor((px - x0) / c))
+    in_cols = win[1] <= jp < win[3]
+    dn, up = min(ip, fw[6] - 1), max(ip + 1, fw[4])
+    best = np.inf
+    while True:
+        gdn = max(max(y0 + dn * c - py, py - (y0 + (dn + 1) * c)), 0.0) if dn >= fw[4] else np.inf
+        gup = max(max(y0 + up * c - py, py - (y0 + (up + 1) * c)), 0.0) if up < fw[6] else np.inf
+        if min(gdn, gup) >= best:
+            break
+        if gdn <= gup:
+            i, dy = dn, gdn
+            dn -= 1
+        else:
+            i, dy = up, gup
+            up += 1
+        m = _row_covers(ids, nid, spans, t0, t1, i, lo, hi)
+        for step in (1, -1):
+            start = jp if step > 0 else jp - 1
+            found, cut = -1, 0
+            if in_cols and win[0] <= i < win[2]:
+                found, cut = _first_free(i, i - win[0], start, step, wnxt, wprv, win[1], win[3], ids, nid, lines,
+                                         lag, spans, t0, t1, lo, hi, m, geo, thr, px, dy, best)
+                start = win[3] if step > 0 else win[1] - 1
+            elif not 0 <= start < nx:
+                start = max(start, 0) if step > 0 else min(start, nx - 1)
+            if found < 0 and cut == 0 and 0 <= start < nx:
+                xl = x0 + start * c
+                if math.hypot(max(max(xl - px, px - (xl + c)), 0.0), dy) < best:
+                    _ensure_row(i, src, fw, h, r, outside, clip, thr, nxt, prv, ready, has)
+                    if has[i]:
+                        found, cut = _first_free(i, i, start, step, nxt, prv, 0, nx, ids, nid, lines, lag, spans,
+                                                 t0, t1, lo, hi, m, geo, thr, px, dy, best)
+            if found >= 0:
+                xl = x0 + found * c
+                best = min(best, math.hypot(max(max(xl - px, px - (xl + c)), 0.0), dy))
+    return 0.0 if best == np.inf else best
+
+
+@numba.njit(cache=True)
+def _farthest(px, py, ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h, outside, clip, nxt, prv, ready,
+              has, lo, hi):
+    """Farthest distance from (px, py) to the member squares (their farthest corners) of one candidate (0 if
+    none): per row, the first free member from either end; rows whose raw extreme members cannot beat the best
+    are skipped."""
+    x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
+    nx = nxt.shape[1]
+    best = -1.0
+    for i in range(fw[4], fw[6]):
+        _ensure_row(i, src, fw, h, r, outside, clip, thr, nxt, prv, ready, has)
+        if not has[i]:
+            continue
+        yl = y0 + i * c
+        dy = max(abs(yl - py), abs(yl + c - py))
+        a, b = nxt[i, 0], prv[i, nx - 1]
+        bound = math.hypot(max(abs(x0 + a * c - px), abs(x0 + (b + 1) * c - px)), dy)
+        if bound <= best:
+            continue
+        m = _row_covers(ids, nid, spans, t0, t1, i, lo, hi)
+        for start, step in ((0, 1), (nx - 1, -1)):
+            j, _ = _first_free(i, i, start, step, nxt, prv, 0, nx, ids, nid, lines, lag, spans, t0, t1, lo, hi, m,
+                               geo, thr, px, 0.0, np.inf)
+            if j >= 0:
+                xl = x0 + j * c
+                best = max(best, math.hypot(max(abs(xl - px), abs(xl + c - px)), dy))
+    return max(best, 0.0)
+
+
+@numba.njit(cache=True)
+def _candidate_ids(terms, cand, ids):
+    """The footprint ids of a candidate's terms into ``ids``; returns their number."""
+    nid = 0
+    for q in range(terms.shape[1]):
+        if terms[cand, q] >= 0:
+            ids[nid] = terms[cand, q]
+            nid += 1
+    return nid
+
+
+@numba.njit(cache=True)
+def _areas(terms, lines, lag, spans, t0, base, ab, prefix, win, geo, slack):
+    """Per candidate, the area over R: ``Σ_R cell_area(B)`` less what its terms remove."""
+    n, width = terms.shape
+    total = 0.0
+    for row in range(prefix.shape[0]):
+        total += prefix[row, prefix.shape[1] - 1]
+    ids = np.empty(width, dtype=np.int64)
+    ulo, uhi = np.empty(width, dtype=np.int64), np.empty(width, dtype=np.int64)
+    dlo, dhi = np.empty(width, dtype=np.int64), np.empty(width, dtype=np.int64)
+    areas = np.empty(n)
+    for cand in range(n):
+        nid = _candidate_ids(terms, cand, ids)
+        areas[cand] = total - _removed_area(ids, nid, lines, lag, spans, t0, base, ab, prefix, win, geo, slack,
+                                            ulo, uhi, dlo, dhi)
+    return areas
+
+
+@numba.njit(cache=True)
+def _distances(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, hausdorff, src, fw, h, outside,
+               clip, nxt, prv, ready, has, win, wnxt, wprv):
+    """d of eq. 47 for the candidates ``which``: nearest or farthest member square, with the steady terms."""
+    k = terms.shape[1] + len(steady)
+    ids = np.empty(k, dtype=np.int64)
+    lo, hi = np.empty(k, dtype=np.int64), np.empty(k, dtype=np.int64)
+    out = np.empty(len(which))
+    thr = slack + DELTA
+    for q in range(len(which)):
+        cand = which[q]
+        nid = _candidate_ids(terms, cand, ids)
+        for p in range(len(steady)):
+            ids[nid + p] = steady[p]
+        nid += len(steady)
+        if hausdorff:
+            out[q] = _farthest(xy[cand, 0], xy[cand, 1], ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h,
+                               outside, clip, nxt, prv, ready, has, lo, hi)
+        else:
+            out[q] = _nearest(xy[cand, 0], xy[cand, 1], ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h,
+                              outside, clip, nxt, prv, ready, has, lo, hi, win, wnxt, wprv)
+    return out

@@ -114,6 +114,25 @@ def test_the_kernel_equals_the_numpy_reference(case, distance):
         assert checked_varying  # and neighbours eq. 48 keeps for some candidates only
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_the_nearest_distance_by_testing_every_member_equals_the_row_search(seed):
+    """Both paths of :meth:`RasterKernel.distances` (every member cell of G tested, the row search) give the
+    reference's distances, on sets large and small (a few blobs far from the UAV: the case the first is for)."""
+    rng = np.random.default_rng(10 + seed)
+    for small in (False, True):
+        poly, state, nb = random_scene(rng)
+        if small:
+            poly = shapely.union_all(shapely.buffer(shapely.points(rng.uniform(0, 400, (3, 2))), 4.0))
+        region = field_of(poly)
+        rem = sm.removals(own_states(state), nb, S)
+        sc = smr.scene(GRID, rem, S)
+        _, ref = smr.reference_costs(GRID, region, rem, rem.xy[-1], S)
+        every = np.arange(len(sc.terms))
+        for brute in (0, 10 ** 7):
+            k = smr.RasterKernel(GRID, region, sc, rem.xy[-1], S, smr.member_rows(GRID, region, S))
+            np.testing.assert_allclose(k.distances(every, brute=brute), ref, rtol=0, atol=1e-9)
+
+
 @pytest.mark.parametrize("horizon, inputs", [(1, (0.0, 0.25, -0.25, 0.5, -0.5)), (3, (0.0, 0.5, -0.5))])
 def test_the_kernel_equals_the_numpy_reference_at_other_horizons(horizon, inputs):
     area = shapely.box(0, 0, 250, 250)

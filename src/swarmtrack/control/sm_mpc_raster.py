@@ -276,6 +276,7 @@ class MemberRows:
     prv: np.ndarray
     ready: np.ndarray
     has: np.ndarray
+    members: tuple | None = None  # (rows, columns, complete) of G's members, if few (:func:`_member_list`)
 
 
 def member_rows(grid: rs.Grid, region: rs.Field, s: SMMPCSettings, shared: dict | None = None) -> MemberRows:
@@ -295,6 +296,9 @@ def member_rows(grid: rs.Grid, region: rs.Field, s: SMMPCSettings, shared: dict 
     rows = MemberRows(region, src, fw, np.empty((grid.ny, grid.nx), dtype=np.int32),
                       np.empty((grid.ny, grid.nx), dtype=np.int32), np.zeros(grid.ny, dtype=np.uint8),
                       np.zeros(grid.ny, dtype=np.uint8))
+    # rows where no value is low enough to give a member after the h dilations are done already (no member), so
+    # the searches never evaluate them: far from small sets, most rows of the box are such
+    _rows_without_members(src, fw, grid.slack + 2 * DELTA + s.horizon * r, rows.ready, rows.has)
     if shared is not None:
         shared[key] = rows
     return rows
@@ -323,7 +327,7 @@ def plan_one_raster(grid: rs.Grid, region: rs.Field | None, own_states: np.ndarr
     if region is None or region.is_empty:
         zero = np.zeros(len(cands))
         return sm.Choice(0, cands[0], zero, zero.copy(), zero.copy())
-    rem = sm.removals(own_states, nb_states, s, neighbours=not s.baseline)
+    rem = sm.removals(own_states, nb_states, s, neighbours=not s.baseline, polygons=False)
     k = RasterKernel(grid, region, scene(grid, rem, s), rem.xy[-1], s, member_rows(grid, region, s, shared))
     areas = k.areas()
     dist = np.full(len(areas), np.inf)
@@ -343,6 +347,10 @@ def plan_one_raster(grid: rs.Grid, region: rs.Field | None, own_states: np.ndarr
     c = grid.cell
     window = (grid.x0 + j0 * c, grid.y0 + i0 * c, grid.x0 + j1 * c, grid.y0 + i1 * c)
     return sm.Choice(index, cands[index], cost, areas, dist, 0, window)
+
+
+#: At most this many member cells of G: the nearest distance tests each of them (:meth:`RasterKernel.distances`).
+BRUTE_MEMBERS = 20_000
 
 
 class RasterKernel:
@@ -376,9 +384,19 @@ class RasterKernel:
         return _areas(sc.terms, sc.lines, sc.lag, self.spans, sc.rows[0], *self.base(), self.win, self.geo,
                       self.grid.slack)
 
-    def distances(self, which: np.ndarray) -> np.ndarray:
-        """d of eq. 47 for the candidates ``which``."""
+    def distances(self, which: np.ndarray, brute: int = BRUTE_MEMBERS) -> np.ndarray:
+        """d of eq. 47 for the candidates ``which``: for the nearest distance to at most ``brute`` member cells of
+        G, by testing every one (:func:`_nearest_brute`; far from a few small sets, where every candidate ties on
+        area and all 25 need a distance, each row search would cross the whole box), else by the row search."""
         sc, m = self.sc, self.rows
+        if self.s.distance == "nearest":
+            if m.members is None:
+                m.members = _member_list(m.src, m.fw, self.s.horizon, self.geo[3], self.outside, self.clip,
+                                         self.grid.slack + DELTA, m.ready, m.has, brute)
+            if m.members[2]:
+                return _nearest_brute(np.asarray(which, dtype=np.int64), sc.terms, sc.steady, sc.lines, sc.lag,
+                                      self.spans, sc.rows[0], sc.rows[1], self.geo, self.grid.slack, self.xy,
+                                      m.members[0], m.members[1])
         if self._members is None:
             self._members = _range_members(self.base()[0], self.grid.slack + DELTA, self.sc.window[1])
         return _distances(np.asarray(which, dtype=np.int64), sc.terms, sc.steady, sc.lines, sc.lag, self.spans,
@@ -629,6 +647,80 @@ def _removed_area(ids, nid, lines, lag, spans, t0, base, ab, prefix, win, geo, s
                     if v > b0:
                         out += a - _cell_area(v, c, slack)
                 j += 1
+    return out
+
+
+@numba.njit(cache=True)
+def _rows_without_members(src, fw, limit, ready, has):
+    """Mark ready, with no member, every grid row whose values in ``src`` (as :class:`MemberRows`) are all above
+    ``limit`` (G = v − h·r, raised by the clip, is then above the member threshold) or that lies off the box."""
+    data, top, bottom, left, right = src
+    fi0, fi1, b0, b2 = fw[0], fw[2], fw[4], fw[6]
+    for i in range(len(ready)):
+        if i < b0 or i >= b2:
+            low = False
+        elif i < fi0:
+            low = (top[i - b0] <= limit).any()
+        elif i >= fi1:
+            low = (bottom[i - fi1] <= limit).any()
+        else:
+            k = i - fi0
+            low = (data[k] <= limit).any() or (left[k] <= limit).any() or (right[k] <= limit).any()
+        if not low:
+            ready[i] = 1
+            has[i] = 0
+
+
+@numba.njit(cache=True)
+def _member_list(src, fw, h, r, outside, clip, thr, ready, has, most):
+    """The cells (rows, columns) where G is a member, and True; or empty arrays and False if there are more than
+    ``most``. Rows marked ready without a member (:func:`_rows_without_members`) are not evaluated."""
+    mi, mj = np.empty(most, dtype=np.int64), np.empty(most, dtype=np.int64)
+    n = 0
+    width = fw[7] - fw[5]
+    g = np.empty(max(width, 0))
+    for i in range(fw[4], fw[6]):
+        if ready[i] and not has[i]:
+            continue
+        _g_row(src, fw, i, fw[5], fw[7], h, r, outside, clip, g)
+        for j in range(width):
+            if g[j] <= thr:
+                if n == most:
+                    return mi[:0], mj[:0], False
+                mi[n], mj[n] = i, fw[5] + j
+                n += 1
+    return mi[:n], mj[:n], True
+
+
+@numba.njit(cache=True)
+def _nearest_brute(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, mi, mj):
+    """The nearest distance of :func:`_nearest` (0 if no member is left) by testing every member cell of G (the
+    terms of the candidate and the steady ones removing those they cover), nearest-first pruned."""
+    x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
+    k = terms.shape[1] + len(steady)
+    ids = np.empty(k, dtype=np.int64)
+    thr = slack + DELTA
+    out = np.empty(len(which))
+    for q in range(len(which)):
+        cand = which[q]
+        nid = _candidate_ids(terms, cand, ids)
+        for p in range(len(steady)):
+            ids[nid + p] = steady[p]
+        nid += len(steady)
+        px, py = xy[cand, 0], xy[cand, 1]
+        best = np.inf
+        for m in range(len(mi)):
+            i, j = mi[m], mj[m]
+            xl, yl = x0 + j * c, y0 + i * c
+            dx = max(max(xl - px, px - (xl + c)), 0.0)
+            dy = max(max(yl - py, py - (yl + c)), 0.0)
+            d = math.hypot(dx, dy)
+            if d >= best:
+                continue
+            if _covered(ids, nid, lines, lag, spans, t0, t1, i, j, x0 + (j + 0.5) * c, y0 + (i + 0.5) * c, r, thr):
+                continue
+            best = d
+        out[q] = 0.0 if best == np.inf else best
     return out
 
 

@@ -81,3 +81,17 @@ def test_a_run_without_sets_cannot_be_animated():
         animation.simulate_animated(load_scenario("l24-cv", ["duration=1"]))
     with pytest.raises(animation.AnimationError, match="UAVs 1-2"):
         animation.simulate_animated(load_scenario("ib21-fleet-2", ["duration=1"]), uav=3)
+
+
+def test_raster_sets_are_drawn_as_their_member_squares():
+    """``estimator.sets: raster``: each view is the union of the member cells' squares of the UAVs' fields."""
+    from swarmtrack.estimation import raster as rs
+
+    scn = load_scenario("ib21-fleet-2", ["duration=2", "estimator.sets=raster"])
+    _, capture = animation.simulate_animated(scn, every=1.0)
+    b = capture.sim.stack.estimator.beliefs
+    own = animation.view_sets(b, 1)
+    member = rs.members(b.grid, b.unexplored[0]).sum()
+    assert own["unexplored"].area == pytest.approx(member * b.grid.cell ** 2)  # whole squares, none twice
+    assert rs.area(b.grid, b.unexplored[0]) <= own["unexplored"].area  # the partial edge cells drawn whole
+    assert animation.view_sets(b)["unexplored"].area >= own["unexplored"].area

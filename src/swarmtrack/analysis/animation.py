@@ -29,6 +29,7 @@ import numpy as np
 import shapely
 
 from swarmtrack.estimation.polygons import union_all
+from swarmtrack.estimation.raster import to_polygon
 from swarmtrack.outputs import OutputError, check_file_destination, partial_files
 
 __all__ = ["FORMATS", "AnimationError", "Frame", "FrameCapture", "check_destination", "render", "simulate_animated",
@@ -133,8 +134,14 @@ def view_sets(beliefs, uav: int | None = None) -> dict[str, shapely.Geometry]:
     ``unexplored`` X̄, ``unidentified`` Xᵁ and ``identified`` X = ∪_j X_j, each the union over the UAVs (``uav``
     None) or UAV ``uav``'s own (1-based)."""
     rows = slice(None) if uav is None else slice(uav - 1, uav)
-    return {name: union_all(np.asarray(getattr(beliefs, name)[rows], dtype=object).ravel())
-            for name in ("unexplored", "unidentified", "identified")}  # each distinct object once
+    grid = getattr(beliefs, "grid", None)  # raster sets (estimator.sets: raster): drawn as their member squares
+    out = {}
+    for name in ("unexplored", "unidentified", "identified"):
+        sets = np.asarray(getattr(beliefs, name)[rows], dtype=object).ravel()
+        if grid is not None:
+            sets = [to_polygon(grid, f) for f in {id(f): f for f in sets}.values()]  # each distinct object once
+        out[name] = union_all(sets)
+    return out
 
 
 def _polygonal(geom):

@@ -703,10 +703,7 @@ def _nearest_brute(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, 
     out = np.empty(len(which))
     for q in range(len(which)):
         cand = which[q]
-        nid = _candidate_ids(terms, cand, ids)
-        for p in range(len(steady)):
-            ids[nid + p] = steady[p]
-        nid += len(steady)
+        nid = _terms_of(terms, steady, cand, ids)
         px, py = xy[cand, 0], xy[cand, 1]
         best = np.inf
         for m in range(len(mi)):
@@ -920,6 +917,15 @@ def _candidate_ids(terms, cand, ids):
 
 
 @numba.njit(cache=True)
+def _terms_of(terms, steady, cand, ids):
+    """The footprint ids of a candidate's terms and the steady ones into ``ids``; returns their number."""
+    nid = _candidate_ids(terms, cand, ids)
+    for p in range(len(steady)):
+        ids[nid + p] = steady[p]
+    return nid + len(steady)
+
+
+@numba.njit(cache=True)
 def _areas(terms, lines, lag, spans, t0, base, ab, prefix, win, geo, slack):
     """Per candidate, the area over R: ``Σ_R cell_area(B)`` less what its terms remove."""
     n, width = terms.shape
@@ -948,10 +954,7 @@ def _distances(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, 
     thr = slack + DELTA
     for q in range(len(which)):
         cand = which[q]
-        nid = _candidate_ids(terms, cand, ids)
-        for p in range(len(steady)):
-            ids[nid + p] = steady[p]
-        nid += len(steady)
+        nid = _terms_of(terms, steady, cand, ids)
         if hausdorff:
             out[q] = _farthest(xy[cand, 0], xy[cand, 1], ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h,
                                outside, clip, nxt, prv, ready, has, lo, hi)

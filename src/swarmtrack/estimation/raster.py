@@ -422,21 +422,42 @@ def _inward(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return c, turn * np.column_stack([-edge[:, 1], edge[:, 0]]) / np.hypot(edge[:, 0], edge[:, 1])[:, None]
 
 
-def remove(grid: Grid, f: Field, corners: np.ndarray) -> Field:
-    """``A \\ F`` for the convex footprint F (``corners`` (K, 2)), shrunk by :data:`DELTA` (eqs. 21, 26, 28): the bound
-    raised to F's depth inside F (:func:`depth`, compiled in :func:`_raise`). A footprint that changes nothing gives
-    the same object back; the core is recut only if a member cell stopped being one."""
+@dataclass(frozen=True)
+class Convex:
+    """A convex region prepared for :func:`remove` on one grid: ``corners`` (K, 2), the inward unit ``normals`` of
+    the edges starting at them, and the cells ``[i0, i1) × [j0, j1)`` whose squares meet its bounding box."""
+
+    corners: np.ndarray
+    normals: np.ndarray
+    i0: int
+    j0: int
+    i1: int
+    j1: int
+
+
+def convex(grid: Grid, corners: np.ndarray) -> Convex:
+    """:class:`Convex` of the polygon ``corners`` (K, 2), in either order (once for the several sets it cuts)."""
+    c, normal = _inward(corners)
+    (x0, y0), (x1, y1) = c.min(axis=0), c.max(axis=0)
+    i0, i1 = grid.span(y0, y1, 0)
+    j0, j1 = grid.span(x0, x1, 1)
+    return Convex(c, np.ascontiguousarray(normal), i0, j0, i1, j1)
+
+
+def remove(grid: Grid, f: Field, region) -> Field:
+    """``A \\ F`` for the convex footprint F (``region``: its corners (K, 2) or a :class:`Convex`), shrunk by
+    :data:`DELTA` (eqs. 21, 26, 28): the bound raised to F's depth inside F (:func:`depth`, compiled in
+    :func:`_raise`). A footprint that changes nothing gives the same object back; the core is recut only if a member
+    cell stopped being one."""
     if f.is_empty:
         return f
-    c, normal = _inward(corners)
-    i0, i1 = grid.span(c[:, 1].min(), c[:, 1].max(), 0)
-    j0, j1 = grid.span(c[:, 0].min(), c[:, 0].max(), 1)
+    F = region if isinstance(region, Convex) else convex(grid, region)
     fi0, fj0, fi1, fj1 = f.window
-    a0, b0, a1, b1 = max(i0, fi0), max(j0, fj0), min(i1, fi1), min(j1, fj1)
+    a0, b0, a1, b1 = max(F.i0, fi0), max(F.j0, fj0), min(F.i1, fi1), min(F.j1, fj1)
     if a0 >= a1 or b0 >= b1:
         return f
     args = (a0 - fi0, b0 - fj0, a1 - fi0, b1 - fj0, grid.y0 + (a0 + 0.5) * grid.cell,
-            grid.x0 + (b0 + 0.5) * grid.cell, grid.cell, c, normal, DELTA, grid.slack + DELTA)
+            grid.x0 + (b0 + 0.5) * grid.cell, grid.cell, F.corners, F.normals, DELTA, grid.slack + DELTA)
     if _raise(f.data, *args, False) == 0:
         return f
     data = f.data.copy()
@@ -624,9 +645,16 @@ def _mean_member(data, member):  # pragma: no cover (compiled)
 
 
 def to_polygon(grid: Grid, f: Field) -> shapely.Geometry:
-    """The outer approximation as a polygon (the union of the member cells' squares): for drawing."""
+    """The outer approximation as a polygon (the union of the member cells' squares, one box per run of members in
+    a row): for drawing."""
     if f.is_empty:
         return shapely.Polygon()
-    i, j = np.nonzero(members(grid, f))
-    x0, y0 = grid.x0 + (f.j0 + j) * grid.cell, grid.y0 + (f.i0 + i) * grid.cell
-    return shapely.union_all(shapely.box(x0, y0, x0 + grid.cell, y0 + grid.cell))
+    m = np.zeros((f.data.shape[0], f.data.shape[1] + 2), dtype=np.int8)
+    m[:, 1:-1] = members(grid, f)
+    step = np.diff(m, axis=1)  # +1 where a run starts, −1 one past where it ends
+    rows, starts = np.nonzero(step == 1)
+    _, ends = np.nonzero(step == -1)  # the same rows in the same order
+    c = grid.cell
+    x0, x1 = grid.x0 + (f.j0 + starts) * c, grid.x0 + (f.j0 + ends) * c
+    y0 = grid.y0 + (f.i0 + rows) * c
+    return shapely.union_all(shapely.box(x0, y0, x1, y0 + c))

@@ -88,6 +88,7 @@ def correct(b: RasterBeliefs, i: int, corners: np.ndarray, z: np.ndarray, labels
     """IB21 eqs. 16-29 for UAV i with its own frame: footprint ``corners`` (4, 2), detections ``z`` (M, 2) labelled
     ``labels`` (M,), boxes of half-widths ``bound`` (the assumed noise bound)."""
     g = b.grid
+    corners = rs.convex(g, corners)  # prepared once for the sets it cuts
     boxes = rs.boxes(g, z, bound)
     unid = rs.union(g, [boxes[m] for m in np.flatnonzero(labels == UNLABELLED)])
     Xu, Xbar = b.unidentified[i], b.unexplored[i]

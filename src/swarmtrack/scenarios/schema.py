@@ -719,7 +719,8 @@ class SetMembershipSpec(EstimatorSpec):
         "and the updates since are replayed (IB21 Sec. 4.5), over a window of the delay bound in periods"))
     sets: Literal["polygons", "raster"] = Field("polygons", description=(
         "how the sets are held: polygons (shapely, exact up to outward margins of micrometres) or raster (grids of "
-        "distance lower bounds, outer by up to a cell's half-diagonal along their edges, several times faster)"))
+        "distance lower bounds, outer by up to a cell's half-diagonal along their edges; faster: "
+        "docs/set-membership.md)"))
     cell: Length = Field(1.0, gt=0, le=50, description="m, the side of a raster cell (sets: raster)")
 
     def speed_bound(self, scenario: Scenario) -> float:

@@ -324,33 +324,23 @@ def meet(grid: Grid, small: Field, *holders) -> Field:
     return trim(grid, Field(small.i0, small.j0, np.maximum(small.data, held), small.core))
 
 
-def held_by_all(grid: Grid, candidate: Field, holders: list[list[Field]], near: float = np.inf) -> Field:
+def held_by_all(grid: Grid, candidate: Field, holders: list[list[Field]]) -> Field:
     """``candidate ∩ ⋂_ℓ (∪ holders[ℓ])`` on the candidate's window (eqs. 34, 36 without complements): one pass per
-    holder list.
-
-    ``near`` (m): tighten only the cells of the bounding window of those where the candidate's bound is at most
-    ``c/√2 + near``; elsewhere the candidate's own bound stays, which is a lower bound too (looser), so the result
-    is still outer. A caller that fuses again before its sets are dilated by more than ``near`` loses nothing that
-    matters then: a cell left loose is tightened by that fusion before it can become a member."""
+    holder list."""
     if candidate.is_empty:
         return candidate
-    lists = [parts for parts in holders if not any(p is candidate for p in parts)]
-    if not lists:
-        return candidate
-    if any(all(p.is_empty for p in parts) for parts in lists):
-        return EMPTY
-    r0, c0, r1, c1 = (0, 0) + candidate.data.shape if near == np.inf else _bbox(candidate.data, grid.slack + near)
-    if r0 >= r1:
-        return trim(grid, candidate)
-    win = (candidate.i0 + r0, candidate.j0 + c0, candidate.i0 + r1, candidate.j0 + c1)
+    win = candidate.window
     out = candidate.data.copy()
-    part = out[r0:r1, c0:c1]
-    for parts in lists:
+    for parts in holders:
+        if any(p is candidate for p in parts):
+            continue
         live = [p for p in parts if not p.is_empty]
+        if not live:
+            return EMPTY
         held = values(grid, live[0], win).copy()
         for p in live[1:]:
             np.minimum(held, values(grid, p, win), out=held)
-        np.maximum(part, held, out=part)
+        np.maximum(out, held, out=out)
     return trim(grid, Field(candidate.i0, candidate.j0, out, candidate.core))
 
 

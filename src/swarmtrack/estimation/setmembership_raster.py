@@ -118,12 +118,10 @@ def _explain(b: RasterBeliefs, i: int, boxes: list, labels: np.ndarray, Xu, Xbar
             b.alarms["unexplained"][i] += 1
 
 
-def fuse(b: RasterBeliefs, recv: np.ndarray, send: np.ndarray, sent: RasterBeliefs, near: float = np.inf) -> None:
+def fuse(b: RasterBeliefs, recv: np.ndarray, send: np.ndarray, sent: RasterBeliefs) -> None:
     """IB21 eqs. 31-37: every UAV that heard from someone fuses its own and its neighbours' corrected sets (``sent``,
     as broadcast; row ℓ read by UAV i only where a link ``i ← ℓ`` delivered it). UAVs with the same closed
-    neighbourhood compute it once and share the result. ``near``: the intersections with the holders tighten only
-    the cells within that much of a member (:func:`raster.held_by_all`; the estimator passes twice the dilation
-    of one period)."""
+    neighbourhood compute it once and share the result."""
     g = b.grid
     done: dict[tuple, int] = {}
     for i in np.unique(recv).tolist():
@@ -136,10 +134,10 @@ def fuse(b: RasterBeliefs, recv: np.ndarray, send: np.ndarray, sent: RasterBelie
             done[key] = i
             bars, us = sent.unexplored[group], sent.unidentified[group]
             b.unexplored[i] = rs.intersect_all(g, bars)  # eq. 37
-            b.unidentified[i] = rs.held_by_all(g, rs.union(g, us), _holders(us, bars), near)  # eq. 36
+            b.unidentified[i] = rs.held_by_all(g, rs.union(g, us), _holders(us, bars))  # eq. 36
             for j in range(b.n_ids):
                 xs = sent.identified[group, j]
-                b.identified[i, j] = rs.held_by_all(g, rs.union(g, xs), _holders(xs, us, bars), near)  # eqs. 34-35
+                b.identified[i, j] = rs.held_by_all(g, rs.union(g, xs), _holders(xs, us, bars))  # eqs. 34-35
         _check_lost(b, i)
 
 
@@ -247,8 +245,8 @@ class RasterSetMembershipEstimator(SetMembershipEstimator):
             return
         recv, send = inbox.edges()
         got = inbox.payloads
-        sent = RasterBeliefs(self.grid, got["unexplored"], got["unidentified"], got["identified"], got["taken"])
-        fuse(self.beliefs, recv, send, sent, near=2 * self.speed * self.period)
+        fuse(self.beliefs, recv, send, RasterBeliefs(self.grid, got["unexplored"], got["unidentified"],
+                                                     got["identified"], got["taken"]))
         redistance(self.beliefs)
         self._refresh()
 

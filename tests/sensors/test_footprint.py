@@ -201,3 +201,40 @@ def test_sense_with_no_objects_or_nothing_in_view():
     det, _ = fp.sense(np.array([[0.0, 0.0, H]]), [0.0], [[300.0, 300.0]], [0.0], [False], [0.0], [0.1],
                       np.zeros((1, 1, 2)))
     assert len(det) == 0
+
+
+@pytest.mark.parametrize("confusion, orientation", [("outside_inner_cone", "heading"), ("inside_inner_cone", "north")])
+def test_the_compiled_sense_equals_the_reference_bit_for_bit(confusion, orientation):
+    """:func:`sense`'s compiled pass gives the very footprints, detections and labels of the numpy functions, on
+    random frames, on objects exactly on footprint edges (the exact orientation tests) and seen from inside their
+    cones (every label outcome)."""
+    rng = np.random.default_rng(11)
+    params = fp.FootprintParams(confusion=confusion, orientation=orientation)
+    outcomes = set()
+    for trial in range(60):
+        n, m = 6, 8
+        is_decoy = np.arange(m) >= 4
+        beta, gamma = fp.draw_cones(rng, m)
+        obj_xy, obj_heading = rng.uniform(0, 400, (m, 2)), rng.uniform(-math.pi, math.pi, m)
+        uav_xyz = np.column_stack([rng.uniform(0, 400, (n, 2)), np.full(n, H)])
+        psi = rng.uniform(-math.pi, math.pi, n)
+        axis = fp.cone_axis(obj_heading, beta, gamma)
+        for i in range(3):  # UAVs in (or at the rim of) an object's cones
+            k = rng.integers(m)
+            tilt = rng.uniform(0, 2 * fp.APERTURE_DECOY_IDENTIFY)
+            uav_xyz[i] = _uav_at_angle(np.r_[obj_xy[k], 0.0], axis[k], tilt, H / math.cos(gamma[k] + tilt))
+        if trial % 3 == 0:  # objects on the corners and edges of footprints, up to rounding
+            c = fp.footprint_corners(uav_xyz[:, :2], psi, uav_xyz[:, 2], params.tan_half, orientation)
+            obj_xy[:2] = c[0, :2]
+            obj_xy[2] = (c[1, 1] + c[1, 2]) / 2
+        u = rng.random((n, m, 2))
+        args = (uav_xyz, psi, obj_xy, obj_heading, is_decoy, beta, gamma, u, params)
+        fast, src_fast = fp.sense(*args)
+        ref, src_ref = fp.sense(*args, compiled=False)
+        np.testing.assert_array_equal(fast.footprint, ref.footprint)
+        np.testing.assert_array_equal(src_fast, src_ref)
+        np.testing.assert_array_equal(fast.owner, ref.owner)
+        np.testing.assert_array_equal(fast.label, ref.label)
+        np.testing.assert_array_equal(fast.z, ref.z)
+        outcomes |= set(ref.label.tolist())
+    assert {UNLABELLED, IDENTIFIED_FALSE, 0, 1}.issubset(outcomes)  # the labels were exercised

@@ -221,8 +221,8 @@ def _support(grid: Grid, f: Field) -> np.ndarray:
 def trim(grid: Grid, f: Field) -> Field:
     """``f`` with its core cut to the bounding window of its member cells (``v ≤ c/√2``; the set lies in their
     squares, module docstring), or :data:`EMPTY` if it has none. Its window stays while it holds the core with
-    :data:`KEEP` cells to spare and is not more than :data:`MARGIN` cells wider than that on a side; otherwise it is
-    remade as the core with :data:`MARGIN` cells about it (:func:`_window`)."""
+    :data:`KEEP` cells to spare and lies within the core grown by 2·:data:`MARGIN`; otherwise it is remade as the
+    core with :data:`MARGIN` cells about it (:func:`_window`)."""
     if f.is_empty:
         return EMPTY
     r0, c0, r1, c1 = _bbox(f.data, grid.slack + DELTA)

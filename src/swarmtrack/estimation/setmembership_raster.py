@@ -88,7 +88,7 @@ def correct(b: RasterBeliefs, i: int, corners: np.ndarray, z: np.ndarray, labels
     """IB21 eqs. 16-29 for UAV i with its own frame: footprint ``corners`` (4, 2), detections ``z`` (M, 2) labelled
     ``labels`` (M,), boxes of half-widths ``bound`` (the assumed noise bound)."""
     g = b.grid
-    corners = rs.convex(g, corners)  # prepared once for the sets it cuts
+    F = rs.convex(g, corners)  # the footprint, prepared once for the sets it cuts
     boxes = rs.boxes(g, z, bound)
     unid = rs.union(g, [boxes[m] for m in np.flatnonzero(labels == UNLABELLED)])
     Xu, Xbar = b.unidentified[i], b.unexplored[i]
@@ -100,11 +100,11 @@ def correct(b: RasterBeliefs, i: int, corners: np.ndarray, z: np.ndarray, labels
             continue
         first = rs.meet(g, Yj, Xu, Xbar)  # S2 ∪ S3: first identified now (eqs. 18-19, 23)
         kept = rs.meet(g, rs.union(g, [Yj, unid]), Xj)  # S1 ∪ S4 (eqs. 17, 20)
-        unseen = rs.remove(g, Xj, corners)  # S5 (eq. 21)
+        unseen = rs.remove(g, Xj, F)  # S5 (eq. 21)
         b.identified[i, j] = rs.union(g, [first, kept, unseen])  # eq. 22
     found = rs.meet(g, unid, Xu, Xbar)  # S1ᵁ ∪ S2ᵁ (eqs. 24-25)
-    b.unidentified[i] = rs.union(g, [found, rs.remove(g, Xu, corners)])  # eqs. 26-27
-    b.unexplored[i] = rs.remove(g, Xbar, corners)  # eq. 28
+    b.unidentified[i] = rs.union(g, [found, rs.remove(g, Xu, F)])  # eqs. 26-27
+    b.unexplored[i] = rs.remove(g, Xbar, F)  # eq. 28
     _check_lost(b, i)
 
 

@@ -45,6 +45,7 @@ import math
 from dataclasses import dataclass
 from fractions import Fraction
 
+import numba
 import numpy as np
 
 from swarmtrack.sensors.detections import IDENTIFIED_FALSE, UNLABELLED, Detections
@@ -258,7 +259,8 @@ def identify(uav_xyz, obj_xyz, axis, is_decoy, J=None, *, aperture_true: float =
 
 
 def sense(uav_xyz, uav_heading, obj_xy, obj_heading, is_decoy, beta, gamma, noise_u,
-          params: FootprintParams = FootprintParams(), J=None, stamped=None) -> tuple[Detections, np.ndarray]:
+          params: FootprintParams = FootprintParams(), J=None, stamped=None,
+          compiled: bool = True) -> tuple[Detections, np.ndarray]:
     """One frame of the footprint sensor of every UAV (truth side; IB21 Sec. 3.2, Sec. 6, eqs. 3-8, 50-54).
 
     ``uav_xyz`` (n, 3) and ``uav_heading`` (n,) are the UAVs' true poses (they place the footprint and the cone
@@ -276,14 +278,93 @@ def sense(uav_xyz, uav_heading, obj_xy, obj_heading, is_decoy, beta, gamma, nois
     uav_xyz = np.asarray(uav_xyz, dtype=float).reshape(-1, 3)
     obj_xy = np.asarray(obj_xy, dtype=float).reshape(-1, 2)
     n, m = len(uav_xyz), len(obj_xy)
-    corners = footprint_corners(uav_xyz[:, :2], uav_heading, uav_xyz[:, 2], params.tan_half, params.orientation)
-    seen = inside(corners, obj_xy)  # (n, m)
+    if compiled and m:
+        corners, seen, labels = _sense_compiled(uav_xyz, uav_heading, obj_xy, obj_heading, is_decoy, beta, gamma,
+                                                params, J)
+    else:
+        corners = footprint_corners(uav_xyz[:, :2], uav_heading, uav_xyz[:, 2], params.tan_half, params.orientation)
+        seen = inside(corners, obj_xy)  # (n, m)
+        obj_xyz = np.column_stack([obj_xy, np.zeros(m)])
+        labels = identify(uav_xyz, obj_xyz, cone_axis(obj_heading, beta, gamma), is_decoy, J,
+                          aperture_true=params.aperture_true, aperture_decoy_identify=params.aperture_decoy_identify,
+                          aperture_decoy_reveal=params.aperture_decoy_reveal, confusion=params.confusion)
     owner, source = np.nonzero(seen)
-    obj_xyz = np.column_stack([obj_xy, np.zeros(m)])
-    labels = identify(uav_xyz, obj_xyz, cone_axis(obj_heading, beta, gamma), is_decoy, J,
-                      aperture_true=params.aperture_true, aperture_decoy_identify=params.aperture_decoy_identify,
-                      aperture_decoy_reveal=params.aperture_decoy_reveal, confusion=params.confusion)
     u = np.asarray(noise_u, dtype=float).reshape(n, m, 2)[owner, source]
     z = obj_xy[source] + np.asarray(params.noise_bound, dtype=float) * (2.0 * u - 1.0)
     pos = uav_xyz[:, :2] if stamped is None else np.asarray(stamped, dtype=float).reshape(n, 2)
     return Detections(owner, z, pos[owner], labels[owner, source], n, footprint=corners), source
+
+
+def _sense_compiled(uav_xyz, uav_heading, obj_xy, obj_heading, is_decoy, beta, gamma, params, J):
+    """:func:`sense`'s footprints, detections and labels in one compiled pass (:func:`_sense_kernel`) with the same
+    arithmetic as :func:`footprint_corners`, :func:`inside` and :func:`identify` (its readable reference; tested
+    equal): the sines and cosines are numpy's, computed here as those functions compute them, and the rare
+    orientation tests within rounding of an edge are decided exactly by :func:`inside` itself."""
+    n, m = len(uav_xyz), len(obj_xy)
+    if params.confusion not in CONFUSIONS:
+        raise ValueError(f"confusion must be one of {CONFUSIONS}, not {params.confusion!r}")
+    half = (np.asarray(uav_xyz[:, 2], dtype=float) * params.tan_half) * np.ones(n)
+    if params.orientation == "heading":
+        psi = np.asarray(uav_heading, dtype=float) * np.ones(n)
+    elif params.orientation == "north":
+        psi = np.zeros(n)
+    else:
+        raise ValueError(f"orientation must be one of {ORIENTATIONS}, not {params.orientation!r}")
+    is_decoy = np.asarray(is_decoy, dtype=bool)
+    if J is None:
+        J = confusion_map(int(is_decoy.sum()), int((~is_decoy).sum()))
+    confused_as = np.full(m, IDENTIFIED_FALSE)
+    confused_as[is_decoy] = np.asarray(J, dtype=int)
+    axis = cone_axis(obj_heading, beta, gamma)
+    cos_g = np.cos(np.where(is_decoy, params.aperture_decoy_identify, params.aperture_true) / 2)
+    corners, det, unsure, labels = _sense_kernel(
+        uav_xyz, np.cos(psi), np.sin(psi), half, obj_xy, axis, np.linalg.norm(axis, axis=-1), cos_g,
+        float(np.cos(params.aperture_decoy_reveal / 2)), is_decoy, _indices(is_decoy), confused_as,
+        params.confusion == "outside_inner_cone")
+    if unsure.any():  # decided exactly, as the reference does
+        rows = np.flatnonzero(unsure.any(axis=1))
+        det[rows] = np.where(inside(corners[rows], obj_xy)[:, :, None], 1.0, -1.0)
+    return corners, np.all(det >= 0, axis=-1), labels
+
+
+@numba.njit(cache=True)
+def _sense_kernel(uav, cos_psi, sin_psi, half, obj, axis, axis_len, cos_g, cos_inner, is_decoy, idx, confused_as,
+                  negate):  # pragma: no cover (compiled)
+    n, m = len(uav), len(obj)
+    signs = ((-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0))
+    corners = np.empty((n, 4, 2))
+    det = np.empty((n, m, 4))
+    unsure = np.zeros((n, m), dtype=np.bool_)
+    labels = np.empty((n, m), dtype=np.int64)
+    for i in range(n):
+        fx, fy = half[i] * cos_psi[i], half[i] * sin_psi[i]
+        lx, ly = half[i] * -sin_psi[i], half[i] * cos_psi[i]
+        for k in range(4):
+            corners[i, k, 0] = uav[i, 0] + signs[k][0] * fx + signs[k][1] * lx
+            corners[i, k, 1] = uav[i, 1] + signs[k][0] * fy + signs[k][1] * ly
+        for j in range(m):
+            qx, qy = obj[j, 0], obj[j, 1]
+            for k in range(4):
+                ax, ay = corners[i, k, 0], corners[i, k, 1]
+                bx, by = corners[i, (k + 1) % 4, 0], corners[i, (k + 1) % 4, 1]
+                left = (ax - qx) * (by - qy)
+                right = (ay - qy) * (bx - qx)
+                d = left - right
+                det[i, j, k] = d
+                if abs(d) <= _ORIENT_ERR * (abs(left) + abs(right)):
+                    unsure[i, j] = True
+            d0, d1, d2 = uav[i, 0] - qx, uav[i, 1] - qy, uav[i, 2] - 0.0
+            dot = 0.0 + d0 * axis[j, 0]
+            dot = dot + d1 * axis[j, 1]
+            dot = dot + d2 * axis[j, 2]
+            length = math.sqrt(0.0 + d0 * d0 + d1 * d1 + d2 * d2) * axis_len[j]
+            g = dot - length * cos_g[j]
+            g_inner = dot - length * cos_inner
+            q = -g_inner if negate else g_inner
+            if g < 0:
+                labels[i, j] = UNLABELLED
+            elif is_decoy[j]:
+                labels[i, j] = confused_as[j] if q >= 0 else IDENTIFIED_FALSE
+            else:
+                labels[i, j] = idx[j]
+    return corners, det, unsure, labels

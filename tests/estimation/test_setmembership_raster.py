@@ -72,7 +72,7 @@ def test_every_true_target_stays_in_its_raster_sets_and_phi_stays_near_the_polyg
     phi_r = ras.uncertainty(rb, ras.aggregated(rb))["phi"]
     phi_p = poly.uncertainty(pb)["phi"]
     assert (phi_r < AREA.area).all()  # the sets did learn something
-    assert np.allclose(phi_r, phi_p, rtol=0.15)  # and about as much as the polygons (measured: within 3-9 %)
+    assert np.allclose(phi_r, phi_p, rtol=0.15)  # and about as much as the polygons (measured: 7-8 % above)
 
 
 def test_an_underestimated_noise_bound_loses_targets_visibly_on_raster_sets():

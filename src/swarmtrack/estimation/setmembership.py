@@ -418,8 +418,12 @@ class SetMembershipEstimator:
         if not self._sharing:
             return
         recv, send = inbox.edges()
-        fuse(self.beliefs, recv, send, _received(inbox.payloads))
+        self._fuse_sets(recv, send, inbox.payloads)
         self._refresh()
+
+    def _fuse_sets(self, recv: np.ndarray, send: np.ndarray, got: dict) -> None:
+        """Eqs. 31-37 over the links ``recv ← send`` with the broadcast sets ``got``."""
+        fuse(self.beliefs, recv, send, _received(got))
 
     def _start(self, n_uavs: int, n_ids: int, area) -> Beliefs:
         return Beliefs.start(n_uavs, n_ids, area)

@@ -245,15 +245,10 @@ class RasterSetMembershipEstimator(SetMembershipEstimator):
         for i, corners, z, labels in frames:
             correct(b, i, corners, z, labels, self.bound)
 
-    def fuse(self, t: float, own, inbox) -> None:
-        if not self._sharing:
-            return
-        recv, send = inbox.edges()
-        got = inbox.payloads
-        fuse(self.beliefs, recv, send, RasterBeliefs(self.grid, got["unexplored"], got["unidentified"],
-                                                     got["identified"], got["taken"]))
+    def _fuse_sets(self, recv: np.ndarray, send: np.ndarray, got: dict) -> None:
+        sent = RasterBeliefs(self.grid, got["unexplored"], got["unidentified"], got["identified"], got["taken"])
+        fuse(self.beliefs, recv, send, sent)
         redistance(self.beliefs)
-        self._refresh()
 
     def _aggregated(self) -> np.ndarray:
         return aggregated(self.beliefs)

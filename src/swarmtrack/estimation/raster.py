@@ -309,19 +309,36 @@ def union_near(grid: Grid, fields) -> Field:
     return Field(win[0], win[1], out, _cover([f.core for f in live]))
 
 
+def _holding(grid: Grid, holders, window: tuple[int, int, int, int]) -> np.ndarray | None:
+    """``∪ holders`` on ``window``: the least of their bounds (a new array), or None if every holder is empty."""
+    live = [h for h in holders if not h.is_empty]
+    if not live:
+        return None
+    held = values(grid, live[0], window).copy()
+    for h in live[1:]:
+        np.minimum(held, values(grid, h, window), out=held)
+    return held
+
+
 def meet(grid: Grid, small: Field, *holders) -> Field:
     """``small ∩ (∪ holders)``, evaluated on ``small``'s window only (the result lies in it): eqs. 18-20, 24-25's
     ``Y ∩ (Xᵁ ∪ X̄)``. If ``small`` is one of the holders (the same object) it is the result, exactly."""
     if small.is_empty or any(h is small for h in holders):
         return small
-    live = [h for h in holders if not h.is_empty]
-    if not live:
+    held = _holding(grid, holders, small.window)
+    if held is None:
         return EMPTY
-    win = small.window
-    held = values(grid, live[0], win).copy()
-    for h in live[1:]:
-        np.minimum(held, values(grid, h, win), out=held)
-    return trim(grid, Field(small.i0, small.j0, np.maximum(small.data, held), small.core))
+    return trim(grid, Field(small.i0, small.j0, np.maximum(small.data, held, out=held), small.core))
+
+
+def meets(grid: Grid, small: Field, *holders) -> bool:
+    """Whether ``small ∩ (∪ holders)`` has a member cell (:func:`meet` without building it)."""
+    if small.is_empty:
+        return False
+    if any(h is small for h in holders):
+        return True
+    held = _holding(grid, holders, small.window)
+    return held is not None and bool((np.maximum(small.data, held, out=held) <= grid.slack + DELTA).any())
 
 
 def held_by_all(grid: Grid, candidate: Field, holders: list[list[Field]]) -> Field:
@@ -329,17 +346,13 @@ def held_by_all(grid: Grid, candidate: Field, holders: list[list[Field]]) -> Fie
     holder list."""
     if candidate.is_empty:
         return candidate
-    win = candidate.window
     out = candidate.data.copy()
     for parts in holders:
         if any(p is candidate for p in parts):
             continue
-        live = [p for p in parts if not p.is_empty]
-        if not live:
+        held = _holding(grid, parts, candidate.window)
+        if held is None:
             return EMPTY
-        held = values(grid, live[0], win).copy()
-        for p in live[1:]:
-            np.minimum(held, values(grid, p, win), out=held)
         np.maximum(out, held, out=out)
     return trim(grid, Field(candidate.i0, candidate.j0, out, candidate.core))
 
@@ -604,22 +617,6 @@ def _holds(data, i0, j0, core, x0, y0, c, p, tol):  # pragma: no cover (compiled
         gx, gy = x0 + (j + 0.5) * c, y0 + (i + 0.5) * c
         out[k] = data[i - i0, j - j0] <= math.sqrt((x - gx) ** 2 + (y - gy) ** 2) + tol
     return out
-
-
-def meets(grid: Grid, small: Field, *holders) -> bool:
-    """Whether ``small ∩ (∪ holders)`` has a member cell (:func:`meet` without building it)."""
-    if small.is_empty:
-        return False
-    live = [h for h in holders if not h.is_empty]
-    if not live:
-        return False
-    if any(h is small for h in live):
-        return True
-    win = small.window
-    held = values(grid, live[0], win)
-    for h in live[1:]:
-        held = np.minimum(held, values(grid, h, win))
-    return bool((np.maximum(small.data, held) <= grid.slack + DELTA).any())
 
 
 def centroid(grid: Grid, f: Field) -> np.ndarray:

@@ -260,7 +260,7 @@ class RasterSetMembershipEstimator(SetMembershipEstimator):
         return np.array([rs.centroid(self.grid, f) for f in region]).reshape(-1, 2)
 
     def _listed(self) -> np.ndarray:
-        return np.vectorize(lambda f: not f.is_empty, otypes=[bool])(self.beliefs.identified)
+        return np.array([[not f.is_empty for f in row] for row in self.beliefs.identified], dtype=bool)
 
     def _size(self) -> np.ndarray:
         """(N,) the cells each UAV's sets store (their windows; the ``vertices`` probe of the raster sets)."""

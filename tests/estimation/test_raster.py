@@ -133,7 +133,6 @@ def test_a_bad_cell_size_is_refused():
 
 
 def test_the_compiled_fill_equals_its_reference_beyond_the_window():
-    rng = np.random.default_rng(7)
     f = rs.dilate(GRID, rs.union(GRID, [rs.box(GRID, (40, 40, 52, 47)), rs.box(GRID, (60, 45, 66, 70))]), 2.5)
     win = (0, 0, 120, 110)
     got = rs.values(GRID, f, win)
@@ -141,7 +140,23 @@ def test_the_compiled_fill_equals_its_reference_beyond_the_window():
     i0, j0, i1, j1 = f.window
     want[i0:i1, j0:j1] = f.data
     assert np.allclose(got, want, rtol=0, atol=1e-9)
-    assert rng is not None
+    assert np.allclose(rs._support(GRID, f), rs.support_reference(GRID, f), rtol=0, atol=1e-9)
+
+
+def test_a_minimum_skipping_cells_gives_the_minimum_with_the_full_values_where_it_counts():
+    rng = np.random.default_rng(7)
+    f = rs.dilate(GRID, rs.union(GRID, [rs.box(GRID, (40, 40, 52, 47)), rs.box(GRID, (60, 45, 66, 70))]), 2.5)
+    win = (0, 0, 120, 110)
+    acc = rng.uniform(0.0, 60.0, (120, 110))
+    floor = rng.uniform(0.0, 60.0, (120, 110))
+    want = np.minimum(acc, rs.values(GRID, f, win))
+    plain = acc.copy()
+    rs.lower(GRID, plain, win, f)
+    assert np.array_equal(plain, want)
+    skipped = acc.copy()
+    rs.lower(GRID, skipped, win, f, floor)
+    assert np.array_equal(np.maximum(skipped, floor), np.maximum(want, floor))
+    assert (skipped != want).any()  # the floor did skip cells
 
 
 def test_the_compiled_removal_and_area_equal_their_readable_references():

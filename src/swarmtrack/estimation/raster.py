@@ -143,39 +143,61 @@ def full(grid: Grid) -> Field:
 
 def values(grid: Grid, f: Field, window: tuple[int, int, int, int]) -> np.ndarray:
     """The lower bounds of ``f`` on the cells ``window`` = ``(i0, j0, i1, j1)``: its stored values where it has them,
-    :func:`_beyond`'s elsewhere (``+inf`` for an empty set)."""
+    :func:`_beyond`'s elsewhere (``+inf`` for an empty set). Inside the stored window: a view."""
     i0, j0, i1, j1 = window
-    if f.is_empty:
-        return np.full((i1 - i0, j1 - j0), np.inf)
     fi0, fj0, fi1, fj1 = f.window
-    if fi0 <= i0 and fj0 <= j0 and i1 <= fi1 and j1 <= fj1:  # inside the stored window: a view
+    if not f.is_empty and fi0 <= i0 and fj0 <= j0 and i1 <= fi1 and j1 <= fj1:
         return f.data[i0 - fi0:i1 - fi0, j0 - fj0:j1 - fj0]
-    return _fill(f.data, fi0, fj0, i0, j0, i1, j1, np.asarray(f.core, dtype=np.int64), _support(grid, f),
-                 _NORMALS, grid.cell)
+    out = np.full((i1 - i0, j1 - j0), np.inf)
+    lower(grid, out, window, f)
+    return out
+
+
+def lower(grid: Grid, acc: np.ndarray, window: tuple[int, int, int, int], f: Field,
+          floor: np.ndarray | None = None) -> None:
+    """``acc ← min(acc, values(f, window))`` in place (the union's step), except where ``acc ≤ floor`` already: a
+    maximum with ``floor`` that follows (an intersection with it) gives ``floor`` there whatever f's bound. The same
+    numbers as the minimum with :func:`values`, but the bounds off f's stored window are computed only on the cells
+    where they can count (:func:`_lower_into`)."""
+    if f.is_empty:
+        return
+    i0, j0, i1, j1 = window
+    fi0, fj0, fi1, fj1 = f.window
+    if fi0 <= i0 and fj0 <= j0 and i1 <= fi1 and j1 <= fj1:
+        np.minimum(acc, f.data[i0 - fi0:i1 - fi0, j0 - fj0:j1 - fj0], out=acc)
+        return
+    _lower_into(acc, i0, j0, f.data, fi0, fj0, np.asarray(f.core, dtype=np.int64), _support(grid, f), _NORMALS,
+                grid.cell, acc if floor is None else floor, floor is not None)
 
 
 @numba.njit(cache=True)
-def _fill(data, fi0, fj0, i0, j0, i1, j1, core, support, normals, c):  # pragma: no cover (compiled)
-    """:func:`values` off the stored window, one pass: the stored value where there is one, else the greater of the
-    distance to the core's rectangle and to each supporting half-plane (:func:`_beyond`, its readable reference)."""
-    out = np.empty((i1 - i0, j1 - j0))
+def _lower_into(acc, i0, j0, data, fi0, fj0, core, support, normals, c, floor, use_floor):  # pragma: no cover
+    """:func:`lower`, one pass: per cell of ``acc`` (cell (i0, j0) first) skipped if ``acc ≤ floor`` (with
+    ``use_floor``), else the minimum with the stored value where there is one, else with the greater of the distance
+    to the core's rectangle and to each supporting half-plane (:func:`_beyond`, its readable reference), left as
+    soon as that reaches ``acc`` (a greater bound cannot lower it)."""
     h, w = data.shape
-    for a in range(i1 - i0):
+    for a in range(acc.shape[0]):
         i = i0 + a
         y = (i + 0.5) * c
         dy = max(core[0] * c - y, y - core[2] * c, 0.0)
-        for b in range(j1 - j0):
+        for b in range(acc.shape[1]):
+            cur = acc[a, b]
+            if use_floor and cur <= floor[a, b]:
+                continue
             j = j0 + b
             if fi0 <= i < fi0 + h and fj0 <= j < fj0 + w:
-                out[a, b] = data[i - fi0, j - fj0]
+                acc[a, b] = min(cur, data[i - fi0, j - fj0])
                 continue
             x = (j + 0.5) * c
             dx = max(core[1] * c - x, x - core[3] * c, 0.0)
             v = math.sqrt(dx * dx + dy * dy)
             for k in range(len(support)):
+                if v >= cur:
+                    break
                 v = max(v, x * normals[k, 0] + y * normals[k, 1] - support[k])
-            out[a, b] = v
-    return out
+            if v < cur:
+                acc[a, b] = v
 
 
 #: Directions of the supporting lines :func:`_beyond` bounds a set with (a 16-gon about it: a disc-shaped set is
@@ -202,20 +224,55 @@ def _beyond(grid: Grid, f: Field, window: tuple[int, int, int, int]) -> np.ndarr
 
 def _support(grid: Grid, f: Field) -> np.ndarray:
     """(16,) the support of the member cells' squares along :data:`_NORMALS` (grid coordinates from the corner),
-    kept on the field (it is immutable)."""
+    kept on the field (it is immutable): :func:`_support_kernel`, beside its readable reference
+    :func:`support_reference`."""
     hit = f.__dict__.get("_support")
     if hit is None:
-        member = members(grid, f)
-        rows = np.flatnonzero(member.any(axis=1))  # non-empty: f has members after trim
-        first = member[rows].argmax(axis=1)  # a linear function's maximum is at a row's first or last member
-        last = member.shape[1] - 1 - member[rows, ::-1].argmax(axis=1)
-        c = grid.cell
-        py = (f.i0 + np.concatenate([rows, rows]) + 0.5) * c
-        px = (f.j0 + np.concatenate([first, last]) + 0.5) * c
-        corner = c / 2 * (np.abs(_NORMALS[:, 0]) + np.abs(_NORMALS[:, 1]))
-        hit = (np.outer(_NORMALS[:, 0], px) + np.outer(_NORMALS[:, 1], py)).max(axis=1) + corner
+        hit = _support_kernel(f.data, f.i0, f.j0, grid.cell, grid.slack + DELTA, _NORMALS)
         f.__dict__["_support"] = hit
     return hit
+
+
+def support_reference(grid: Grid, f: Field) -> np.ndarray:
+    """:func:`_support` in numpy: a linear function's maximum over a row's member cells is at its first or last."""
+    member = members(grid, f)
+    rows = np.flatnonzero(member.any(axis=1))  # non-empty: f has members after trim
+    first = member[rows].argmax(axis=1)
+    last = member.shape[1] - 1 - member[rows, ::-1].argmax(axis=1)
+    c = grid.cell
+    py = (f.i0 + np.concatenate([rows, rows]) + 0.5) * c
+    px = (f.j0 + np.concatenate([first, last]) + 0.5) * c
+    corner = c / 2 * (np.abs(_NORMALS[:, 0]) + np.abs(_NORMALS[:, 1]))
+    return (np.outer(_NORMALS[:, 0], px) + np.outer(_NORMALS[:, 1], py)).max(axis=1) + corner
+
+
+@numba.njit(cache=True)
+def _support_kernel(data, i0, j0, c, member, normals):  # pragma: no cover (compiled)
+    """:func:`support_reference` in one pass over the rows."""
+    n = len(normals)
+    best = np.full(n, -np.inf)
+    h, w = data.shape
+    for i in range(h):
+        first = -1
+        for j in range(w):
+            if data[i, j] <= member:
+                first = j
+                break
+        if first < 0:
+            continue
+        last = first
+        for j in range(w - 1, first - 1, -1):
+            if data[i, j] <= member:
+                last = j
+                break
+        py = (i0 + i + 0.5) * c
+        for j in (first, last):
+            px = (j0 + j + 0.5) * c
+            for k in range(n):
+                best[k] = max(best[k], normals[k, 0] * px + normals[k, 1] * py)
+    for k in range(n):
+        best[k] += c / 2 * (abs(normals[k, 0]) + abs(normals[k, 1]))
+    return best
 
 
 def trim(grid: Grid, f: Field) -> Field:
@@ -286,9 +343,9 @@ def union(grid: Grid, fields) -> Field:
     if len(live) <= 1:
         return live[0] if live else EMPTY
     win = _cover([f.window for f in live])
-    out = values(grid, live[0], win).copy()
-    for f in live[1:]:
-        np.minimum(out, values(grid, f, win), out=out)
+    out = np.full((win[2] - win[0], win[3] - win[1]), np.inf)
+    for f in live:
+        lower(grid, out, win, f)
     return Field(win[0], win[1], out, _cover([f.core for f in live]))
 
 
@@ -309,14 +366,15 @@ def union_near(grid: Grid, fields) -> Field:
     return Field(win[0], win[1], out, _cover([f.core for f in live]))
 
 
-def _holding(grid: Grid, holders, window: tuple[int, int, int, int]) -> np.ndarray | None:
-    """``∪ holders`` on ``window``: the least of their bounds (a new array), or None if every holder is empty."""
+def _holding(grid: Grid, holders, window: tuple[int, int, int, int], floor: np.ndarray) -> np.ndarray | None:
+    """``∪ holders`` on ``window`` where it can exceed ``floor`` (:func:`lower`: elsewhere some value ``≤ floor``),
+    a new array, for a maximum with ``floor``; None if every holder is empty."""
     live = [h for h in holders if not h.is_empty]
     if not live:
         return None
-    held = values(grid, live[0], window).copy()
-    for h in live[1:]:
-        np.minimum(held, values(grid, h, window), out=held)
+    held = np.full((window[2] - window[0], window[3] - window[1]), np.inf)
+    for h in live:
+        lower(grid, held, window, h, floor)
     return held
 
 
@@ -325,7 +383,7 @@ def meet(grid: Grid, small: Field, *holders) -> Field:
     ``Y ∩ (Xᵁ ∪ X̄)``. If ``small`` is one of the holders (the same object) it is the result, exactly."""
     if small.is_empty or any(h is small for h in holders):
         return small
-    held = _holding(grid, holders, small.window)
+    held = _holding(grid, holders, small.window, small.data)
     if held is None:
         return EMPTY
     return trim(grid, Field(small.i0, small.j0, np.maximum(small.data, held, out=held), small.core))
@@ -337,7 +395,7 @@ def meets(grid: Grid, small: Field, *holders) -> bool:
         return False
     if any(h is small for h in holders):
         return True
-    held = _holding(grid, holders, small.window)
+    held = _holding(grid, holders, small.window, small.data)
     return held is not None and bool((np.maximum(small.data, held, out=held) <= grid.slack + DELTA).any())
 
 
@@ -350,7 +408,7 @@ def held_by_all(grid: Grid, candidate: Field, holders: list[list[Field]]) -> Fie
     for parts in holders:
         if any(p is candidate for p in parts):
             continue
-        held = _holding(grid, parts, candidate.window)
+        held = _holding(grid, parts, candidate.window, out)
         if held is None:
             return EMPTY
         np.maximum(out, held, out=out)

@@ -1,12 +1,14 @@
 """IB21 Sec. 4.5, delayed messages for the set-membership estimator (ReplayingSetMembershipEstimator): the guarantee
 holds with random delays, a late message gives the sets an on-time one would have given and never larger sets than
-ignoring it, sets older than the window are dropped and counted, and with nothing late nothing changes."""
+ignoring it, sets older than the window are dropped and counted, and with nothing late nothing changes. The same
+replay on raster sets (RasterReplayingSetMembershipEstimator) gives the on-time sets exactly."""
 
 import numpy as np
 import pytest
 import shapely
 
 from swarmtrack.estimation import polygons as pg
+from swarmtrack.estimation import raster as rs
 from swarmtrack.estimation.setmembership import (
     UNLABELLED,
     ReplayingSetMembershipEstimator,
@@ -61,8 +63,14 @@ def run(est, frames, deliver, steps=None, totals=None):
     return violations
 
 
-def make(window: int = 0):
+def make(window: int = 0, sets: str = "polygons"):
     kw = dict(speed=SPEED, bound=(BOUND, BOUND), period=PERIOD)
+    if sets == "raster":
+        from swarmtrack.estimation import setmembership_raster as raster
+
+        if window:
+            return raster.RasterReplayingSetMembershipEstimator(N, N_T, AREA, window=window, **kw)
+        return raster.RasterSetMembershipEstimator(N, N_T, AREA, **kw)
     if window:
         return ReplayingSetMembershipEstimator(N, N_T, AREA, window=window, **kw)
     return SetMembershipEstimator(N, N_T, AREA, **kw)
@@ -249,3 +257,60 @@ def test_a_replay_that_fuses_again_stays_with_the_on_time_sets(case, seed):
         assert _no_larger(a, b, n) and _no_larger(b, a, n)
     assert max(shapely.symmetric_difference(a, b).area for a, b in zip(_sets(on_time), _sets(ignored),
                                                                        strict=True)) > 100.0
+
+
+# --- raster sets: the replay recomputes the on-time numbers exactly ---------------------------------------------
+
+
+def _grids(est) -> list[np.ndarray]:
+    """Every set of every UAV as its bounds on the whole grid (what the raster sets are, whatever their windows)."""
+    g = est.grid
+    return [rs.values(g, f, (0, 0, g.ny, g.nx)) for f in _all_sets(est)]
+
+
+def _equal(a, b) -> bool:
+    return all(np.array_equal(x, y) for x, y in zip(_grids(a), _grids(b), strict=True))
+
+
+def test_the_guarantee_holds_on_raster_sets_with_random_delays():
+    channel = Channel("full", N, 1e6, delay=0.0, delay_max=1.0, dt=DT, delay_rng=np.random.default_rng(1))
+    est = make(window=2, sets="raster")
+    totals = {"late": 0.0, "stale": 0.0}
+    deliver = lambda k, outbox: channel.deliver(channel.links(np.zeros((N, 2)), k * DT), outbox, k * DT)  # noqa: E731
+    assert run(est, world(1, 200), deliver, totals=totals) == 0
+    assert sum(int(a.sum()) for a in est.beliefs.alarms.values()) == 0
+    sent = 40 * N * (N - 1)
+    assert 0.5 * sent < totals["late"] <= sent and totals["stale"] == 0
+    assert max(rs.area(est.grid, f) for f in est.beliefs.unexplored) < 0.5 * AREA.area
+
+
+def test_a_late_message_gives_the_on_time_raster_sets_exactly():
+    frames = world(3, 160)
+    on_time, late, ignored = make(sets="raster"), make(window=2, sets="raster"), make(window=2, sets="raster")
+    runs = ((on_time, _one_late(hold=0)), (late, _one_late()), (ignored, _one_late(hold=None)))
+    for est, deliver in runs:
+        run(est, frames, deliver, range(ARRIVE))
+    assert not _equal(on_time, late)  # the message mattered
+    for est, deliver in runs:
+        run(est, frames, deliver, range(ARRIVE, len(frames)))
+    assert _equal(on_time, late) and late.sample()["late"].sum() == 0  # (this step's count: the replay was earlier)
+    assert not _equal(on_time, ignored)
+
+
+@pytest.mark.parametrize("case", sorted(REPLAYS))
+def test_a_raster_replay_that_fuses_again_gives_the_on_time_sets_exactly(case):
+    sends, links = REPLAYS[case]
+    frames = world(3, 160)
+    runs = {hold: (make(window=3, sets="raster"), _held(sends, hold, **links)) for hold in (0, HOLD)}
+    for est, deliver in runs.values():
+        run(est, frames, deliver)
+    (on_time, _), (late, _) = runs.values()
+    assert _equal(on_time, late)
+
+
+def test_with_nothing_late_the_replaying_raster_estimator_gives_the_plain_sets_bit_for_bit():
+    frames = world(5, 120)
+    plain, replaying = make(sets="raster"), make(window=2, sets="raster")
+    for est in (plain, replaying):
+        run(est, frames, _one_late(hold=0))
+    assert _equal(plain, replaying) and (plain.beliefs.t == replaying.beliefs.t).all()

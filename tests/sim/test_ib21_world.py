@@ -55,10 +55,18 @@ def test_raster_sets_keep_the_guarantee_end_to_end_and_shrink_like_the_polygons(
     assert last["phi"].mean() < first["phi"].mean() - 20_000  # 20 s of search
 
 
+def test_raster_sets_with_network_delays_replay_late_messages():
+    from swarmtrack.sim.build import build
+
+    sim = build(load_scenario("ib21-fleet-6", ["duration=1", "estimator.sets=raster", "network.delay=0.4",
+                                               "estimator.delayed_data=refilter"]))
+    assert type(sim.stack.estimator).__name__ == "RasterReplayingSetMembershipEstimator"
+    assert sim.stack.estimator.window == 1 and sim.stack.estimator.grid.cell == 1.0
+
+
 @pytest.mark.parametrize("override, words", [
     ("estimator.sets=voxels", ["estimator.sets", "polygons", "raster"]),
     ("estimator.cell=0", ["estimator.cell"]),
-    ("estimator={kind: setmembership, sets: raster, delayed_data: refilter}", ["delayed_data", "sets: polygons"]),
     ("swarm.nav_position_std=0.02", ["swarm.nav_position_std", "no bound"]),
     ("swarm.vehicle=quadrotor", ["footprint needs swarm.vehicle: fixed_wing"]),
     ("estimator.noise_bound=[0, 5]", ["estimator.noise_bound", "positive"]),

@@ -40,7 +40,9 @@ since; without network delays the builder uses the plain :class:`SetMembershipEs
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 import shapely
@@ -65,6 +67,8 @@ class Beliefs:
     #: as one difference, ``base \\ ∪ cut``, instead of intersecting near-equal sets. None: no lineage known.
     base: np.ndarray | None = None
     cut: np.ndarray | None = None
+    #: The per-UAV rows (beside the alarm counts) that a replay moves between copies.
+    ROWS: ClassVar[tuple[str, ...]] = ("unexplored", "unidentified", "identified", "t", "base", "cut")
 
     @classmethod
     def start(cls, n_uavs: int, n_ids: int, area, t: float = 0.0) -> Beliefs:
@@ -423,7 +427,17 @@ class SetMembershipEstimator:
 
     def _fuse_sets(self, recv: np.ndarray, send: np.ndarray, got: dict) -> None:
         """Eqs. 31-37 over the links ``recv ← send`` with the broadcast sets ``got``."""
-        fuse(self.beliefs, recv, send, _received(got))
+        self._fuse_into(self.beliefs, recv, send, self._received(got))
+
+    def _fuse_into(self, b: Beliefs, recv: np.ndarray, send: np.ndarray, sent: Beliefs,
+                   own: np.ndarray | None = None) -> None:
+        """Eqs. 31-37 on the sets ``b`` (:func:`fuse`; ``own`` as there): the fusion of a sharing time, also when a
+        replay (:class:`ReplayingSetMembershipEstimator`) does it again, with no links too."""
+        fuse(b, recv, send, sent, own)
+
+    def _received(self, got: dict) -> Beliefs:
+        """The broadcast sets of one sharing time (:meth:`share`'s payload) as beliefs."""
+        return _received(got)
 
     def _start(self, n_uavs: int, n_ids: int, area) -> Beliefs:
         return Beliefs.start(n_uavs, n_ids, area)
@@ -600,29 +614,26 @@ class ReplayingSetMembershipEstimator(SetMembershipEstimator):
                         self._advance(w, t, updated[keep], [f for f, k in zip(frames, keep, strict=True) if k])
                 _put(self._pre[s], w, old)  # their corrected sets at s, recomputed
                 _put(w, self._pre[s], rows[start == s])
-            if s not in self._heard:
-                continue
-            payloads, recv, send = self._heard[s]
-            recv, send = np.concatenate(recv), np.concatenate(send)
-            on = start[recv] <= s
-            sent = _received(payloads)
-            own = np.where([_same_row(w, sent, i) for i in rows], rows, rows + self.n)
-            if (own >= self.n).any():
-                sent = _stacked(sent, w)
-            fuse(w, recv[on], send[on], sent, own)
+            if s in self._heard:
+                payloads, recv, send = self._heard[s]
+                recv, send = np.concatenate(recv), np.concatenate(send)
+                on = start[recv] <= s
+                sent = self._received(payloads)
+                own = np.where([_same_row(w, sent, i) for i in rows], rows, rows + self.n)
+                if (own >= self.n).any():
+                    sent = _stacked(sent, w)
+                self._fuse_into(w, recv[on], send[on], sent, own)
+            else:  # nobody heard anybody at s: the fusion step with no links (what the sharing time did)
+                self._fuse_into(w, rows[:0], rows[:0], w)
         _put(self.beliefs, w, rows)
 
     def sample(self) -> dict[str, np.ndarray]:
         return {**super().sample(), "late": self._late.copy(), "stale": self._stale.copy()}
 
 
-#: The per-UAV rows of :class:`Beliefs` (beside the alarm counts) that a replay moves between copies.
-_ROWS = ("unexplored", "unidentified", "identified", "t", "base", "cut")
-
-
 def _put(dst: Beliefs, src: Beliefs, rows: np.ndarray) -> None:
-    """Rows ``rows`` of ``src``'s sets, times, lineage and alarm counts into ``dst``."""
-    for name in _ROWS:
+    """Rows ``rows`` of ``src``'s sets, times, lineage and alarm counts into ``dst`` (either representation)."""
+    for name in src.ROWS:
         getattr(dst, name)[rows] = getattr(src, name)[rows]
     for name, counts in dst.alarms.items():
         counts[rows] = src.alarms[name][rows]
@@ -630,11 +641,16 @@ def _put(dst: Beliefs, src: Beliefs, rows: np.ndarray) -> None:
 
 def _same_row(a: Beliefs, b: Beliefs, i: int) -> bool:
     """Whether UAV i's sets in ``a`` are the very objects of ``b`` (what it broadcast: nothing was recomputed)."""
-    return (a.unexplored[i] is b.unexplored[i] and a.unidentified[i] is b.unidentified[i]
-            and a.base[i] is b.base[i] and a.cut[i] is b.cut[i]
-            and all(x is y for x, y in zip(a.identified[i], b.identified[i], strict=True)))
+    for name in a.ROWS:
+        x, y = getattr(a, name), getattr(b, name)
+        if name == "identified":
+            if not all(p is q for p, q in zip(x[i], y[i], strict=True)):
+                return False
+        elif name != "t" and x[i] is not y[i]:
+            return False
+    return True
 
 
 def _stacked(sent: Beliefs, own: Beliefs) -> Beliefs:
     """The broadcast rows, then the recomputed own rows (row ``N + i``: UAV i's), for :func:`fuse`'s ``own``."""
-    return Beliefs(**{f: np.concatenate([getattr(sent, f), getattr(own, f)]) for f in _ROWS})
+    return dataclasses.replace(sent, **{f: np.concatenate([getattr(sent, f), getattr(own, f)]) for f in sent.ROWS})

@@ -748,9 +748,6 @@ class SetMembershipSpec(EstimatorSpec):
         ratio = self.period * scenario.rates.estimation
         if abs(ratio - round(ratio)) > 1e-9:
             raise ValueError(f"estimator.period {self.period:g} s must be a whole number of estimation steps")
-        if self.sets == "raster" and self.delayed_data == "refilter":
-            raise ValueError("estimator.delayed_data: refilter needs estimator.sets: polygons (the raster sets do not "
-                             "replay late messages yet)")
 
 
 class SMMPCSpec(ControllerSpec):

@@ -154,9 +154,10 @@ def _setmembership(spec: SetMembershipSpec, ctx: Context) -> SetMembershipEstima
     window = spec.replayed_periods(ctx.scenario)
     kind, extra = (ReplayingSetMembershipEstimator, {"window": window}) if window else (SetMembershipEstimator, {})
     if spec.sets == "raster":
-        from swarmtrack.estimation.setmembership_raster import RasterSetMembershipEstimator
+        from swarmtrack.estimation import setmembership_raster as raster
 
-        kind, extra = RasterSetMembershipEstimator, {"cell": spec.cell}
+        kind = raster.RasterReplayingSetMembershipEstimator if window else raster.RasterSetMembershipEstimator
+        extra = {**extra, "cell": spec.cell}
     return kind(ctx.n_uavs, ctx.scenario.targets.size(), shapely.box(*spec.area),
                 speed=spec.speed_bound(ctx.scenario), bound=tuple(spec.noise_bound), period=spec.period, **extra)
 

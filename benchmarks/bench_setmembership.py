@@ -98,8 +98,9 @@ def mission(duration: float, sets: str = "polygons") -> dict[str, float]:
                "mpc": (SetMembershipMPC, "command")}
     spent = dict.fromkeys(methods, 0.0)
     pg.OPS.clear()
-    recorded: list[tuple] = []
-    with timed(spent, methods), recording(recorded):
+    recorded: list[tuple] = []  # the fleet plans, for the polygon planner's full-set reference only: kept plans
+    # hold their sets alive (with raster sets, gigabytes of early X^A fields that would slow the timed run itself)
+    with timed(spent, methods), recording(recorded) if sets == "polygons" else contextlib.nullcontext():
         t0 = time.perf_counter()
         rec = simulate(scn)
         wall = time.perf_counter() - t0

@@ -55,8 +55,7 @@ def mission(seed: int, true_bound: float, assumed_bound: float, duration: float 
                     labels[m] = IDENTIFIED_FALSE
             ras.correct(rb, i, corners, z, labels, (assumed_bound, assumed_bound))
             poly.correct(pb, i, pg.inner(shapely.Polygon(corners)), z, labels, (assumed_bound, assumed_bound))
-        ras.fuse(rb, np.array([0, 1]), np.array([1, 0]), ras.RasterBeliefs(
-            GRID, rb.unexplored.copy(), rb.unidentified.copy(), rb.identified.copy(), rb.t.copy()))
+        ras.fuse(rb, np.array([0, 1]), np.array([1, 0]), rb.copy())
         ras.redistance(rb)
         poly.fuse(pb, np.array([0, 1]), np.array([1, 0]), pb.copy())
         r_bad += int((~ras.containing(rb, objs[:N_T], np.arange(N_T))).sum())

@@ -89,9 +89,8 @@ def timed(spent: dict[str, float], methods: dict[str, tuple[type, str]]):
 
 def mission(duration: float, sets: str = "polygons") -> dict[str, float]:
     """One mission with the sets held as ``sets`` (``estimator.sets``), timed and split."""
-    simulate(load_scenario(SCENARIO, ["duration=2", f"estimator.sets={sets}"]))  # warm-up (numba caches)
-    if sets == "raster":
-        warm_raster_planner()
+    simulate(load_scenario(SCENARIO, ["duration=2", f"estimator.sets={sets}"]))  # warm-up (numba caches; the
+    # raster planner loads its own kernels when it is built: sm_mpc_raster.warm)
     scn = load_scenario(SCENARIO, [f"duration={duration:g}", f"estimator.sets={sets}"])
     kind = RasterSetMembershipEstimator if sets == "raster" else SetMembershipEstimator
     methods = {"share": (kind, "share"), "fuse": (kind, "fuse"), "view": (kind, "view"),
@@ -122,20 +121,6 @@ def mission(duration: float, sets: str = "polygons") -> dict[str, float]:
     if sets == "polygons":  # the full-set reference exists for the polygon planner
         out.update(mpc_reference(recorded[:: max(1, len(recorded) // REPLAYED)][:REPLAYED]))
     return out
-
-
-def warm_raster_planner() -> None:
-    """Compile (or load) the raster SM-MPC's kernels for a UAV far from a few small sets, the late-mission case the
-    2 s warm-up mission does not reach (the nearest distance by testing every member cell)."""
-    from swarmtrack.control.sm_mpc_raster import plan_one_raster
-    from swarmtrack.estimation import raster as rs
-
-    grid = rs.Grid.over(shapely.box(0, 0, 400, 400), 1.0)
-    region = rs.union(grid, [rs.box(grid, (x, x, x + 10, x + 10)) for x in (20.0, 300.0)])
-    s = sm_mpc.DEFAULT_SETTINGS
-    nav = np.array([[200.0, 100.0, 100.0, 0.0, 0.0, 0.0, 0.0]])
-    own = sm_mpc.predict(nav[:, None, :], sm_mpc.candidates(s.inputs, s.horizon)[None], s)[0]
-    plan_one_raster(grid, region, own, np.zeros((0, s.horizon, 7)), s)
 
 
 @contextlib.contextmanager

@@ -329,3 +329,18 @@ if __name__ == "__main__":
     time_planners(seeds=[99], repeats=1)  # compile
     for name, ms in time_planners().items():
         print(f"{name}: {ms:.3f} ms per UAV plan")
+
+
+def test_a_controller_on_a_grid_loads_the_planner_kernels_before_its_first_plan(monkeypatch):
+    """The ``solve_time`` probe (Fig. 11 right) must not time numba loading or compiling the kernels: building the
+    controller runs both distance paths once per process (:func:`sm_mpc_raster.warm`)."""
+    monkeypatch.setattr(smr, "_WARM", [])
+    planned = []
+    monkeypatch.setattr(smr, "plan_one_raster", lambda grid, region, *a, **k: planned.append(len(
+        np.flatnonzero(rs.members(grid, region)))))
+    grid = rs.Grid.over(shapely.box(0, 0, 400, 400), 1.0)
+    sm.SetMembershipMPC(shapely.box(0, 0, 400, 400), n_uavs=2, grid=grid)
+    assert len(planned) == 2 and min(planned) <= smr.BRUTE_MEMBERS < max(planned)  # both distance paths
+    sm.SetMembershipMPC(shapely.box(0, 0, 400, 400), n_uavs=2, grid=grid)
+    sm.SetMembershipMPC(shapely.box(0, 0, 400, 400), n_uavs=2)  # polygons: nothing to load
+    assert len(planned) == 2  # once per process

@@ -596,6 +596,10 @@ class SetMembershipMPC:
                  regions: Callable[[TargetView], np.ndarray] | None = None, start: float = 0.0,
                  n_uavs: int = 0, grid=None):
         self.area, self.s, self.start, self.n, self.grid = area, settings, start, n_uavs, grid
+        if grid is not None:  # the raster planner's kernels, loaded before any plan is timed
+            from swarmtrack.control.sm_mpc_raster import warm
+
+            warm()
         self.region_of = regions or _view_region
         self._next = start
         self.u: np.ndarray | None = None

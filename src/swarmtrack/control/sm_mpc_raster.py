@@ -410,6 +410,28 @@ class RasterKernel:
                           self.win, *self._members)
 
 
+_WARM: list[bool] = []  # set once this process has run :func:`warm`
+
+
+def warm() -> None:
+    """Load (or, on a new checkout, compile) this module's kernels once per process, so that the plan times a run
+    measures (the ``solve_time`` probe, IB21 Fig. 11 right) are the planner's and not numba's: one plan against two
+    small sets (the nearest distance by testing every member cell) and one against all of X0 (the row search).
+    Without it the first plan of a study's worker took up to 37 s on a new checkout, 0.1-2 s otherwise."""
+    if _WARM:
+        return
+    import shapely
+
+    s = DEFAULT_SETTINGS
+    grid = rs.Grid.over(shapely.box(0, 0, 400, 400), 1.0)
+    nav = np.array([[200.0, 100.0, 100.0, 0.0, 0.0, 0.0, 0.0]])
+    own = sm.predict(nav[:, None, :], sm.candidates(s.inputs, s.horizon)[None], s)[0]
+    small = rs.union(grid, [rs.box(grid, (x, x, x + 10, x + 10)) for x in (20.0, 300.0)])
+    for region in (small, rs.full(grid)):
+        plan_one_raster(grid, region, own, np.zeros((0, s.horizon, 7)), s)
+    _WARM.append(True)
+
+
 def kernel_costs(grid: rs.Grid, region: rs.Field, sc: Scene, xy: np.ndarray, s: SMMPCSettings,
                  rows: MemberRows | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Area over R and distance terms (C,) of every candidate by the compiled kernel (:class:`RasterKernel`)."""

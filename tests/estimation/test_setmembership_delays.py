@@ -291,9 +291,12 @@ def test_a_late_message_gives_the_on_time_raster_sets_exactly():
     for est, deliver in runs:
         run(est, frames, deliver, range(ARRIVE))
     assert not _equal(on_time, late)  # the message mattered
-    for est, deliver in runs:
-        run(est, frames, deliver, range(ARRIVE, len(frames)))
-    assert _equal(on_time, late) and late.sample()["late"].sum() == 0  # (this step's count: the replay was earlier)
+    for steps in (range(ARRIVE, ARRIVE + 1), range(ARRIVE + 1, len(frames))):  # right after the replay, and later
+        for est, deliver in runs:
+            run(est, frames, deliver, steps)
+        assert _equal(on_time, late)
+        if steps.start == ARRIVE:
+            assert late.sample()["late"].tolist() == [1.0, 0.0, 0.0]  # fused at its time, 2 periods back
     assert not _equal(on_time, ignored)
 
 

@@ -251,20 +251,10 @@ def _support_kernel(data, i0, j0, c, member, normals):  # pragma: no cover (comp
     """:func:`support_reference` in one pass over the rows."""
     n = len(normals)
     best = np.full(n, -np.inf)
-    h, w = data.shape
-    for i in range(h):
-        first = -1
-        for j in range(w):
-            if data[i, j] <= member:
-                first = j
-                break
+    for i in range(data.shape[0]):
+        first, last = _row_members(data[i], member)
         if first < 0:
             continue
-        last = first
-        for j in range(w - 1, first - 1, -1):
-            if data[i, j] <= member:
-                last = j
-                break
         py = (i0 + i + 0.5) * c
         for j in (first, last):
             px = (j0 + j + 0.5) * c
@@ -298,20 +288,24 @@ def _bbox(data, member):  # pragma: no cover (compiled)
     h, w = data.shape
     r0, c0, r1, c1 = h, w, 0, 0
     for i in range(h):
-        lo, hi = -1, -1
-        for j in range(w):
-            if data[i, j] <= member:
-                lo = j
-                break
+        lo, hi = _row_members(data[i], member)
         if lo < 0:
             continue
-        for j in range(w - 1, lo - 1, -1):
-            if data[i, j] <= member:
-                hi = j
-                break
         r0, r1 = min(r0, i), i + 1
         c0, c1 = min(c0, lo), max(c1, hi + 1)
     return r0, c0, r1, c1
+
+
+@numba.njit(cache=True)
+def _row_members(row, member):  # pragma: no cover (compiled)
+    """The first and last index of a value ``≤ member`` in ``row``, (−1, −1) when none: the row scan that
+    :func:`_bbox` and :func:`_support_kernel` share."""
+    for lo in range(len(row)):
+        if row[lo] <= member:
+            for hi in range(len(row) - 1, lo - 1, -1):
+                if row[hi] <= member:
+                    return lo, hi
+    return -1, -1
 
 
 def _grown(grid: Grid, box: tuple[int, int, int, int], m: int) -> tuple[int, int, int, int]:

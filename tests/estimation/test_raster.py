@@ -167,3 +167,18 @@ def test_the_compiled_removal_and_area_equal_their_readable_references():
     d = rs.depth(GRID, corners, f.window) - rs.DELTA
     assert np.array_equal(rs.values(GRID, got, f.window), np.maximum(f.data, d))
     assert rs.area(GRID, got) == pytest.approx(rs.cell_area(got.data, GRID.cell).sum(), rel=1e-12)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_compiled_redistancing_equals_its_readable_reference(seed):
+    rng = np.random.default_rng(seed)
+    X0 = rs.full(GRID)
+    blob = rs.dilate(GRID, rs.box(GRID, (60, 61, 97, 90)), 2.5)  # a window whose sides are not whole blocks
+    for f in (X0, blob):
+        for _ in range(3):  # seams between footprints, and values below 0 where dilations went on
+            f = rs.dilate(GRID, rs.remove(GRID, f, rotated_square(rng, 50.0)), 1.5)
+        for block in (3, 4):
+            got, ref = rs.redistance(GRID, f, block), rs.redistance_reference(GRID, f, block)
+            assert got.window == ref.window and np.array_equal(got.data, ref.data)
+            assert (got is f) == (ref is f)
+    assert rs.redistance(GRID, X0) is X0  # every block a member: nothing to raise

@@ -575,37 +575,61 @@ def redistance(grid: Grid, f: Field, block: int = 4) -> Field:
     return f if data is None else Field(f.i0, f.j0, data, f.core)
 
 
+def redistance_reference(grid: Grid, f: Field, block: int = 4) -> Field:
+    """:func:`redistance` in numpy (the readable reference of its kernels :func:`_blocks` and :func:`_lift`)."""
+    if f.is_empty:
+        return f
+    from scipy import ndimage
+
+    h, w = f.data.shape
+    H, W = -(-h // block), -(-w // block)
+    padded = np.full((H * block, W * block), np.inf)
+    padded[:h, :w] = f.data
+    coarse = (padded <= grid.slack + DELTA).reshape(H, block, W, block).any(axis=(1, 3))
+    if coarse.all():
+        return f
+    far = ndimage.distance_transform_edt(~coarse) * (block * grid.cell) - (2 * block - 1) * grid.slack
+    lifted = np.maximum(f.data, np.repeat(np.repeat(far, block, axis=0), block, axis=1)[:h, :w])
+    return f if (lifted == f.data).all() else Field(f.i0, f.j0, lifted, f.core)
+
+
 @numba.njit(cache=True)
 def _blocks(data, block, member):  # pragma: no cover (compiled)
-    """(H, W) whether each ``block`` × ``block`` block of ``data`` holds a value ``≤ member``."""
+    """(H, W) whether each ``block`` × ``block`` block of ``data`` holds a value ``≤ member``, block by block: a
+    block's scan stops at its first member (inside a large set, at its first cell)."""
     h, w = data.shape
     out = np.zeros(((h + block - 1) // block, (w + block - 1) // block), dtype=np.bool_)
-    for i in range(h):
-        for j in range(w):
-            if data[i, j] <= member:
-                out[i // block, j // block] = True
+    for bi in range(out.shape[0]):
+        for bj in range(out.shape[1]):
+            for i in range(bi * block, min(h, (bi + 1) * block)):
+                for j in range(bj * block, min(w, (bj + 1) * block)):
+                    if data[i, j] <= member:
+                        out[bi, bj] = True
+                        break
+                if out[bi, bj]:
+                    break
     return out
 
 
 @numba.njit(cache=True)
 def _lift(data, far, block):  # pragma: no cover (compiled)
-    """``max(data, far)`` with ``far`` per block, or None if it changes nothing."""
+    """``max(data, far)`` with ``far`` per block, or None if it changes nothing (one pass, a block's ``far`` read
+    once per row)."""
     h, w = data.shape
+    out = np.empty_like(data)
     changed = False
     for i in range(h):
-        for j in range(w):
-            if far[i // block, j // block] > data[i, j]:
-                changed = True
-                break
-        if changed:
-            break
-    if not changed:
-        return None
-    out = np.empty_like(data)
-    for i in range(h):
-        for j in range(w):
-            out[i, j] = max(data[i, j], far[i // block, j // block])
-    return out
+        row = far[i // block]
+        for bj in range(len(row)):
+            lift = row[bj]
+            for j in range(bj * block, min(w, (bj + 1) * block)):
+                v = data[i, j]
+                if lift > v:
+                    out[i, j] = lift
+                    changed = True
+                else:
+                    out[i, j] = v
+    return out if changed else None
 
 
 def members(grid: Grid, f: Field) -> np.ndarray:

@@ -190,28 +190,39 @@ def _check_lost(b: RasterBeliefs, i: int) -> None:
         b.alarms["all_empty"][i] += 1
 
 
+def once_each(items, make, key=id) -> list:
+    """``[make(x) for x in items]``, computed once per distinct ``key(x)``: UAVs that fused the same inputs hold the
+    same (immutable) sets, so what is derived from a set or a row of sets is derived once."""
+    done: dict = {}
+    out = []
+    for x in items:
+        k = key(x)
+        if k not in done:
+            done[k] = make(x)
+        out.append(done[k])
+    return out
+
+
+def _row_key(row) -> tuple:
+    return tuple(map(id, row))
+
+
 def aggregated(b: RasterBeliefs) -> np.ndarray:
     """IB21 eq. 43: ``X^A_i = (∪_j X_{i,j}) ∪ Xᵁ_i ∪ X̄_i`` (N,), one union per distinct row of sets."""
-    done: dict[tuple, rs.Field] = {}
-    out = np.empty(len(b.unexplored), dtype=object)
-    for i in range(len(out)):
-        row = (b.unexplored[i], b.unidentified[i], *b.identified[i])
-        key = tuple(id(f) for f in row)
-        if key not in done:
-            done[key] = rs.union_near(b.grid, row)  # measured and planned on, never predicted
-        out[i] = done[key]
+    rows = [(b.unexplored[i], b.unidentified[i], *b.identified[i]) for i in range(len(b.unexplored))]
+    out = np.empty(len(rows), dtype=object)
+    out[:] = once_each(rows, lambda row: rs.union_near(b.grid, row), _row_key)  # measured, planned on, not predicted
     return out
 
 
 def _areas(grid: rs.Grid, fields) -> np.ndarray:
-    memo: dict[int, float] = {}
-    return np.array([memo.setdefault(id(f), rs.area(grid, f)) for f in fields])
+    return np.array(once_each(fields, lambda f: rs.area(grid, f)))
 
 
 def uncertainty(b: RasterBeliefs, region: np.ndarray) -> dict[str, np.ndarray]:
     """IB21 eq. 10 and its parts (N,) each (m²; overlaps count once): φ(X^A), φ(X̄), φ(Xᵁ), φ(∪_j X_j), each the
     area of the outer approximation (:func:`raster.area`)."""
-    ids = [rs.union_near(b.grid, row) for row in b.identified]  # measured only
+    ids = once_each(b.identified, lambda row: rs.union_near(b.grid, row), _row_key)  # measured only
     return {"phi": _areas(b.grid, region), "unexplored": _areas(b.grid, b.unexplored),
             "unidentified": _areas(b.grid, b.unidentified), "identified": _areas(b.grid, ids)}
 
@@ -269,7 +280,7 @@ class RasterSetMembershipEstimator(SetMembershipEstimator):
         return uncertainty(self.beliefs, region)
 
     def _centres(self, region: np.ndarray) -> np.ndarray:
-        return np.array([rs.centroid(self.grid, f) for f in region]).reshape(-1, 2)
+        return np.array(once_each(region, lambda f: rs.centroid(self.grid, f))).reshape(-1, 2)
 
     def _listed(self) -> np.ndarray:
         return np.array([[not f.is_empty for f in row] for row in self.beliefs.identified], dtype=bool)

@@ -182,3 +182,13 @@ def test_the_compiled_redistancing_equals_its_readable_reference(seed):
             assert got.window == ref.window and np.array_equal(got.data, ref.data)
             assert (got is f) == (ref is f)
     assert rs.redistance(GRID, X0) is X0  # every block a member: nothing to raise
+
+
+def test_footprints_prepared_together_equal_those_prepared_one_by_one():
+    rng = np.random.default_rng(5)
+    corners = np.stack([rotated_square(rng, s) for s in (30.0, 82.8, 50.0)])
+    corners[1] = corners[1, ::-1]  # either order
+    for F, c in zip(rs.convex_all(GRID, corners), corners, strict=True):
+        one = rs.convex(GRID, c)
+        assert np.array_equal(F.normals, one.normals) and (F.i0, F.j0, F.i1, F.j1) == (one.i0, one.j0, one.i1, one.j1)
+        assert np.allclose(np.einsum("kd,kd->k", F.normals, np.roll(c, -1, axis=0) - c), 0.0)  # normal to the edges

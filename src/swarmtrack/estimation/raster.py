@@ -479,12 +479,13 @@ def depth(grid: Grid, corners: np.ndarray, window: tuple[int, int, int, int]) ->
 
 
 def _inward(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The corners (K, 2) as floats and the inward unit normals (K, 2) of the edges that start at them."""
+    """The corners (..., K, 2) as floats and the inward unit normals (..., K, 2) of the edges that start at them."""
     c = np.asarray(corners, dtype=float)
-    nxt = c[(np.arange(len(c)) + 1) % len(c)]
+    nxt = np.concatenate([c[..., 1:, :], c[..., :1, :]], axis=-2)
     edge = nxt - c
-    turn = 1.0 if np.sum(c[:, 0] * nxt[:, 1] - nxt[:, 0] * c[:, 1]) > 0 else -1.0  # counter-clockwise: +1
-    return c, turn * np.column_stack([-edge[:, 1], edge[:, 0]]) / np.hypot(edge[:, 0], edge[:, 1])[:, None]
+    turn = np.where(np.sum(c[..., 0] * nxt[..., 1] - nxt[..., 0] * c[..., 1], axis=-1) > 0, 1.0, -1.0)  # ccw: +1
+    normal = np.stack([-edge[..., 1], edge[..., 0]], axis=-1)
+    return c, turn[..., None, None] * normal / np.hypot(edge[..., 0], edge[..., 1])[..., None]
 
 
 @dataclass(frozen=True)
@@ -502,11 +503,21 @@ class Convex:
 
 def convex(grid: Grid, corners: np.ndarray) -> Convex:
     """:class:`Convex` of the polygon ``corners`` (K, 2), in either order (once for the several sets it cuts)."""
+    return convex_all(grid, np.asarray(corners, dtype=float)[None])[0]
+
+
+def convex_all(grid: Grid, corners: np.ndarray) -> list[Convex]:
+    """:func:`convex` of each polygon of ``corners`` (n, K, 2), computed together (every UAV's footprint at once)."""
     c, normal = _inward(corners)
-    (x0, y0), (x1, y1) = c.min(axis=0), c.max(axis=0)
-    i0, i1 = grid.span(y0, y1, 0)
-    j0, j1 = grid.span(x0, x1, 1)
-    return Convex(c, np.ascontiguousarray(normal), i0, j0, i1, j1)
+    lo, hi = c.min(axis=-2).tolist(), c.max(axis=-2).tolist()
+    return [Convex(c[q], normal[q], *_spans(grid, lo[q], hi[q])) for q in range(len(c))]
+
+
+def _spans(grid: Grid, lo: list[float], hi: list[float]) -> tuple[int, int, int, int]:
+    """``(i0, j0, i1, j1)``: the cells whose squares meet the box ``[lo, hi]`` (x, y each)."""
+    i0, i1 = grid.span(lo[1], hi[1], 0)
+    j0, j1 = grid.span(lo[0], hi[0], 1)
+    return i0, j0, i1, j1
 
 
 def remove(grid: Grid, f: Field, region) -> Field:

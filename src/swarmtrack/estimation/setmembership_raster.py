@@ -97,11 +97,12 @@ def predict(b: RasterBeliefs, rows: np.ndarray, t: float, speed: float) -> None:
     b.t[rows] = t
 
 
-def correct(b: RasterBeliefs, i: int, corners: np.ndarray, z: np.ndarray, labels: np.ndarray, bound) -> None:
-    """IB21 eqs. 16-29 for UAV i with its own frame: footprint ``corners`` (4, 2), detections ``z`` (M, 2) labelled
-    ``labels`` (M,), boxes of half-widths ``bound`` (the assumed noise bound)."""
+def correct(b: RasterBeliefs, i: int, footprint, z: np.ndarray, labels: np.ndarray, bound) -> None:
+    """IB21 eqs. 16-29 for UAV i with its own frame: ``footprint`` (its corners (4, 2), or as a
+    :class:`~swarmtrack.estimation.raster.Convex`), detections ``z`` (M, 2) labelled ``labels`` (M,), boxes of
+    half-widths ``bound`` (the assumed noise bound)."""
     g = b.grid
-    F = rs.convex(g, corners)  # the footprint, prepared once for the sets it cuts
+    F = footprint if isinstance(footprint, rs.Convex) else rs.convex(g, footprint)  # prepared once for the sets it cuts
     boxes = rs.boxes(g, z, bound)
     unid = rs.union(g, [boxes[m] for m in np.flatnonzero(labels == UNLABELLED)])
     Xu, Xbar = b.unidentified[i], b.unexplored[i]
@@ -252,8 +253,8 @@ class RasterSetMembershipEstimator(SetMembershipEstimator):
     def _start(self, n_uavs: int, n_ids: int, area) -> RasterBeliefs:
         return RasterBeliefs.start(self.grid, n_uavs, n_ids)
 
-    def _regions(self, corners: np.ndarray) -> np.ndarray:
-        return np.asarray(corners, dtype=float)  # removed by depth, shrunk by raster.DELTA
+    def _regions(self, corners: np.ndarray) -> list[rs.Convex]:
+        return rs.convex_all(self.grid, corners)  # removed by depth, shrunk by raster.DELTA
 
     def _message(self, t: float) -> dict:
         b = self.beliefs

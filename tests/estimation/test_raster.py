@@ -192,3 +192,17 @@ def test_footprints_prepared_together_equal_those_prepared_one_by_one():
         one = rs.convex(GRID, c)
         assert np.array_equal(F.normals, one.normals) and (F.i0, F.j0, F.i1, F.j1) == (one.i0, one.j0, one.i1, one.j1)
         assert np.allclose(np.einsum("kd,kd->k", F.normals, np.roll(c, -1, axis=0) - c), 0.0)  # normal to the edges
+
+
+def test_lowering_by_several_fields_at_once_gives_the_minimum_of_their_values():
+    rng = np.random.default_rng(9)
+    fields = [rs.dilate(GRID, rs.box(GRID, b), r) for b, r in (((40, 40, 52, 47), 2.5), ((90, 45, 96, 70), 1.0),
+                                                              ((20, 150, 30, 160), 0.0))]
+    win = (0, 0, 180, 120)
+    acc = np.where(rng.random((180, 120)) < 0.5, np.inf, rng.uniform(0.0, 60.0, (180, 120)))
+    want = acc.copy()
+    for f in fields:
+        want = np.minimum(want, rs.values(GRID, f, win))
+    got = acc.copy()
+    rs.lower(GRID, got, win, fields)
+    assert np.array_equal(got, want)

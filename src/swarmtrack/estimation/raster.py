@@ -153,41 +153,48 @@ def values(grid: Grid, f: Field, window: tuple[int, int, int, int]) -> np.ndarra
     return out
 
 
-def lower(grid: Grid, acc: np.ndarray, window: tuple[int, int, int, int], f: Field,
-          floor: np.ndarray | None = None) -> None:
-    """``acc ← min(acc, values(f, window))`` in place (the union's step), except where ``acc ≤ floor`` already: a
-    maximum with ``floor`` that follows (an intersection with it) gives ``floor`` there whatever f's bound. The same
-    numbers as the minimum with :func:`values`, but the bounds off f's stored window are computed only on the cells
-    where they can count (:func:`_lower_into`)."""
-    if f.is_empty:
-        return
+def lower(grid: Grid, acc: np.ndarray, window: tuple[int, int, int, int], fields, floor: np.ndarray | None = None
+          ) -> None:
+    """``acc ← min(acc, values(f, window))`` in place for each of ``fields`` (a Field or several: the union's step),
+    except where ``acc ≤ floor`` already: a maximum with ``floor`` that follows (an intersection with it) gives
+    ``floor`` there whatever the bounds. The same numbers as the minimum with :func:`values`, but the coarse bounds
+    off each field's stored window are computed only on the cells where they can count (:func:`_lower_into`), after
+    every field's stored values: a minimum is exact in any order, and what is stored lowers ``acc`` first, so the
+    coarse bounds are left as soon as they reach it."""
+    live = [f for f in ([fields] if isinstance(fields, Field) else fields) if not f.is_empty]
     i0, j0, i1, j1 = window
-    fi0, fj0, fi1, fj1 = f.window
-    if fi0 <= i0 and fj0 <= j0 and i1 <= fi1 and j1 <= fj1:
-        np.minimum(acc, f.data[i0 - fi0:i1 - fi0, j0 - fj0:j1 - fj0], out=acc)
-        return
-    _lower_into(acc, i0, j0, f.data, fi0, fj0, np.asarray(f.core, dtype=np.int64), _support(grid, f), _NORMALS,
-                grid.cell, acc if floor is None else floor, floor is not None)
+    beyond = []
+    for f in live:
+        fi0, fj0, fi1, fj1 = f.window
+        a0, b0, a1, b1 = max(i0, fi0), max(j0, fj0), min(i1, fi1), min(j1, fj1)
+        if a0 < a1 and b0 < b1:
+            part = acc[a0 - i0:a1 - i0, b0 - j0:b1 - j0]
+            np.minimum(part, f.data[a0 - fi0:a1 - fi0, b0 - fj0:b1 - fj0], out=part)
+        if not (fi0 <= i0 and fj0 <= j0 and i1 <= fi1 and j1 <= fj1):
+            beyond.append(f)
+    for f in beyond:
+        _lower_into(acc, i0, j0, f.data.shape, f.i0, f.j0, np.asarray(f.core, dtype=np.int64), _support(grid, f),
+                    _NORMALS, grid.cell, acc if floor is None else floor, floor is not None)
 
 
 @numba.njit(cache=True)
-def _lower_into(acc, i0, j0, data, fi0, fj0, core, support, normals, c, floor, use_floor):  # pragma: no cover
-    """:func:`lower`, one pass: per cell of ``acc`` (cell (i0, j0) first) skipped if ``acc ≤ floor`` (with
-    ``use_floor``), else the minimum with the stored value where there is one, else with the greater of the distance
-    to the core's rectangle and to each supporting half-plane (:func:`_beyond`, its readable reference), left as
-    soon as that reaches ``acc`` (a greater bound cannot lower it)."""
-    h, w = data.shape
+def _lower_into(acc, i0, j0, shape, fi0, fj0, core, support, normals, c, floor, use_floor):  # pragma: no cover
+    """:func:`lower`'s coarse part, one pass: per cell of ``acc`` (cell (i0, j0) first) off the stored window
+    (``shape`` at ``(fi0, fj0)``), skipped if ``acc ≤ floor`` (with ``use_floor``), else the minimum with the greater
+    of the distance to the core's rectangle and to each supporting half-plane (:func:`_beyond`, its readable
+    reference), left as soon as that reaches ``acc`` (a greater bound cannot lower it)."""
+    h, w = shape
     for a in range(acc.shape[0]):
         i = i0 + a
         y = (i + 0.5) * c
         dy = max(core[0] * c - y, y - core[2] * c, 0.0)
+        stored = fi0 <= i < fi0 + h
         for b in range(acc.shape[1]):
+            j = j0 + b
+            if stored and fj0 <= j < fj0 + w:
+                continue
             cur = acc[a, b]
             if use_floor and cur <= floor[a, b]:
-                continue
-            j = j0 + b
-            if fi0 <= i < fi0 + h and fj0 <= j < fj0 + w:
-                acc[a, b] = min(cur, data[i - fi0, j - fj0])
                 continue
             x = (j + 0.5) * c
             dx = max(core[1] * c - x, x - core[3] * c, 0.0)
@@ -338,8 +345,7 @@ def union(grid: Grid, fields) -> Field:
         return live[0] if live else EMPTY
     win = _cover([f.window for f in live])
     out = np.full((win[2] - win[0], win[3] - win[1]), np.inf)
-    for f in live:
-        lower(grid, out, win, f)
+    lower(grid, out, win, live)
     return Field(win[0], win[1], out, _cover([f.core for f in live]))
 
 
@@ -367,8 +373,7 @@ def _holding(grid: Grid, holders, window: tuple[int, int, int, int], floor: np.n
     if not live:
         return None
     held = np.full((window[2] - window[0], window[3] - window[1]), np.inf)
-    for h in live:
-        lower(grid, held, window, h, floor)
+    lower(grid, held, window, live, floor)
     return held
 
 

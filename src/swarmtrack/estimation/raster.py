@@ -33,7 +33,7 @@ exact sets by up to c/√2 along their edges.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numba
 import numpy as np
@@ -113,19 +113,18 @@ class Field:
     j0: int
     data: np.ndarray
     core: tuple[int, int, int, int] | None = None  # None: the window itself
+    #: ``(i0, j0, i1, j1)``, the cells ``[i0, i1) × [j0, j1)`` (set from the data's shape).
+    window: tuple[int, int, int, int] = field(init=False, repr=False, compare=False)
+    #: Whether the set is empty (an empty window).
+    is_empty: bool = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
+        h, w = self.data.shape
+        window = (self.i0, self.j0, self.i0 + h, self.j0 + w)
+        object.__setattr__(self, "window", window)
+        object.__setattr__(self, "is_empty", h * w == 0)
         if self.core is None:
-            object.__setattr__(self, "core", self.window)
-
-    @property
-    def is_empty(self) -> bool:
-        return self.data.size == 0
-
-    @property
-    def window(self) -> tuple[int, int, int, int]:
-        """``(i0, j0, i1, j1)``, the cells ``[i0, i1) × [j0, j1)``."""
-        return self.i0, self.j0, self.i0 + self.data.shape[0], self.j0 + self.data.shape[1]
+            object.__setattr__(self, "core", window)
 
 
 EMPTY = Field(0, 0, np.zeros((0, 0)))
@@ -173,7 +172,7 @@ def lower(grid: Grid, acc: np.ndarray, window: tuple[int, int, int, int], fields
         if not (fi0 <= i0 and fj0 <= j0 and i1 <= fi1 and j1 <= fj1):
             beyond.append(f)
     for f in beyond:
-        _lower_into(acc, i0, j0, f.data.shape, f.i0, f.j0, np.asarray(f.core, dtype=np.int64), _support(grid, f),
+        _lower_into(acc, i0, j0, f.data.shape, f.i0, f.j0, _core_array(f), _support(grid, f),
                     _NORMALS, grid.cell, acc if floor is None else floor, floor is not None)
 
 
@@ -227,6 +226,14 @@ def _beyond(grid: Grid, f: Field, window: tuple[int, int, int, int]) -> np.ndarr
     for (nx_, ny_), h in zip(_NORMALS, _support(grid, f), strict=True):
         np.maximum(out, y[:, None] * ny_ + x[None, :] * nx_ - h, out=out)
     return out
+
+
+def _core_array(f: Field) -> np.ndarray:
+    """The core as an int64 array (4,) for the kernels, kept on the field (it is immutable)."""
+    hit = f.__dict__.get("_core")
+    if hit is None:
+        hit = f.__dict__["_core"] = np.asarray(f.core, dtype=np.int64)
+    return hit
 
 
 def _support(grid: Grid, f: Field) -> np.ndarray:
@@ -693,7 +700,7 @@ def holds(grid: Grid, f: Field, points: np.ndarray, tolerance: float = 1e-6) -> 
     p = np.asarray(points, dtype=float).reshape(-1, 2)
     if f.is_empty:
         return np.zeros(len(p), dtype=bool)
-    return _holds(f.data, f.i0, f.j0, np.asarray(f.core, dtype=np.int64), grid.x0, grid.y0, grid.cell, p, tolerance)
+    return _holds(f.data, f.i0, f.j0, _core_array(f), grid.x0, grid.y0, grid.cell, p, tolerance)
 
 
 @numba.njit(cache=True)

@@ -351,9 +351,18 @@ def union(grid: Grid, fields) -> Field:
     if len(live) <= 1:
         return live[0] if live else EMPTY
     win = _cover([f.window for f in live])
-    out = np.full((win[2] - win[0], win[3] - win[1]), np.inf)
-    lower(grid, out, win, live)
+    out, rest = _start_on(live, win)
+    lower(grid, out, win, rest)
     return Field(win[0], win[1], out, _cover([f.core for f in live]))
+
+
+def _start_on(fields: list[Field], window: tuple[int, int, int, int]) -> tuple[np.ndarray, list[Field]]:
+    """A new array on ``window`` to take the minimum of ``fields`` in, and the fields still to take: a copy of the
+    values of one whose window it is (the minimum with ``+inf`` is that copy), or ``+inf`` and all of them."""
+    for k, f in enumerate(fields):
+        if f.window == window:
+            return f.data.copy(), fields[:k] + fields[k + 1:]
+    return np.full((window[2] - window[0], window[3] - window[1]), np.inf), fields
 
 
 def union_near(grid: Grid, fields) -> Field:
@@ -365,8 +374,8 @@ def union_near(grid: Grid, fields) -> Field:
     if len(live) <= 1:
         return live[0] if live else EMPTY
     win = _cover([f.window for f in live])
-    out = np.full((win[2] - win[0], win[3] - win[1]), np.inf)
-    for f in live:
+    out, rest = _start_on(live, win)
+    for f in rest:
         i0, j0, i1, j1 = f.window
         part = out[i0 - win[0]:i1 - win[0], j0 - win[1]:j1 - win[1]]
         np.minimum(part, f.data, out=part)

@@ -206,3 +206,14 @@ def test_lowering_by_several_fields_at_once_gives_the_minimum_of_their_values():
     got = acc.copy()
     rs.lower(GRID, got, win, fields)
     assert np.array_equal(got, want)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_block_distances_by_every_pair_equal_scipys_transform(seed):
+    from scipy import ndimage
+
+    rng = np.random.default_rng(seed)
+    for shape, share in (((11, 11), 0.1), ((7, 30), 0.02), ((40, 40), 0.3), ((1, 5), 0.5)):
+        coarse = rng.random(shape) < share
+        coarse[rng.integers(shape[0]), rng.integers(shape[1])] = True  # at least one member
+        assert np.array_equal(rs._nearest_pairs(coarse), ndimage.distance_transform_edt(~coarse))

@@ -597,14 +597,46 @@ def redistance(grid: Grid, f: Field, block: int = 4) -> Field:
     The result is ``max(v, that)``: never looser than ``f``."""
     if f.is_empty:
         return f
-    from scipy import ndimage
-
     coarse = _blocks(f.data, block, grid.slack + DELTA)
     if coarse.all():
         return f
-    far = ndimage.distance_transform_edt(~coarse) * (block * grid.cell) - (2 * block - 1) * grid.slack
+    far = block_distances(coarse) * (block * grid.cell) - (2 * block - 1) * grid.slack
     data = _lift(f.data, far, block)
     return f if data is None else Field(f.i0, f.j0, data, f.core)
+
+
+#: Up to this many (member, other) pairs of blocks, :func:`block_distances` tries every pair rather than call
+#: scipy, whose call costs tens of microseconds on the small windows of most sets.
+PAIRS = 50_000
+
+
+def block_distances(coarse: np.ndarray) -> np.ndarray:
+    """The distance from each block to the nearest member block (``coarse`` True), in blocks:
+    :func:`scipy.ndimage.distance_transform_edt` of ``~coarse``, or on small grids the same numbers by trying every
+    pair (:func:`_nearest_pairs`: the square root of the same integer sum of squares)."""
+    members = int(np.count_nonzero(coarse))
+    if members * (coarse.size - members) <= PAIRS:
+        return _nearest_pairs(coarse)
+    from scipy import ndimage
+
+    return ndimage.distance_transform_edt(~coarse)
+
+
+@numba.njit(cache=True)
+def _nearest_pairs(coarse):  # pragma: no cover (compiled)
+    """:func:`block_distances` by trying every (member, other) pair."""
+    mi, mj = np.nonzero(coarse)
+    out = np.zeros(coarse.shape)
+    for i in range(coarse.shape[0]):
+        for j in range(coarse.shape[1]):
+            if coarse[i, j]:
+                continue
+            best = np.iinfo(np.int64).max
+            for k in range(len(mi)):
+                di, dj = mi[k] - i, mj[k] - j
+                best = min(best, di * di + dj * dj)
+            out[i, j] = math.sqrt(float(best))
+    return out
 
 
 def redistance_reference(grid: Grid, f: Field, block: int = 4) -> Field:

@@ -358,11 +358,13 @@ def union(grid: Grid, fields) -> Field:
 
 def _start_on(fields: list[Field], window: tuple[int, int, int, int]) -> tuple[np.ndarray, list[Field]]:
     """A new array on ``window`` to take the minimum of ``fields`` in, and the fields still to take: a copy of the
-    values of one whose window it is (the minimum with ``+inf`` is that copy), or ``+inf`` and all of them."""
+    values of one whose stored window holds it (the minimum with ``+inf`` is that copy), or ``+inf`` and all."""
+    i0, j0, i1, j1 = window
     for k, f in enumerate(fields):
-        if f.window == window:
-            return f.data.copy(), fields[:k] + fields[k + 1:]
-    return np.full((window[2] - window[0], window[3] - window[1]), np.inf), fields
+        fi0, fj0, fi1, fj1 = f.window
+        if fi0 <= i0 and fj0 <= j0 and i1 <= fi1 and j1 <= fj1:
+            return f.data[i0 - fi0:i1 - fi0, j0 - fj0:j1 - fj0].copy(), fields[:k] + fields[k + 1:]
+    return np.full((i1 - i0, j1 - j0), np.inf), fields
 
 
 def union_near(grid: Grid, fields) -> Field:
@@ -388,8 +390,8 @@ def _holding(grid: Grid, holders, window: tuple[int, int, int, int], floor: np.n
     live = [h for h in holders if not h.is_empty]
     if not live:
         return None
-    held = np.full((window[2] - window[0], window[3] - window[1]), np.inf)
-    lower(grid, held, window, live, floor)
+    held, rest = _start_on(live, window)
+    lower(grid, held, window, rest, floor)
     return held
 
 

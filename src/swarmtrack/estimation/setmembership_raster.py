@@ -150,10 +150,10 @@ def fuse(b: RasterBeliefs, recv: np.ndarray, send: np.ndarray, sent: RasterBelie
             done[key] = i
             bars, us = sent.unexplored[group], sent.unidentified[group]
             b.unexplored[i] = rs.intersect_all(g, bars)  # eq. 37
-            b.unidentified[i] = rs.held_by_all(g, rs.union(g, us), _holders(us, bars))  # eq. 36
+            b.unidentified[i] = _held(g, us, (us, bars))  # eq. 36
             for j in range(b.n_ids):
                 xs = sent.identified[group, j]
-                b.identified[i, j] = rs.held_by_all(g, rs.union(g, xs), _holders(xs, us, bars))  # eqs. 34-35
+                b.identified[i, j] = _held(g, xs, (xs, us, bars))  # eqs. 34-35
         _check_lost(b, i)
 
 
@@ -172,6 +172,13 @@ def redistance(b: RasterBeliefs) -> None:
     for i in range(len(b.unexplored)):
         b.unexplored[i], b.unidentified[i] = lift(b.unexplored[i]), lift(b.unidentified[i])
         b.identified[i] = [lift(f) for f in b.identified[i]]
+
+
+def _held(grid: rs.Grid, sets: np.ndarray, columns: tuple) -> rs.Field:
+    """``(∪ sets) ∩ ⋂_ℓ (∪ of row ℓ of columns)``: eqs. 34-36's fused set, the holders listed only when the union is
+    not empty."""
+    candidate = rs.union(grid, sets)
+    return candidate if candidate.is_empty else rs.held_by_all(grid, candidate, _holders(*columns))
 
 
 def _holders(*columns: np.ndarray) -> list[list[rs.Field]]:

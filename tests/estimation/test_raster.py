@@ -217,3 +217,13 @@ def test_block_distances_by_every_pair_equal_scipys_transform(seed):
         coarse = rng.random(shape) < share
         coarse[rng.integers(shape[0]), rng.integers(shape[1])] = True  # at least one member
         assert np.array_equal(rs._nearest_pairs(coarse), ndimage.distance_transform_edt(~coarse))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_whether_sets_meet_is_whether_their_meet_has_a_member_cell(seed):
+    rng = np.random.default_rng(seed)
+    boxes = [rs.box(GRID, (*xy, *(xy + rng.uniform(3, 30, 2)))) for xy in rng.uniform(10, 160, (4, 2))]
+    small = rs.dilate(GRID, boxes[0], rng.uniform(0.5, 6.0))  # untrimmed: members may lie off its core
+    for holders in ([boxes[1]], [boxes[1], boxes[2]], [rs.dilate(GRID, boxes[3], 20.0)], [rs.EMPTY]):
+        met = rs.meet(GRID, small, *holders)
+        assert rs.meets(GRID, small, *holders) == (not met.is_empty and bool(rs.members(GRID, met).any()))

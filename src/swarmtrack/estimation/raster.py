@@ -412,8 +412,12 @@ def meets(grid: Grid, small: Field, *holders) -> bool:
         return False
     if any(h is small for h in holders):
         return True
-    held = _holding(grid, holders, small.window, small.data)
-    return held is not None and bool((np.maximum(small.data, held, out=held) <= grid.slack + DELTA).any())
+    r0, c0, r1, c1 = _bbox(small.data, grid.slack + DELTA)  # a member of the meet is one of small's: look there only
+    if r0 >= r1:
+        return False
+    part = small.data[r0:r1, c0:c1]
+    held = _holding(grid, holders, (small.i0 + r0, small.j0 + c0, small.i0 + r1, small.j0 + c1), part)
+    return held is not None and bool((np.maximum(part, held, out=held) <= grid.slack + DELTA).any())
 
 
 def held_by_all(grid: Grid, candidate: Field, holders: list[list[Field]]) -> Field:

@@ -136,3 +136,35 @@ def test_yaw_rate_spreads_like_the_random_walk_of_the_equation():
 def test_truth4_is_position_and_velocity():
     s = gw.initial_state([[1.0, 2.0]], [math.pi / 2])
     np.testing.assert_allclose(gw.truth4(s, gw.WalkerParams(speed=1.6)), [[1.0, 2.0, 0.0, 1.6]], atol=1e-15)
+
+
+def _walkers(rng, n, near_wall):
+    """``n`` walker states anywhere in the paper area, or within a tick of its walls (headings towards them too)."""
+    xy = rng.uniform(0.0, 400.0, (n, 2))
+    if near_wall:
+        xy = np.where(rng.random((n, 2)) < 0.5, rng.uniform(0.0, VDT, (n, 2)), 400.0 - rng.uniform(0.0, VDT, (n, 2)))
+    return np.column_stack([xy, rng.uniform(-4, 4, n), rng.uniform(-1, 1, n), rng.uniform(-0.4, 0.4, n)])
+
+
+@pytest.mark.parametrize("near_wall", [False, True])
+def test_the_compiled_step_equals_the_reference_bit_for_bit(near_wall):
+    """:func:`step_compiled` gives :func:`step`'s very numbers: compiled inside the area, the reference itself for a
+    tick where a walker crosses a wall; with the heading's cos and sin given (as the world does) or not."""
+    rng = np.random.default_rng(7)
+    crossed = 0
+    for _ in range(300):
+        s = _walkers(rng, 6, near_wall)
+        v = rng.uniform(-P.yaw_accel_bound, P.yaw_accel_bound, 6)
+        ref = gw.step(s, v, P, DT)
+        trig = (np.cos(s[:, gw.HEADING]), np.sin(s[:, gw.HEADING]))
+        np.testing.assert_array_equal(gw.step(s, v, P, DT, trig=trig), ref)
+        np.testing.assert_array_equal(gw.step_compiled(s, v, P, DT), ref)
+        np.testing.assert_array_equal(gw.step_compiled(s, v, P, DT, trig=trig), ref)
+        crossed += not np.array_equal(ref[:, :2], s[:, :2] + VDT * np.column_stack(trig))
+    assert (crossed > 100) == near_wall  # the walls were (or were not) reached
+
+
+def test_truth4_takes_the_heading_cos_and_sin_it_is_given():
+    s = _walkers(np.random.default_rng(3), 5, False)
+    trig = (np.cos(s[:, gw.HEADING]), np.sin(s[:, gw.HEADING]))
+    np.testing.assert_array_equal(gw.truth4(s, P, trig=trig), gw.truth4(s, P))

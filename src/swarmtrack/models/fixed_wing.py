@@ -55,28 +55,34 @@ class FixedWingParams:
 DEFAULT_PARAMS = FixedWingParams()
 
 
-def step(state, u, params: FixedWingParams = DEFAULT_PARAMS, dt: float = T_D) -> np.ndarray:
+def step(state, u, params: FixedWingParams = DEFAULT_PARAMS, dt: float = T_D, trig=None) -> np.ndarray:
     """One tick of the IB21 Sec. 6 UAV rows: returns a new ``(..., 7)`` array.
 
     ``u`` is the new yaw acceleration in rad/s², shape ``(...)`` or ``(..., 1)`` (broadcast against the state's
     leading axes), stored in x7 (one-tick delay, see the module docstring); the yaw rate is saturated at
-    ``±params.yaw_rate_max``.
+    ``±params.yaw_rate_max``. ``trig``: the ``(cos ψ, sin ψ)`` of the state's heading x5 if the caller has them
+    (the world computes them once per tick; the same numbers).
     """
     s = np.asarray(state, dtype=float)
     u = np.asarray(u, dtype=float)
     if u.ndim == s.ndim and u.ndim > 0 and u.shape[-1] == 1:
         u = u[..., 0]
-    lead = np.broadcast_shapes(s.shape[:-1], u.shape)
-    s = np.broadcast_to(s, lead + (STATE_DIM,))
+    lead = s.shape[:-1] if u.shape == s.shape[:-1] else np.broadcast_shapes(s.shape[:-1], u.shape)
+    if s.shape[:-1] != lead:
+        s = np.broadcast_to(s, lead + (STATE_DIM,))
+        trig = None
+    cos_psi, sin_psi = (np.cos(s[..., PSI]), np.sin(s[..., PSI])) if trig is None else trig
     v_dt = dt * params.speed
     horizontal = v_dt * np.cos(s[..., GAMMA])
     out = np.empty(lead + (STATE_DIM,))
-    out[..., X] = s[..., X] + horizontal * np.cos(s[..., PSI])
-    out[..., Y] = s[..., Y] + horizontal * np.sin(s[..., PSI])
+    out[..., X] = s[..., X] + horizontal * cos_psi
+    out[..., Y] = s[..., Y] + horizontal * sin_psi
     out[..., Z] = s[..., Z] + v_dt * np.sin(s[..., GAMMA])
     out[..., GAMMA] = s[..., GAMMA]
     out[..., PSI] = s[..., PSI] + dt * s[..., PSI_DOT]
-    out[..., PSI_DOT] = np.clip(s[..., PSI_DOT] + dt * s[..., PSI_DDOT], -params.yaw_rate_max, params.yaw_rate_max)
+    # np.clip as min(max(·)), as :func:`rollout`: the same numbers with less overhead
+    out[..., PSI_DOT] = np.minimum(np.maximum(s[..., PSI_DOT] + dt * s[..., PSI_DDOT], -params.yaw_rate_max),
+                                   params.yaw_rate_max)
     out[..., PSI_DDOT] = u
     return out
 

@@ -207,7 +207,7 @@ def test_sense_with_no_objects_or_nothing_in_view():
 def test_the_compiled_sense_equals_the_reference_bit_for_bit(confusion, orientation):
     """:func:`sense`'s compiled pass gives the very footprints, detections and labels of the numpy functions, on
     random frames, on objects exactly on footprint edges (the exact orientation tests) and seen from inside their
-    cones (every label outcome)."""
+    cones (every label outcome); with the per-run constants derived once (as the world's sensor does)."""
     rng = np.random.default_rng(11)
     params = fp.FootprintParams(confusion=confusion, orientation=orientation)
     outcomes = set()
@@ -229,12 +229,15 @@ def test_the_compiled_sense_equals_the_reference_bit_for_bit(confusion, orientat
             obj_xy[2] = (c[1, 1] + c[1, 2]) / 2
         u = rng.random((n, m, 2))
         args = (uav_xyz, psi, obj_xy, obj_heading, is_decoy, beta, gamma, u, params)
-        fast, src_fast = fp.sense(*args)
         ref, src_ref = fp.sense(*args, compiled=False)
-        np.testing.assert_array_equal(fast.footprint, ref.footprint)
-        np.testing.assert_array_equal(src_fast, src_ref)
-        np.testing.assert_array_equal(fast.owner, ref.owner)
-        np.testing.assert_array_equal(fast.label, ref.label)
-        np.testing.assert_array_equal(fast.z, ref.z)
+        # the compiled pass, deriving the objects' constants itself or given them (and the UAVs' cos ψ, sin ψ) once
+        constants = fp.ObjectConstants.of(params, is_decoy, beta, gamma)
+        for fast, src_fast in (fp.sense(*args),
+                               fp.sense(*args, constants=constants, uav_trig=(np.cos(psi), np.sin(psi)))):
+            np.testing.assert_array_equal(fast.footprint, ref.footprint)
+            np.testing.assert_array_equal(src_fast, src_ref)
+            np.testing.assert_array_equal(fast.owner, ref.owner)
+            np.testing.assert_array_equal(fast.label, ref.label)
+            np.testing.assert_array_equal(fast.z, ref.z)
         outcomes |= set(ref.label.tolist())
     assert {UNLABELLED, IDENTIFIED_FALSE, 0, 1}.issubset(outcomes)  # the labels were exercised

@@ -258,9 +258,49 @@ def identify(uav_xyz, obj_xyz, axis, is_decoy, J=None, *, aperture_true: float =
 # --- the sensor --------------------------------------------------------------------------------------------------
 
 
+@dataclass(frozen=True)
+class ObjectConstants:
+    """What :func:`sense` needs of the sensed objects besides their poses: none of it changes during a run, so a
+    sensor derives it once (:meth:`of`) rather than every frame. ``is_decoy`` (m,); ``beta`` (m,) the cone azimuth
+    offsets and ``sin_gamma``, ``cos_gamma`` (m,) the sine and cosine of the cone tilts (eqs. 51, 54, as
+    :func:`cone_axis` computes them); ``cos_g`` (m,) the cosine of each object's identification half-aperture (eq. 50
+    for a target, eq. 52 for a decoy) and ``cos_inner`` the decoys' confusion one (eq. 53); ``idx`` (m,) each
+    object's index among its kind and ``confused_as`` (m,) the target each decoy is confused with (``J``, eq. 4;
+    ``IDENTIFIED_FALSE`` for targets); ``negate``: ``q^f`` is eq. 53 negated (``"outside_inner_cone"``)."""
+
+    is_decoy: np.ndarray
+    beta: np.ndarray
+    sin_gamma: np.ndarray
+    cos_gamma: np.ndarray
+    cos_g: np.ndarray
+    cos_inner: float
+    idx: np.ndarray
+    confused_as: np.ndarray
+    negate: bool
+
+    @classmethod
+    def of(cls, params: FootprintParams, is_decoy, beta, gamma, J=None) -> ObjectConstants:
+        """The constants of objects of kinds ``is_decoy`` and cone angles ``beta``, ``gamma`` (m,) under ``params``,
+        with the confusion map ``J`` (default :func:`confusion_map`); the same numbers :func:`identify` and
+        :func:`cone_axis` compute."""
+        if params.confusion not in CONFUSIONS:
+            raise ValueError(f"confusion must be one of {CONFUSIONS}, not {params.confusion!r}")
+        is_decoy = np.asarray(is_decoy, dtype=bool)
+        if J is None:
+            J = confusion_map(int(is_decoy.sum()), int((~is_decoy).sum()))
+        confused_as = np.full(len(is_decoy), IDENTIFIED_FALSE)
+        confused_as[is_decoy] = np.asarray(J, dtype=int)
+        gamma = np.asarray(gamma, dtype=float)
+        return cls(is_decoy, np.asarray(beta, dtype=float), np.sin(gamma), np.cos(gamma),
+                   np.cos(np.where(is_decoy, params.aperture_decoy_identify, params.aperture_true) / 2),
+                   float(np.cos(params.aperture_decoy_reveal / 2)), _indices(is_decoy), confused_as,
+                   params.confusion == "outside_inner_cone")
+
+
 def sense(uav_xyz, uav_heading, obj_xy, obj_heading, is_decoy, beta, gamma, noise_u,
           params: FootprintParams = FootprintParams(), J=None, stamped=None,
-          compiled: bool = True) -> tuple[Detections, np.ndarray]:
+          compiled: bool = True, constants: ObjectConstants | None = None,
+          uav_trig: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[Detections, np.ndarray]:
     """One frame of the footprint sensor of every UAV (truth side; IB21 Sec. 3.2, Sec. 6, eqs. 3-8, 50-54).
 
     ``uav_xyz`` (n, 3) and ``uav_heading`` (n,) are the UAVs' true poses (they place the footprint and the cone
@@ -274,13 +314,20 @@ def sense(uav_xyz, uav_heading, obj_xy, obj_heading, is_decoy, beta, gamma, nois
     per axis) and the label of :func:`identify`. Returns the
     :class:`~swarmtrack.sensors.detections.Detections` (UAV-major, objects in order) and, for the world only, the
     object index each came from.
+
+    A caller that senses the same objects every frame passes their ``constants`` (:class:`ObjectConstants`, built
+    once from ``is_decoy``, ``beta``, ``gamma``, ``params`` and ``J``, which the compiled pass then does not read)
+    and may pass ``uav_trig``, the ``(cos, sin)`` of ``uav_heading`` it already has: the compiled pass then
+    recomputes neither.
     """
     uav_xyz = np.asarray(uav_xyz, dtype=float).reshape(-1, 3)
     obj_xy = np.asarray(obj_xy, dtype=float).reshape(-1, 2)
     n, m = len(uav_xyz), len(obj_xy)
     if compiled and m:
-        corners, seen, labels = _sense_compiled(uav_xyz, uav_heading, obj_xy, obj_heading, is_decoy, beta, gamma,
-                                                params, J)
+        if constants is None:
+            constants = ObjectConstants.of(params, is_decoy, beta, gamma, J)
+        corners, seen, labels = _sense_compiled(uav_xyz, uav_heading, obj_xy, obj_heading, params, constants,
+                                                uav_trig)
     else:
         corners = footprint_corners(uav_xyz[:, :2], uav_heading, uav_xyz[:, 2], params.tan_half, params.orientation)
         seen = inside(corners, obj_xy)  # (n, m)
@@ -295,64 +342,68 @@ def sense(uav_xyz, uav_heading, obj_xy, obj_heading, is_decoy, beta, gamma, nois
     return Detections(owner, z, pos[owner], labels[owner, source], n, footprint=corners), source
 
 
-def _sense_compiled(uav_xyz, uav_heading, obj_xy, obj_heading, is_decoy, beta, gamma, params, J):
+def _sense_compiled(uav_xyz, uav_heading, obj_xy, obj_heading, params, constants: ObjectConstants, uav_trig=None):
     """:func:`sense`'s footprints, detections and labels in one compiled pass (:func:`_sense_kernel`) with the same
-    arithmetic as :func:`footprint_corners`, :func:`inside` and :func:`identify` (its readable reference; tested
-    equal): the sines and cosines are numpy's, computed here as those functions compute them, and the rare
-    orientation tests within rounding of an edge are decided exactly by :func:`inside` itself."""
-    n, m = len(uav_xyz), len(obj_xy)
-    if params.confusion not in CONFUSIONS:
-        raise ValueError(f"confusion must be one of {CONFUSIONS}, not {params.confusion!r}")
-    half = (np.asarray(uav_xyz[:, 2], dtype=float) * params.tan_half) * np.ones(n)
+    arithmetic as :func:`footprint_corners`, :func:`inside`, :func:`cone_axis` and :func:`identify` (its readable
+    reference; tested equal): the sines and cosines are numpy's, computed here (or given, ``uav_trig``) as those
+    functions compute them, and the rare orientation tests within rounding of an edge are decided exactly by
+    :func:`inside` itself."""
+    n = len(uav_xyz)
     if params.orientation == "heading":
-        psi = np.asarray(uav_heading, dtype=float) * np.ones(n)
+        if uav_trig is None:
+            psi = np.asarray(uav_heading, dtype=float) * np.ones(n)
+            uav_trig = np.cos(psi), np.sin(psi)
     elif params.orientation == "north":
-        psi = np.zeros(n)
+        uav_trig = np.ones(n), np.zeros(n)  # cos 0, sin 0
     else:
         raise ValueError(f"orientation must be one of {ORIENTATIONS}, not {params.orientation!r}")
-    is_decoy = np.asarray(is_decoy, dtype=bool)
-    if J is None:
-        J = confusion_map(int(is_decoy.sum()), int((~is_decoy).sum()))
-    confused_as = np.full(m, IDENTIFIED_FALSE)
-    confused_as[is_decoy] = np.asarray(J, dtype=int)
-    axis = cone_axis(obj_heading, beta, gamma)
-    cos_g = np.cos(np.where(is_decoy, params.aperture_decoy_identify, params.aperture_true) / 2)
-    corners, det, unsure, labels = _sense_kernel(
-        uav_xyz, np.cos(psi), np.sin(psi), half, obj_xy, axis, np.linalg.norm(axis, axis=-1), cos_g,
-        float(np.cos(params.aperture_decoy_reveal / 2)), is_decoy, _indices(is_decoy), confused_as,
-        params.confusion == "outside_inner_cone")
-    if unsure.any():  # decided exactly, as the reference does
-        rows = np.flatnonzero(unsure.any(axis=1))
-        det[rows] = np.where(inside(corners[rows], obj_xy)[:, :, None], 1.0, -1.0)
-    return corners, np.all(det >= 0, axis=-1), labels
+    c = constants
+    az = np.asarray(obj_heading, dtype=float) + c.beta  # the cone axes' azimuths (eqs. 51, 54)
+    corners, seen, unsure, labels = _sense_kernel(
+        np.ascontiguousarray(uav_xyz), *uav_trig, params.tan_half, np.ascontiguousarray(obj_xy), np.cos(az),
+        np.sin(az), c.sin_gamma, c.cos_gamma, c.cos_g, c.cos_inner, c.is_decoy, c.idx, c.confused_as, c.negate)
+    if unsure.any():  # the footprints with a test within rounding of an edge: decided exactly, as the reference does
+        rows = np.flatnonzero(unsure)
+        seen[rows] = inside(corners[rows], obj_xy)
+    return corners, seen, labels
 
 
 @numba.njit(cache=True)
-def _sense_kernel(uav, cos_psi, sin_psi, half, obj, axis, axis_len, cos_g, cos_inner, is_decoy, idx, confused_as,
-                  negate):  # pragma: no cover (compiled)
+def _sense_kernel(uav, cos_psi, sin_psi, tan_half, obj, cos_az, sin_az, sin_gamma, cos_gamma, cos_g, cos_inner,
+                  is_decoy, idx, confused_as, negate):  # pragma: no cover (compiled)
     n, m = len(uav), len(obj)
     signs = ((-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0))
+    axis = np.empty((m, 3))  # cone_axis, and its norm as np.linalg.norm sums it
+    axis_len = np.empty(m)
+    for j in range(m):
+        axis[j, 0] = sin_gamma[j] * cos_az[j]
+        axis[j, 1] = sin_gamma[j] * sin_az[j]
+        axis[j, 2] = cos_gamma[j]
+        axis_len[j] = math.sqrt(axis[j, 0] * axis[j, 0] + axis[j, 1] * axis[j, 1] + axis[j, 2] * axis[j, 2])
     corners = np.empty((n, 4, 2))
-    det = np.empty((n, m, 4))
-    unsure = np.zeros((n, m), dtype=np.bool_)
+    seen = np.empty((n, m), dtype=np.bool_)  # inside's float test: left of or on every edge
+    unsure = np.zeros(n, dtype=np.bool_)  # footprints with an orientation test within rounding of an edge
     labels = np.empty((n, m), dtype=np.int64)
     for i in range(n):
-        fx, fy = half[i] * cos_psi[i], half[i] * sin_psi[i]
-        lx, ly = half[i] * -sin_psi[i], half[i] * cos_psi[i]
+        half = uav[i, 2] * tan_half  # footprint_corners' altitude·tan_half
+        fx, fy = half * cos_psi[i], half * sin_psi[i]
+        lx, ly = half * -sin_psi[i], half * cos_psi[i]
         for k in range(4):
             corners[i, k, 0] = uav[i, 0] + signs[k][0] * fx + signs[k][1] * lx
             corners[i, k, 1] = uav[i, 1] + signs[k][0] * fy + signs[k][1] * ly
         for j in range(m):
             qx, qy = obj[j, 0], obj[j, 1]
+            seen[i, j] = True
             for k in range(4):
                 ax, ay = corners[i, k, 0], corners[i, k, 1]
                 bx, by = corners[i, (k + 1) % 4, 0], corners[i, (k + 1) % 4, 1]
                 left = (ax - qx) * (by - qy)
                 right = (ay - qy) * (bx - qx)
                 d = left - right
-                det[i, j, k] = d
+                if not d >= 0:  # NaN too, as np.all(det >= 0)
+                    seen[i, j] = False
                 if abs(d) <= _ORIENT_ERR * (abs(left) + abs(right)):
-                    unsure[i, j] = True
+                    unsure[i] = True
             d0, d1, d2 = uav[i, 0] - qx, uav[i, 1] - qy, uav[i, 2] - 0.0
             dot = 0.0 + d0 * axis[j, 0]
             dot = dot + d1 * axis[j, 1]
@@ -367,4 +418,4 @@ def _sense_kernel(uav, cos_psi, sin_psi, half, obj, axis, axis_len, cos_g, cos_i
                 labels[i, j] = confused_as[j] if q >= 0 else IDENTIFIED_FALSE
             else:
                 labels[i, j] = idx[j]
-    return corners, det, unsure, labels
+    return corners, seen, unsure, labels

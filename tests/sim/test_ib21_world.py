@@ -95,3 +95,15 @@ def refused_ib21():
         assert "Traceback" not in result.output
 
     return check
+
+
+def test_the_compiled_walker_and_fixed_wing_steps_fly_the_numpy_run_bit_for_bit():
+    """``kernels: auto`` steps the walkers and the fixed wings with their compiled passes, ``numpy`` with the readable
+    references: the same truth, to the last bit, and so the same sets and commands."""
+    runs = [simulate(load_scenario("ib21-fleet-6", ["duration=6", f"kernels={k}"])) for k in ("numpy", "auto")]
+    (ref,), (fast,) = (list(r.chunks()) for r in runs)
+    np.testing.assert_array_equal(fast.truth, ref.truth)
+    for name, values in ref.probes.items():
+        if name != "solve_time":  # the controller's wall time
+            np.testing.assert_array_equal(fast.probes[name], values, err_msg=name)
+    assert not np.array_equal(ref.truth[-1], ref.truth[0])

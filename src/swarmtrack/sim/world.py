@@ -143,7 +143,8 @@ class FootprintSensor:
     every target and decoy (walkers) inside a fixed-wing UAV's footprint is detected with box noise (uniform draws
     from the object's stream ``sensor/footprint/<group>/<k>``) and labelled by the identification cones. ``beta`` and
     ``gamma`` are each sensed object's cone angles, ``is_decoy`` which are decoys, ``J`` the decoys' confusion map
-    (drawn and built by :mod:`swarmtrack.sim.build`)."""
+    (drawn and built by :mod:`swarmtrack.sim.build`). What of these the sensor reads every frame is derived once
+    (``constants``, :class:`~swarmtrack.sensors.footprint.ObjectConstants`)."""
 
     params: object
     beta: np.ndarray
@@ -153,36 +154,51 @@ class FootprintSensor:
     latency: float = 0.0
     occluders: tuple = ()
     sensed: tuple[str, ...] = ("targets", "decoys")
+    constants: object = field(init=False, repr=False, compare=False)
     name = "footprint"
+
+    def __post_init__(self) -> None:
+        from swarmtrack.sensors.footprint import ObjectConstants
+
+        object.__setattr__(self, "constants", ObjectConstants.of(self.params, self.is_decoy, self.beta, self.gamma,
+                                                               self.J))
 
     def detect_world(self, world: World):
         from swarmtrack.sensors import footprint
 
-        uavs = world.kinematic("uavs").state
+        uavs = world.kinematic("uavs")
         objects = np.concatenate([world.kinematic(g).state for g in self.sensed if world.kinematic(g) is not None])
-        n = len(uavs)
-        noise = np.stack([rng.random((n, 2)) for rng in world._sensor_rngs], axis=1) if len(objects) else \
-            np.zeros((n, 0, 2))
-        return footprint.sense(uavs[:, [fixed_wing.X, fixed_wing.Y, fixed_wing.Z]], uavs[:, fixed_wing.PSI],
+        n = len(uavs.state)
+        noise = np.empty((len(objects), n, 2))  # each object's stream draws its (n, 2) block, in object order
+        for rng, block in zip(world._sensor_rngs, noise, strict=True):
+            rng.random(out=block)
+        return footprint.sense(uavs.state[:, fixed_wing.X:fixed_wing.Z + 1], uavs.state[:, fixed_wing.PSI],
                                objects[:, :2], objects[:, ground_walker.HEADING], self.is_decoy, self.beta,
-                               self.gamma, noise, self.params, self.J)
+                               self.gamma, noise.transpose(1, 0, 2), self.params, self.J, constants=self.constants,
+                               uav_trig=uavs.trig())
 
 
 @dataclass
 class _Kinematic:
     """A group of kinematic vehicles: their full ``state`` (n, d), the ``command`` a commanded group holds (n, 1:
-    a fixed wing's yaw acceleration), a walker group's yaw-acceleration draws per tick (ticks, n)."""
+    a fixed wing's yaw acceleration), a walker group's yaw-acceleration draws per tick (ticks, n). The objects are
+    ``objects`` (a slice of the world's). ``compiled``: stepped by the module's ``step_compiled`` (the same numbers as
+    its ``step``). The cosine and sine of the members' headings, which the step, the truth and the footprint sensor
+    all read, are computed once per state (:meth:`trig`)."""
 
     name: str
     module: object
     params: object
-    objects: np.ndarray
+    objects: slice
     state: np.ndarray
     command: np.ndarray
     draws: np.ndarray | None
+    compiled: bool = False
+    _trig: tuple[np.ndarray, np.ndarray] | None = None
 
     @classmethod
-    def of(cls, g: Group, objects: slice, world_streams: list, worlds: int, ticks: int) -> _Kinematic:
+    def of(cls, g: Group, objects: slice, world_streams: list, worlds: int, ticks: int,
+           compiled: bool = False) -> _Kinematic:
         module = KINEMATIC[g.vehicle]
         heading = np.zeros(g.size) if g.heading is None else np.asarray(g.heading, dtype=float)
         if g.vehicle == "fixed_wing":
@@ -195,15 +211,23 @@ class _Kinematic:
             draws = np.stack([module.draw_inputs(world_streams[k // per](f"walk/{g.name}/{k % per}"), ticks, 1,
                                                  g.params)[:, 0] for k in range(g.size)], axis=1) if g.size else \
                 np.zeros((ticks, 0))
-        return cls(g.name, module, g.params, np.arange(objects.start, objects.stop), state, np.zeros((g.size, 1)),
-                   draws)
+        return cls(g.name, module, g.params, objects, state, np.zeros((g.size, 1)), draws, compiled)
+
+    def trig(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(cos, sin)`` (n,) of the members' headings in the current state (computed at the first call)."""
+        if self._trig is None:
+            heading = self.state[:, self.module.HEADING]
+            self._trig = np.cos(heading), np.sin(heading)
+        return self._trig
 
     def step(self, tick: int, dt: float) -> None:
         u = self.command if self.draws is None else self.draws[min(tick, len(self.draws) - 1)]
-        self.state = self.module.step(self.state, u, self.params, dt)
+        step = self.module.step_compiled if self.compiled else self.module.step
+        self.state = step(self.state, u, self.params, dt, trig=self.trig())
+        self._trig = None
 
     def truth4(self) -> np.ndarray:
-        return self.module.truth4(self.state, self.params)
+        return self.module.truth4(self.state, self.params, trig=self.trig())
 
 
 @dataclass
@@ -271,7 +295,8 @@ class World:
         self._kinematic: list[_Kinematic] = []
         for g in groups:
             if g.vehicle in KINEMATIC:
-                self._kinematic.append(_Kinematic.of(g, self.slices[g.name], world_streams, self.worlds, ticks))
+                self._kinematic.append(_Kinematic.of(g, self.slices[g.name], world_streams, self.worlds, ticks,
+                                                     compiled))
                 continue
             for k in range(g.size):
                 obj = self.slices[g.name].start + k
@@ -314,8 +339,10 @@ class World:
         self._row[self._point_obj] = len(self._quad_obj) + np.arange(len(self._point_obj))
         first = len(self._quad_obj) + len(self._point_obj)
         for kin in self._kinematic:
-            self._row[kin.objects] = first + np.arange(len(kin.objects))
-            first += len(kin.objects)
+            self._row[kin.objects] = first + np.arange(kin.objects.stop - kin.objects.start)
+            first += kin.objects.stop - kin.objects.start
+        self._kinematic_of = {kin.name: kin for kin in self._kinematic}
+        self._physics = bool(len(self._quad_obj) or len(self._point_obj))  # any vehicle the kernel steps
         # ring buffer of past positions, for measurements that arrive `latency` late
         lag = int(round(sensor.latency / dt))
         self._history = np.repeat(starts[None], lag + 1, axis=0)
@@ -345,8 +372,13 @@ class World:
     # --- truth, for the engine's recorder and the metrics only -------------------------------------------
     def _all_truth(self) -> np.ndarray:
         if self._truth_at != self._tick:  # gathered once per tick (the arrays only change in advance())
-            self._truth = np.concatenate([self._quads[:, :4], self._points,
-                                          *(k.truth4() for k in self._kinematic)])[self._row]
+            truth = np.empty((self.n_objects, 4))
+            if self._physics:
+                truth[self._quad_obj] = self._quads[:, :4]
+                truth[self._point_obj] = self._points
+            for kin in self._kinematic:
+                truth[kin.objects] = kin.truth4()
+            self._truth = truth
             self._truth_at = self._tick
         return self._truth
 
@@ -377,7 +409,7 @@ class World:
     def kinematic(self, group: str) -> _Kinematic | None:
         """The kinematic vehicles of ``group`` (their full states), or None for a group of other vehicles. A UAV's
         navigation solution carries its full state after ``[x, y, vx, vy]`` (its autopilot knows it)."""
-        return next((k for k in self._kinematic if k.name == group), None)
+        return self._kinematic_of.get(group)
 
     def _draw(self, rngs, width: int) -> np.ndarray:
         """(N, width) standard normal draws, each world's UAV rows from its own stream (one draw when alone)."""
@@ -436,9 +468,10 @@ class World:
                 self.step()
             return
         start = self._tick
-        self._kernel(self._quads, self._points, self._quad_cmd, self._point_cmd, self._quad_driver,
-                     self._point_driver, self._v_cmd, self._a_ff, self._wind, self._gains, self._tick, ticks,
-                     self.dt, self._kernel_consts, self._history, self._quad_obj, self._point_obj)
+        if self._physics:
+            self._kernel(self._quads, self._points, self._quad_cmd, self._point_cmd, self._quad_driver,
+                         self._point_driver, self._v_cmd, self._a_ff, self._wind, self._gains, self._tick, ticks,
+                         self.dt, self._kernel_consts, self._history, self._quad_obj, self._point_obj)
         for tick in range(start, start + ticks):
             self._step_kinematic(tick)
         self._tick += ticks

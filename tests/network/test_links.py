@@ -175,3 +175,20 @@ def test_edge_list_leaves_out_a_stored_self_link():
     links = sp.csr_array(np.array([[True, True], [False, True]]))
     receivers, senders = edge_list(links)
     assert receivers.tolist() == [0] and senders.tolist() == [1]
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_the_compiled_dense_proximity_equals_the_numpy_blocks_bit_for_bit(dim):
+    """The dense links (one compiled pass) are :func:`proximity_blocks`' test exactly: pairs at r_comm and within
+    rounding of it, coincident UAVs, a UAV with a NaN position (no links)."""
+    from swarmtrack.network.links import proximity_blocks
+
+    rng = np.random.default_rng(dim)
+    for _ in range(50):
+        q = rng.uniform(-10, 10, (40, dim))
+        q[1] = q[0]
+        q[2] = q[0] + 4.8 * np.eye(dim)[0] * (1 + rng.integers(-2, 3) * np.finfo(float).eps)
+        q[3, -1] = np.nan
+        dense = proximity_links(q, 4.8, sparse=False)
+        assert dense.dtype == bool and np.array_equal(dense, proximity_blocks(q[None], 4.8)[0])
+        assert dense[0, 1] and dense[1, 0] and not dense[3].any() and not dense[:, 3].any()

@@ -207,7 +207,8 @@ def test_sense_with_no_objects_or_nothing_in_view():
 def test_the_compiled_sense_equals_the_reference_bit_for_bit(confusion, orientation):
     """:func:`sense`'s compiled pass gives the very footprints, detections and labels of the numpy functions, on
     random frames, on objects exactly on footprint edges (the exact orientation tests) and seen from inside their
-    cones (every label outcome); with the per-run constants derived once (as the world's sensor does)."""
+    cones (every label outcome); with the per-run constants derived once (as the world's sensor does), and the
+    detections gathered by the compiled pass (:func:`_detections_kernel`) or numpy (:func:`_detections`)."""
     rng = np.random.default_rng(11)
     params = fp.FootprintParams(confusion=confusion, orientation=orientation)
     outcomes = set()

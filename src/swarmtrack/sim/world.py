@@ -267,6 +267,7 @@ class World:
         # a member or a group shifts no other draw
         self._nav_rngs = [s("navigation") for s in world_streams]
         self._nav_std = np.array([nav_std[0]] * 2 + [nav_std[1]] * 2)
+        self._nav_noisy = bool(self._nav_std.any())
         # object index ranges of each group, in group order
         self.slices, start = {}, 0
         for g in groups:
@@ -316,6 +317,7 @@ class World:
         # profile phase of every driven object at every tick (the UAVs have none)
         self._driven = np.asarray([self.slices[g.name].start + k for g in groups if g.driver is not None
                                    for k in range(g.size)], dtype=np.int64)
+        self._undriven = np.full(self.n_objects, -1, dtype=np.int16)  # phase_index's start: no phase
         self._phase = np.stack([p.phase_index(grid) for g in groups if g.driver is not None
                                 for p in g.driver.profiles], axis=1).astype(np.int16) if n_driven else \
             np.zeros((ticks, 0), dtype=np.int16)
@@ -389,8 +391,9 @@ class World:
 
     def phase_index(self) -> np.ndarray:
         """(n_objects,) index of the profile phase each driven object flies now (−1: not driven)."""
-        out = np.full(self.n_objects, -1, dtype=np.int16)
-        out[self._driven] = self._phase[min(self._tick, len(self._phase) - 1)]
+        out = self._undriven.copy()
+        if len(self._driven):
+            out[self._driven] = self._phase[min(self._tick, len(self._phase) - 1)]
         return out
 
     def label_of(self, obj: int) -> int:
@@ -401,7 +404,7 @@ class World:
     def navigation(self) -> np.ndarray:
         """Each UAV's own navigation solution (N, 4): truth plus white noise (the ``navigation`` stream)."""
         nav = self.truth("uavs")
-        if self._nav_std.any():
+        if self._nav_noisy:
             nav += self._draw(self._nav_rngs, nav.shape[1]) * self._nav_std
         kin = self.kinematic("uavs")
         return nav if kin is None else np.concatenate([nav, kin.state], axis=1)

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from swarmtrack.sensors import range_bearing
+from swarmtrack.sensors import footprint, range_bearing
 from swarmtrack.vehicles import double_integrator, fixed_wing, ground_walker, quadrotor
 from swarmtrack.vehicles.profile import VelocityProfile
 
@@ -158,14 +158,10 @@ class FootprintSensor:
     name = "footprint"
 
     def __post_init__(self) -> None:
-        from swarmtrack.sensors.footprint import ObjectConstants
-
-        object.__setattr__(self, "constants", ObjectConstants.of(self.params, self.is_decoy, self.beta, self.gamma,
-                                                               self.J))
+        object.__setattr__(self, "constants", footprint.ObjectConstants.of(self.params, self.is_decoy, self.beta,
+                                                                         self.gamma, self.J))
 
     def detect_world(self, world: World):
-        from swarmtrack.sensors import footprint
-
         uavs = world.kinematic("uavs")
         objects = np.concatenate([world.kinematic(g).state for g in self.sensed if world.kinematic(g) is not None])
         n = len(uavs.state)

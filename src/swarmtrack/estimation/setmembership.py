@@ -367,7 +367,7 @@ class SetMembershipEstimator:
         self._phi = self._uncertainty(self._aggregated())
         self.updates = np.zeros(n_uavs, dtype=np.int64)
         self._view: TargetView | None = None  # the view of the current sets (they change only at updates)
-        self._counts: tuple | None = None  # the probes counted on the current sets (n_identified, vertices)
+        self._sampled: dict | None = None  # the probes of the current sets (they change only at updates)
         self.probes = (Probe("phi", ()), Probe("phi_unexplored", ()), Probe("phi_unidentified", ()),
                        Probe("phi_identified", ()), Probe("n_identified", ()), Probe("vertices", ()),
                        Probe("set_updates", ()), Probe("alarm_unexplained", ()), Probe("alarm_all_empty", ()))
@@ -391,7 +391,7 @@ class SetMembershipEstimator:
                 frames.append((i, region, own.z[mine], own.label[mine]))
             self._update(t, rows, frames)
             self.updates[rows] += 1
-            self._view = self._counts = None
+            self._view = self._sampled = None
         if not self._sharing:
             return {}
         return self._message(t)
@@ -452,7 +452,7 @@ class SetMembershipEstimator:
         region = self._aggregated()  # X^A once, for Φ and the view
         self._phi = self._uncertainty(region)
         self._view = self._make_view(region)
-        self._counts = None
+        self._sampled = None
 
     def view(self) -> TargetView:
         """No single target: the centre of each UAV's aggregated set (eq. 43) as the state (NaN when empty), and the
@@ -475,14 +475,16 @@ class SetMembershipEstimator:
         return out
 
     def sample(self) -> dict[str, np.ndarray]:
-        b, phi = self.beliefs, self._phi
-        if self._counts is None:  # the sets change only at updates and fusions
-            self._counts = (self._listed().sum(axis=1) * 1.0, self._size() * 1.0)
-        listed, size = self._counts
-        return {"phi": phi["phi"], "phi_unexplored": phi["unexplored"], "phi_unidentified": phi["unidentified"],
-                "phi_identified": phi["identified"], "n_identified": listed.copy(),
-                "vertices": size.copy(), "set_updates": self.updates * 1.0,
+        """The probes, (N,) each: built once per change of the sets (an update or a fusion) and read by every step
+        until the next (the recorder copies what it keeps)."""
+        if self._sampled is None:
+            b, phi = self.beliefs, self._phi
+            self._sampled = {
+                "phi": phi["phi"], "phi_unexplored": phi["unexplored"], "phi_unidentified": phi["unidentified"],
+                "phi_identified": phi["identified"], "n_identified": self._listed().sum(axis=1) * 1.0,
+                "vertices": self._size() * 1.0, "set_updates": self.updates * 1.0,
                 "alarm_unexplained": b.alarms["unexplained"] * 1.0, "alarm_all_empty": b.alarms["all_empty"] * 1.0}
+        return dict(self._sampled)
 
     def _listed(self) -> np.ndarray:
         """(N, n_ids) whether each target is in each UAV's list L (its set not empty)."""

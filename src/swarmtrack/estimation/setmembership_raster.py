@@ -239,12 +239,19 @@ def containing(b: RasterBeliefs, points: np.ndarray, ids: np.ndarray) -> np.ndar
     """(N, P) whether each UAV's ``X_{i,j} ∪ Xᵁ_i ∪ X̄_i`` may hold each true target j at ``points`` (P, 2)
     (:func:`raster.holds`: ``v(g) ≤ |p − g|`` at its cell): the guarantee, for the truth-side monitor."""
     points = np.asarray(points, dtype=float).reshape(-1, 2)
+    checked: dict[int, np.ndarray] = {}  # per set (UAVs that fused the same inputs hold the same ones), every point
+
+    def holds(f: rs.Field) -> np.ndarray:
+        if id(f) not in checked:
+            checked[id(f)] = rs.holds(b.grid, f, points)
+        return checked[id(f)]
+
     out = np.zeros((len(b.unexplored), len(points)), dtype=bool)
     for i in range(len(out)):
-        out[i] = rs.holds(b.grid, b.unexplored[i], points) | rs.holds(b.grid, b.unidentified[i], points)
+        out[i] = holds(b.unexplored[i]) | holds(b.unidentified[i])
         for p, j in enumerate(np.asarray(ids).tolist()):
             if j >= 0 and not out[i, p]:
-                out[i, p] = rs.holds(b.grid, b.identified[i, j], points[p:p + 1])[0]
+                out[i, p] = holds(b.identified[i, j])[p]
     return out
 
 

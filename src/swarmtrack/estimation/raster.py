@@ -340,8 +340,14 @@ def _cover(boxes) -> tuple[int, int, int, int] | None:
     """The smallest window holding every given window (None if there are none)."""
     if not boxes:
         return None
-    w = np.array(boxes)
-    return int(w[:, 0].min()), int(w[:, 1].min()), int(w[:, 2].max()), int(w[:, 3].max())
+    i0, j0, i1, j1 = zip(*boxes, strict=True)
+    return int(min(i0)), int(min(j0)), int(max(i1)), int(max(j1))
+
+
+def _overlap(boxes) -> tuple[int, int, int, int]:
+    """The overlap of the given windows (empty when a lower corner passes an upper one)."""
+    i0, j0, i1, j1 = zip(*boxes, strict=True)
+    return int(max(i0)), int(max(j0)), int(min(i1)), int(min(j1))
 
 
 def union(grid: Grid, fields) -> Field:
@@ -443,9 +449,7 @@ def intersect_all(grid: Grid, fields) -> Field:
         return fields[0]
     if any(f.is_empty for f in fields):
         return EMPTY
-    w, k = np.array([f.window for f in fields]), np.array([f.core for f in fields])
-    win = (int(w[:, 0].max()), int(w[:, 1].max()), int(w[:, 2].min()), int(w[:, 3].min()))
-    core = (int(k[:, 0].max()), int(k[:, 1].max()), int(k[:, 2].min()), int(k[:, 3].min()))
+    win, core = _overlap([f.window for f in fields]), _overlap([f.core for f in fields])
     if core[0] >= core[2] or core[1] >= core[3]:
         return EMPTY
     out = values(grid, fields[0], win).copy()

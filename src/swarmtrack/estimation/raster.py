@@ -154,12 +154,12 @@ def values(grid: Grid, f: Field, window: tuple[int, int, int, int]) -> np.ndarra
 
 def lower(grid: Grid, acc: np.ndarray, window: tuple[int, int, int, int], fields, floor: np.ndarray | None = None
           ) -> None:
-    """``acc ← min(acc, values(f, window))`` in place for each of ``fields`` (a Field or several: the union's step),
-    except where ``acc ≤ floor`` already: a maximum with ``floor`` that follows (an intersection with it) gives
-    ``floor`` there whatever the bounds. The same numbers as the minimum with :func:`values`, but the coarse bounds
-    off each field's stored window are computed only on the cells where they can count (:func:`_lower_into`), after
-    every field's stored values: a minimum is exact in any order, and what is stored lowers ``acc`` first, so the
-    coarse bounds are left as soon as they reach it."""
+    """``acc ← min(acc, values(f, window))`` in place for each of ``fields`` (a Field or several: the union's step):
+    first every field's stored values, then the coarse bounds off each field's stored window (:func:`_lower_into`),
+    which are left as soon as they reach ``acc`` (a minimum is exact in any order, and what is stored lowers ``acc``
+    first). With ``floor``, the coarse bounds are skipped where ``acc ≤ floor`` already: a maximum with ``floor``
+    that follows (an intersection with it) gives ``floor`` there whatever the bound. The same numbers as the
+    minimum with :func:`values`, wherever they count."""
     live = [f for f in ([fields] if isinstance(fields, Field) else fields) if not f.is_empty]
     i0, j0, i1, j1 = window
     beyond = []

@@ -114,23 +114,53 @@ def test_the_kernel_equals_the_numpy_reference(case, distance):
         assert checked_varying  # and neighbours eq. 48 keeps for some candidates only
 
 
+def every_listed_member(k: smr.RasterKernel, which: np.ndarray) -> np.ndarray:
+    """The nearest distance of the listed search by its definition: over every listed member cell of G that no term
+    of the candidate (nor a steady one) covers, the least distance from p to its square (``np.hypot`` is the C
+    library's, as the kernel's ``math.hypot``; Python's own differs in the last bit)."""
+    rows, starts, cols, complete = k.rows.members
+    assert complete
+    sc, (x0, y0, c, r) = k.sc, k.geo
+    ii, jj = np.repeat(rows, np.diff(starts)), cols
+    ids = np.empty(sc.terms.shape[1] + len(sc.steady), dtype=np.int64)
+    out = np.zeros(len(which))
+    for q, cand in enumerate(which):
+        nid = smr._terms_of(sc.terms, sc.steady, cand, ids)
+        free = np.array([not smr._covered.py_func(ids, nid, sc.lines, sc.lag, k.spans, *sc.rows, i, j,
+                                                  x0 + (j + 0.5) * c, y0 + (i + 0.5) * c, r, k.grid.slack + smr.DELTA)
+                         for i, j in zip(ii, jj, strict=True)], dtype=bool)
+        if free.any():
+            px, py = k.xy[cand]
+            dx = np.maximum(np.maximum(x0 + jj * c - px, px - (x0 + jj * c + c)), 0.0)
+            dy = np.maximum(np.maximum(y0 + ii * c - py, py - (y0 + ii * c + c)), 0.0)
+            out[q] = np.hypot(dx, dy)[free].min()
+    return out
+
+
 @pytest.mark.parametrize("seed", range(3))
-def test_the_nearest_distance_by_testing_every_member_equals_the_row_search(seed):
-    """Both paths of :meth:`RasterKernel.distances` (every member cell of G tested, the row search) give the
-    reference's distances, on sets large and small (a few blobs far from the UAV: the case the first is for)."""
+def test_the_nearest_distance_over_the_listed_members_equals_the_row_search(seed):
+    """Both paths of :meth:`RasterKernel.distances` (the search over the listed member cells of G, the row search of
+    the grid) give the reference's distances, on sets large and small (a few blobs far from the UAV: the case the
+    first is for, and a blob the UAV's footprints cut); the listed search gives exactly the least distance over every
+    listed cell left uncovered."""
     rng = np.random.default_rng(10 + seed)
-    for small in (False, True):
+    for kind in ("large", "far", "cut"):
         poly, state, nb = random_scene(rng)
-        if small:
-            poly = shapely.union_all(shapely.buffer(shapely.points(rng.uniform(0, 400, (3, 2))), 4.0))
-        region = field_of(poly)
         rem = sm.removals(own_states(state), nb, S)
+        if kind == "far":
+            poly = shapely.union_all(shapely.buffer(shapely.points(rng.uniform(0, 400, (3, 2))), 4.0))
+        elif kind == "cut":
+            poly = shapely.Point(*(rem.xy[-1].mean(axis=0) + rng.uniform(-30, 30, 2))).buffer(25)
+        region = field_of(poly)
         sc = smr.scene(GRID, rem, S)
         _, ref = smr.reference_costs(GRID, region, rem, rem.xy[-1], S)
         every = np.arange(len(sc.terms))
-        for brute in (0, 10 ** 7):
+        for listed in (0, 10 ** 7):
             k = smr.RasterKernel(GRID, region, sc, rem.xy[-1], S, smr.member_rows(GRID, region, S))
-            np.testing.assert_allclose(k.distances(every, brute=brute), ref, rtol=0, atol=1e-9)
+            dist = k.distances(every, listed=listed)
+            np.testing.assert_allclose(dist, ref, rtol=0, atol=1e-9)
+            if listed and kind != "large":
+                np.testing.assert_array_equal(dist, every_listed_member(k, every))
 
 
 @pytest.mark.parametrize("horizon, inputs", [(1, (0.0, 0.25, -0.25, 0.5, -0.5)), (3, (0.0, 0.5, -0.5))])
@@ -340,7 +370,7 @@ def test_a_controller_on_a_grid_loads_the_planner_kernels_before_its_first_plan(
         np.flatnonzero(rs.members(grid, region)))))
     grid = rs.Grid.over(shapely.box(0, 0, 400, 400), 1.0)
     sm.SetMembershipMPC(shapely.box(0, 0, 400, 400), n_uavs=2, grid=grid)
-    assert len(planned) == 2 and min(planned) <= smr.BRUTE_MEMBERS < max(planned)  # both distance paths
+    assert len(planned) == 2 and min(planned) <= smr.LISTED_MEMBERS < max(planned)  # both distance paths
     sm.SetMembershipMPC(shapely.box(0, 0, 400, 400), n_uavs=2, grid=grid)
     sm.SetMembershipMPC(shapely.box(0, 0, 400, 400), n_uavs=2)  # polygons: nothing to load
     assert len(planned) == 2  # once per process

@@ -48,9 +48,10 @@ bounds off its stored window come from :func:`raster.values` (on four strips abo
 so the kernel follows that function's definition rather than recomputing it. As :func:`sm_mpc.plan_one` does,
 ``prune`` computes the distance only for the candidates whose area term leaves them a chance: usually one, but all
 25 when the UAV is far from every set (nothing in reach, every area tied). For that case, when G has at most
-:data:`BRUTE_MEMBERS` member cells (a few small sets), the nearest distance tests each of them instead
-(:func:`_nearest_brute`, the same distance: both paths are tested against the reference); a row search from far
-away would cross the whole box once per candidate.
+:data:`LISTED_MEMBERS` member cells (a few small sets), they are listed row by row once per Field and the nearest
+search runs over the listed rows only (:func:`_nearest_listed`, the same distance: both paths are tested against the
+reference, the listed one also against testing every listed cell); a row search of the grid from far away would
+cross the whole box once per candidate.
 
 **Cost** (ib21-like scenes, 6 UAVs, 1 m cells; see the timing helper in ``tests/control/test_sm_mpc_raster.py``):
 ≈ 0.2 ms for all 25 candidates' areas, ≈ 0.05 ms for the distance, the rest :func:`sm_mpc.removals` (corners
@@ -281,7 +282,7 @@ class MemberRows:
     prv: np.ndarray
     ready: np.ndarray
     has: np.ndarray
-    members: tuple | None = None  # (rows, columns, complete) of G's members, if few (:func:`_member_list`)
+    members: tuple | None = None  # (rows, starts, columns, complete) of G's members, if few (:func:`_member_list`)
 
 
 def member_rows(grid: rs.Grid, region: rs.Field, s: SMMPCSettings, shared: dict | None = None) -> MemberRows:
@@ -354,8 +355,8 @@ def plan_one_raster(grid: rs.Grid, region: rs.Field | None, own_states: np.ndarr
     return sm.Choice(index, cands[index], cost, areas, dist, 0, window)
 
 
-#: At most this many member cells of G: the nearest distance tests each of them (:meth:`RasterKernel.distances`).
-BRUTE_MEMBERS = 20_000
+#: At most this many member cells of G: the nearest distance searches them listed (:meth:`RasterKernel.distances`).
+LISTED_MEMBERS = 20_000
 
 
 class RasterKernel:
@@ -389,19 +390,20 @@ class RasterKernel:
         return _areas(sc.terms, sc.lines, sc.lag, self.spans, sc.rows[0], *self.base(), self.win, self.geo,
                       self.grid.slack)
 
-    def distances(self, which: np.ndarray, brute: int = BRUTE_MEMBERS) -> np.ndarray:
-        """d of eq. 47 for the candidates ``which``: for the nearest distance to at most ``brute`` member cells of
-        G, by testing every one (:func:`_nearest_brute`; far from a few small sets, where every candidate ties on
-        area and all 25 need a distance, each row search would cross the whole box), else by the row search."""
+    def distances(self, which: np.ndarray, listed: int = LISTED_MEMBERS) -> np.ndarray:
+        """d of eq. 47 for the candidates ``which``: for the nearest distance to at most ``listed`` member cells
+        of G, by a search over their list (:func:`_nearest_listed`; far from a few small sets, where every candidate
+        ties on area and all 25 need a distance, each row search of the grid would cross the whole box), else by
+        the row search."""
         sc, m = self.sc, self.rows
         if self.s.distance == "nearest":
             if m.members is None:
                 m.members = _member_list(m.src, m.fw, self.s.horizon, self.geo[3], self.outside, self.clip,
-                                         self.grid.slack + DELTA, m.ready, m.has, brute)
-            if m.members[2]:
-                return _nearest_brute(np.asarray(which, dtype=np.int64), sc.terms, sc.steady, sc.lines, sc.lag,
-                                      self.spans, sc.rows[0], sc.rows[1], self.geo, self.grid.slack, self.xy,
-                                      m.members[0], m.members[1])
+                                         self.grid.slack + DELTA, m.ready, m.has, listed)
+            if m.members[3]:
+                return _nearest_listed(np.asarray(which, dtype=np.int64), sc.terms, sc.steady, sc.lines, sc.lag,
+                                       self.spans, sc.rows[0], sc.rows[1], self.geo, self.grid.slack, self.xy,
+                                       *m.members[:3])
         if self._members is None:
             self._members = _range_members(self.base()[0], self.grid.slack + DELTA, self.sc.window[1])
         return _distances(np.asarray(which, dtype=np.int64), sc.terms, sc.steady, sc.lines, sc.lag, self.spans,
@@ -416,7 +418,7 @@ _WARM: list[bool] = []  # set once this process has run :func:`warm`
 def warm() -> None:
     """Load (or, on a new checkout, compile) this module's kernels once per process, so that the plan times a run
     measures (the ``solve_time`` probe, IB21 Fig. 11 right) are the planner's and not numba's: one plan against two
-    small sets (the nearest distance by testing every member cell) and one against all of X0 (the row search).
+    small sets (the nearest distance over the listed member cells) and one against all of X0 (the row search).
     Without it the first plan of a study's worker took up to 37 s on a new checkout, 0.1-2 s otherwise."""
     if _WARM:
         return
@@ -700,10 +702,12 @@ def _rows_without_members(src, fw, limit, ready, has):
 
 @numba.njit(cache=True)
 def _member_list(src, fw, h, r, outside, clip, thr, ready, has, most):
-    """The cells (rows, columns) where G is a member, and True; or empty arrays and False if there are more than
-    ``most``. Rows marked ready without a member (:func:`_rows_without_members`) are not evaluated."""
-    mi, mj = np.empty(most, dtype=np.int64), np.empty(most, dtype=np.int64)
-    n = 0
+    """The cells where G is a member, row by row: the rows holding some (ascending), ``starts`` (one more) where
+    each row's columns begin in ``cols`` (ascending within a row), and True; or empty arrays and False if there are
+    more than ``most``. Rows marked ready without a member (:func:`_rows_without_members`) are not evaluated."""
+    rows, starts = np.empty(fw[6] - fw[4], dtype=np.int64), np.zeros(fw[6] - fw[4] + 1, dtype=np.int64)
+    cols = np.empty(most, dtype=np.int64)
+    n = nr = 0
     width = fw[7] - fw[5]
     g = np.empty(max(width, 0))
     for i in range(fw[4], fw[6]):
@@ -713,39 +717,94 @@ def _member_list(src, fw, h, r, outside, clip, thr, ready, has, most):
         for j in range(width):
             if g[j] <= thr:
                 if n == most:
-                    return mi[:0], mj[:0], False
-                mi[n], mj[n] = i, fw[5] + j
+                    return rows[:0], starts[:1], cols[:0], False
+                cols[n] = fw[5] + j
                 n += 1
-    return mi[:n], mj[:n], True
+        if n > starts[nr]:
+            rows[nr] = i
+            nr += 1
+            starts[nr] = n
+    return rows[:nr], starts[:nr + 1], cols[:n], True
 
 
 @numba.njit(cache=True)
-def _nearest_brute(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, mi, mj):
-    """The nearest distance of :func:`_nearest` (0 if no member is left) by testing every member cell of G (the
-    terms of the candidate and the steady ones removing those they cover), nearest-first pruned."""
-    x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
+def _nearest_listed(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, rows, starts, cols):
+    """The nearest distance of :func:`_nearest` (0 if no member is left) over the listed member cells of G
+    (:func:`_member_list`), those the terms of the candidate and the steady ones cover left out: the member rows in
+    order of their gap to p, stopping at the best distance found; in each, the nearest uncovered member on either
+    side of p's column (found by bisection, jumping over the deep intervals). The same minimum as testing every
+    listed cell, by the same arithmetic: along a row the distance only grows away from p."""
+    x0, y0, c = geo[0], geo[1], geo[2]
     k = terms.shape[1] + len(steady)
     ids = np.empty(k, dtype=np.int64)
+    lo, hi = np.empty(k, dtype=np.int64), np.empty(k, dtype=np.int64)
     thr = slack + DELTA
     out = np.empty(len(which))
     for q in range(len(which)):
         cand = which[q]
         nid = _terms_of(terms, steady, cand, ids)
         px, py = xy[cand, 0], xy[cand, 1]
+        ip = int(math.floor((py - y0) / c))
+        jp = int(math.floor((px - x0) / c))
+        up = np.searchsorted(rows, ip)  # member rows ≥ ip from here, those below from up − 1 down
+        dn = up - 1
         best = np.inf
-        for m in range(len(mi)):
-            i, j = mi[m], mj[m]
-            xl, yl = x0 + j * c, y0 + i * c
-            dx = max(max(xl - px, px - (xl + c)), 0.0)
-            dy = max(max(yl - py, py - (yl + c)), 0.0)
-            d = math.hypot(dx, dy)
-            if d >= best:
-                continue
-            if _covered(ids, nid, lines, lag, spans, t0, t1, i, j, x0 + (j + 0.5) * c, y0 + (i + 0.5) * c, r, thr):
-                continue
-            best = d
+        while True:
+            gdn = _gap(y0 + rows[dn] * c, py, c) if dn >= 0 else np.inf
+            gup = _gap(y0 + rows[up] * c, py, c) if up < len(rows) else np.inf
+            if min(gdn, gup) >= best:
+                break
+            if gdn <= gup:
+                at, dy = dn, gdn
+                dn -= 1
+            else:
+                at, dy = up, gup
+                up += 1
+            i = rows[at]
+            a, b = starts[at], starts[at + 1]
+            m = _row_covers(ids, nid, spans, t0, t1, i, lo, hi)
+            first = a + np.searchsorted(cols[a:b], jp)  # the first member column ≥ jp
+            for step in (1, -1):
+                e = _first_listed(cols, first if step > 0 else first - 1, step, a, b, i, ids, nid, lines, lag,
+                                  spans, t0, t1, lo, hi, m, geo, thr, px, dy, best)
+                if e >= 0:
+                    best = min(best, math.hypot(_gap(x0 + cols[e] * c, px, c), dy))
         out[q] = 0.0 if best == np.inf else best
     return out
+
+
+@numba.njit(cache=True, inline="always")
+def _gap(lower, p, c):
+    """Distance from coordinate p to the cell side ``[lower, lower + c]`` (0 inside)."""
+    return max(max(lower - p, p - (lower + c)), 0.0)
+
+
+@numba.njit(cache=True)
+def _first_listed(cols, e, step, a, b, i, ids, nid, lines, lag, spans, t0, t1, lo, hi, m, geo, thr, px, dy, best):
+    """From entry e of the listed member columns ``cols[a:b]`` of grid row i in direction ``step`` (±1), the first
+    one not covered by a term (``lo``/``hi`` its ``m`` merged deep intervals, :func:`_row_covers`), or −1 if there
+    is none or none nearer than ``best`` (``dy`` the row's gap to p)."""
+    x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
+    y = y0 + (i + 0.5) * c
+    bound = best * best * (1 + 1e-9) - dy * dy  # dx² beyond which the distance is surely ≥ best (no hypot)
+    while a <= e < b:
+        j = cols[e]
+        dx = _gap(x0 + j * c, px, c)
+        if dx * dx > bound:
+            return -1
+        jumped = False
+        for q in range(m):
+            if lo[q] <= j < hi[q]:  # to the first entry past the interval
+                e = a + np.searchsorted(cols[a:b], hi[q]) if step > 0 else a + np.searchsorted(cols[a:b], lo[q]) - 1
+                jumped = True
+                break
+        if jumped:
+            continue
+        if _covered(ids, nid, lines, lag, spans, t0, t1, i, j, x0 + (j + 0.5) * c, y, r, thr):
+            e += step
+            continue
+        return e
+    return -1
 
 
 @numba.njit(cache=True)

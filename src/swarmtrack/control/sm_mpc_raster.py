@@ -689,15 +689,24 @@ def _rows_without_members(src, fw, limit, ready, has):
         if i < b0 or i >= b2:
             low = False
         elif i < fi0:
-            low = (top[i - b0] <= limit).any()
+            low = _any_at_most(top[i - b0], limit)
         elif i >= fi1:
-            low = (bottom[i - fi1] <= limit).any()
+            low = _any_at_most(bottom[i - fi1], limit)
         else:
             k = i - fi0
-            low = (data[k] <= limit).any() or (left[k] <= limit).any() or (right[k] <= limit).any()
+            low = _any_at_most(data[k], limit) or _any_at_most(left[k], limit) or _any_at_most(right[k], limit)
         if not low:
             ready[i] = 1
             has[i] = 0
+
+
+@numba.njit(cache=True, inline="always")
+def _any_at_most(row, limit):
+    """Whether some value of ``row`` is at most ``limit`` (stops at the first)."""
+    for v in row:
+        if v <= limit:
+            return True
+    return False
 
 
 @numba.njit(cache=True)

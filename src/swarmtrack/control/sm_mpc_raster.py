@@ -376,8 +376,8 @@ class RasterKernel:
         self.win = np.array(sc.window, dtype=np.int64)
         self._base = self._members = None
 
-    def base(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """On R: B (v without the candidates' terms), cell_area(B) and its row prefix sums (once per plan)."""
+    def base(self) -> tuple[np.ndarray, np.ndarray]:
+        """On R: B (v without the candidates' terms) and the row prefix sums of cell_area(B) (once per plan)."""
         if self._base is None:
             sc, m = self.sc, self.rows
             self._base = _base_window(m.src, m.fw, self.geo, self.s.horizon, self.outside, self.clip, self.win,
@@ -515,7 +515,7 @@ def _spans(lines, lag, geo, t0, t1, nx, slack):
     the round-off."""
     x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
     n_f, n_e = lines.shape[0], lines.shape[1]
-    out = np.zeros((n_f, max(t1 - t0, 0), 4), dtype=np.int64)
+    out = np.zeros((n_f, max(t1 - t0, 0), 4), dtype=np.int32)
     inv, k0 = np.empty(n_e), np.empty(n_e)
     for f in range(n_f):
         shift = DELTA + lag[f] * r
@@ -554,12 +554,11 @@ def _spans(lines, lag, geo, t0, t1, nx, slack):
 
 @numba.njit(cache=True)
 def _base_window(src, fw, geo, h, outside, clip, win, lines, lag, steady, spans, t0):
-    """On R: ``B`` (v without the candidates' terms), ``cell_area(B)`` and its row prefix sums."""
+    """On R: ``B`` (v without the candidates' terms) and the row prefix sums of ``cell_area(B)``."""
     x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
     i0, j0, i1, j1 = win[0], win[1], win[2], win[3]
     slack = c / math.sqrt(2.0)
     base = np.empty((i1 - i0, j1 - j0))
-    ab = np.empty((i1 - i0, j1 - j0))
     prefix = np.zeros((i1 - i0, j1 - j0 + 1))
     for i in range(i0, i1):
         _g_row(src, fw, i, j0, j1, h, r, outside, clip, base[i - i0])
@@ -572,11 +571,9 @@ def _base_window(src, fw, geo, h, outside, clip, win, lines, lag, steady, spans,
                     base[i - i0, j - j0] = t
         acc = 0.0
         for j in range(j0, j1):
-            a = _cell_area(base[i - i0, j - j0], c, slack)
-            ab[i - i0, j - j0] = a
-            acc += a
+            acc += _cell_area(base[i - i0, j - j0], c, slack)
             prefix[i - i0, j - j0 + 1] = acc
-    return base, ab, prefix
+    return base, prefix
 
 
 @numba.njit(cache=True, inline="always")
@@ -622,7 +619,7 @@ def _merge(lo, hi, n):
 
 
 @numba.njit(cache=True)
-def _removed_area(ids, nid, lines, lag, spans, t0, base, ab, prefix, win, geo, slack, ulo, uhi, dlo, dhi):
+def _removed_area(ids, nid, lines, lag, spans, t0, base, prefix, win, geo, slack, ulo, uhi, dlo, dhi):
     """``Σ_R cell_area(B) − Σ_R cell_area(v_c)`` for the candidate whose terms are ``ids[:nid]``: per row, the empty
     cells' share by prefix sums over the union of the deep intervals, and the band between it and the union of
     the liberal intervals cell by cell."""
@@ -663,9 +660,9 @@ def _removed_area(ids, nid, lines, lag, spans, t0, base, ab, prefix, win, geo, s
                 if w < md and dlo[w] <= j:
                     j = dhi[w]
                     continue
-                a = ab[row, j - j0]
+                v = b0 = base[row, j - j0]
+                a = _cell_area(b0, c, slack)
                 if a > 0.0:
-                    v = b0 = base[row, j - j0]
                     x = x0 + (j + 0.5) * c
                     for p in range(nid):
                         f = ids[p]
@@ -1021,7 +1018,7 @@ def _terms_of(terms, steady, cand, ids):
 
 
 @numba.njit(cache=True)
-def _areas(terms, lines, lag, spans, t0, base, ab, prefix, win, geo, slack):
+def _areas(terms, lines, lag, spans, t0, base, prefix, win, geo, slack):
     """Per candidate, the area over R: ``Σ_R cell_area(B)`` less what its terms remove."""
     n, width = terms.shape
     total = 0.0
@@ -1033,7 +1030,7 @@ def _areas(terms, lines, lag, spans, t0, base, ab, prefix, win, geo, slack):
     areas = np.empty(n)
     for cand in range(n):
         nid = _candidate_ids(terms, cand, ids)
-        areas[cand] = total - _removed_area(ids, nid, lines, lag, spans, t0, base, ab, prefix, win, geo, slack,
+        areas[cand] = total - _removed_area(ids, nid, lines, lag, spans, t0, base, prefix, win, geo, slack,
                                             ulo, uhi, dlo, dhi)
     return areas
 

@@ -236,6 +236,40 @@ def test_uavs_far_from_the_same_set_share_its_far_part_and_get_the_distances_of_
     assert len(shared) == 1  # built once for both
 
 
+@pytest.mark.parametrize("sets", ["polygons", "raster"])
+def test_a_fleet_plan_gives_each_uav_the_numbers_of_its_own_plan(sets):
+    """:func:`plan_all` computes the footprints once for the fleet and hands each UAV its own and its neighbours'
+    (:func:`removals` ``corners``): every UAV's costs are those of planning it alone from its predicted states and
+    its lower neighbours' (footprints computed there), bit for bit."""
+    from swarmtrack.control import sm_mpc_raster as smr
+    from swarmtrack.estimation import raster as rs
+
+    rng = np.random.default_rng(7)
+    n = 4
+    nav = np.stack([uav(*rng.uniform(100, 300, 2), rng.uniform(-np.pi, np.pi), rng.uniform(-0.2, 0.2))
+                    for _ in range(n)])
+    links = (np.hypot(*(nav[:, None, :2] - nav[None, :, :2]).T) <= S.comm_range) & ~np.eye(n, dtype=bool)
+    assert links[np.tril_indices(n, -1)].any()  # some UAV plans after a neighbour
+    parts = [(0, 0, 150, 400), (250, 0, 400, 400), (150, 300, 250, 400)]  # X0 less a strip explored
+    grid = rs.Grid.over(X0, 1.0) if sets == "raster" else None
+    if grid is not None:
+        x_a = rs.union(grid, [rs.box(grid, b) for b in parts])
+    else:
+        x_a = shapely.union_all([shapely.box(*b) for b in parts])
+    fleet = sm.plan_all(nav, np.array([x_a] * n, dtype=object), X0, S, links, nav, grid=grid)
+    cands = sm.candidates(S.inputs, S.horizon)
+    for i in range(n):
+        lower = np.flatnonzero(links[i, :i])
+        nb = sm.predict(nav[lower], fleet.plans[lower], S) if len(lower) else np.zeros((0, S.horizon, 7))
+        own = sm.predict(nav[i], cands, S)
+        alone = (smr.plan_one_raster(grid, x_a, own, nb, S) if grid is not None else
+                 sm.plan_one(x_a, own, nb, X0, S))
+        got = fleet.choices[i]
+        assert got.index == alone.index
+        for a, b in ((got.cost, alone.cost), (got.area, alone.area), (got.distance, alone.distance)):
+            np.testing.assert_array_equal(a, b)
+
+
 @pytest.mark.parametrize("seed", range(4))
 def test_far_distances_part_by_part_equal_the_distance_to_the_whole_sets_rounds(seed):
     """Late-mission sets (scattered blobs) far from the UAVs: the nearest parts' rounds only, with the bound

@@ -197,26 +197,30 @@ class Removals:
 
 
 def removals(own_states: np.ndarray, nb_states: np.ndarray, s: SMMPCSettings,
-             neighbours: bool = True, polygons: bool = True) -> Removals:
+             neighbours: bool = True, polygons: bool = True,
+             corners: tuple[np.ndarray, np.ndarray | None] | None = None) -> Removals:
     """The per-level removals of one UAV: ``own_states`` (C, h, 7) its predicted states for every candidate,
     ``nb_states`` (L, h, 7) its lower-indexed neighbours' predicted states (eq. 48 with ``c = d^c − ‖Δp‖ ≥ 0``).
-    ``polygons`` False: the corners only (``own`` and ``nb`` empty), for a planner that needs no shapely polygon."""
+    ``polygons`` False: the corners only (``own`` and ``nb`` empty), for a planner that needs no shapely polygon.
+    ``corners``: the footprints' corners (:func:`footprints`) of ``own_states`` and of ``nb_states`` (None: not
+    known), when the caller has them already (:func:`plan_all` computes them once for the fleet)."""
     h = s.horizon
     branch = len(s.inputs)
     nb_states = nb_states if neighbours else nb_states[:0]
-    corners_all = footprints(np.concatenate([own_states.reshape(-1, fw.STATE_DIM),
-                                             nb_states.reshape(-1, fw.STATE_DIM)]), s)
-    own_corners = corners_all[:own_states.shape[0] * h].reshape(own_states.shape[:2] + (4, 2))
-    nb_corners = corners_all[own_states.shape[0] * h:].reshape(nb_states.shape[:2] + (4, 2))
+    own_corners, nb_corners = (None, None) if corners is None else corners
+    if own_corners is None:
+        own_corners = footprints(own_states, s)
+    nb_corners = footprints(nb_states, s) if nb_corners is None else nb_corners[:len(nb_states)]
+    none = pg.empty(0)
     own, xy, nb, kept, corners = [], [], [], [], []
     for k in range(h):
         stride = branch ** (h - k - 1)  # the first candidate of every prefix of length k+1
         nodes = own_states[::stride, k]
         c = own_corners[::stride, k]
         corners.append(c)
-        own.append(footprint_polygons(c) if polygons else pg.empty(0))
+        own.append(footprint_polygons(c) if polygons else none)
         xy.append(nodes[:, :2])
-        nb.append(footprint_polygons(nb_corners[:, k]) if len(nb_states) and polygons else pg.empty(0))
+        nb.append(footprint_polygons(nb_corners[:, k]) if len(nb_states) and polygons else none)
         gap = nodes[:, None, :2] - nb_states[None, :, k, :2]
         kept.append(np.einsum("nli,nli->nl", gap, gap) <= s.comm_range ** 2)
     return Removals(own, xy, nb, kept, corners, nb_corners)
@@ -352,18 +356,20 @@ def choose(cost: np.ndarray, rel: float = 1e-12, abs_tol: float = 1e-9) -> int:
 
 
 def plan_one(region, own_states: np.ndarray, nb_states: np.ndarray, area, s: SMMPCSettings = DEFAULT_SETTINGS,
-             exact: bool | None = None, prune: bool = True, shared: dict | None = None) -> Choice:
+             exact: bool | None = None, prune: bool = True, shared: dict | None = None,
+             corners: tuple[np.ndarray, np.ndarray | None] | None = None) -> Choice:
     """Eq. 47 minimised over U_d^h for one UAV: ``region`` its X^A (a shapely geometry), ``own_states`` (C, h, 7)
     its predicted states per candidate (:func:`predict` over :func:`candidates`), ``nb_states`` (L, h, 7) its
     lower-indexed neighbours' predicted states, ``area`` X0. ``exact`` (default ``s.exact``): the full-set
     reference instead of the local window (module docstring). ``prune`` (local window only): compute the distance
     only for candidates whose area term leaves them a chance (the others' cost is reported as ``inf``). ``shared``:
     a dict kept across the UAVs of one fleet plan, where the full-set rounds without any footprint (the far part
-    of the distance) are kept per X^A object: UAVs holding the same X^A share them."""
+    of the distance) are kept per X^A object: UAVs holding the same X^A share them. ``corners``: the footprints'
+    corners of both kinds of states, if known (:func:`removals`)."""
     exact = s.exact if exact is None else exact
     ops0 = sum(pg.OPS.values())
     cands = candidates(s.inputs, s.horizon)
-    rem = removals(own_states, nb_states, s, neighbours=not s.baseline)
+    rem = removals(own_states, nb_states, s, neighbours=not s.baseline, corners=corners)
     xy_end = rem.xy[-1]
     region = pg.EMPTY if region is None else region
     window = None
@@ -528,17 +534,18 @@ def plan_all(nav, regions, area, s: SMMPCSettings = DEFAULT_SETTINGS, links=None
     if grid is not None:
         from swarmtrack.control.sm_mpc_raster import plan_one_raster
 
-        def plan(region, own_states, nb_states, shared):
-            return plan_one_raster(grid, region, own_states, nb_states, s, shared=shared)
+        def plan(region, own_states, nb_states, shared, corners):
+            return plan_one_raster(grid, region, own_states, nb_states, s, shared=shared, corners=corners)
     else:
-        def plan(region, own_states, nb_states, shared):
-            return plan_one(region, own_states, nb_states, area, s, exact, shared=shared)
+        def plan(region, own_states, nb_states, shared, corners):
+            return plan_one(region, own_states, nb_states, area, s, exact, shared=shared, corners=corners)
     nav = np.asarray(nav, dtype=float)[:, :fw.STATE_DIM]
     n = len(nav)
     beacons = nav if beacons is None else np.asarray(beacons, dtype=float)[:, :fw.STATE_DIM]
     cands = candidates(s.inputs, s.horizon)
     t0 = time.perf_counter()
     own = predict(nav[:, None, :], cands[None, :, :], s)  # (N, C, h, 7), one batched rollout for the fleet
+    corners = footprints(own, s)  # (N, C, h, 4, 2), the footprints of eqs. 46, 49, once for the fleet too
     shared = (time.perf_counter() - t0) / max(n, 1)
     if links is None or s.baseline:
         recv = send = np.zeros(0, dtype=int)
@@ -551,13 +558,14 @@ def plan_all(nav, regions, area, s: SMMPCSettings = DEFAULT_SETTINGS, links=None
     for i in range(n):
         t0 = time.perf_counter()
         lower = send[(recv == i) & (send < i)]
+        nb_corners = None
         if not len(lower):
             nb = np.zeros((0, s.horizon, fw.STATE_DIM))
         elif np.array_equal(beacons[lower], nav[lower]):  # their broadcast state is the one the fleet rollout used
-            nb = own[lower, chosen[lower]]
+            nb, nb_corners = own[lower, chosen[lower]], corners[lower, chosen[lower]]
         else:
             nb = predict(beacons[lower], plans[lower], s)
-        choice = plan(regions[i], own[i], nb, common)
+        choice = plan(regions[i], own[i], nb, common, (corners[i], nb_corners))
         plans[i], chosen[i] = choice.plan, choice.index
         out.solve_time[i] += time.perf_counter() - t0
         out.cost[i] = choice.cost[choice.index]

@@ -322,18 +322,20 @@ def _strip(grid: rs.Grid, region: rs.Field, window: tuple[int, int, int, int]) -
 
 
 def plan_one_raster(grid: rs.Grid, region: rs.Field | None, own_states: np.ndarray, nb_states: np.ndarray,
-                    s: SMMPCSettings = DEFAULT_SETTINGS, shared: dict | None = None, prune: bool = True) -> sm.Choice:
+                    s: SMMPCSettings = DEFAULT_SETTINGS, shared: dict | None = None, prune: bool = True,
+                    corners: tuple[np.ndarray, np.ndarray | None] | None = None) -> sm.Choice:
     """Eq. 47 minimised over U_d^h for one UAV whose X^A is the raster ``region`` (a :class:`raster.Field` on
     ``grid``; None or empty: every cost 0, index 0), ``own_states`` (C, h, 7) and ``nb_states`` (L, h, 7) as
     :func:`sm_mpc.plan_one`. ``cost`` and ``area`` are over the window R (the true ones less one constant for all
     candidates, module docstring); ``window`` is R as ``(x0, y0, x1, y1)``. ``prune`` (as :func:`sm_mpc.plan_one`):
     the distance only for the candidates whose area term leaves them a chance, the others' cost ``inf``.
-    ``shared``: a dict kept across the UAVs of one fleet plan (:func:`member_rows`)."""
+    ``shared``: a dict kept across the UAVs of one fleet plan (:func:`member_rows`); ``corners``: the footprints'
+    corners of both kinds of states, if known (:func:`sm_mpc.removals`)."""
     cands = sm.candidates(s.inputs, s.horizon)
     if region is None or region.is_empty:
         zero = np.zeros(len(cands))
         return sm.Choice(0, cands[0], zero, zero.copy(), zero.copy())
-    rem = sm.removals(own_states, nb_states, s, neighbours=not s.baseline, polygons=False)
+    rem = sm.removals(own_states, nb_states, s, neighbours=not s.baseline, polygons=False, corners=corners)
     k = RasterKernel(grid, region, scene(grid, rem, s), rem.xy[-1], s, member_rows(grid, region, s, shared))
     areas = k.areas()
     dist = np.full(len(areas), np.inf)

@@ -55,8 +55,8 @@ cross the whole box once per candidate.
 
 **Cost** (ib21-like scenes, 6 UAVs, 1 m cells; see the timing helper in ``tests/control/test_sm_mpc_raster.py``):
 ≈ 0.2 ms for all 25 candidates' areas, ≈ 0.05 ms for the distance, the rest :func:`sm_mpc.removals` (corners
-only, ≈ 0.07 ms) and Python glue; over a 400 s ib21-fleet-6 mission 1.9 ms per UAV and plan on average (the
-benchmark).
+only, ≈ 0.07 ms) and Python glue; over a 400 s ib21-fleet-6 mission 1.3-1.6 ms per UAV and plan on average
+(process time of :func:`sm_mpc.plan_all`, which also predicts the fleet's states and footprints once per plan).
 """
 
 from __future__ import annotations

@@ -116,3 +116,18 @@ def test_the_raster_estimator_updates_and_fuses_over_links_like_the_polygon_one(
     assert ests[1].containing(obj, np.array([0])).all()
     assert rs.holds(GRID, ests[1].view().region[0], obj).all()  # the object seen unidentified stays in X^A
     assert np.allclose(ests[1].view().state[:, :2], ests[0].view().state[:, :2], atol=1.0)
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_a_frame_without_detections_removes_the_footprint_from_every_set_as_the_full_correction_does(seed):
+    rb = mission(seed, true_bound=5.0, assumed_bound=5.0, duration=10.0)[3]
+    assert any(not f.is_empty for f in rb.identified[0]) or not rb.unidentified[0].is_empty  # something to cut
+    corners = np.array([[40.0, 40.0], [130.0, 50.0], [120.0, 140.0], [30.0, 130.0]])
+    quick, full = rb.copy(), rb.copy()
+    ras.correct(quick, 0, corners, np.zeros((0, 2)), np.zeros(0, dtype=int), (5.0, 5.0))
+    # a decoy identified as a decoy: eqs. 17-29 take nothing from it, so the full path gives the same sets
+    ras.correct(full, 0, corners, np.array([[80.0, 90.0]]), np.array([IDENTIFIED_FALSE]), (5.0, 5.0))
+    for a, b in [(quick.unexplored[0], full.unexplored[0]), (quick.unidentified[0], full.unidentified[0]),
+                 *zip(quick.identified[0], full.identified[0], strict=True)]:
+        assert a.window == b.window and np.array_equal(a.data, b.data)
+    assert quick.unexplored[0] is not rb.unexplored[0]  # the footprint did cut X̄

@@ -103,6 +103,12 @@ def correct(b: RasterBeliefs, i: int, footprint, z: np.ndarray, labels: np.ndarr
     half-widths ``bound`` (the assumed noise bound)."""
     g = b.grid
     F = footprint if isinstance(footprint, rs.Convex) else rs.convex(g, footprint)  # prepared once for the sets it cuts
+    if not len(z):  # nothing detected (most frames): eqs. 17-29 reduce to S5, Xᵁ \ F and X̄ \ F
+        b.identified[i] = [rs.remove(g, Xj, F) for Xj in b.identified[i]]
+        b.unidentified[i] = rs.remove(g, b.unidentified[i], F)
+        b.unexplored[i] = rs.remove(g, b.unexplored[i], F)
+        _check_lost(b, i)
+        return
     boxes = rs.boxes(g, z, bound)
     unid = rs.union(g, [boxes[m] for m in np.flatnonzero(labels == UNLABELLED)])
     Xu, Xbar = b.unidentified[i], b.unexplored[i]

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 import shapely
 
+from swarmtrack.control.sm_mpc_raster import edge_lines
 from swarmtrack.estimation import raster as rs
 
 AREA = shapely.box(0, 0, 200, 200)
@@ -151,10 +152,10 @@ def test_a_minimum_skipping_cells_gives_the_minimum_with_the_full_values_where_i
     floor = rng.uniform(0.0, 60.0, (120, 110))
     want = np.minimum(acc, rs.values(GRID, f, win))
     plain = acc.copy()
-    rs.lower(GRID, plain, win, f)
+    rs.lower(GRID, plain, win, [f])
     assert np.array_equal(plain, want)
     skipped = acc.copy()
-    rs.lower(GRID, skipped, win, f, floor)
+    rs.lower(GRID, skipped, win, [f], floor)
     assert np.array_equal(np.maximum(skipped, floor), np.maximum(want, floor))
     assert (skipped != want).any()  # the floor did skip cells
 
@@ -188,10 +189,13 @@ def test_footprints_prepared_together_equal_those_prepared_one_by_one():
     rng = np.random.default_rng(5)
     corners = np.stack([rotated_square(rng, s) for s in (30.0, 82.8, 50.0)])
     corners[1] = corners[1, ::-1]  # either order
-    for F, c in zip(rs.convex_all(GRID, corners), corners, strict=True):
+    lines = edge_lines(corners)  # the planner's own compiled normals, written apart from these
+    for F, c, line in zip(rs.convex_all(GRID, corners), corners, lines, strict=True):
         one = rs.convex(GRID, c)
         assert np.array_equal(F.normals, one.normals) and (F.i0, F.j0, F.i1, F.j1) == (one.i0, one.j0, one.i1, one.j1)
-        assert np.allclose(np.einsum("kd,kd->k", F.normals, np.roll(c, -1, axis=0) - c), 0.0)  # normal to the edges
+        assert np.array_equal(F.normals, line[:, 2:]) and np.array_equal(F.corners, line[:, :2])
+        cells = [GRID.span(c[:, 1].min(), c[:, 1].max(), 0), GRID.span(c[:, 0].min(), c[:, 0].max(), 1)]
+        assert (F.i0, F.i1, F.j0, F.j1) == (*cells[0], *cells[1])
 
 
 def test_lowering_by_several_fields_at_once_gives_the_minimum_of_their_values():

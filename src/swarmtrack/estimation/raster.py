@@ -148,22 +148,23 @@ def values(grid: Grid, f: Field, window: tuple[int, int, int, int]) -> np.ndarra
     if not f.is_empty and fi0 <= i0 and fj0 <= j0 and i1 <= fi1 and j1 <= fj1:
         return f.data[i0 - fi0:i1 - fi0, j0 - fj0:j1 - fj0]
     out = np.full((i1 - i0, j1 - j0), np.inf)
-    lower(grid, out, window, f)
+    lower(grid, out, window, [f])
     return out
 
 
-def lower(grid: Grid, acc: np.ndarray, window: tuple[int, int, int, int], fields, floor: np.ndarray | None = None
-          ) -> None:
-    """``acc ← min(acc, values(f, window))`` in place for each of ``fields`` (a Field or several: the union's step):
+def lower(grid: Grid, acc: np.ndarray, window: tuple[int, int, int, int], fields: list[Field],
+          floor: np.ndarray | None = None) -> None:
+    """``acc ← min(acc, values(f, window))`` in place for each of ``fields`` (the union's step):
     first every field's stored values, then the coarse bounds off each field's stored window (:func:`_lower_into`),
     which are left as soon as they reach ``acc`` (a minimum is exact in any order, and what is stored lowers ``acc``
     first). With ``floor``, the coarse bounds are skipped where ``acc ≤ floor`` already: a maximum with ``floor``
     that follows (an intersection with it) gives ``floor`` there whatever the bound. The same numbers as the
     minimum with :func:`values`, wherever they count."""
-    live = [f for f in ([fields] if isinstance(fields, Field) else fields) if not f.is_empty]
     i0, j0, i1, j1 = window
     beyond = []
-    for f in live:
+    for f in fields:
+        if f.is_empty:
+            continue
         fi0, fj0, fi1, fj1 = f.window
         a0, b0, a1, b1 = max(i0, fi0), max(j0, fj0), min(i1, fi1), min(j1, fj1)
         if a0 < a1 and b0 < b1:

@@ -170,6 +170,15 @@ def test_the_compiled_removal_and_area_equal_their_readable_references():
     assert rs.area(GRID, got) == pytest.approx(rs.cell_area(got.data, GRID.cell).sum(), rel=1e-12)
 
 
+def test_the_centroid_is_the_mean_centre_of_the_member_cells():
+    rng = np.random.default_rng(3)
+    f = rs.remove(GRID, rs.dilate(GRID, rs.box(GRID, (60, 60, 100, 90)), 3.0), rotated_square(rng, 40.0) * 0.3 + 60.0)
+    rows, cols = np.nonzero(rs.members(GRID, f))
+    want = [GRID.x0 + (f.j0 + cols + 0.5).mean() * GRID.cell, GRID.y0 + (f.i0 + rows + 0.5).mean() * GRID.cell]
+    assert rs.centroid(GRID, f) == pytest.approx(want, rel=1e-12)
+    assert np.isnan(rs.centroid(GRID, rs.EMPTY)).all()
+
+
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_the_compiled_redistancing_equals_its_readable_reference(seed):
     rng = np.random.default_rng(seed)

@@ -740,24 +740,43 @@ def members(grid: Grid, f: Field) -> np.ndarray:
 def area(grid: Grid, f: Field) -> float:
     """φ of the outer approximation (m², 0 for an empty set): in each cell's square, the points p with
     ``|p − g| ≥ v(g)`` (the others are nearer the centre than the set is), so the square's area less that of its
-    intersection with the disc of radius ``v(g)`` about the centre (:func:`cell_area`, summed by :func:`_area`)."""
-    return 0.0 if f.is_empty else float(_area(f.data, grid.cell))
+    intersection with the disc of radius ``v(g)`` about the centre (:func:`cell_area`, summed by :func:`_measure`)."""
+    return 0.0 if f.is_empty else _measured(grid, f)[0]
+
+
+def _measured(grid: Grid, f: Field) -> tuple[float, float, float]:
+    """:func:`_measure` of a non-empty field (its area, mean member row and column), kept on the field (immutable):
+    the area and the centroid of a set (X^A: both) take one pass."""
+    hit = f.__dict__.get("_measured")
+    if hit is None or hit[0] != grid.cell:
+        hit = f.__dict__["_measured"] = (grid.cell, *_measure(f.data, grid.cell))
+    return hit[1:]
 
 
 @numba.njit(cache=True)
-def _area(data, c):  # pragma: no cover (compiled)
-    """Σ :func:`cell_area` over ``data``, one pass (whole cells for ``v ≤ 0``, nothing from ``c/√2``)."""
+def _measure(data, c):  # pragma: no cover (compiled)
+    """Σ :func:`cell_area` over ``data`` (whole cells for ``v ≤ 0``, nothing from ``c/√2``) and the mean row and
+    column of the member cells (``v ≤ c/√2 + DELTA``; NaN if none), one pass in memory order."""
     a, slack, full = c / 2, c / math.sqrt(2.0), 0
     part = 0.0
-    for v in data.ravel():
-        if v <= 0.0:
-            full += 1
-        elif v < slack - DELTA:
-            disc = math.pi * v * v
-            if v > a:
-                disc -= 4 * (v * v * math.acos(a / v) - a * math.sqrt(v * v - a * a))
-            part += c * c - disc
-    return full * c * c + part
+    n, si, sj = 0, 0.0, 0.0
+    h, w = data.shape
+    for i in range(h):
+        for j in range(w):
+            v = data[i, j]
+            if v <= 0.0:
+                full += 1
+            elif v < slack - DELTA:
+                disc = math.pi * v * v
+                if v > a:
+                    disc -= 4 * (v * v * math.acos(a / v) - a * math.sqrt(v * v - a * a))
+                part += c * c - disc
+            if v <= slack + DELTA:
+                n += 1
+                si += i
+                sj += j
+    mi, mj = (si / n, sj / n) if n else (np.nan, np.nan)
+    return full * c * c + part, mi, mj
 
 
 def cell_area(v: np.ndarray, c: float) -> np.ndarray:
@@ -796,25 +815,11 @@ def _holds(data, i0, j0, core, x0, y0, c, p, tol):  # pragma: no cover (compiled
 
 
 def centroid(grid: Grid, f: Field) -> np.ndarray:
-    """The centroid (2,) of the member cells (NaN for an empty set)."""
+    """The centroid (2,) of the member cells (NaN for an empty set; :func:`_measure`)."""
     if f.is_empty:
         return np.full(2, np.nan)
-    i, j = _mean_member(f.data, grid.slack + DELTA)
+    _, i, j = _measured(grid, f)
     return np.array([grid.x0 + (f.j0 + j + 0.5) * grid.cell, grid.y0 + (f.i0 + i + 0.5) * grid.cell])
-
-
-@numba.njit(cache=True)
-def _mean_member(data, member):  # pragma: no cover (compiled)
-    """The mean row and column of the values ``≤ member``."""
-    n, si, sj = 0, 0.0, 0.0
-    h, w = data.shape
-    for i in range(h):
-        for j in range(w):
-            if data[i, j] <= member:
-                n += 1
-                si += i
-                sj += j
-    return si / n, sj / n
 
 
 def to_polygon(grid: Grid, f: Field) -> shapely.Geometry:

@@ -182,21 +182,25 @@ def _lower_into(acc, i0, j0, shape, fi0, fj0, core, support, normals, c, floor, 
     """:func:`lower`'s coarse part, one pass: per cell of ``acc`` (cell (i0, j0) first) off the stored window
     (``shape`` at ``(fi0, fj0)``), skipped if ``acc ≤ floor`` (with ``use_floor``), else the minimum with the greater
     of the distance to the core's rectangle and to each supporting half-plane (:func:`_beyond`, its readable
-    reference), left as soon as that reaches ``acc`` (a greater bound cannot lower it)."""
+    reference), left as soon as that reaches ``acc`` (a greater bound cannot lower it; the row's distance to the
+    rectangle, a part of it, is tried first)."""
     h, w = shape
+    width = acc.shape[1]
     for a in range(acc.shape[0]):
         i = i0 + a
         y = (i + 0.5) * c
         dy = max(core[0] * c - y, y - core[2] * c, 0.0)
-        stored = fi0 <= i < fi0 + h
-        for b in range(acc.shape[1]):
-            j = j0 + b
-            if stored and fj0 <= j < fj0 + w:
+        if fi0 <= i < fi0 + h:  # the stored columns [s0, s1) of this row are not touched
+            s0, s1 = min(max(fj0 - j0, 0), width), min(max(fj0 + w - j0, 0), width)
+        else:
+            s0, s1 = width, width
+        for b in range(width):
+            if s0 <= b < s1:
                 continue
             cur = acc[a, b]
-            if use_floor and cur <= floor[a, b]:
+            if dy >= cur or (use_floor and cur <= floor[a, b]):
                 continue
-            x = (j + 0.5) * c
+            x = (j0 + b + 0.5) * c
             dx = max(core[1] * c - x, x - core[3] * c, 0.0)
             v = math.sqrt(dx * dx + dy * dy)
             for k in range(len(support)):
@@ -432,14 +436,14 @@ def held_by_all(grid: Grid, candidate: Field, holders: list[list[Field]]) -> Fie
     holder list."""
     if candidate.is_empty:
         return candidate
-    out = candidate.data.copy()
+    out = candidate.data  # replaced by the first maximum, in the new array that _holding made
     for parts in holders:
         if any(p is candidate for p in parts):
             continue
         held = _holding(grid, parts, candidate.window, out)
         if held is None:
             return EMPTY
-        np.maximum(out, held, out=out)
+        out = np.maximum(out, held, out=held if out is candidate.data else out)
     return trim(grid, Field(candidate.i0, candidate.j0, out, candidate.core))
 
 
@@ -453,8 +457,8 @@ def intersect_all(grid: Grid, fields) -> Field:
     win, core = _overlap([f.window for f in fields]), _overlap([f.core for f in fields])
     if core[0] >= core[2] or core[1] >= core[3]:
         return EMPTY
-    out = values(grid, fields[0], win).copy()
-    for f in fields[1:]:
+    out = np.maximum(values(grid, fields[0], win), values(grid, fields[1], win))
+    for f in fields[2:]:
         np.maximum(out, values(grid, f, win), out=out)
     return trim(grid, Field(win[0], win[1], out, core))
 

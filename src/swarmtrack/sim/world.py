@@ -17,12 +17,14 @@ import numpy as np
 
 from swarmtrack.sensors import footprint, range_bearing
 from swarmtrack.vehicles import double_integrator, fixed_wing, ground_walker, quadrotor
+from swarmtrack.vehicles import kernels as _kernels
 from swarmtrack.vehicles.profile import VelocityProfile
 
 VEHICLES = ("quadrotor", "double_integrator", "walker", "fixed_wing")
 #: Vehicles stepped by their own kinematics (IB21 Sec. 6) rather than the acceleration physics: the module that steps
 #: them and the input a commanded group takes per member.
 KINEMATIC = {"walker": ground_walker, "fixed_wing": fixed_wing}
+_PACK_WIDTH = _kernels.PACK_WIDTH
 
 
 @dataclass(frozen=True)
@@ -226,6 +228,81 @@ class _Kinematic:
         return self.module.truth4(self.state, self.params, trig=self.trig())
 
 
+class _KinematicPack:
+    """A compiled world's kinematic groups stepped together (:func:`~swarmtrack.vehicles.kernels.kinematic_step`):
+    their states are rows of one ``(K, 7)`` array (a walker's five columns, a fixed wing's seven), each group's
+    ``state`` a view of its rows and its ``trig`` views of one cosine and one sine call (numpy's) over every row's
+    heading and γ per tick. The same numbers as stepping each group by its module's ``step_compiled`` (the
+    reference); a walker group that would cross a wall is stepped by its module's ``step``, as there."""
+
+    def __init__(self, kins: list[_Kinematic], dt: float):
+        self.kins, self.dt = kins, dt
+        sizes = [len(k.state) for k in kins]
+        self.bounds = np.cumsum([0, *sizes])
+        k_total = int(self.bounds[-1])
+        self.walker = np.array([k.module is ground_walker for k in kins for _ in range(len(k.state))], dtype=bool)
+        self.group = np.repeat(np.arange(len(kins)), sizes).astype(np.int64)
+        self.speed = np.array([k.params.speed for k in kins for _ in range(len(k.state))], dtype=float)
+        self.v_dt = np.array([dt * k.params.speed for k in kins for _ in range(len(k.state))], dtype=float)
+        self.rate_max = np.array([0.0 if k.module is ground_walker else k.params.yaw_rate_max
+                                  for k in kins for _ in range(len(k.state))], dtype=float)
+        self.area = np.array([k.params.area if k.module is ground_walker else (0.0,) * 4
+                              for k in kins for _ in range(len(k.state))], dtype=float).reshape(k_total, 4)
+        self.objects = np.concatenate([np.arange(k.objects.start, k.objects.stop) for k in kins]).astype(np.int64)
+        ticks = max((len(k.draws) for k in kins if k.draws is not None), default=1)
+        self.draws = np.zeros((ticks, k_total))
+        self.command = np.zeros(k_total)
+        for k, a, b in zip(kins, self.bounds[:-1], self.bounds[1:], strict=True):
+            if k.draws is not None:
+                self.draws[:, a:b] = k.draws
+            k.command = self.command[a:b].reshape(-1, 1)  # the world writes a group's command into the pack
+        # each row's heading column, and then its γ column (a walker's is read but not used)
+        self._angle_rows = np.tile(np.arange(k_total), 2)
+        self._angle_cols = np.concatenate([[k.module.HEADING] * len(k.state) for k in kins]
+                                          + [[fixed_wing.GAMMA] * k_total]).astype(np.int64)
+        self._rows = list(zip(kins, self.bounds[:-1], self.bounds[1:], strict=True))  # each group's rows
+        self._ok = np.ones(len(kins), dtype=bool)  # the groups the compiled pass stepped
+        self.state = np.zeros((k_total, _PACK_WIDTH))
+        for k, a, b in zip(kins, self.bounds[:-1], self.bounds[1:], strict=True):
+            self.state[a:b, :k.state.shape[1]] = k.state
+        self._share()
+
+    def _share(self, angles: np.ndarray | None = None) -> None:
+        """Numpy's cosine and sine of every row's heading and γ (``angles``, gathered here if not given), and each
+        group's views of its rows."""
+        k_total = len(self.state)
+        if angles is None:
+            angles = self.state[self._angle_rows, self._angle_cols]
+        self._cos, self._sin = np.cos(angles), np.sin(angles)
+        self.cos_h, self.sin_h = self._cos[:k_total], self._sin[:k_total]
+        self.cos_g, self.sin_g = self._cos[k_total:], self._sin[k_total:]
+        for k, a, b in self._rows:
+            k.state = self.state[a:b, :k.module.STATE_DIM]
+            k._trig = self.cos_h[a:b], self.sin_h[a:b]
+
+    def step(self, tick: int) -> None:
+        """One tick of every group (from tick ``tick``): a new state array, and new trig."""
+        out = np.empty_like(self.state)
+        angles = np.empty(2 * len(out))
+        if _kernels.kinematic_step(self.state, self.walker, self.v_dt, self.dt, self.rate_max, self.area, self.draws,
+                                   min(tick, len(self.draws) - 1), self.command, self.cos_h, self.sin_h, self.cos_g,
+                                   self.sin_g, self.group, out, angles, self._ok):
+            # a walker group with a member crossing a wall: its module's reference step
+            for g in np.flatnonzero(~self._ok):
+                k, a, b = self._rows[g]
+                out[a:b, :k.module.STATE_DIM] = k.module.step(k.state, k.draws[min(tick, len(k.draws) - 1)],
+                                                              k.params, self.dt, k.trig())
+                out[a:b, k.module.STATE_DIM:] = 0.0
+            angles = None
+        self.state = out
+        self._share(angles)
+
+    def truth(self, truth: np.ndarray) -> None:
+        """Every member's ``[x, y, vx, vy]`` (its module's ``truth4``) into its object's row of ``truth``."""
+        _kernels.kinematic_truth(self.state, self.walker, self.speed, self.cos_h, self.sin_h, self.cos_g,
+                                 self.objects, truth)
+
+
 @dataclass
 class _Layout:
     """Where each object lives: rows of the quadrotor and point-mass arrays, and its driver column."""
@@ -340,6 +417,7 @@ class World:
             self._row[kin.objects] = first + np.arange(kin.objects.stop - kin.objects.start)
             first += kin.objects.stop - kin.objects.start
         self._kinematic_of = {kin.name: kin for kin in self._kinematic}
+        self._pack = _KinematicPack(self._kinematic, dt) if compiled and self._kinematic else None
         self._physics = bool(len(self._quad_obj) or len(self._point_obj))  # any vehicle the kernel steps
         # ring buffer of past positions, for measurements that arrive `latency` late
         lag = int(round(sensor.latency / dt))
@@ -374,8 +452,11 @@ class World:
             if self._physics:
                 truth[self._quad_obj] = self._quads[:, :4]
                 truth[self._point_obj] = self._points
-            for kin in self._kinematic:
-                truth[kin.objects] = kin.truth4()
+            if self._pack is not None:
+                self._pack.truth(truth)
+            else:
+                for kin in self._kinematic:
+                    truth[kin.objects] = kin.truth4()
             self._truth = truth
             self._truth_at = self._tick
         return self._truth
@@ -477,8 +558,11 @@ class World:
 
     def _step_kinematic(self, tick: int) -> None:
         """One tick of every kinematic group (from tick ``tick``), and their positions into the latency buffer."""
-        for kin in self._kinematic:
-            kin.step(tick, self.dt)
+        if self._pack is not None:
+            self._pack.step(tick)
+        for kin in self._kinematic if self._pack is None or len(self._history) > 1 else ():
+            if self._pack is None:
+                kin.step(tick, self.dt)
             if len(self._history) > 1:
                 self._history[(tick + 1) % len(self._history)][kin.objects] = kin.state[:, :2]
 

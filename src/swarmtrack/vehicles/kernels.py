@@ -157,4 +157,77 @@ def advance(quads, points, quad_cmd, point_cmd, quad_driver, point_driver, v_cmd
              int(ticks), float(dt), consts, history, quad_obj, point_obj)
 
 
-__all__ = ["advance", "params_tuple"]
+
+# --- kinematic vehicles (IB21 Sec. 6): walkers and fixed wings, stepped together ---------------------------------
+
+#: Columns of a packed kinematic state (:func:`kinematic_step`): a walker's five, a fixed wing's seven.
+PACK_WIDTH = 7
+
+
+@numba.njit(cache=True)
+def kinematic_step(S, walker, v_dt, dt, rate_max, area, draws, tick, command, cos_h, sin_h, cos_g, sin_g, group,
+                   out, angles, ok):  # pragma: no cover (compiled)
+    """One tick of every member of a packed set of kinematic groups (rows of ``S`` (K, 7), in place into ``out``).
+
+    Row i is a walker (``walker[i]``; its five columns, :func:`swarmtrack.vehicles.ground_walker.step`'s rows inside
+    the ``area[i]`` box, input ``draws[tick, i]``) or a fixed wing (its seven columns,
+    :func:`swarmtrack.models.fixed_wing.step`'s rows, input ``command[i]``, yaw rate saturated at ``rate_max[i]``), with
+    ``v_dt[i] = dt·speed``. ``cos_h``, ``sin_h`` are numpy's cosine and sine of each row's heading, ``cos_g``, ``sin_g``
+    of a fixed wing's γ. The products and sums are the per-group compiled passes' (``_step_inside``,
+    ``_step_kernel``), so the numbers are the same. A walker that would cross a wall clears ``ok[group[i]]``: its
+    group is stepped by the reference (its rows here are then not meaningful). ``angles`` (2K,) receives each new
+    row's heading, then its γ (a walker's yaw rate, not used), for the next tick's trig. Returns the number of
+    groups stepped by the reference."""
+    ok[:] = True
+    k_total = len(S)
+    for i in range(k_total):
+        if walker[i]:
+            x = cos_h[i] * v_dt[i] + S[i, 0]
+            y = sin_h[i] * v_dt[i] + S[i, 1]
+            if x < area[i, 0] or x > area[i, 2] or y < area[i, 1] or y > area[i, 3]:
+                ok[group[i]] = False
+                continue
+            out[i, 0] = x
+            out[i, 1] = y
+            out[i, 2] = S[i, 2] + dt * S[i, 3]
+            out[i, 3] = S[i, 3] + dt * S[i, 4]
+            out[i, 4] = draws[tick, i]
+            out[i, 5] = 0.0
+            out[i, 6] = 0.0
+            angles[i] = out[i, 2]
+        else:
+            horizontal = v_dt[i] * cos_g[i]
+            out[i, 0] = S[i, 0] + horizontal * cos_h[i]
+            out[i, 1] = S[i, 1] + horizontal * sin_h[i]
+            out[i, 2] = S[i, 2] + v_dt[i] * sin_g[i]
+            out[i, 3] = S[i, 3]
+            out[i, 4] = S[i, 4] + dt * S[i, 5]
+            rate = S[i, 5] + dt * S[i, 6]
+            if rate < -rate_max[i]:  # np.minimum(np.maximum(·)): NaN stays NaN
+                rate = -rate_max[i]
+            elif rate > rate_max[i]:
+                rate = rate_max[i]
+            out[i, 5] = rate
+            out[i, 6] = command[i]
+            angles[i] = out[i, 4]
+        angles[k_total + i] = out[i, 3]
+    failed = 0
+    for g in range(len(ok)):
+        failed += not ok[g]
+    return failed
+
+
+@numba.njit(cache=True)
+def kinematic_truth(S, walker, speed, cos_h, sin_h, cos_g, objects, truth):  # pragma: no cover (compiled)
+    """``[x, y, vx, vy]`` of every packed member into ``truth[objects[i]]``: the velocity ``speed·(cos, sin)`` of the
+    heading for a walker, ``(speed·cos γ)·(cos ψ, sin ψ)`` for a fixed wing, as the modules' ``truth4`` compute it."""
+    for i in range(len(S)):
+        o = objects[i]
+        factor = speed[i] if walker[i] else speed[i] * cos_g[i]
+        truth[o, 0] = S[i, 0]
+        truth[o, 1] = S[i, 1]
+        truth[o, 2] = factor * cos_h[i]
+        truth[o, 3] = factor * sin_h[i]
+
+
+__all__ = ["advance", "kinematic_step", "kinematic_truth", "params_tuple"]

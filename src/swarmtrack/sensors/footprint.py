@@ -266,7 +266,9 @@ class ObjectConstants:
     :func:`cone_axis` computes them); ``cos_g`` (m,) the cosine of each object's identification half-aperture (eq. 50
     for a target, eq. 52 for a decoy) and ``cos_inner`` the decoys' confusion one (eq. 53); ``idx`` (m,) each
     object's index among its kind and ``confused_as`` (m,) the target each decoy is confused with (``J``, eq. 4;
-    ``IDENTIFIED_FALSE`` for targets); ``negate``: ``q^f`` is eq. 53 negated (``"outside_inner_cone"``)."""
+    ``IDENTIFIED_FALSE`` for targets); ``negate``: ``q^f`` is eq. 53 negated (``"outside_inner_cone"``). Of the sensor
+    itself, which does not change either: ``tan_half`` (:attr:`FootprintParams.tan_half`) and the noise half-widths
+    ``bound_x``, ``bound_y``."""
 
     is_decoy: np.ndarray
     beta: np.ndarray
@@ -277,6 +279,9 @@ class ObjectConstants:
     idx: np.ndarray
     confused_as: np.ndarray
     negate: bool
+    tan_half: float
+    bound_x: float
+    bound_y: float
 
     @classmethod
     def of(cls, params: FootprintParams, is_decoy, beta, gamma, J=None) -> ObjectConstants:
@@ -294,7 +299,8 @@ class ObjectConstants:
         return cls(is_decoy, np.asarray(beta, dtype=float), np.sin(gamma), np.cos(gamma),
                    np.cos(np.where(is_decoy, params.aperture_decoy_identify, params.aperture_true) / 2),
                    float(np.cos(params.aperture_decoy_reveal / 2)), _indices(is_decoy), confused_as,
-                   params.confusion == "outside_inner_cone")
+                   params.confusion == "outside_inner_cone", params.tan_half,
+                   *np.asarray(params.noise_bound, dtype=float).tolist())
 
 
 def sense(uav_xyz, uav_heading, obj_xy, obj_heading, is_decoy, beta, gamma, noise_u,
@@ -324,14 +330,11 @@ def sense(uav_xyz, uav_heading, obj_xy, obj_heading, is_decoy, beta, gamma, nois
     obj_xy = np.asarray(obj_xy, dtype=float).reshape(-1, 2)
     n, m = len(uav_xyz), len(obj_xy)
     noise_u = np.asarray(noise_u, dtype=float).reshape(n, m, 2)
-    bound = np.asarray(params.noise_bound, dtype=float)
     if compiled and m:
         if constants is None:
             constants = ObjectConstants.of(params, is_decoy, beta, gamma, J)
-        corners, seen, labels = _sense_compiled(uav_xyz, uav_heading, obj_xy, obj_heading, params, constants,
-                                                uav_trig)
-        owner, source, z, label = _detections_kernel(seen, labels, np.ascontiguousarray(obj_xy),
-                                                     np.ascontiguousarray(noise_u), bound[0], bound[1])
+        corners, owner, source, z, label = _frame_compiled(uav_xyz, uav_heading, obj_xy, obj_heading, noise_u,
+                                                           params, constants, uav_trig)
     else:
         corners = footprint_corners(uav_xyz[:, :2], uav_heading, uav_xyz[:, 2], params.tan_half, params.orientation)
         seen = inside(corners, obj_xy)  # (n, m)
@@ -339,6 +342,7 @@ def sense(uav_xyz, uav_heading, obj_xy, obj_heading, is_decoy, beta, gamma, nois
         labels = identify(uav_xyz, obj_xyz, cone_axis(obj_heading, beta, gamma), is_decoy, J,
                           aperture_true=params.aperture_true, aperture_decoy_identify=params.aperture_decoy_identify,
                           aperture_decoy_reveal=params.aperture_decoy_reveal, confusion=params.confusion)
+        bound = np.asarray(params.noise_bound, dtype=float)
         owner, source, z, label = _detections(seen, labels, obj_xy, noise_u, bound)
     pos = uav_xyz[:, :2] if stamped is None else np.asarray(stamped, dtype=float).reshape(n, 2)
     return Detections(owner, z, pos[owner], label, n, footprint=corners), source
@@ -375,21 +379,60 @@ def _detections_kernel(seen, labels, obj, noise, bound_x, bound_y):  # pragma: n
     return owner, source, z, label
 
 
+def _frame_compiled(uav_xyz, uav_heading, obj_xy, obj_heading, noise_u, params, constants: ObjectConstants,
+                    uav_trig=None):
+    """:func:`sense`'s footprints and detections ``(corners, owner, source, z, label)`` in one compiled call
+    (:func:`_frame_kernel`: :func:`_sense_kernel` then :func:`_detections_kernel`, the numbers of
+    :func:`_sense_compiled` and :func:`_detections`), unless a test is within rounding of a footprint edge: then
+    :func:`_sense_compiled`'s exact decision and the detections gathered after it."""
+    uav_trig = _uav_trig(uav_heading, len(uav_xyz), params.orientation, uav_trig)
+    obj = np.ascontiguousarray(obj_xy)
+    noise = np.ascontiguousarray(noise_u)
+    c = constants
+    az = np.asarray(obj_heading, dtype=float) + c.beta  # the cone axes' azimuths (eqs. 51, 54)
+    done, corners, owner, source, z, label = _frame_kernel(
+        np.ascontiguousarray(uav_xyz), *uav_trig, c.tan_half, obj, np.cos(az), np.sin(az), c.sin_gamma, c.cos_gamma,
+        c.cos_g, c.cos_inner, c.is_decoy, c.idx, c.confused_as, c.negate, noise, c.bound_x, c.bound_y)
+    if done:
+        return corners, owner, source, z, label
+    corners, seen, labels = _sense_compiled(uav_xyz, uav_heading, obj_xy, obj_heading, params, constants, uav_trig)
+    return (corners, *_detections_kernel(seen, labels, obj, noise, c.bound_x, c.bound_y))
+
+
+def _uav_trig(uav_heading, n: int, orientation: str, uav_trig=None) -> tuple[np.ndarray, np.ndarray]:
+    """The ``(cos ψ, sin ψ)`` (n,) the footprints turn by: numpy's of the headings (or ``uav_trig``, the caller's),
+    or of 0 for footprints along the axes."""
+    if orientation == "heading":
+        if uav_trig is None:
+            psi = np.asarray(uav_heading, dtype=float) * np.ones(n)
+            uav_trig = np.cos(psi), np.sin(psi)
+        return uav_trig
+    if orientation == "north":
+        return np.ones(n), np.zeros(n)  # cos 0, sin 0
+    raise ValueError(f"orientation must be one of {ORIENTATIONS}, not {orientation!r}")
+
+
+@numba.njit(cache=True)
+def _frame_kernel(uav, cos_psi, sin_psi, tan_half, obj, cos_az, sin_az, sin_gamma, cos_gamma, cos_g, cos_inner,
+                  is_decoy, idx, confused_as, negate, noise, bound_x, bound_y):  # pragma: no cover (compiled)
+    """:func:`_sense_kernel` then, when no orientation test was within rounding of an edge, :func:`_detections_kernel`:
+    ``(True, corners, owner, source, z, label)``; else ``(False, corners, …)`` with empty detections."""
+    corners, seen, unsure, labels = _sense_kernel(uav, cos_psi, sin_psi, tan_half, obj, cos_az, sin_az, sin_gamma,
+                                                  cos_gamma, cos_g, cos_inner, is_decoy, idx, confused_as, negate)
+    if unsure.any():
+        none = np.empty(0, dtype=np.int64)
+        return False, corners, none, none, np.empty((0, 2)), none
+    owner, source, z, label = _detections_kernel(seen, labels, obj, noise, bound_x, bound_y)
+    return True, corners, owner, source, z, label
+
+
 def _sense_compiled(uav_xyz, uav_heading, obj_xy, obj_heading, params, constants: ObjectConstants, uav_trig=None):
     """:func:`sense`'s footprints, detections and labels in one compiled pass (:func:`_sense_kernel`) with the same
     arithmetic as :func:`footprint_corners`, :func:`inside`, :func:`cone_axis` and :func:`identify` (its readable
     reference; tested equal): the sines and cosines are numpy's, computed here (or given, ``uav_trig``) as those
     functions compute them, and the rare orientation tests within rounding of an edge are decided exactly by
     :func:`inside` itself."""
-    n = len(uav_xyz)
-    if params.orientation == "heading":
-        if uav_trig is None:
-            psi = np.asarray(uav_heading, dtype=float) * np.ones(n)
-            uav_trig = np.cos(psi), np.sin(psi)
-    elif params.orientation == "north":
-        uav_trig = np.ones(n), np.zeros(n)  # cos 0, sin 0
-    else:
-        raise ValueError(f"orientation must be one of {ORIENTATIONS}, not {params.orientation!r}")
+    uav_trig = _uav_trig(uav_heading, len(uav_xyz), params.orientation, uav_trig)
     c = constants
     az = np.asarray(obj_heading, dtype=float) + c.beta  # the cone axes' azimuths (eqs. 51, 54)
     corners, seen, unsure, labels = _sense_kernel(

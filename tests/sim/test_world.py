@@ -65,3 +65,17 @@ def test_detections_carry_labels_but_not_their_source():
     assert set(det.label.tolist()) == {0, 1, 2, 3}
     assert not hasattr(det, "source")
     assert sorted(set(source.tolist())) == [0, 1, 2, 3]  # world objects 0..3; the UAVs are 4..6
+
+
+def test_a_frames_uniforms_are_each_objects_own_draws_frame_after_frame():
+    """The world draws the footprint noise ``block`` frames at a time: the same numbers as each object's stream drawing
+    its (N, 2) every frame, across the blocks, and a frame handed out is never written again."""
+    from swarmtrack.sim.streams import stream
+    from swarmtrack.sim.world import _Uniforms
+
+    uniforms = _Uniforms([stream(5, f"sensor/footprint/targets/{j}") for j in range(3)], 4)
+    own = [stream(5, f"sensor/footprint/targets/{j}") for j in range(3)]
+    frames = [uniforms.frame() for _ in range(2 * uniforms.block + 3)]
+    for frame in frames:
+        np.testing.assert_array_equal(frame, np.stack([rng.random((4, 2)) for rng in own], axis=1))
+    assert frames[0].shape == (4, 3, 2) and not np.shares_memory(frames[0], frames[-1])

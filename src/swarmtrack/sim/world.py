@@ -128,6 +128,7 @@ class CameraSensor:
     latency: float = 0.0
     sensed: tuple[str, ...] = ("targets", "decoys")
     name = "camera"
+    aims = True  # reads ``aim`` (the other sensors ignore it)
 
     def detect(self, objects, uavs, stamped, noise, t: float, aim, taken: float | None = None):
         from swarmtrack.sensors import camera
@@ -166,14 +167,33 @@ class FootprintSensor:
     def detect_world(self, world: World):
         uavs = world.kinematic("uavs")
         objects = np.concatenate([world.kinematic(g).state for g in self.sensed if world.kinematic(g) is not None])
-        n = len(uavs.state)
-        noise = np.empty((len(objects), n, 2))  # each object's stream draws its (n, 2) block, in object order
-        for rng, block in zip(world._sensor_rngs, noise, strict=True):
-            rng.random(out=block)
         return footprint.sense(uavs.state[:, fixed_wing.X:fixed_wing.Z + 1], uavs.state[:, fixed_wing.PSI],
                                objects[:, :2], objects[:, ground_walker.HEADING], self.is_decoy, self.beta,
-                               self.gamma, noise.transpose(1, 0, 2), self.params, self.J, constants=self.constants,
+                               self.gamma, world.frame_uniforms(), self.params, self.J, constants=self.constants,
                                uav_trig=uavs.trig())
+
+
+class _Uniforms:
+    """A frame's uniforms in [0, 1) for every (UAV, sensed object) pair, (N, M, 2): each object's (N, 2) from its own
+    stream, frame after frame. The streams draw ``block`` frames at a time (a generator's uniforms drawn together are
+    the ones it draws one call after the other, so the frames are the same numbers), a buffer of at most 64 Ki
+    numbers."""
+
+    def __init__(self, rngs: list[np.random.Generator], n: int):
+        self.rngs, self.n = rngs, n
+        self.block = max(1, min(256, 65536 // max(1, 2 * n * len(rngs))))
+        self._buf = np.empty((0, n, len(rngs), 2))
+        self._next = 0
+
+    def frame(self) -> np.ndarray:
+        """The next frame's (N, M, 2) uniforms (a view of the buffer, never written again)."""
+        if self._next == len(self._buf):
+            self._buf = np.empty((self.block, self.n, len(self.rngs), 2))  # a new buffer: earlier frames stay valid
+            for j, rng in enumerate(self.rngs):
+                self._buf[:, :, j] = rng.random((self.block, self.n, 2))
+            self._next = 0
+        self._next += 1
+        return self._buf[self._next - 1]
 
 
 @dataclass
@@ -357,6 +377,7 @@ class World:
                                        for n in sensor.sensed if n in self.slices] or [np.zeros(0, np.int64)])
         self._sensor_rngs = [world_streams[self.world_of[o]]("sensor/{}/{}/{}".format(sensor.name, *local[o]))
                              for o in self._sensed]
+        self._uniforms: _Uniforms | None = None  # their uniforms, for a sensor that takes them (frame_uniforms)
         # a batch: each world's UAV rows (contiguous) and its sensed objects' labels (B, M)
         n = self.groups["uavs"].size // self.worlds
         self._world_uavs = [slice(b * n, (b + 1) * n) for b in range(self.worlds)]
@@ -445,6 +466,11 @@ class World:
         """Simulated time, s."""
         return self._tick * self.dt
 
+    @property
+    def aims(self) -> bool:
+        """Whether the sensor is gimballed (:meth:`sense` reads its ``aim``)."""
+        return getattr(self.sensor, "aims", False)
+
     # --- truth, for the engine's recorder and the metrics only -------------------------------------------
     def _all_truth(self) -> np.ndarray:
         if self._truth_at != self._tick:  # gathered once per tick (the arrays only change in advance())
@@ -490,6 +516,13 @@ class World:
         """The kinematic vehicles of ``group`` (their full states), or None for a group of other vehicles. A UAV's
         navigation solution carries its full state after ``[x, y, vx, vy]`` (its autopilot knows it)."""
         return self._kinematic_of.get(group)
+
+    def frame_uniforms(self) -> np.ndarray:
+        """(N, M, 2) uniforms in [0, 1) of this sensing frame for every (UAV, sensed object) pair, each object's
+        (N, 2) from its own stream (``sensor/<kind>/<group>/<member>``; a footprint sensor's box noise)."""
+        if self._uniforms is None:
+            self._uniforms = _Uniforms(self._sensor_rngs, self.groups["uavs"].size)
+        return self._uniforms.frame()
 
     def _draw(self, rngs, width: int) -> np.ndarray:
         """(N, width) standard normal draws, each world's UAV rows from its own stream (one draw when alone)."""

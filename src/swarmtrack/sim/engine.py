@@ -36,13 +36,14 @@ def step_loop(sim: Simulation, recorder: Recorder, progress: Callable[[float], N
     u = np.zeros((uavs.stop - uavs.start, 2))
     report_every = max(1, clock.steps // 100)
     publish = getattr(stack.estimator, "publish", None)  # the optional second round (Estimator.publish)
+    aims = world.aims  # only a gimballed sensor reads the estimates (computing them is not free)
     for k in range(clock.steps):
         t = k * clock.dt_estimation
         truth = world.truth()
         positions = truth[uavs, :2]
         nav = world.navigation()
         # sources: the world's, never onboard; a gimballed sensor aims at its UAV's latest estimate
-        detections, _sources = world.sense(aim=stack.estimator.view().state[:, :2])
+        detections, _sources = world.sense(aim=stack.estimator.view().state[:, :2] if aims else None)
         with np.errstate(over="ignore", invalid="ignore"):  # a diverging filter is reported by fuse()
             outbox = stack.estimator.share(t, nav, detections)
             links = channel.links(positions, t)

@@ -77,6 +77,7 @@ class _Block:
 
     def __init__(self, t: np.ndarray, truth: np.ndarray, phase: np.ndarray, probes: dict[str, np.ndarray]):
         self.t, self.truth, self.phase, self.probes = t, truth, phase, probes
+        self._truth_shape, self._phase_shape = truth.shape[1:], phase.shape[1:]
         self._probe_rows = [(k, a, a.shape[1:]) for k, a in probes.items()]
         self.n = 0
 
@@ -93,20 +94,19 @@ class _Block:
     def put(self, t: float, truth, phase, probes: dict) -> None:
         """Copy one step into the next row."""
         i = self.n
-        _put_row(self.truth, i, truth, self.truth.shape[1:])
-        _put_row(self.phase, i, phase, self.phase.shape[1:])
-        for name, dst, shape in self._probe_rows:
-            _put_row(dst, i, probes[name], shape)
+        for dst, shape, value in ((self.truth, self._truth_shape, truth), (self.phase, self._phase_shape, phase),
+                                  *((dst, shape, probes[name]) for name, dst, shape in self._probe_rows)):
+            if getattr(value, "shape", None) != shape:
+                _check_shape(value, shape)
+            dst[i] = value  # not broadcast: the shapes are equal
         self.t[i] = t
         self.n = i + 1
 
 
-def _put_row(dst: np.ndarray, i: int, value, shape: tuple) -> None:
-    """``dst[i] = value`` for a ``value`` of the row's ``shape`` (another shape is refused: assignment would
-    broadcast it)."""
-    if getattr(value, "shape", None) != shape and np.shape(value) != shape:
+def _check_shape(value, shape: tuple) -> None:
+    """Refuse a step's ``value`` of another shape than its row's (assignment would broadcast it)."""
+    if np.shape(value) != shape:
         raise ValueError(f"a recorded step has shape {np.shape(value)}, earlier steps {shape}")
-    dst[i] = value
 
 
 def _join(parts: list[np.ndarray]) -> np.ndarray:

@@ -55,3 +55,24 @@ def test_a_recording_of_another_format_is_refused(scenario, tmp_path):
     (tmp_path / "meta.json").write_text(json.dumps({**meta, "format": 99}))
     with pytest.raises(ValueError, match="recording format 99"):
         Recording.load(tmp_path)
+
+
+def test_the_steps_are_the_same_however_the_buffers_are_blocked(scenario, monkeypatch):
+    """The recorder copies the steps into blocks of BLOCK_STEPS steps and joins them per chunk: the same arrays with
+    blocks of 7 steps (several per chunk, a chunk ending inside a block) as with one block per chunk."""
+    whole = list(simulate(scenario).chunks())
+    monkeypatch.setattr(recorder, "BLOCK_STEPS", 7)
+    monkeypatch.setattr(recorder, "CHUNK_ROWS", 4 * 100)  # 100 steps of 4 objects per chunk
+    blocked = list(simulate(scenario).chunks())
+    assert len(whole) == 1 and len(blocked) == 3
+    for name in ("t", "truth", "phase"):
+        np.testing.assert_array_equal(np.concatenate([getattr(c, name) for c in blocked]), getattr(whole[0], name))
+    for name, values in whole[0].probes.items():
+        np.testing.assert_array_equal(np.concatenate([c.probes[name] for c in blocked]), values, err_msg=name)
+
+
+def test_a_step_of_another_shape_is_refused_not_broadcast():
+    rec = recorder.Recorder({}, 2, 3, {"p": ()})
+    rec.record(0.0, np.zeros((2, 4)), np.zeros(2), {"p": np.zeros(3)})
+    with pytest.raises(ValueError, match="shape"):
+        rec.record(0.05, np.zeros((2, 4)), np.zeros(2), {"p": np.zeros(1)})

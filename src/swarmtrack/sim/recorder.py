@@ -77,8 +77,8 @@ class _Block:
 
     def __init__(self, t: np.ndarray, truth: np.ndarray, phase: np.ndarray, probes: dict[str, np.ndarray]):
         self.t, self.truth, self.phase, self.probes = t, truth, phase, probes
-        self._truth_shape, self._phase_shape = truth.shape[1:], phase.shape[1:]
-        self._probe_rows = [(k, a, a.shape[1:]) for k, a in probes.items()]
+        self._arrays = [truth, phase, *probes.values()]  # in put's order: truth, phase, the probes'
+        self._shapes = [a.shape[1:] for a in self._arrays]
         self.n = 0
 
     @classmethod
@@ -94,8 +94,8 @@ class _Block:
     def put(self, t: float, truth, phase, probes: dict) -> None:
         """Copy one step into the next row."""
         i = self.n
-        for dst, shape, value in ((self.truth, self._truth_shape, truth), (self.phase, self._phase_shape, phase),
-                                  *((dst, shape, probes[name]) for name, dst, shape in self._probe_rows)):
+        values = (truth, phase, *map(probes.__getitem__, self.probes))
+        for dst, shape, value in zip(self._arrays, self._shapes, values, strict=True):
             if getattr(value, "shape", None) != shape:
                 _check_shape(value, shape)
             dst[i] = value  # not broadcast: the shapes are equal

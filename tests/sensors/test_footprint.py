@@ -242,3 +242,22 @@ def test_the_compiled_sense_equals_the_reference_bit_for_bit(confusion, orientat
             np.testing.assert_array_equal(fast.z, ref.z)
         outcomes |= set(ref.label.tolist())
     assert {UNLABELLED, IDENTIFIED_FALSE, 0, 1}.issubset(outcomes)  # the labels were exercised
+
+
+def test_sense_frame_is_sense_for_ready_arrays():
+    """:func:`sense_frame` (the world's per-frame call, no conversions) gives :func:`sense`'s detections and sources."""
+    rng = np.random.default_rng(5)
+    params = fp.FootprintParams()
+    is_decoy = np.arange(6) >= 3
+    beta, gamma = fp.draw_cones(rng, 6)
+    constants = fp.ObjectConstants.of(params, is_decoy, beta, gamma)
+    for _ in range(20):
+        uav_xyz = np.column_stack([rng.uniform(0, 100, (4, 2)), np.full(4, H)])
+        psi, obj_xy, obj_heading = rng.uniform(-3, 3, 4), rng.uniform(0, 100, (6, 2)), rng.uniform(-3, 3, 6)
+        u, stamped = rng.random((4, 6, 2)), uav_xyz[:, :2] + 0.5
+        ref, src_ref = fp.sense(uav_xyz, psi, obj_xy, obj_heading, is_decoy, beta, gamma, u, params, stamped=stamped)
+        fast, src = fp.sense_frame(uav_xyz, psi, obj_xy, obj_heading, u, params, constants, stamped=stamped)
+        np.testing.assert_array_equal(src, src_ref)
+        for name in ("owner", "z", "sensor_pos", "label", "footprint"):
+            np.testing.assert_array_equal(getattr(fast, name), getattr(ref, name), err_msg=name)
+        assert fast.n_uavs == ref.n_uavs

@@ -333,19 +333,28 @@ def sense(uav_xyz, uav_heading, obj_xy, obj_heading, is_decoy, beta, gamma, nois
     if compiled and m:
         if constants is None:
             constants = ObjectConstants.of(params, is_decoy, beta, gamma, J)
-        corners, owner, source, z, label = _frame_compiled(uav_xyz, uav_heading, obj_xy, obj_heading, noise_u,
-                                                           params, constants, uav_trig)
-    else:
-        corners = footprint_corners(uav_xyz[:, :2], uav_heading, uav_xyz[:, 2], params.tan_half, params.orientation)
-        seen = inside(corners, obj_xy)  # (n, m)
-        obj_xyz = np.column_stack([obj_xy, np.zeros(m)])
-        labels = identify(uav_xyz, obj_xyz, cone_axis(obj_heading, beta, gamma), is_decoy, J,
-                          aperture_true=params.aperture_true, aperture_decoy_identify=params.aperture_decoy_identify,
-                          aperture_decoy_reveal=params.aperture_decoy_reveal, confusion=params.confusion)
-        bound = np.asarray(params.noise_bound, dtype=float)
-        owner, source, z, label = _detections(seen, labels, obj_xy, noise_u, bound)
+        return sense_frame(uav_xyz, uav_heading, obj_xy, obj_heading, noise_u, params, constants, stamped, uav_trig)
+    corners = footprint_corners(uav_xyz[:, :2], uav_heading, uav_xyz[:, 2], params.tan_half, params.orientation)
+    seen = inside(corners, obj_xy)  # (n, m)
+    obj_xyz = np.column_stack([obj_xy, np.zeros(m)])
+    labels = identify(uav_xyz, obj_xyz, cone_axis(obj_heading, beta, gamma), is_decoy, J,
+                      aperture_true=params.aperture_true, aperture_decoy_identify=params.aperture_decoy_identify,
+                      aperture_decoy_reveal=params.aperture_decoy_reveal, confusion=params.confusion)
+    owner, source, z, label = _detections(seen, labels, obj_xy, noise_u, np.asarray(params.noise_bound, dtype=float))
     pos = uav_xyz[:, :2] if stamped is None else np.asarray(stamped, dtype=float).reshape(n, 2)
     return Detections(owner, z, pos[owner], label, n, footprint=corners), source
+
+
+def sense_frame(uav_xyz: np.ndarray, uav_heading, obj_xy: np.ndarray, obj_heading, noise_u: np.ndarray,
+                params: FootprintParams, constants: ObjectConstants, stamped=None,
+                uav_trig: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[Detections, np.ndarray]:
+    """:func:`sense`'s compiled pass for a caller whose arrays are already what it converts them to (``uav_xyz``
+    (n, 3), ``obj_xy`` (m, 2) with m > 0, ``noise_u`` (n, m, 2), all float) and that holds the objects' ``constants``:
+    the same detections and sources, without the conversions (the world's sensor, every frame)."""
+    corners, owner, source, z, label = _frame_compiled(uav_xyz, uav_heading, obj_xy, obj_heading, noise_u, params,
+                                                       constants, uav_trig)
+    pos = uav_xyz[:, :2] if stamped is None else np.asarray(stamped, dtype=float).reshape(len(uav_xyz), 2)
+    return Detections(owner, z, pos[owner], label, len(uav_xyz), footprint=corners), source
 
 
 def _detections(seen, labels, obj_xy, noise_u, bound):

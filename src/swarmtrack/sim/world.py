@@ -167,10 +167,14 @@ class FootprintSensor:
     def detect_world(self, world: World):
         uavs = world.kinematic("uavs")
         objects = np.concatenate([world.kinematic(g).state for g in self.sensed if world.kinematic(g) is not None])
-        return footprint.sense(uavs.state[:, fixed_wing.X:fixed_wing.Z + 1], uavs.state[:, fixed_wing.PSI],
-                               objects[:, :2], objects[:, ground_walker.HEADING], self.is_decoy, self.beta,
-                               self.gamma, world.frame_uniforms(), self.params, self.J, constants=self.constants,
-                               uav_trig=uavs.trig())
+        if not len(objects):  # nothing to detect: sense's reference pass (the compiled one needs objects)
+            return footprint.sense(uavs.state[:, fixed_wing.X:fixed_wing.Z + 1], uavs.state[:, fixed_wing.PSI],
+                                   objects[:, :2], objects[:, ground_walker.HEADING], self.is_decoy, self.beta,
+                                   self.gamma, world.frame_uniforms(), self.params, self.J, constants=self.constants,
+                                   uav_trig=uavs.trig())
+        return footprint.sense_frame(uavs.state[:, fixed_wing.X:fixed_wing.Z + 1], uavs.state[:, fixed_wing.PSI],
+                                     objects[:, :2], objects[:, ground_walker.HEADING], world.frame_uniforms(),
+                                     self.params, self.constants, uav_trig=uavs.trig())
 
 
 class _Uniforms:

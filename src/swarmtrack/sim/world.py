@@ -597,10 +597,11 @@ class World:
         """One tick of every kinematic group (from tick ``tick``), and their positions into the latency buffer."""
         if self._pack is not None:
             self._pack.step(tick)
-        for kin in self._kinematic if self._pack is None or len(self._history) > 1 else ():
-            if self._pack is None:
+        else:
+            for kin in self._kinematic:
                 kin.step(tick, self.dt)
-            if len(self._history) > 1:
+        if len(self._history) > 1:
+            for kin in self._kinematic:
                 self._history[(tick + 1) % len(self._history)][kin.objects] = kin.state[:, :2]
 
     def _accel(self, cmd: np.ndarray, driver: np.ndarray, velocity: np.ndarray) -> np.ndarray:

@@ -72,3 +72,18 @@ def test_the_vehicle_integrates_the_shared_kinematics():
     from swarmtrack.vehicles import fixed_wing as vehicle
 
     assert vehicle.step is fw.step and vehicle.FixedWingParams is fw.FixedWingParams
+
+
+def test_rollout_equals_its_numpy_reference_bit_for_bit():
+    rng = np.random.default_rng(8)
+    nav = _random_states(rng, (6, 1))
+    nav[0, 0, fw.PSI_DOT:] = (0.59, 0.5)  # saturates
+    nav[1, 0, fw.PSI_DOT:] = (-0.6, -0.9)
+    cands = rng.choice([-0.5, -0.25, 0.0, 0.25, 0.5], size=(1, 25, 2))
+    for params in (P, fw.FixedWingParams(yaw_rate_max=np.inf)):
+        for ticks in (1, 10):
+            out = fw.rollout(nav, cands, ticks, params)
+            assert out.shape == (6, 25, 2, 7)
+            np.testing.assert_array_equal(out, fw.rollout_reference(nav, cands, ticks, params))
+    one = fw.rollout(nav[0, 0], cands[0, :3], 10, P, 0.05)
+    np.testing.assert_array_equal(one, fw.rollout_reference(nav[0, 0], cands[0, :3], 10, P, 0.05))

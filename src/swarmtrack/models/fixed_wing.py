@@ -2,8 +2,9 @@
 
 The one copy of these equations: the world integrates them (:mod:`swarmtrack.vehicles.fixed_wing`) and the
 set-membership MPC predicts its own UAV and its neighbours with them (:mod:`swarmtrack.control.sm_mpc`, IB21 eq. 1:
-``x^u_{k+1} = f^u(x^u_k, u_k)``), so the prediction and the truth cannot drift apart. Pure numpy, batched over any
-leading axes.
+``x^u_{k+1} = f^u(x^u_k, u_k)``), so the prediction and the truth cannot drift apart. Batched over any leading axes:
+:func:`step` pure numpy, :func:`rollout` numpy's trig with compiled loops (:func:`rollout_reference` its numpy
+twin, the same numbers).
 
 State ``(..., 7)`` = ``[x1, x2, x3, x4, x5, x6, x7]`` = ``[x, y, z, γ, ψ, ψ̇, ψ̈]``: ground position (m), altitude (m),
 flight-path angle (rad), heading (rad, not wrapped), yaw rate (rad/s), yaw acceleration (rad/s²). One Euler tick of
@@ -27,6 +28,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 X, Y, Z, GAMMA, PSI, PSI_DOT, PSI_DDOT = range(7)
@@ -91,7 +93,69 @@ def rollout(state, inputs, ticks: int, params: FixedWingParams = DEFAULT_PARAMS,
             dt: float = T_D) -> np.ndarray:
     """The states at the end of each held input: ``inputs`` (..., h) yaw accelerations, each held for ``ticks``
     ticks of :func:`step` (IB21 Sec. 5: the input is held over the control period ``T^c = ticks·T_d``), from
-    ``state`` (..., 7) (leading axes broadcast). Returns ``(..., h, 7)``: x at ``k+1, …, k+h`` control periods."""
+    ``state`` (..., 7) (leading axes broadcast). Returns ``(..., h, 7)``: x at ``k+1, …, k+h`` control periods.
+
+    The same numbers as :func:`rollout_reference` (the rows of :func:`step` tick by tick), in three passes: the
+    rows x5-x7 do not read the position, so every tick's heading comes first (:func:`_headings`, compiled), then
+    the cosines and sines of all of them in one numpy call each (numpy's own trig, as the reference), then the
+    position rows x1-x3 (:func:`_positions`, compiled, the same sums in the same order)."""
+    inputs = np.asarray(inputs, dtype=float)
+    s = np.asarray(state, dtype=float)
+    lead = np.broadcast_shapes(s.shape[:-1], inputs.shape[:-1])
+    h = inputs.shape[-1]
+    flat = np.ascontiguousarray(np.broadcast_to(s, lead + (STATE_DIM,)).reshape(-1, STATE_DIM))
+    u_all = np.ascontiguousarray(np.broadcast_to(inputs, lead + (h,)).reshape(-1, h))
+    out = np.empty((flat.shape[0], h, STATE_DIM))
+    psi = _headings(flat, u_all, ticks, dt, params.yaw_rate_max, out)  # (h·ticks, M): ψ at the start of each tick
+    v_dt = dt * params.speed
+    g = flat[:, GAMMA]
+    _positions(flat, v_dt * np.cos(g), v_dt * np.sin(g), np.cos(psi), np.sin(psi), ticks, out)
+    return out.reshape(lead + (h, STATE_DIM))
+
+
+@numba.njit(cache=True)
+def _headings(flat, u_all, ticks, dt, rate_max, out):
+    """Rows x5-x7 of :func:`step` (x4 kept) for ``ticks`` ticks per input: writes them into ``out`` (M, h, 7) at the
+    end of each input and returns the heading at the start of every tick (h·ticks, M). The saturation is written
+    as ``np.minimum(np.maximum(·))`` behaves (a NaN stays NaN)."""
+    m, h = u_all.shape
+    psis = np.empty((h * ticks, m))
+    lo, hi = -rate_max, rate_max
+    for q in range(m):
+        psi, rate, acc = flat[q, PSI], flat[q, PSI_DOT], flat[q, PSI_DDOT]
+        for k in range(h):
+            u = u_all[q, k]
+            for t in range(ticks):
+                psis[k * ticks + t, q] = psi
+                nxt = rate + dt * acc
+                if nxt < lo:
+                    nxt = lo
+                if nxt > hi:
+                    nxt = hi
+                psi, rate, acc = psi + dt * rate, nxt, u
+            out[q, k, GAMMA], out[q, k, PSI], out[q, k, PSI_DOT], out[q, k, PSI_DDOT] = flat[q, GAMMA], psi, rate, acc
+    return psis
+
+
+@numba.njit(cache=True)
+def _positions(flat, horizontal, climb, cos_psi, sin_psi, ticks, out):
+    """Rows x1-x3 of :func:`step` from the headings' cosines and sines (h·ticks, M) (:func:`_headings`): writes the
+    position at the end of each input into ``out`` (M, h, 7)."""
+    m, h = out.shape[0], out.shape[1]
+    for q in range(m):
+        x, y, z = flat[q, X], flat[q, Y], flat[q, Z]
+        for k in range(h):
+            for t in range(k * ticks, (k + 1) * ticks):
+                x, y, z = x + horizontal[q] * cos_psi[t, q], y + horizontal[q] * sin_psi[t, q], z + climb[q]
+            out[q, k, X], out[q, k, Y], out[q, k, Z] = x, y, z
+
+
+def rollout_reference(state, inputs, ticks: int, params: FixedWingParams = DEFAULT_PARAMS,
+            dt: float = T_D) -> np.ndarray:
+    """The states at the end of each held input: ``inputs`` (..., h) yaw accelerations, each held for ``ticks``
+    ticks of :func:`step` (IB21 Sec. 5: the input is held over the control period ``T^c = ticks·T_d``), from
+    ``state`` (..., 7) (leading axes broadcast). Returns ``(..., h, 7)``: x at ``k+1, …, k+h`` control periods.
+    The readable reference of :func:`rollout` (numpy, tick by tick)."""
     inputs = np.asarray(inputs, dtype=float)
     s = np.asarray(state, dtype=float)
     lead = np.broadcast_shapes(s.shape[:-1], inputs.shape[:-1])

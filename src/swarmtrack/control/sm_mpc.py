@@ -210,7 +210,13 @@ def removals(own_states: np.ndarray, nb_states: np.ndarray, s: SMMPCSettings,
     own_corners, nb_corners = (None, None) if corners is None else corners
     if own_corners is None:
         own_corners = footprints(own_states, s)
-    nb_corners = footprints(nb_states, s) if nb_corners is None else nb_corners[:len(nb_states)]
+    n_nb = len(nb_states)
+    if not n_nb:  # no neighbour: no footprint to compute, nothing eq. 48 can keep
+        nb_corners = np.zeros((0, h, 4, 2))
+    elif nb_corners is None:
+        nb_corners = footprints(nb_states, s)
+    else:
+        nb_corners = nb_corners[:n_nb]
     none = pg.empty(0)
     own, xy, nb, kept, corners = [], [], [], [], []
     for k in range(h):
@@ -220,9 +226,12 @@ def removals(own_states: np.ndarray, nb_states: np.ndarray, s: SMMPCSettings,
         corners.append(c)
         own.append(footprint_polygons(c) if polygons else none)
         xy.append(nodes[:, :2])
-        nb.append(footprint_polygons(nb_corners[:, k]) if len(nb_states) and polygons else none)
-        gap = nodes[:, None, :2] - nb_states[None, :, k, :2]
-        kept.append(np.einsum("nli,nli->nl", gap, gap) <= s.comm_range ** 2)
+        nb.append(footprint_polygons(nb_corners[:, k]) if n_nb and polygons else none)
+        if n_nb:
+            gap = nodes[:, None, :2] - nb_states[None, :, k, :2]
+            kept.append(np.einsum("nli,nli->nl", gap, gap) <= s.comm_range ** 2)
+        else:
+            kept.append(np.zeros((len(nodes), 0), dtype=bool))
     return Removals(own, xy, nb, kept, corners, nb_corners)
 
 
@@ -351,8 +360,13 @@ class Choice:
 
 def choose(cost: np.ndarray, rel: float = 1e-12, abs_tol: float = 1e-9) -> int:
     """The first candidate within round-off of the minimum (the tie order is the candidates' order)."""
-    best = np.min(cost)
-    return int(np.flatnonzero(cost <= best + abs_tol + rel * abs(best))[0])
+    cost = np.asarray(cost)
+    best = cost.min()
+    near = cost <= best + abs_tol + rel * abs(best)
+    first = int(near.argmax())  # the first True (argmax of a bool array stops at it)
+    if not near[first]:
+        raise ValueError("no candidate is within round-off of the minimum (NaN costs?)")
+    return first
 
 
 def plan_one(region, own_states: np.ndarray, nb_states: np.ndarray, area, s: SMMPCSettings = DEFAULT_SETTINGS,

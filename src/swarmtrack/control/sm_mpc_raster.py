@@ -283,6 +283,7 @@ class MemberRows:
     ready: np.ndarray
     has: np.ndarray
     members: tuple | None = None  # (rows, starts, columns, complete) of G's members, if few (:func:`_member_list`)
+    blocks: tuple | None = None  # the listed rows' column extents per block of ROW_BLOCK (:func:`_listed_blocks`)
 
 
 def member_rows(grid: rs.Grid, region: rs.Field, s: SMMPCSettings, shared: dict | None = None) -> MemberRows:
@@ -331,22 +332,23 @@ def plan_one_raster(grid: rs.Grid, region: rs.Field | None, own_states: np.ndarr
     the distance only for the candidates whose area term leaves them a chance, the others' cost ``inf``.
     ``shared``: a dict kept across the UAVs of one fleet plan (:func:`member_rows`); ``corners``: the footprints'
     corners of both kinds of states, if known (:func:`sm_mpc.removals`)."""
-    cands = sm.candidates(s.inputs, s.horizon)
+    cands = sm._candidates(tuple(s.inputs), s.horizon)  # the cached table, read only
     if region is None or region.is_empty:
         zero = np.zeros(len(cands))
-        return sm.Choice(0, cands[0], zero, zero.copy(), zero.copy())
+        return sm.Choice(0, cands[0].copy(), zero, zero.copy(), zero.copy())
     rem = sm.removals(own_states, nb_states, s, neighbours=not s.baseline, polygons=False, corners=corners)
     k = RasterKernel(grid, region, scene(grid, rem, s), rem.xy[-1], s, member_rows(grid, region, s, shared))
     areas = k.areas()
     dist = np.full(len(areas), np.inf)
-    need = np.ones(len(areas), dtype=bool)
     if prune:
         first = sm.choose(areas)
         dist[first] = k.distances(np.array([first]))[0]
         bound = areas[first] + s.alpha * dist[first]
         need = areas <= bound + 1e-9 + 1e-12 * abs(bound)
         need[first] = False
-    rows = np.flatnonzero(need)
+    else:
+        need = np.ones(len(areas), dtype=bool)
+    rows = need.nonzero()[0]
     if len(rows):
         dist[rows] = k.distances(rows)
     cost = areas + s.alpha * dist
@@ -354,11 +356,13 @@ def plan_one_raster(grid: rs.Grid, region: rs.Field | None, own_states: np.ndarr
     i0, j0, i1, j1 = k.sc.window
     c = grid.cell
     window = (grid.x0 + j0 * c, grid.y0 + i0 * c, grid.x0 + j1 * c, grid.y0 + i1 * c)
-    return sm.Choice(index, cands[index], cost, areas, dist, 0, window)
+    return sm.Choice(index, cands[index].copy(), cost, areas, dist, 0, window)
 
 
 #: At most this many member cells of G: the nearest distance searches them listed (:meth:`RasterKernel.distances`).
 LISTED_MEMBERS = 20_000
+#: Listed member rows per block of :func:`_listed_blocks` (the listed search skips a block that cannot be nearer).
+ROW_BLOCK = 8
 
 
 class RasterKernel:
@@ -403,9 +407,11 @@ class RasterKernel:
                 m.members = _member_list(m.src, m.fw, self.s.horizon, self.geo[3], self.outside, self.clip,
                                          self.grid.slack + DELTA, m.ready, m.has, listed)
             if m.members[3]:
+                if m.blocks is None:
+                    m.blocks = _listed_blocks(m.members[1], m.members[2], ROW_BLOCK)
                 return _nearest_listed(np.asarray(which, dtype=np.int64), sc.terms, sc.steady, sc.lines, sc.lag,
                                        self.spans, sc.rows[0], sc.rows[1], self.geo, self.grid.slack, self.xy,
-                                       *m.members[:3])
+                                       *m.members[:3], *m.blocks)
         if self._members is None:
             self._members = _range_members(self.base()[0], self.grid.slack + DELTA, self.sc.window[1])
         return _distances(np.asarray(which, dtype=np.int64), sc.terms, sc.steady, sc.lines, sc.lag, self.spans,
@@ -736,18 +742,41 @@ def _member_list(src, fw, h, r, outside, clip, thr, ready, has, most):
 
 
 @numba.njit(cache=True)
-def _nearest_listed(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, rows, starts, cols):
+def _listed_blocks(starts, cols, size):
+    """The least and greatest member column of each block of ``size`` consecutive listed rows (:func:`_member_list`;
+    the columns ascend within a row)."""
+    n = len(starts) - 1
+    nb = (n + size - 1) // size
+    lo, hi = np.empty(nb, dtype=np.int64), np.empty(nb, dtype=np.int64)
+    for b in range(nb):
+        a, z = b * size, min(n, (b + 1) * size)
+        lo[b], hi[b] = cols[starts[a]], cols[starts[a + 1] - 1]
+        for e in range(a + 1, z):
+            lo[b], hi[b] = min(lo[b], cols[starts[e]]), max(hi[b], cols[starts[e + 1] - 1])
+    return lo, hi
+
+
+@numba.njit(cache=True)
+def _nearest_listed(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, rows, starts, cols, blo, bhi):
     """The nearest distance of :func:`_nearest` (0 if no member is left) over the listed member cells of G
     (:func:`_member_list`), those the terms of the candidate and the steady ones cover left out: the member rows in
     order of their gap to p, stopping at the best distance found; in each, the nearest uncovered member on either
     side of p's column (found by bisection, jumping over the deep intervals). The same minimum as testing every
-    listed cell, by the same arithmetic: along a row the distance only grows away from p."""
-    x0, y0, c = geo[0], geo[1], geo[2]
+    listed cell, by the same arithmetic: along a row the distance only grows away from p.
+
+    Warm start: the cell nearest to the previous candidate's p (the candidates' ends lie close together), when
+    this candidate's terms leave it free, bounds the search from the start (its distance by the same arithmetic);
+    and the rest of a block of listed rows (``blo``/``bhi`` its column extents, :func:`_listed_blocks`) in the
+    search's direction is skipped when the distance to its columns at the current row's gap is not below the best
+    (with a relative margin of 1e-9: a bound, the others' arithmetic need not agree with it to the last bit). The
+    minimum is the same, found over fewer rows and cells."""
+    x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
     k = terms.shape[1] + len(steady)
     ids = np.empty(k, dtype=np.int64)
     lo, hi = np.empty(k, dtype=np.int64), np.empty(k, dtype=np.int64)
     thr = slack + DELTA
     out = np.empty(len(which))
+    wi = wj = -1  # the previous candidate's nearest cell (none yet)
     for q in range(len(which)):
         cand = which[q]
         nid = _terms_of(terms, steady, cand, ids)
@@ -757,17 +786,30 @@ def _nearest_listed(which, terms, steady, lines, lag, spans, t0, t1, geo, slack,
         up = np.searchsorted(rows, ip)  # member rows ≥ ip from here, those below from up − 1 down
         dn = up - 1
         best = np.inf
+        bi = bj = -1
+        if wi >= 0 and not _covered(ids, nid, lines, lag, spans, t0, t1, wi, wj, x0 + (wj + 0.5) * c,
+                                    y0 + (wi + 0.5) * c, r, thr):
+            best = math.hypot(_gap(x0 + wj * c, px, c), _gap(y0 + wi * c, py, c))
+            bi, bj = wi, wj
         while True:
             gdn = _gap(y0 + rows[dn] * c, py, c) if dn >= 0 else np.inf
             gup = _gap(y0 + rows[up] * c, py, c) if up < len(rows) else np.inf
             if min(gdn, gup) >= best:
                 break
             if gdn <= gup:
-                at, dy = dn, gdn
+                at, dy, rising = dn, gdn, False
                 dn -= 1
             else:
-                at, dy = up, gup
+                at, dy, rising = up, gup, True
                 up += 1
+            blk = at // ROW_BLOCK  # its rows farther from p than this one have a gap of at least dy
+            wide = max(max(x0 + blo[blk] * c - px, px - (x0 + bhi[blk] * c + c)), 0.0)
+            if math.hypot(wide, dy) >= best * (1 + 1e-9):
+                if rising:
+                    up = (blk + 1) * ROW_BLOCK
+                else:
+                    dn = blk * ROW_BLOCK - 1
+                continue
             i = rows[at]
             a, b = starts[at], starts[at + 1]
             m = _row_covers(ids, nid, spans, t0, t1, i, lo, hi)
@@ -776,8 +818,12 @@ def _nearest_listed(which, terms, steady, lines, lag, spans, t0, t1, geo, slack,
                 e = _first_listed(cols, first if step > 0 else first - 1, step, a, b, i, ids, nid, lines, lag,
                                   spans, t0, t1, lo, hi, m, geo, thr, px, dy, best)
                 if e >= 0:
-                    best = min(best, math.hypot(_gap(x0 + cols[e] * c, px, c), dy))
+                    d = math.hypot(_gap(x0 + cols[e] * c, px, c), dy)
+                    if d < best:
+                        best, bi, bj = d, i, cols[e]
         out[q] = 0.0 if best == np.inf else best
+        if bi >= 0:
+            wi, wj = bi, bj
     return out
 
 
@@ -924,11 +970,16 @@ def _range_members(base, thr, j0):
 
 @numba.njit(cache=True)
 def _nearest(px, py, ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h, outside, clip, nxt, prv, ready,
-             has, lo, hi, win, wnxt, wprv):
+             has, lo, hi, win, wnxt, wprv, wi, wj):
     """Nearest distance from (px, py) to the member squares of one candidate (0 if none): rows in order of their
     gap to p, stopping at the best distance found; in each row the nearest free member on either side, first
     within R (``win``, its members ``wnxt``/``wprv`` from the plan's base values) when p's column is in it, then
-    beyond it with the lazy rows of the grid (built only if a member there could still be nearer)."""
+    beyond it with the lazy rows of the grid (built only if a member there could still be nearer). Returns the
+    distance and the cell (i, j) that gives it ((−1, −1) if none).
+
+    Warm start: ``(wi, wj)``, a member cell of G (the previous candidate's nearest; −1: none), when this candidate's
+    terms leave it free, bounds the search from the start (its distance by the same arithmetic); the minimum is
+    the same, found over fewer rows."""
     x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
     nx = nxt.shape[1]
     ip = int(math.floor((py - y0) / c))
@@ -936,6 +987,13 @@ def _nearest(px, py, ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h, 
     in_cols = win[1] <= jp < win[3]
     dn, up = min(ip, fw[6] - 1), max(ip + 1, fw[4])
     best = np.inf
+    bi = bj = -1
+    if wi >= 0 and not _covered(ids, nid, lines, lag, spans, t0, t1, wi, wj, x0 + (wj + 0.5) * c,
+                                y0 + (wi + 0.5) * c, r, thr):
+        xl = x0 + wj * c
+        dy = max(max(y0 + wi * c - py, py - (y0 + (wi + 1) * c)), 0.0)
+        best = math.hypot(max(max(xl - px, px - (xl + c)), 0.0), dy)
+        bi, bj = wi, wj
     while True:
         gdn = max(max(y0 + dn * c - py, py - (y0 + (dn + 1) * c)), 0.0) if dn >= fw[4] else np.inf
         gup = max(max(y0 + up * c - py, py - (y0 + (up + 1) * c)), 0.0) if up < fw[6] else np.inf
@@ -966,8 +1024,10 @@ def _nearest(px, py, ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h, 
                                                  t0, t1, lo, hi, m, geo, thr, px, dy, best)
             if found >= 0:
                 xl = x0 + found * c
-                best = min(best, math.hypot(max(max(xl - px, px - (xl + c)), 0.0), dy))
-    return 0.0 if best == np.inf else best
+                d = math.hypot(max(max(xl - px, px - (xl + c)), 0.0), dy)
+                if d < best:
+                    best, bi, bj = d, i, found
+    return (0.0 if best == np.inf else best), bi, bj
 
 
 @numba.njit(cache=True)
@@ -1046,6 +1106,7 @@ def _distances(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, 
     lo, hi = np.empty(k, dtype=np.int64), np.empty(k, dtype=np.int64)
     out = np.empty(len(which))
     thr = slack + DELTA
+    wi = wj = -1  # the previous candidate's nearest cell, the next one's warm start (:func:`_nearest`)
     for q in range(len(which)):
         cand = which[q]
         nid = _terms_of(terms, steady, cand, ids)
@@ -1053,6 +1114,8 @@ def _distances(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, 
             out[q] = _farthest(xy[cand, 0], xy[cand, 1], ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h,
                                outside, clip, nxt, prv, ready, has, lo, hi)
         else:
-            out[q] = _nearest(xy[cand, 0], xy[cand, 1], ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h,
-                              outside, clip, nxt, prv, ready, has, lo, hi, win, wnxt, wprv)
+            out[q], bi, bj = _nearest(xy[cand, 0], xy[cand, 1], ids, nid, lines, lag, spans, t0, t1, geo, thr, src,
+                                      fw, h, outside, clip, nxt, prv, ready, has, lo, hi, win, wnxt, wprv, wi, wj)
+            if bi >= 0:
+                wi, wj = bi, bj
     return out

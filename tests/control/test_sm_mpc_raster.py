@@ -374,3 +374,32 @@ def test_a_controller_on_a_grid_loads_the_planner_kernels_before_its_first_plan(
     sm.SetMembershipMPC(shapely.box(0, 0, 400, 400), n_uavs=2, grid=grid)
     sm.SetMembershipMPC(shapely.box(0, 0, 400, 400), n_uavs=2)  # polygons: nothing to load
     assert len(planned) == 2  # once per process
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_strip_left_infinite_has_no_value_at_most_the_limit(seed):
+    """:func:`sm_mpc_raster._strip` gives ``+inf`` for a strip off the Field's window only where every value
+    :func:`raster.values` gives there exceeds the limit (no member after the dilations, no area: the same numbers),
+    and it does so for the usual windows (cores well inside them)."""
+    rng = np.random.default_rng(40 + seed)
+    skipped = 0
+    for _ in range(8):
+        blobs = shapely.buffer(shapely.points(rng.uniform(20, 380, (2, 2))), rng.uniform(3, 15, 2))
+        region = rs.trim(GRID, field_of(shapely.union_all(blobs), margin=float(rng.uniform(0.5, 6.0))))
+        i0, j0, i1, j1 = region.window
+        ci0, cj0, ci1, cj1 = region.core
+        limit = GRID.slack + 2 * smr.DELTA + S.horizon * S.target_speed * S.period
+        for window, gap in (((i0 - 4, j0 - 4, i0, j1 + 4), ci0 - i0), ((i1, j0 - 4, i1 + 4, j1 + 4), i1 - ci1),
+                            ((i0, j0 - 4, i1, j0), cj0 - j0), ((i0, j1, i1, j1 + 4), j1 - cj1)):
+            window = (max(window[0], 0), max(window[1], 0), min(window[2], GRID.ny), min(window[3], GRID.nx))
+            if window[0] >= window[2] or window[1] >= window[3]:
+                continue
+            got = smr._strip(GRID, region, window, gap, limit)
+            values = rs.values(GRID, region, window)
+            if np.isinf(got).all():
+                skipped += 1
+                assert (values > limit).all()
+            else:
+                np.testing.assert_array_equal(got, values)
+    assert skipped
+

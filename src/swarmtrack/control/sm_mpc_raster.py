@@ -294,28 +294,40 @@ def member_rows(grid: rs.Grid, region: rs.Field, s: SMMPCSettings, shared: dict 
     hit = None if shared is None else shared.get(key)
     if hit is not None and hit.field is region:
         return hit
+    limit = grid.slack + 2 * DELTA + s.horizon * r  # a value above it gives no member after the h dilations
     m = math.ceil((s.horizon * r + grid.slack + 2 * DELTA) / grid.cell + 0.5) + 1
     i0, j0, i1, j1 = region.window
     b0, b1, b2, b3 = max(0, i0 - m), max(0, j0 - m), min(grid.ny, i1 + m), min(grid.nx, j1 + m)
-    src = (region.data, _strip(grid, region, (b0, b1, i0, b3)), _strip(grid, region, (i1, b1, b2, b3)),
-           _strip(grid, region, (i0, b1, i1, j0)), _strip(grid, region, (i0, j1, i1, b3)))
+    ci0, cj0, ci1, cj1 = region.core
+    src = (region.data, _strip(grid, region, (b0, b1, i0, b3), ci0 - i0, limit),
+           _strip(grid, region, (i1, b1, b2, b3), i1 - ci1, limit),
+           _strip(grid, region, (i0, b1, i1, j0), cj0 - j0, limit),
+           _strip(grid, region, (i0, j1, i1, b3), j1 - cj1, limit))
     fw = np.array([i0, j0, i1, j1, b0, b1, b2, b3], dtype=np.int64)
     rows = MemberRows(region, src, fw, np.empty((grid.ny, grid.nx), dtype=np.int32),
                       np.empty((grid.ny, grid.nx), dtype=np.int32), np.zeros(grid.ny, dtype=np.uint8),
                       np.zeros(grid.ny, dtype=np.uint8))
     # rows where no value is low enough to give a member after the h dilations are done already (no member), so
     # the searches never evaluate them: far from small sets, most rows of the box are such
-    _rows_without_members(src, fw, grid.slack + 2 * DELTA + s.horizon * r, rows.ready, rows.has)
+    _rows_without_members(src, fw, limit, rows.ready, rows.has)
     if shared is not None:
         shared[key] = rows
     return rows
 
 
-def _strip(grid: rs.Grid, region: rs.Field, window: tuple[int, int, int, int]) -> np.ndarray:
-    """:func:`raster.values` on ``window`` (a part of the box off the Field's stored window), C-ordered floats."""
+def _strip(grid: rs.Grid, region: rs.Field, window: tuple[int, int, int, int], gap: int = 0,
+           limit: float = math.inf) -> np.ndarray:
+    """:func:`raster.values` on ``window`` (a part of the box off the Field's stored window, on the side where
+    ``gap`` cells lie between the window's edge and the core's), C-ordered floats; or ``+inf`` everywhere when no
+    value there can be at most ``limit``. Off the stored window a value is at least the distance from the cell's
+    centre to the core's rectangle (:func:`raster.values`), here at least ``(gap + 1/2)·c``; so when that exceeds
+    ``limit`` (with a margin for round-off) the strip gives no member after the h dilations, no area (``cell_area``
+    0) and nothing to remove, as ``+inf`` gives: the same numbers in every use of :class:`MemberRows`' values."""
     i0, j0, i1, j1 = window
     if i0 >= i1 or j0 >= j1:
         return np.zeros((max(i1 - i0, 0), max(j1 - j0, 0)))
+    if (gap + 0.5) * grid.cell > limit + 1e-6:
+        return np.full((i1 - i0, j1 - j0), np.inf)
     return np.ascontiguousarray(rs.values(grid, region, window), dtype=float)
 
 
@@ -562,7 +574,10 @@ def _spans(lines, lag, geo, t0, t1, nx, slack):
 
 @numba.njit(cache=True)
 def _base_window(src, fw, geo, h, outside, clip, win, lines, lag, steady, spans, t0):
-    """On R: ``B`` (v without the candidates' terms) and the row prefix sums of ``cell_area(B)``."""
+    """On R: ``B`` (v without the candidates' terms) and the row prefix sums of ``cell_area(B)``. In a steady
+    footprint's deep interval (:func:`_spans`: its term exceeds c/√2 + 2·DELTA, the cell is empty) ``B`` is set to
+    ``+inf`` without evaluating the term: every use of B there (``cell_area(B) = 0``, not a member, no area left to
+    remove) gives the same numbers."""
     x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
     i0, j0, i1, j1 = win[0], win[1], win[2], win[3]
     slack = c / math.sqrt(2.0)
@@ -573,7 +588,16 @@ def _base_window(src, fw, geo, h, outside, clip, win, lines, lag, steady, spans,
         y = y0 + (i + 0.5) * c
         for f in steady:
             a, b = max(spans[f, i - t0, 0], j0), min(spans[f, i - t0, 1], j1)
-            for j in range(a, b):
+            da, db = max(spans[f, i - t0, 2], a), min(spans[f, i - t0, 3], b)
+            if da >= db:
+                da = db = b
+            for j in range(a, da):
+                t = _term(lines, lag, f, x0 + (j + 0.5) * c, y, r)
+                if t > base[i - i0, j - j0]:
+                    base[i - i0, j - j0] = t
+            for j in range(da, db):
+                base[i - i0, j - j0] = np.inf
+            for j in range(db, b):
                 t = _term(lines, lag, f, x0 + (j + 0.5) * c, y, r)
                 if t > base[i - i0, j - j0]:
                     base[i - i0, j - j0] = t

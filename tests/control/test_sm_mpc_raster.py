@@ -403,3 +403,40 @@ def test_a_strip_left_infinite_has_no_value_at_most_the_limit(seed):
                 np.testing.assert_array_equal(got, values)
     assert skipped
 
+
+def test_the_listed_blocks_kernel_equals_its_numpy_reference():
+    rng = np.random.default_rng(7)
+    for n_rows in (1, 7, 8, 9, 30):
+        counts = rng.integers(1, 6, n_rows)
+        starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        cols = np.concatenate([np.sort(rng.choice(400, k, replace=False)) for k in counts]).astype(np.int64)
+        for size in (1, 3, 8):
+            got = smr._listed_blocks(starts, cols, size)
+            for a, b in zip(got, smr.listed_blocks_reference(starts, cols, size), strict=True):
+                np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("distance", ["nearest", "hausdorff"])
+def test_the_one_call_plan_equals_the_separate_kernels(distance):
+    """:meth:`RasterKernel.plan` (one compiled call) gives the areas and distances of :meth:`RasterKernel.areas` and
+    :meth:`RasterKernel.distances` bit for bit, and :func:`sm_mpc.choose`'s pick of their costs; pruned, the same
+    distances where it computes them."""
+    s = sm.SMMPCSettings(distance=distance)
+    rng = np.random.default_rng(21)
+    for kind in ("large", "far"):
+        poly, state, nb = random_scene(rng)
+        if kind == "far":
+            poly = shapely.union_all(shapely.buffer(shapely.points(rng.uniform(0, 400, (3, 2))), 4.0))
+        region = field_of(poly)
+        rem = sm.removals(own_states(state, s), nb, s)
+        sc = smr.scene(GRID, rem, s)
+        areas, dist = smr.kernel_costs(GRID, region, sc, rem.xy[-1], s)
+        for prune in (False, True):
+            k = smr.RasterKernel(GRID, region, sc, rem.xy[-1], s)
+            got_areas, got_dist, cost, index = k.plan(prune)
+            np.testing.assert_array_equal(got_areas, areas)
+            done = np.isfinite(got_dist)
+            assert done.all() or prune
+            np.testing.assert_array_equal(got_dist[done], dist[done])
+            np.testing.assert_array_equal(cost, got_areas + s.alpha * got_dist)
+            assert index == sm.choose(cost) == sm.choose(areas + s.alpha * dist)

@@ -350,21 +350,7 @@ def plan_one_raster(grid: rs.Grid, region: rs.Field | None, own_states: np.ndarr
         return sm.Choice(0, cands[0].copy(), zero, zero.copy(), zero.copy())
     rem = sm.removals(own_states, nb_states, s, neighbours=not s.baseline, polygons=False, corners=corners)
     k = RasterKernel(grid, region, scene(grid, rem, s), rem.xy[-1], s, member_rows(grid, region, s, shared))
-    areas = k.areas()
-    dist = np.full(len(areas), np.inf)
-    if prune:
-        first = sm.choose(areas)
-        dist[first] = k.distances(np.array([first]))[0]
-        bound = areas[first] + s.alpha * dist[first]
-        need = areas <= bound + 1e-9 + 1e-12 * abs(bound)
-        need[first] = False
-    else:
-        need = np.ones(len(areas), dtype=bool)
-    rows = need.nonzero()[0]
-    if len(rows):
-        dist[rows] = k.distances(rows)
-    cost = areas + s.alpha * dist
-    index = sm.choose(cost)
+    areas, dist, cost, index = k.plan(prune)
     i0, j0, i1, j1 = k.sc.window
     c = grid.cell
     window = (grid.x0 + j0 * c, grid.y0 + i0 * c, grid.x0 + j1 * c, grid.y0 + i1 * c)
@@ -390,9 +376,44 @@ class RasterKernel:
         self.clip = not s.baseline and grid.outside is not None
         self.outside = grid.outside if self.clip else np.zeros((1, 1))
         self.geo = np.array([grid.x0, grid.y0, grid.cell, 0.0 if s.baseline else s.target_speed * s.period])
-        self.spans = _spans(sc.lines, sc.lag, self.geo, sc.rows[0], sc.rows[1], grid.nx, grid.slack)
         self.win = np.array(sc.window, dtype=np.int64)
-        self._base = self._members = None
+        self._spans = self._base = self._members = None
+
+    @property
+    def spans(self) -> np.ndarray:
+        """:func:`_spans` of the scene's footprints (once per plan)."""
+        if self._spans is None:
+            sc = self.sc
+            self._spans = _spans(sc.lines, sc.lag, self.geo, sc.rows[0], sc.rows[1], self.grid.nx, self.grid.slack)
+        return self._spans
+
+    def _listed(self, listed: int = LISTED_MEMBERS) -> bool:
+        """Whether the nearest distance searches the listed member cells of G (at most ``listed`` of them; the list
+        and its blocks are made once per Field)."""
+        m = self.rows
+        if self.s.distance != "nearest":
+            return False
+        if m.members is None:
+            m.members = _member_list(m.src, m.fw, self.s.horizon, self.geo[3], self.outside, self.clip,
+                                     self.grid.slack + DELTA, m.ready, m.has, listed)
+        if m.members[3] and m.blocks is None:
+            m.blocks = _listed_blocks(m.members[1], m.members[2], ROW_BLOCK)
+        return bool(m.members[3])
+
+    def plan(self, prune: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+        """Areas, distances (inf where not computed), costs (eq. 47) and the pick in one compiled call
+        (:func:`_plan_costs`): the steps of :meth:`areas`, :meth:`distances` and :func:`sm_mpc.choose` that
+        :func:`plan_one_raster` describes, with the same numbers (``prune``: the distance only for the candidates
+        that can still win)."""
+        sc, m, s = self.sc, self.rows, self.s
+        listed = self._listed()
+        lists = (*m.members[:3], *m.blocks) if listed else _NO_LIST
+        self._spans, base, prefix, areas, dist, cost, index = _plan_costs(
+            sc.lines, sc.lag, sc.terms, sc.steady, sc.rows[0], sc.rows[1], self.win, self.geo, self.grid.slack,
+            self.grid.nx, m.src, m.fw, s.horizon, self.outside, self.clip, self.xy, s.alpha, prune,
+            s.distance == "hausdorff", listed, *lists, m.nxt, m.prv, m.ready, m.has)
+        self._base = (base, prefix)
+        return areas, dist, cost, int(index)
 
     def base(self) -> tuple[np.ndarray, np.ndarray]:
         """On R: B (v without the candidates' terms) and the row prefix sums of cell_area(B) (once per plan)."""
@@ -414,16 +435,10 @@ class RasterKernel:
         ties on area and all 25 need a distance, each row search of the grid would cross the whole box), else by
         the row search."""
         sc, m = self.sc, self.rows
-        if self.s.distance == "nearest":
-            if m.members is None:
-                m.members = _member_list(m.src, m.fw, self.s.horizon, self.geo[3], self.outside, self.clip,
-                                         self.grid.slack + DELTA, m.ready, m.has, listed)
-            if m.members[3]:
-                if m.blocks is None:
-                    m.blocks = _listed_blocks(m.members[1], m.members[2], ROW_BLOCK)
-                return _nearest_listed(np.asarray(which, dtype=np.int64), sc.terms, sc.steady, sc.lines, sc.lag,
-                                       self.spans, sc.rows[0], sc.rows[1], self.geo, self.grid.slack, self.xy,
-                                       *m.members[:3], *m.blocks)
+        if self._listed(listed):
+            return _nearest_listed(np.asarray(which, dtype=np.int64), sc.terms, sc.steady, sc.lines, sc.lag,
+                                   self.spans, sc.rows[0], sc.rows[1], self.geo, self.grid.slack, self.xy,
+                                   *m.members[:3], *m.blocks)
         if self._members is None:
             self._members = _range_members(self.base()[0], self.grid.slack + DELTA, self.sc.window[1])
         return _distances(np.asarray(which, dtype=np.int64), sc.terms, sc.steady, sc.lines, sc.lag, self.spans,
@@ -731,9 +746,14 @@ def _rows_without_members(src, fw, limit, ready, has):
 
 @numba.njit(cache=True, inline="always")
 def _any_at_most(row, limit):
-    """Whether some value of ``row`` is at most ``limit`` (stops at the first)."""
-    for v in row:
-        if v <= limit:
+    """Whether some value of ``row`` is at most ``limit``: counted over blocks of 64 values (a loop the compiler
+    vectorises), stopping after the first block that has one."""
+    n = len(row)
+    for a in range(0, n, 64):
+        count = 0
+        for j in range(a, min(a + 64, n)):
+            count += row[j] <= limit
+        if count:
             return True
     return False
 
@@ -763,6 +783,14 @@ def _member_list(src, fw, h, r, outside, clip, thr, ready, has, most):
             nr += 1
             starts[nr] = n
     return rows[:nr], starts[:nr + 1], cols[:n], True
+
+
+def listed_blocks_reference(starts: np.ndarray, cols: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_listed_blocks` in numpy: per block of ``size`` listed rows, the least of their first member columns
+    and the greatest of their last ones."""
+    first, last = cols[starts[:-1]], cols[starts[1:] - 1]
+    at = np.arange(0, len(first), size)
+    return np.minimum.reduceat(first, at), np.maximum.reduceat(last, at)
 
 
 @numba.njit(cache=True)
@@ -1143,3 +1171,70 @@ def _distances(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, 
             if bi >= 0:
                 wi, wj = bi, bj
     return out
+
+
+#: Placeholders for the member list and its blocks when the nearest search does not use them.
+_NO_LIST = (np.zeros(0, dtype=np.int64), np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64),
+            np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
+
+
+@numba.njit(cache=True)
+def _choose(cost):
+    """:func:`sm_mpc.choose` with its default tolerances: the first candidate within round-off of the minimum."""
+    best = cost.min()
+    near = best + 1e-9 + 1e-12 * abs(best)
+    for q in range(len(cost)):
+        if cost[q] <= near:
+            return q
+    return -1
+
+
+@numba.njit(cache=True)
+def _some_distances(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, hausdorff, listed, rows,
+                    starts, cols, blo, bhi, src, fw, h, outside, clip, nxt, prv, ready, has, win, wnxt, wprv):
+    """:meth:`RasterKernel.distances` for the candidates ``which`` on the path :meth:`RasterKernel._listed` chose."""
+    if listed:
+        return _nearest_listed(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, rows, starts, cols,
+                               blo, bhi)
+    return _distances(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, hausdorff, src, fw, h,
+                      outside, clip, nxt, prv, ready, has, win, wnxt, wprv)
+
+
+@numba.njit(cache=True)
+def _plan_costs(lines, lag, terms, steady, t0, t1, win, geo, slack, nx, src, fw, h, outside, clip, xy, alpha, prune,
+                hausdorff, listed, rows, starts, cols, blo, bhi, nxt, prv, ready, has):
+    """One plan of :func:`plan_one_raster` in one call: the spans, B and its prefix sums, every candidate's area
+    over R, then eq. 47's distance for the first candidate of least area and for those its cost leaves a chance
+    (``prune``; else for all), the costs and the pick (:func:`_choose`). Returns the spans, B, the prefix sums, the
+    areas, the distances (inf where not computed), the costs and the index."""
+    spans = _spans(lines, lag, geo, t0, t1, nx, slack)
+    base, prefix = _base_window(src, fw, geo, h, outside, clip, win, lines, lag, steady, spans, t0)
+    areas = _areas(terms, lines, lag, spans, t0, base, prefix, win, geo, slack)
+    n = len(areas)
+    if listed:
+        wnxt, wprv = np.zeros((0, 0), dtype=np.int32), np.zeros((0, 0), dtype=np.int32)
+    else:
+        wnxt, wprv = _range_members(base, slack + DELTA, win[1])
+    dist = np.full(n, np.inf)
+    need = np.ones(n, dtype=np.bool_)
+    if prune:
+        first = _choose(areas)
+        one = np.full(1, first, dtype=np.int64)
+        dist[first] = _some_distances(one, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, hausdorff,
+                                      listed, rows, starts, cols, blo, bhi, src, fw, h, outside, clip, nxt, prv,
+                                      ready, has, win, wnxt, wprv)[0]
+        bound = areas[first] + alpha * dist[first]
+        for q in range(n):
+            need[q] = areas[q] <= bound + 1e-9 + 1e-12 * abs(bound)
+        need[first] = False
+    which = np.flatnonzero(need)
+    if len(which):
+        got = _some_distances(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, hausdorff, listed,
+                              rows, starts, cols, blo, bhi, src, fw, h, outside, clip, nxt, prv, ready, has, win,
+                              wnxt, wprv)
+        for q in range(len(which)):
+            dist[which[q]] = got[q]
+    cost = np.empty(n)
+    for q in range(n):
+        cost[q] = areas[q] + alpha * dist[q]
+    return spans, base, prefix, areas, dist, cost, _choose(cost)

@@ -282,6 +282,11 @@ class MemberRows:
     prv: np.ndarray
     ready: np.ndarray
     has: np.ndarray
+    #: per block of ROW_BLOCK grid rows, the least and greatest member column (``bmin > bmax``: none), filled with
+    #: its rows when a search first reaches it (``bready``; :func:`_ensure_block`)
+    bmin: np.ndarray | None = None
+    bmax: np.ndarray | None = None
+    bready: np.ndarray | None = None
     members: tuple | None = None  # (rows, starts, columns, complete) of G's members, if few (:func:`_member_list`)
     blocks: tuple | None = None  # the listed rows' column extents per block of ROW_BLOCK (:func:`_listed_blocks`)
 
@@ -304,9 +309,11 @@ def member_rows(grid: rs.Grid, region: rs.Field, s: SMMPCSettings, shared: dict 
            _strip(grid, region, (i0, b1, i1, j0), cj0 - j0, limit),
            _strip(grid, region, (i0, j1, i1, b3), j1 - cj1, limit))
     fw = np.array([i0, j0, i1, j1, b0, b1, b2, b3], dtype=np.int64)
+    blocks = (grid.ny + ROW_BLOCK - 1) // ROW_BLOCK
     rows = MemberRows(region, src, fw, np.empty((grid.ny, grid.nx), dtype=np.int32),
                       np.empty((grid.ny, grid.nx), dtype=np.int32), np.zeros(grid.ny, dtype=np.uint8),
-                      np.zeros(grid.ny, dtype=np.uint8))
+                      np.zeros(grid.ny, dtype=np.uint8), np.empty(blocks, dtype=np.int64),
+                      np.empty(blocks, dtype=np.int64), np.zeros(blocks, dtype=np.uint8))
     # rows where no value is low enough to give a member after the h dilations are done already (no member), so
     # the searches never evaluate them: far from small sets, most rows of the box are such
     _rows_without_members(src, fw, limit, rows.ready, rows.has)
@@ -411,7 +418,7 @@ class RasterKernel:
         self._spans, base, prefix, areas, dist, cost, index = _plan_costs(
             sc.lines, sc.lag, sc.terms, sc.steady, sc.rows[0], sc.rows[1], self.win, self.geo, self.grid.slack,
             self.grid.nx, m.src, m.fw, s.horizon, self.outside, self.clip, self.xy, s.alpha, prune,
-            s.distance == "hausdorff", listed, *lists, m.nxt, m.prv, m.ready, m.has)
+            s.distance == "hausdorff", listed, *lists, m.nxt, m.prv, m.ready, m.has, m.bmin, m.bmax, m.bready)
         self._base = (base, prefix)
         return areas, dist, cost, int(index)
 
@@ -444,7 +451,7 @@ class RasterKernel:
         return _distances(np.asarray(which, dtype=np.int64), sc.terms, sc.steady, sc.lines, sc.lag, self.spans,
                           sc.rows[0], sc.rows[1], self.geo, self.grid.slack, self.xy, self.s.distance == "hausdorff",
                           m.src, m.fw, self.s.horizon, self.outside, self.clip, m.nxt, m.prv, m.ready, m.has,
-                          self.win, *self._members)
+                          m.bmin, m.bmax, m.bready, self.win, *self._members)
 
 
 _WARM: list[bool] = []  # set once this process has run :func:`warm`
@@ -914,6 +921,20 @@ def _first_listed(cols, e, step, a, b, i, ids, nid, lines, lag, spans, t0, t1, l
 
 
 @numba.njit(cache=True)
+def _ensure_block(blk, src, fw, h, r, outside, clip, thr, nxt, prv, ready, has, bmin, bmax, bready):
+    """Fill the rows of block ``blk`` (ROW_BLOCK grid rows) of the G-member columns (:func:`_ensure_row`) and its
+    members' column extent (``bmin > bmax`` when it has none)."""
+    ny, nx = nxt.shape
+    lo, hi = nx, -1
+    for i in range(blk * ROW_BLOCK, min((blk + 1) * ROW_BLOCK, ny)):
+        _ensure_row(i, src, fw, h, r, outside, clip, thr, nxt, prv, ready, has)
+        if has[i]:
+            lo, hi = min(lo, nxt[i, 0]), max(hi, prv[i, nx - 1])
+    bmin[blk], bmax[blk] = lo, hi
+    bready[blk] = 1
+
+
+@numba.njit(cache=True)
 def _ensure_row(i, src, fw, h, r, outside, clip, thr, nxt, prv, ready, has):
     """Fill row i of the G-member columns (:class:`MemberRows`) if not done yet."""
     if ready[i]:
@@ -1022,7 +1043,7 @@ def _range_members(base, thr, j0):
 
 @numba.njit(cache=True)
 def _nearest(px, py, ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h, outside, clip, nxt, prv, ready,
-             has, lo, hi, win, wnxt, wprv, wi, wj):
+             has, bmin, bmax, bready, lo, hi, win, wnxt, wprv, wi, wj):
     """Nearest distance from (px, py) to the member squares of one candidate (0 if none): rows in order of their
     gap to p, stopping at the best distance found; in each row the nearest free member on either side, first
     within R (``win``, its members ``wnxt``/``wprv`` from the plan's base values) when p's column is in it, then
@@ -1030,8 +1051,10 @@ def _nearest(px, py, ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h, 
     distance and the cell (i, j) that gives it ((−1, −1) if none).
 
     Warm start: ``(wi, wj)``, a member cell of G (the previous candidate's nearest; −1: none), when this candidate's
-    terms leave it free, bounds the search from the start (its distance by the same arithmetic); the minimum is
-    the same, found over fewer rows."""
+    terms leave it free, bounds the search from the start (its distance by the same arithmetic); and the rest of a
+    block of ROW_BLOCK grid rows in the search's direction is skipped when it has no member of G or the distance to
+    its members' columns (``bmin``/``bmax``, :func:`_ensure_block`) at the current row's gap is not below the best
+    (with a relative margin of 1e-9). The minimum is the same, found over fewer rows."""
     x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
     nx = nxt.shape[1]
     ip = int(math.floor((py - y0) / c))
@@ -1052,11 +1075,21 @@ def _nearest(px, py, ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h, 
         if min(gdn, gup) >= best:
             break
         if gdn <= gup:
-            i, dy = dn, gdn
+            i, dy, rising = dn, gdn, False
             dn -= 1
         else:
-            i, dy = up, gup
+            i, dy, rising = up, gup, True
             up += 1
+        blk = i // ROW_BLOCK  # its rows farther from p than this one have a gap of at least dy
+        if not bready[blk]:
+            _ensure_block(blk, src, fw, h, r, outside, clip, thr, nxt, prv, ready, has, bmin, bmax, bready)
+        if bmin[blk] > bmax[blk] or math.hypot(
+                max(max(x0 + bmin[blk] * c - px, px - (x0 + bmax[blk] * c + c)), 0.0), dy) >= best * (1 + 1e-9):
+            if rising:
+                up = (blk + 1) * ROW_BLOCK
+            else:
+                dn = blk * ROW_BLOCK - 1
+            continue
         m = _row_covers(ids, nid, spans, t0, t1, i, lo, hi)
         for step in (1, -1):
             start = jp if step > 0 else jp - 1
@@ -1151,7 +1184,7 @@ def _areas(terms, lines, lag, spans, t0, base, prefix, win, geo, slack):
 
 @numba.njit(cache=True)
 def _distances(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, hausdorff, src, fw, h, outside,
-               clip, nxt, prv, ready, has, win, wnxt, wprv):
+               clip, nxt, prv, ready, has, bmin, bmax, bready, win, wnxt, wprv):
     """d of eq. 47 for the candidates ``which``: nearest or farthest member square, with the steady terms."""
     k = terms.shape[1] + len(steady)
     ids = np.empty(k, dtype=np.int64)
@@ -1167,7 +1200,8 @@ def _distances(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, 
                                outside, clip, nxt, prv, ready, has, lo, hi)
         else:
             out[q], bi, bj = _nearest(xy[cand, 0], xy[cand, 1], ids, nid, lines, lag, spans, t0, t1, geo, thr, src,
-                                      fw, h, outside, clip, nxt, prv, ready, has, lo, hi, win, wnxt, wprv, wi, wj)
+                                      fw, h, outside, clip, nxt, prv, ready, has, bmin, bmax, bready, lo, hi, win,
+                                      wnxt, wprv, wi, wj)
             if bi >= 0:
                 wi, wj = bi, bj
     return out
@@ -1191,18 +1225,19 @@ def _choose(cost):
 
 @numba.njit(cache=True)
 def _some_distances(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, hausdorff, listed, rows,
-                    starts, cols, blo, bhi, src, fw, h, outside, clip, nxt, prv, ready, has, win, wnxt, wprv):
+                    starts, cols, blo, bhi, src, fw, h, outside, clip, nxt, prv, ready, has, bmin, bmax, bready, win,
+                    wnxt, wprv):
     """:meth:`RasterKernel.distances` for the candidates ``which`` on the path :meth:`RasterKernel._listed` chose."""
     if listed:
         return _nearest_listed(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, rows, starts, cols,
                                blo, bhi)
     return _distances(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, hausdorff, src, fw, h,
-                      outside, clip, nxt, prv, ready, has, win, wnxt, wprv)
+                      outside, clip, nxt, prv, ready, has, bmin, bmax, bready, win, wnxt, wprv)
 
 
 @numba.njit(cache=True)
 def _plan_costs(lines, lag, terms, steady, t0, t1, win, geo, slack, nx, src, fw, h, outside, clip, xy, alpha, prune,
-                hausdorff, listed, rows, starts, cols, blo, bhi, nxt, prv, ready, has):
+                hausdorff, listed, rows, starts, cols, blo, bhi, nxt, prv, ready, has, bmin, bmax, bready):
     """One plan of :func:`plan_one_raster` in one call: the spans, B and its prefix sums, every candidate's area
     over R, then eq. 47's distance for the first candidate of least area and for those its cost leaves a chance
     (``prune``; else for all), the costs and the pick (:func:`_choose`). Returns the spans, B, the prefix sums, the
@@ -1222,7 +1257,7 @@ def _plan_costs(lines, lag, terms, steady, t0, t1, win, geo, slack, nx, src, fw,
         one = np.full(1, first, dtype=np.int64)
         dist[first] = _some_distances(one, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, hausdorff,
                                       listed, rows, starts, cols, blo, bhi, src, fw, h, outside, clip, nxt, prv,
-                                      ready, has, win, wnxt, wprv)[0]
+                                      ready, has, bmin, bmax, bready, win, wnxt, wprv)[0]
         bound = areas[first] + alpha * dist[first]
         for q in range(n):
             need[q] = areas[q] <= bound + 1e-9 + 1e-12 * abs(bound)
@@ -1230,8 +1265,8 @@ def _plan_costs(lines, lag, terms, steady, t0, t1, win, geo, slack, nx, src, fw,
     which = np.flatnonzero(need)
     if len(which):
         got = _some_distances(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, hausdorff, listed,
-                              rows, starts, cols, blo, bhi, src, fw, h, outside, clip, nxt, prv, ready, has, win,
-                              wnxt, wprv)
+                              rows, starts, cols, blo, bhi, src, fw, h, outside, clip, nxt, prv, ready, has, bmin,
+                              bmax, bready, win, wnxt, wprv)
         for q in range(len(which)):
             dist[which[q]] = got[q]
     cost = np.empty(n)

@@ -569,13 +569,14 @@ def plan_all(nav, regions, area, s: SMMPCSettings = DEFAULT_SETTINGS, links=None
     out = FleetPlan(plans, np.zeros(n), np.full(n, shared), np.zeros(n), np.zeros(n), [])
     common: dict = {}  # what UAVs with the same X^A can share (plan_one)
     chosen = np.zeros(n, dtype=np.int64)
+    same = (beacons == nav).all(axis=1)  # the broadcast state is the one the fleet rollout used (once per plan)
     for i in range(n):
         t0 = time.perf_counter()
         lower = send[(recv == i) & (send < i)]
         nb_corners = None
         if not len(lower):
             nb = np.zeros((0, s.horizon, fw.STATE_DIM))
-        elif np.array_equal(beacons[lower], nav[lower]):  # their broadcast state is the one the fleet rollout used
+        elif same[lower].all():  # their broadcast states are those the fleet rollout used
             nb, nb_corners = own[lower, chosen[lower]], corners[lower, chosen[lower]]
         else:
             nb = predict(beacons[lower], plans[lower], s)

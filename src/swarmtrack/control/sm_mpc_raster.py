@@ -51,12 +51,16 @@ so the kernel follows that function's definition rather than recomputing it. As 
 :data:`LISTED_MEMBERS` member cells (a few small sets), they are listed row by row once per Field and the nearest
 search runs over the listed rows only (:func:`_nearest_listed`, the same distance: both paths are tested against the
 reference, the listed one also against testing every listed cell); a row search of the grid from far away would
-cross the whole box once per candidate.
+cross the whole box once per candidate. Both searches start from the previous candidate's nearest cell when the
+candidate's terms leave it free (the candidates' ends lie close together) and skip blocks of :data:`ROW_BLOCK` rows
+whose members' column extent cannot be nearer; the least distance is the same (tested against every free member).
 
 **Cost** (ib21-like scenes, 6 UAVs, 1 m cells; see the timing helper in ``tests/control/test_sm_mpc_raster.py``):
 ≈ 0.2 ms for all 25 candidates' areas, ≈ 0.05 ms for the distance, the rest :func:`sm_mpc.removals` (corners
-only, ≈ 0.07 ms) and Python glue; over a 400 s ib21-fleet-6 mission 1.3-1.6 ms per UAV and plan on average
-(process time of :func:`sm_mpc.plan_all`, which also predicts the fleet's states and footprints once per plan).
+only) and :func:`scene` (≈ 0.03 ms each) and Python glue; one compiled call per plan (:func:`_plan_costs`). Over a
+400 s ib21-fleet-6 mission ≈ 1.0 ms per UAV and plan on average on a loaded 2-core machine, where the code before
+these kernels' speed-ups took 1.4-1.5 ms (``benchmarks/bench_setmembership.py --sets raster``, "SM-MPC per UAV and
+plan", which also counts predicting the fleet's states and footprints once per plan).
 """
 
 from __future__ import annotations

@@ -757,14 +757,9 @@ def _rows_without_members(src, fw, limit, ready, has):
 
 @numba.njit(cache=True, inline="always")
 def _any_at_most(row, limit):
-    """Whether some value of ``row`` is at most ``limit``: counted over blocks of 64 values (a loop the compiler
-    vectorises), stopping after the first block that has one."""
-    n = len(row)
-    for a in range(0, n, 64):
-        count = 0
-        for j in range(a, min(a + 64, n)):
-            count += row[j] <= limit
-        if count:
+    """Whether some value of ``row`` is at most ``limit`` (stops at the first)."""
+    for v in row:
+        if v <= limit:
             return True
     return False
 

@@ -610,7 +610,7 @@ def redistance(grid: Grid, f: Field, block: int = 4) -> Field:
     Why it is a lower bound: every point a of the set lies in the square of a member cell, inside the square of that
     cell's block B (side ``b = block·c``). For a cell g in block B', ``|g − a| ≥ |B'·B| − |g − B'| − |B − a|``
     (block centres) ``≥ E(B') − (block − 1)·c/√2 − b/√2``, E(B') the distance from B''s centre to the nearest member
-    block's (:func:`scipy.ndimage.distance_transform_edt` on the blocks, times b). Outside the window no point lies.
+    block's (:func:`block_distances`, times b). Outside the window no point lies.
     The result is ``max(v, that)``: never looser than ``f``."""
     if f.is_empty:
         return f

@@ -861,12 +861,8 @@ def _nearest_listed(which, terms, steady, lines, lag, spans, t0, t1, geo, slack,
                 at, dy, rising = up, gup, True
                 up += 1
             blk = at // ROW_BLOCK  # its rows farther from p than this one have a gap of at least dy
-            wide = max(max(x0 + blo[blk] * c - px, px - (x0 + bhi[blk] * c + c)), 0.0)
-            if math.hypot(wide, dy) >= best * (1 + 1e-9):
-                if rising:
-                    up = (blk + 1) * ROW_BLOCK
-                else:
-                    dn = blk * ROW_BLOCK - 1
+            if _block_beyond(blo[blk], bhi[blk], px, dy, best, x0, c):
+                up, dn = _past_block(blk, rising, up, dn)
                 continue
             i = rows[at]
             a, b = starts[at], starts[at + 1]
@@ -883,6 +879,23 @@ def _nearest_listed(which, terms, steady, lines, lag, spans, t0, t1, geo, slack,
         if bi >= 0:
             wi, wj = bi, bj
     return out
+
+
+@numba.njit(cache=True, inline="always")
+def _block_beyond(lo, hi, px, dy, best, x0, c):
+    """Whether a block of rows whose members lie in the columns ``[lo, hi]``, each row at a gap of at least ``dy``
+    from p, cannot hold a member nearer than ``best`` (with a relative margin of 1e-9: a bound, the searches'
+    own arithmetic need not agree with it to the last bit). Both nearest searches skip such a block."""
+    wide = max(max(x0 + lo * c - px, px - (x0 + hi * c + c)), 0.0)
+    return math.hypot(wide, dy) >= best * (1 + 1e-9)
+
+
+@numba.njit(cache=True, inline="always")
+def _past_block(blk, rising, up, dn):
+    """The outward search's next rows ``(up, dn)`` once block ``blk`` is skipped in its direction."""
+    if rising:
+        return (blk + 1) * ROW_BLOCK, dn
+    return up, blk * ROW_BLOCK - 1
 
 
 @numba.njit(cache=True, inline="always")
@@ -1082,12 +1095,8 @@ def _nearest(px, py, ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h, 
         blk = i // ROW_BLOCK  # its rows farther from p than this one have a gap of at least dy
         if not bready[blk]:
             _ensure_block(blk, src, fw, h, r, outside, clip, thr, nxt, prv, ready, has, bmin, bmax, bready)
-        if bmin[blk] > bmax[blk] or math.hypot(
-                max(max(x0 + bmin[blk] * c - px, px - (x0 + bmax[blk] * c + c)), 0.0), dy) >= best * (1 + 1e-9):
-            if rising:
-                up = (blk + 1) * ROW_BLOCK
-            else:
-                dn = blk * ROW_BLOCK - 1
+        if bmin[blk] > bmax[blk] or _block_beyond(bmin[blk], bmax[blk], px, dy, best, x0, c):
+            up, dn = _past_block(blk, rising, up, dn)
             continue
         m = _row_covers(ids, nid, spans, t0, t1, i, lo, hi)
         for step in (1, -1):

@@ -2,9 +2,50 @@
 
 Source documents are cited by short name: L24 (Lizzio et al., Drones 2024), L23 (Lizzio et al., EASN 2022),
 W20 (Wolfe, M.A.Sc. thesis 2020), IB21 (Ibenthal et al., Automatica 2021).
+
+The public API (``docs/python.md``), imported on first use so that ``import swarmtrack`` stays cheap:
+
+- :func:`load_scenario` — a validated scenario by built-in name or file, with ``key=value`` overrides and a seed;
+- :func:`simulate` — run it, giving a :class:`~swarmtrack.sim.recorder.Recording`;
+- :func:`summarize` — the metrics of a recording (what ``metrics.json`` holds);
+- :func:`load_run` — the recording of a ``swarmtrack run`` folder.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 __version__ = "0.5.0"
+
+#: public name → (the module that defines it, its name there)
+_PUBLIC = {
+    "load_scenario": ("swarmtrack.scenarios.loader", "load_scenario"),
+    "Scenario": ("swarmtrack.scenarios.schema", "Scenario"),
+    "ScenarioError": ("swarmtrack.scenarios.loader", "ScenarioError"),
+    "simulate": ("swarmtrack.sim.engine", "simulate"),
+    "Recording": ("swarmtrack.sim.recorder", "Recording"),
+    "summarize": ("swarmtrack.analysis.metrics", "summary"),
+}
+
+__all__ = ["Recording", "Scenario", "ScenarioError", "load_run", "load_scenario", "simulate", "summarize"]
+
+if TYPE_CHECKING:
+    from swarmtrack.analysis.metrics import summary as summarize
+    from swarmtrack.scenarios.loader import ScenarioError, load_scenario
+    from swarmtrack.scenarios.schema import Scenario
+    from swarmtrack.sim.engine import simulate
+    from swarmtrack.sim.recorder import Recording
+
+
+def __getattr__(name: str):
+    if name in _PUBLIC:
+        import importlib
+
+        module, attr = _PUBLIC[name]
+        value = getattr(importlib.import_module(module), attr)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'swarmtrack' has no attribute {name!r}")
 
 
 def load_run(path):

@@ -1,0 +1,175 @@
+"""One registration per kind: what a scenario can name, and everything derived from it.
+
+A *kind* is one choice a scenario makes for a *role* (``estimator: {kind: imm}``). It registers once, with
+:func:`register`: its settings class (a pydantic model whose ``kind`` field is a literal with its name as default),
+its builder, and what the analysis reads of its runs: metric accumulators, health checks and figures. Everything
+else is derived from the registrations: the scenario schema's tagged sections (:mod:`swarmtrack.scenarios.schema`),
+the simulator's builders (:mod:`swarmtrack.sim.build`), the metrics of ``metrics.json``
+(:mod:`swarmtrack.analysis.metrics`), a run's figures (:mod:`swarmtrack.analysis.plots`) and the CLI's choices.
+
+The built-in kinds live in :mod:`swarmtrack.capabilities` (a package per capability) and are registered the first
+time the registry is asked; a third-party package registers its own from the entry-point group
+``swarmtrack.capabilities`` (a module to import), or a script calls :func:`register` itself.
+
+Builders, figures and accumulator factories may be given as ``"module:attribute"`` strings, imported when first
+used, so that validating a scenario does not import the simulator and a run without figures does not import
+matplotlib.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+#: The roles a kind can fill.
+ROLES = ("estimator", "controller", "sensor")
+
+#: The built-in capabilities, imported (and so registered) the first time the registry is asked.
+BUILTIN = (
+    "swarmtrack.capabilities.tracking_swarm",
+    "swarmtrack.capabilities.static",
+    "swarmtrack.capabilities.multi_model",
+    "swarmtrack.capabilities.mpc",
+    "swarmtrack.capabilities.set_membership",
+)
+#: Entry-point group of third-party capabilities (each entry point names a module that calls :func:`register`).
+ENTRY_POINTS = "swarmtrack.capabilities"
+
+#: A callable, or ``"module:attribute"`` naming one (imported on first use).
+Ref = Callable | str
+
+
+def resolve(ref: Ref) -> Callable:
+    """The callable a :data:`Ref` names."""
+    if callable(ref):
+        return ref
+    module, _, attr = ref.partition(":")
+    return getattr(importlib.import_module(module), attr)
+
+
+def _always(rec) -> bool:
+    return True
+
+
+@dataclass(frozen=True)
+class Metric:
+    """A section of ``metrics.json``: ``make(recording)`` gives an accumulator (``add(chunk, keep, err)`` per chunk of
+    the recording, then ``result()``) when ``applies(recording)``. An accumulator that also has ``warnings()``
+    contributes them to the run's ``warnings``."""
+
+    section: str
+    make: Ref
+    applies: Callable = _always
+
+
+@dataclass(frozen=True)
+class Figure:
+    """A single run's figure: ``draw(recording, path)`` writes ``file`` when ``applies(recording)``."""
+
+    file: str
+    draw: Ref
+    applies: Callable = _always
+
+
+@dataclass(frozen=True)
+class Kind:
+    """One registered kind: its ``role`` and ``name``, its ``settings`` class and its builder ``build``, and what the
+    analysis reads of its runs (:class:`Metric` sections, health checks — accumulators whose ``result()`` is a list
+    of warnings — and :class:`Figure` s)."""
+
+    role: str
+    name: str
+    settings: type
+    build: Ref
+    metrics: tuple[Metric, ...] = ()
+    health: tuple[Metric, ...] = ()
+    figures: tuple[Figure, ...] = ()
+    module: str = field(default="", compare=False)
+
+    def builder(self) -> Callable:
+        return resolve(self.build)
+
+
+class UnknownKind(ValueError):
+    """A scenario named a kind that is not registered for its role (the message names the role and the known
+    kinds)."""
+
+
+_KINDS: dict[str, dict[str, Kind]] = {role: {} for role in ROLES}
+_BASES: dict[str, type] = {}
+_loaded = False
+
+
+def declare_role(role: str, base: type) -> None:
+    """The base class every settings class of ``role`` subclasses (the scenario schema declares its own)."""
+    _BASES[role] = base
+
+
+def _load() -> None:
+    """Import the built-in capabilities and the entry points' once."""
+    global _loaded
+    if _loaded:
+        return
+    _loaded = True
+    for module in BUILTIN:
+        importlib.import_module(module)
+    from importlib.metadata import entry_points
+
+    for ep in entry_points(group=ENTRY_POINTS):
+        ep.load()
+
+
+def register(role: str, settings: type, build: Ref, *, metrics=(), health=(), figures=()) -> Kind:
+    """Register a kind for ``role``: its name is the default of ``settings.kind`` (a string literal), ``settings``
+    subclasses the role's base settings class (declared by the schema, :func:`declare_role`), and ``build`` makes
+    the component (estimator and controller: ``build(settings, context)``; sensor: ``build(settings, scenario)``).
+    A name is registered once per role."""
+    if role not in ROLES:
+        raise ValueError(f"unknown role {role!r}; roles: {', '.join(ROLES)}")
+    _load()
+    base = _BASES.get(role, object)
+    if not (isinstance(settings, type) and issubclass(settings, base)):
+        raise TypeError(f"{getattr(settings, '__name__', settings)!r} must subclass {base.__name__}")
+    name = getattr(settings, "model_fields", {}).get("kind")
+    name = None if name is None else name.default
+    if not isinstance(name, str):
+        raise TypeError(f"{settings.__name__}.kind needs a string default (its kind)")
+    if name in _KINDS[role]:
+        raise ValueError(f"{role} kind {name!r} is already registered (by {_KINDS[role][name].module})")
+    kind = Kind(role, name, settings, build, tuple(metrics), tuple(health), tuple(figures),
+                module=getattr(settings, "__module__", ""))
+    _KINDS[role][name] = kind
+    return kind
+
+
+def unregister(role: str, name: str) -> None:
+    """Remove a registered kind (tests that register toy kinds clean up with it)."""
+    _KINDS[role].pop(name, None)
+
+
+def kinds(role: str) -> dict[str, Kind]:
+    """Every registered kind of ``role``, by name (in registration order)."""
+    _load()
+    return dict(_KINDS[role])
+
+
+def get(role: str, name: Any) -> Kind:
+    """The kind ``name`` of ``role``; anything that is not a registered name (of any type) is refused with
+    :class:`UnknownKind`."""
+    table = kinds(role)
+    if not isinstance(name, str) or name not in table:
+        raise UnknownKind(f"unknown {role} kind {name!r}; known: {', '.join(sorted(table))}")
+    return table[name]
+
+
+def of_run(meta: dict) -> list[Kind]:
+    """The registered kinds a recording's run used (from its ``meta``: the ``sensor``, ``estimator`` and
+    ``controller`` sections), skipping kinds not registered in this process."""
+    out = []
+    for role in ROLES:
+        name = (meta.get(role) or {}).get("kind")
+        if isinstance(name, str) and name in kinds(role):
+            out.append(_KINDS[role][name])
+    return out

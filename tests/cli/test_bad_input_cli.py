@@ -49,6 +49,9 @@ def test_a_folder(tmp_path):
     (["swarm.initial_positions=[[0, 0], [5, 0], [10, 0]]", "swarm.spawn_center=[1, 1]"],
      "swarm.spawn_center: given, but swarm.initial_positions places the UAVs"),
     (["swarm={n_uavs: 3, n_uavs: 4}"], "duplicate key 'n_uavs'"),
+    (["estimator={kind: [1, 2]}"], "estimator: unknown kind [1, 2]; known: centralized"),
+    (["controller.kind={a: 1}"], "controller: unknown kind {'a': 1}; known: flocking"),
+    (["sensor.kind=[]"], "sensor: unknown kind []; known: camera"),
 ])
 def test_bad_values(tmp_path, overrides, message):
     args = [a for o in overrides for a in ("--set", o)]

@@ -1,9 +1,9 @@
 import yaml
 from click.testing import CliRunner
 
+from swarmtrack import registry
 from swarmtrack.cli import main
 from swarmtrack.scenarios import Scenario, builtin_names, load_scenario
-from swarmtrack.scenarios.schema import CONTROLLER_KINDS, ESTIMATOR_KINDS
 
 
 def test_validate_prints_the_resolved_scenario_that_loads_back_to_the_same(tmp_path):
@@ -46,10 +46,9 @@ def test_schema_lists_every_section_kind_and_key():
     for key in ("network.topology", "swarm.spawn_center", "sensor.latency", "rates.physics", "seed", "kernels",
                 "targets.members[].profile", "decoys.members[].phases[].omega", "controller.gains"):
         assert f"  {key}:" in out, key
-    for kind in ESTIMATOR_KINDS:
-        assert f"estimator (kind: {kind})" in out
-    for kind in CONTROLLER_KINDS:
-        assert f"controller (kind: {kind})" in out
+    for role in registry.ROLES:
+        for kind in registry.kinds(role):
+            assert f"{role} (kind: {kind})" in out
     assert "none, line, ring, full, proximity, edges" in out  # allowed values
     assert "[-2.0, -6.0]" in out  # a default
     assert "target:" in out and "flocking:" in out  # the shorthands

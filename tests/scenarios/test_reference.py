@@ -4,9 +4,10 @@ from pathlib import Path
 import pytest
 import yaml
 
+from swarmtrack import registry
 from swarmtrack.scenarios import reference
 from swarmtrack.scenarios.loader import validate
-from swarmtrack.scenarios.schema import CONTROLLER_KINDS, ESTIMATOR_KINDS, Scenario
+from swarmtrack.scenarios.schema import Scenario
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "scenarios.md"
 
@@ -34,7 +35,7 @@ def test_every_field_of_every_section_and_kind_is_listed():
                 expect(nested, f"{key}.")
 
     for name, field in Scenario.model_fields.items():
-        if name in ("estimator", "controller"):
+        if name in registry.ROLES:
             continue
         nested = reference._model_of(field.annotation)
         if nested is None:
@@ -42,10 +43,10 @@ def test_every_field_of_every_section_and_kind_is_listed():
         else:
             expect(nested, f"{name}.")
     sections = {k.section for k in reference.keys()}
-    for part, kinds in (("estimator", ESTIMATOR_KINDS), ("controller", CONTROLLER_KINDS)):
-        for kind, cls in kinds.items():
+    for part in registry.ROLES:
+        for kind, registered in registry.kinds(part).items():
             assert f"{part} (kind: {kind})" in sections
-            expect(cls, f"{part}.")
+            expect(registered.settings, f"{part}.")
     assert "targets.members[].phases[].duration" in listed and {"target", "flocking"} <= listed
 
 

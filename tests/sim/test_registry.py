@@ -6,12 +6,12 @@ from typing import Literal
 import numpy as np
 import pytest
 
+from swarmtrack import registry
 from swarmtrack.analysis.metrics import rmse_table, summary
 from swarmtrack.estimation.base import Probe, TargetView
 from swarmtrack.scenarios import schema
 from swarmtrack.scenarios.loader import ScenarioError, load_raw, validate
 from swarmtrack.sensors.range_bearing import to_position
-from swarmtrack.sim import build as build_module
 from swarmtrack.sim.engine import simulate
 
 
@@ -99,20 +99,16 @@ class HoldController:
         return {}
 
 
-REGISTRIES = (schema.ESTIMATOR_KINDS, schema.CONTROLLER_KINDS, build_module.ESTIMATORS, build_module.CONTROLLERS)
-
-
 @pytest.fixture
 def registered():
-    saved = [dict(r) for r in REGISTRIES]
-    build_module.register("estimator", CentroidSpec,
-                          lambda spec, ctx: CentroidEstimator(ctx.n_uavs, ctx.label_of("targets", spec.target - 1)))
-    build_module.register("estimator", SilentSpec, lambda spec, ctx: SilentEstimator(ctx.n_uavs))
-    build_module.register("controller", HoldSpec, lambda spec, ctx: HoldController(spec.gain))
+    registry.register("estimator", CentroidSpec,
+                      lambda spec, ctx: CentroidEstimator(ctx.n_uavs, ctx.label_of("targets", spec.target - 1)))
+    registry.register("estimator", SilentSpec, lambda spec, ctx: SilentEstimator(ctx.n_uavs))
+    registry.register("controller", HoldSpec, lambda spec, ctx: HoldController(spec.gain))
     yield
-    for registry, old in zip(REGISTRIES, saved, strict=True):
-        registry.clear()
-        registry.update(old)
+    registry.unregister("estimator", "test-centroid")
+    registry.unregister("estimator", "test-silent")
+    registry.unregister("controller", "test-hold")
 
 
 def _scenario(estimator: dict, controller: dict):
@@ -156,4 +152,15 @@ def test_an_estimator_that_follows_no_target_runs_and_reports_what_applies(regis
 
 def test_a_kind_is_registered_once(registered):
     with pytest.raises(ValueError, match="already registered"):
-        build_module.register("estimator", CentroidSpec, lambda spec, ctx: None)
+        registry.register("estimator", CentroidSpec, lambda spec, ctx: None)
+
+
+@pytest.mark.parametrize("role", registry.ROLES)
+@pytest.mark.parametrize("kind", [[1, 2], {"a": 1}, 3, None, True, "no-such-kind"])
+def test_a_kind_that_is_not_a_registered_name_is_refused_for_every_role(role, kind):
+    data = load_raw("l24-ct")
+    data[role] = {**data.get(role, {}), "kind": kind}
+    with pytest.raises(ScenarioError, match=rf"{role}: unknown kind .*; known: "):
+        validate(data)
+    with pytest.raises(registry.UnknownKind, match=f"unknown {role} kind"):
+        registry.get(role, kind)

@@ -18,28 +18,21 @@ from __future__ import annotations
 
 import numpy as np
 
+from swarmtrack import registry
 from swarmtrack.network.channel import Channel, WorldsChannel
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sim.agent import OnboardStack
-from swarmtrack.sim.build import (
-    CONTROLLERS,
-    ESTIMATORS,
-    SENSORS,
-    Context,
-    Simulation,
-    _builder,
-    _group,
-    profiles,
-    run_meta,
-    spawn_positions,
-)
+from swarmtrack.sim.build import Context, Simulation, _group, build_component, profiles, run_meta, spawn_positions
 from swarmtrack.sim.clock import Clock
 from swarmtrack.sim.recorder import Chunk, Recorder, Recording
 from swarmtrack.sim.streams import stream
 from swarmtrack.sim.world import Group, World
 
-#: What a batch can hold: the kinds whose components keep per-UAV state only and name no UAV.
-BATCHED_KINDS = {"estimator": ("information",), "controller": ("flocking", "static"), "sensor": ("range_bearing",)}
+
+def batched_kinds(role: str) -> list[str]:
+    """What a batch can hold: the kinds of ``role`` registered as ``batched`` (components that keep per-UAV state
+    only and name no UAV)."""
+    return [name for name, kind in registry.kinds(role).items() if kind.batched]
 
 
 def unbatchable(scenarios: list[Scenario]) -> str | None:
@@ -48,11 +41,11 @@ def unbatchable(scenarios: list[Scenario]) -> str | None:
     same = first.model_dump(exclude={"seed"})
     if any(s.model_dump(exclude={"seed"}) != same for s in scenarios[1:]):
         return "the scenarios differ in more than the seed"
-    for role, kinds in BATCHED_KINDS.items():
+    for role in registry.ROLES:
         kind = getattr(first, role).kind
-        if kind not in kinds:
-            return f"{role}.kind {kind!r} is not batched (batched: {', '.join(kinds)})"
-    if getattr(first.controller, "follow", "estimate") != "estimate":
+        if not registry.get(role, kind).batched:
+            return f"{role}.kind {kind!r} is not batched (batched: {', '.join(batched_kinds(role))})"
+    if first.controller.follows_truth():
         return "controller.follow: truth (the oracle is not batched)"
     if first.sensor.occluders or first.network.outages:
         return "occluders and outages name UAVs of one world"
@@ -86,7 +79,7 @@ def build_batch(scenarios: list[Scenario]) -> tuple[Simulation, list[dict]]:
     uavs = Group("uavs", first.swarm.vehicle,
                  np.concatenate([spawn_positions(s, stream(s.seed, "spawn")) for s in scenarios]))
     groups = [_concat_group("targets", scenarios, flown), _concat_group("decoys", scenarios, flown), uavs]
-    world = World(groups, SENSORS[first.sensor.kind](first.sensor, first), dt=clock.dt,
+    world = World(groups, build_component("sensor", first, first), dt=clock.dt,
                   ticks=clock.steps * clock.ticks_estimation,
                   nav_std=(first.swarm.nav_position_std, first.swarm.nav_velocity_std),
                   streams=[lambda purpose, seed=s.seed: stream(seed, purpose) for s in scenarios],
@@ -99,8 +92,8 @@ def build_batch(scenarios: list[Scenario]) -> tuple[Simulation, list[dict]]:
         return np.repeat([world.label_of(o) for o in objects], n)
 
     ctx = Context(first, n * worlds, clock.dt_estimation, clock.dt_control, first.kernels != "numpy", label_of)
-    estimator = _builder("estimator", first.estimator.kind, ESTIMATORS)(first.estimator, ctx)
-    controller = _builder("controller", first.controller.kind, CONTROLLERS)(first.controller, ctx)
+    estimator = build_component("estimator", first, ctx)
+    controller = build_component("controller", first, ctx)
     net = first.network
     channel = WorldsChannel(tuple(Channel(net.topology, n, net.r_comm, tuple((a - 1, b - 1) for a, b in net.edges),
                                           net.loss_probability, stream(s.seed, "channel")) for s in scenarios), n)

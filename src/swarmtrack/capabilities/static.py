@@ -1,0 +1,23 @@
+"""The static controller: UAVs hold their initial positions (W20 Ch. 4's estimation trials)."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from swarmtrack import registry
+from swarmtrack.control.static import StaticController
+from swarmtrack.scenarios.schema import ControllerSpec
+
+
+class StaticSpec(ControllerSpec):
+    """UAVs hold their initial positions (W20 Sec. 4.6.1: hung from the ceiling, estimation decoupled from
+    flight)."""
+
+    kind: Literal["static"] = "static"
+
+
+def build(spec: StaticSpec, ctx) -> StaticController:
+    return StaticController(ctx.n_uavs, ctx.command_width)
+
+
+registry.register("controller", StaticSpec, build, batched=True)

@@ -1,0 +1,225 @@
+"""Capability 1's settings (L24, L23): the range-bearing sensor, the decentralized information filter and its
+centralized baseline, the IMM bank over models of different sizes, and the flocking controller."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Annotated, Literal
+
+from pydantic import Field, ValidationInfo, field_validator
+
+from swarmtrack.control.flocking import FlockingGains
+from swarmtrack.models import make_model
+from swarmtrack.network.channel import delay_steps
+from swarmtrack.scenarios.schema import (
+    LIAR_NEEDS,
+    Angle,
+    CommaList,
+    ControllerSpec,
+    EstimatorSpec,
+    Gain,
+    Length,
+    Scenario,
+    SensorSpec,
+    Speed,
+    check_stochastic,
+)
+
+
+class RangeBearingSpec(SensorSpec):
+    """Range and bearing from each UAV to every object (L24 Sec. 3.2)."""
+
+    kind: Literal["range_bearing"] = "range_bearing"
+    sigma_range: Length = Field(0.08, gt=0, description="m (L24: 0.08, L23: 0.4; at most 1e6 m)")
+    sigma_bearing: Angle = Field(0.02, gt=0, description="rad (L24: 0.02, L23: 0.1; at most 1e3 rad)")
+    update: Literal["position", "polar"] = Field(
+        "position", description="position: converted measurement with the paper's R_i; polar: EKF on [ρ, β]")
+    max_range: Length | None = Field(None, gt=0, description=(
+        "m (at most 1e6 m); a UAV farther from the target measures nothing"))
+
+
+class FilterSpec(EstimatorSpec):
+    """An EKF over one target motion model, following the target ``target`` (1-based member of ``targets``,
+    recognised onboard by the label its sensor reports)."""
+
+    share: Literal["information", "measurements"] = Field(
+        "information", description="information: neighbours send I_j, i_j (L24 eq. 6); measurements: z_j and pose")
+    model: Literal["cv", "ca", "ct", "fs"] = "ct"
+    q: list[float] | None = Field(None, description=(
+        "diagonal of Q; default: the paper's (L24 Sec. 4). Not bounded above: tests/sim drive the filter to "
+        "divergence with q = 1.7e308"))
+    initial_information: Gain = Field(1e-6, gt=0, description="εI, the near-zero initial information (at most 1e6)")
+    fake_vz_sigma: Speed = Field(0.05, gt=0, description=(
+        "FS model: std of the fake vz = 0 measurement, m/s (at most 1e3 m/s)"))
+    target: int = Field(1, ge=1, description="which member of the targets group the filter follows (1-based)")
+    delayed_data: Literal["refilter", "as_current"] = Field("refilter", description=(
+        "refilter: fuse each measurement and message at the time it was taken, re-filtering the steps since "
+        "(sensor latency, network delays); as_current: fuse late data as if it were current (L24's filter)"))
+    gating: Literal["none", "chi2", "ci"] = Field("none", description=(
+        "neighbours' contributions: none (L24), chi2 (a χ²-test against the own prediction leaves out "
+        "outliers and records whom), ci (covariance intersection, one neighbour at a time)"))
+    gate_probability: float = Field(0.999, gt=0.5, lt=1, description="the χ²(2) gate's quantile")
+    own_position: Literal["include", "ignore"] = Field("include", description=(
+        "include: the UAV's own navigation error (swarm.nav_position_std, its navigation system's stated "
+        "accuracy) enters each measurement's covariance; ignore: as the papers' filters"))
+
+    def followed_target(self) -> int | None:
+        return self.target
+
+    def recording_meta(self) -> dict:
+        return {"model": self.model}
+
+    def check_network(self, scenario: Scenario) -> None:
+        """Late data is fused at its time stamp when neighbours share information (a fusion centre hears every
+        measurement); only an information filter sharing information can gate a liar's contributions."""
+        if scenario.network.delay_bound() > 0 and self.share != "information" and self.kind != "centralized":
+            raise ValueError("network.delay needs estimator.share information: shared raw measurements are fused "
+                             "as they arrive, and late ones would be lost")
+        if scenario.network.liar is not None and (self.kind != "information" or self.share != "information"):
+            raise ValueError(LIAR_NEEDS)
+
+    def check(self, scenario: Scenario) -> None:
+        if self.gating != "none" and (self.kind == "centralized" or self.share != "information"):
+            raise ValueError("estimator.gating applies to neighbours' information contributions: it needs "
+                             "kind information with share information")
+        if self.gating != "none" and scenario.network.topology == "none":
+            raise ValueError("estimator.gating has no neighbours to gate: network.topology is none")
+        if self.delayed_data != "refilter" or not refiltered_steps(scenario):
+            return
+        if self.gating == "ci":
+            raise ValueError("estimator.gating ci is not built for late data (sensor.latency or network.delay): "
+                             "use chi2, or delayed_data: as_current")
+        if self.share != "information" and self.kind != "centralized":
+            raise ValueError("estimator.delayed_data refilter needs estimator.share information (or "
+                             "delayed_data: as_current)")
+        period = 1.0 / scenario.rates.estimation
+        ratio = scenario.sensor.latency / period
+        if abs(ratio - round(ratio)) > 1e-6:
+            raise ValueError(f"sensor.latency ({scenario.sensor.latency:g} s) must be a whole number of estimation "
+                             f"periods ({period:g} s) for estimator.delayed_data refilter (or use as_current)")
+
+    @field_validator("q")
+    @classmethod
+    def _q_positive(cls, v, info: ValidationInfo):
+        if v is not None:
+            for k, x in enumerate(v):
+                if not (math.isfinite(x) and x > 0):
+                    raise ValueError(f"Q must be positive definite: diagonal entry {k} is {x}")
+            if "model" in info.data:
+                dim = make_model(info.data["model"], 0.05).dim
+                if len(v) != dim:
+                    raise ValueError(f"has {len(v)} entries; model {info.data['model']!r} has {dim} states")
+        return v
+
+
+def refiltered_steps(scenario: Scenario) -> int:
+    """How many estimation steps late a datum can arrive: the sensor's latency (a whole number of steps, checked)
+    plus the steps the channel holds a message (:func:`swarmtrack.network.channel.delay_steps`), for a filter that
+    hears neighbours (a fusion centre or a UAV without links gets no message)."""
+    period = 1.0 / scenario.rates.estimation
+    steps = round(scenario.sensor.latency / period)
+    if scenario.estimator.kind != "centralized" and scenario.network.topology != "none":
+        steps += int(delay_steps(scenario.network.delay_bound(), period))
+    return steps
+
+
+class InformationSpec(FilterSpec):
+    """Decentralized information-form EKF, one per UAV, fused over the topology's links (L24 Sec. 3)."""
+
+    kind: Literal["information"] = "information"
+
+
+class CentralizedSpec(FilterSpec):
+    """One fusion centre over every UAV's measurement (the baseline; ``share`` does not apply)."""
+
+    kind: Literal["centralized"] = "centralized"
+
+
+class IMMSpec(EstimatorSpec):
+    """A bank of information filters per UAV, one per model, combined by an IMM with mixing through the common block
+    [x, y, vx, vy] (L24's future work; swarmtrack.estimation.imm). Other keys as in the information estimator."""
+
+    kind: Literal["imm"] = "imm"
+    share: Literal["information", "measurements"] = Field("information", description=(
+        "information: one I_j, i_j per UAV, linearised at its combined prediction; measurements: z_j and pose, "
+        "each model linearises at its own prediction"))
+    models: Annotated[list[Literal["cv", "ct", "fs"]], CommaList] = Field(
+        ["cv", "ct", "fs"], min_length=1, description="the bank every UAV runs, one information filter per model")
+    markov: list[list[float]] | None = Field(None, description=(
+        "M x M model-switching matrix over models (rows sum to 1); default 0.98 on the diagonal, the rest even"))
+    q: list[list[float] | None] | None = Field(None, description=(
+        "diagonal of Q per model (null: that model's default, L24 Sec. 4)"))
+    initial_information: Gain = Field(1e-6, gt=0, description="εI, the near-zero initial information (at most 1e6)")
+    fake_vz_sigma: Speed = Field(0.05, gt=0, description="FS member: std of the fake vz = 0 measurement, m/s")
+    target: int = Field(1, ge=1, description="which member of the targets group the filters follow (1-based)")
+
+    @field_validator("markov")
+    @classmethod
+    def _markov_over_models(cls, v, info: ValidationInfo):
+        m = len(info.data.get("models") or [])
+        if v is not None:
+            check_stochastic(v)
+            if m and len(v) != m:
+                raise ValueError(f"is {len(v)} x {len(v)}; models lists {m} model(s)")
+        return v
+
+    @field_validator("q")
+    @classmethod
+    def _q_per_model(cls, v, info: ValidationInfo):
+        models = info.data.get("models")
+        if v is not None and models is not None:
+            if len(v) != len(models):
+                raise ValueError(f"has {len(v)} entries; models lists {len(models)} model(s)")
+            for name, q in zip(models, v, strict=True):
+                if q is not None:
+                    make_model(name, 0.05, q)  # length and positivity, its ValueError names the model
+        return v
+
+    def followed_target(self) -> int | None:
+        return self.target
+
+    def check(self, scenario: Scenario) -> None:
+        if scenario.sensor.kind != "range_bearing":
+            raise ValueError(f"estimator.kind imm needs a range_bearing sensor, not {scenario.sensor.kind!r}")
+
+
+class FlockingSpec(ControllerSpec):
+    kind: Literal["flocking"] = "flocking"
+    variant: Literal["standard", "integral", "tailored"] = "tailored"
+    d: Length = Field(4.0, gt=0, description="desired inter-agent distance, m (at most 1e6 m)")
+    chase_after_steps: int = Field(20, ge=0, le=10**12, description=(
+        "estimation steps before the UAVs start chasing (L24)"))
+    follow: Literal["estimate", "truth"] = Field(
+        "estimate", description="what the target term follows; truth wires an oracle (not onboard) to the controller")
+    gains: dict[str, Gain] = Field(default_factory=dict, description=(
+        "overrides of FlockingGains fields (each at most 1e6 in magnitude: gains in s⁻¹ or s⁻², D_dt in m, "
+        "accel_limit in m/s²)"))
+
+    @field_validator("gains")
+    @classmethod
+    def _known_gains(cls, v):
+        known = {f.name for f in dataclasses.fields(FlockingGains)} - {"d", "r_comm"}
+        unknown = sorted(set(v) - known)
+        if unknown:
+            raise ValueError(f"unknown gain(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
+        FlockingGains(**v)  # its own range checks (ε, h in (0, 1), positive lengths) raise a readable ValueError
+        return v
+
+    @classmethod
+    def mapping_keys(cls, field: str) -> str | None:
+        """The keys of a mapping-valued field, for the scenario reference: ``gains`` takes FlockingGains fields (d
+        and r_comm are controller.d and network.r_comm)."""
+        if field != "gains":
+            return None
+        return ", ".join(f"{f.name} ({f.default})" for f in dataclasses.fields(FlockingGains)
+                         if f.name not in ("d", "r_comm"))
+
+    def follows_truth(self) -> bool:
+        return self.follow == "truth"
+
+    def chase_start_steps(self) -> int:
+        return self.chase_after_steps
+
+    def recording_meta(self) -> dict:
+        return {"d": self.d}

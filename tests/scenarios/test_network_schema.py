@@ -37,8 +37,8 @@ def _validate(*overrides):
 def test_shared_raw_measurements_cannot_be_delayed_and_a_lone_uav_waits_for_nothing():
     res = _validate("network.delay=0.1", "estimator={kind: information, share: measurements, delayed_data: as_current}")
     assert res.exit_code == 2 and "network.delay needs estimator.share information" in res.output, res.output
-    from swarmtrack.scenarios import load_scenario
     from swarmtrack.capabilities.tracking_swarm.settings import refiltered_steps
+    from swarmtrack.scenarios import load_scenario
 
     alone = load_scenario("robust-5", ["network={topology: none, delay: 0.1}"])  # valid: nobody to wait for
     assert refiltered_steps(alone) == 0

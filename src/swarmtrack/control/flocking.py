@@ -28,6 +28,7 @@ Conventions
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -342,23 +343,17 @@ class FlockingController:
     """Onboard flocking (L24 Sec. 2): each UAV beacons its own navigation state and follows its own estimate of
     the target, holding position until ``chase_after`` seconds (the first filter iterations, L24 Sec. 4).
 
-    ``compiled``: the numba kernel :func:`swarmtrack.control.kernels.flocking_control_compiled` instead of the numpy
-    reference :func:`flocking_control` (same numbers to rounding).
+    ``law``: the control law, :func:`flocking_control` (the numpy reference) or its compiled twin
+    (:func:`swarmtrack.control.kernels.compiled_law`, same numbers to rounding); the builder picks it.
     """
 
     probes = ()
 
     def __init__(self, gains: FlockingGains, variant: str, n_uavs: int, chase_after: float, *,
-                 compiled: bool = False):
+                 law: Callable = flocking_control):
         self.gains, self.variant, self.chase_after = gains, variant, chase_after
         self.state = FlockingState.zeros(n_uavs)
-        if compiled:
-            from swarmtrack.control import kernels
-
-            self._control = kernels.flocking_control_compiled
-            self._extra = {"gain_vec": kernels.gain_vector(gains)}
-        else:
-            self._control, self._extra = flocking_control, {}
+        self._control = law
 
     def broadcast(self, t: float, nav: np.ndarray) -> dict:
         """Beacon: own position and velocity (what ``a_ij`` and the velocity consensus need)."""
@@ -373,7 +368,7 @@ class FlockingController:
         active = np.full(nav.shape[0], t >= self.chase_after - 1e-9)
         target = view.state
         u, self.state = self._control(beacons[:, :2], beacons[:, 2:4], target[:, :2], target[:, 2:4], inbox.links,
-                                      self.state, self.gains, self.variant, dt, active=active, **self._extra)
+                                      self.state, self.gains, self.variant, dt, active=active)
         return u
 
     def sample(self) -> dict[str, np.ndarray]:

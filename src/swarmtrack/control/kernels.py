@@ -30,7 +30,9 @@ kernel from the form of the links.
 
 from __future__ import annotations
 
+import functools
 import math
+from collections.abc import Callable
 
 import numba
 import numpy as np
@@ -293,5 +295,11 @@ def flocking_control_compiled(
     return u, FlockingState(e, v)
 
 
-__all__ = ["INTEGRAL", "STANDARD", "TAILORED", "flocking_control_compiled", "flocking_kernel", "flocking_kernel_csr",
-           "gain_vector", "variant_code"]
+def compiled_law(gains: FlockingGains) -> Callable[..., tuple[np.ndarray, FlockingState]]:
+    """:func:`flocking_control_compiled` with ``gains``' vector computed once: the law a
+    :class:`~swarmtrack.control.flocking.FlockingController` calls every control step."""
+    return functools.partial(flocking_control_compiled, gain_vec=gain_vector(gains))
+
+
+__all__ = ["INTEGRAL", "STANDARD", "TAILORED", "compiled_law", "flocking_control_compiled", "flocking_kernel",
+           "flocking_kernel_csr", "gain_vector", "variant_code"]

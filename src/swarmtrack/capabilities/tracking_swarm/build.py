@@ -11,7 +11,8 @@ from swarmtrack.capabilities.tracking_swarm.settings import (
     RangeBearingSpec,
     refiltered_steps,
 )
-from swarmtrack.control.flocking import FlockingController, FlockingGains
+from swarmtrack.control import kernels
+from swarmtrack.control.flocking import FlockingController, FlockingGains, flocking_control
 from swarmtrack.estimation.imm import IMMInformationEstimator
 from swarmtrack.estimation.information import InformationEstimator, RangeBearingUpdate
 from swarmtrack.estimation.refilter import RefilteringEstimator
@@ -52,8 +53,10 @@ def flocking_gains(spec: FlockingSpec, r_comm: float) -> FlockingGains:
 
 
 def flocking(spec: FlockingSpec, ctx: Context) -> FlockingController:
-    return FlockingController(flocking_gains(spec, ctx.scenario.network.r_comm), spec.variant, ctx.n_uavs,
-                              spec.chase_after_steps * ctx.dt_estimation, compiled=ctx.compiled)
+    """L24's flocking; the compiled law (numba) or the numpy reference, as the scenario's ``kernels`` asks."""
+    gains = flocking_gains(spec, ctx.scenario.network.r_comm)
+    law = kernels.compiled_law(gains) if ctx.compiled else flocking_control
+    return FlockingController(gains, spec.variant, ctx.n_uavs, spec.chase_after_steps * ctx.dt_estimation, law=law)
 
 
 def range_bearing(s: RangeBearingSpec, scenario: Scenario) -> RangeBearingSensor:

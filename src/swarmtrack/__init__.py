@@ -8,7 +8,9 @@ The public API (``docs/python.md``), imported on first use so that ``import swar
 - :func:`load_scenario` — a validated scenario by built-in name or file, with ``key=value`` overrides and a seed;
 - :func:`simulate` — run it, giving a :class:`~swarmtrack.sim.recorder.Recording`;
 - :func:`summarize` — the metrics of a recording (what ``metrics.json`` holds);
-- :func:`load_run` — the recording of a ``swarmtrack run`` folder.
+- :func:`load_run` — the recording of a ``swarmtrack run`` folder;
+- :func:`register` — add a kind (sensor, estimator, controller) with its settings class (subclassing
+  :class:`SensorSpec`, :class:`EstimatorSpec` or :class:`ControllerSpec`) and its builder.
 """
 
 from __future__ import annotations
@@ -25,14 +27,23 @@ _PUBLIC = {
     "simulate": ("swarmtrack.sim.engine", "simulate"),
     "Recording": ("swarmtrack.sim.recorder", "Recording"),
     "summarize": ("swarmtrack.analysis.metrics", "summary"),
+    "register": ("swarmtrack.registry", "register"),
+    "SensorSpec": ("swarmtrack.scenarios.schema", "SensorSpec"),
+    "EstimatorSpec": ("swarmtrack.scenarios.schema", "EstimatorSpec"),
+    "ControllerSpec": ("swarmtrack.scenarios.schema", "ControllerSpec"),
+    "Probe": ("swarmtrack.estimation.base", "Probe"),
+    "TargetView": ("swarmtrack.estimation.base", "TargetView"),
 }
 
-__all__ = ["Recording", "Scenario", "ScenarioError", "load_run", "load_scenario", "simulate", "summarize"]
+__all__ = ["ControllerSpec", "EstimatorSpec", "Probe", "Recording", "Scenario", "ScenarioError", "SensorSpec",
+           "TargetView", "load_run", "load_scenario", "register", "simulate", "summarize"]
 
 if TYPE_CHECKING:
     from swarmtrack.analysis.metrics import summary as summarize
+    from swarmtrack.estimation.base import Probe, TargetView
+    from swarmtrack.registry import register
     from swarmtrack.scenarios.loader import ScenarioError, load_scenario
-    from swarmtrack.scenarios.schema import Scenario
+    from swarmtrack.scenarios.schema import ControllerSpec, EstimatorSpec, Scenario, SensorSpec
     from swarmtrack.sim.engine import simulate
     from swarmtrack.sim.recorder import Recording
 

@@ -2,7 +2,13 @@ import numpy as np
 import pytest
 
 from swarmtrack.estimation.imm import IMMInformationEstimator
-from swarmtrack.estimation.information import FilterDivergence, InformationEstimator, RangeBearingUpdate
+from swarmtrack.estimation.information import (
+    FilterDivergence,
+    InformationEstimator,
+    InformationSharing,
+    MeasurementSharing,
+    RangeBearingUpdate,
+)
 from swarmtrack.models import make_model
 from swarmtrack.network.messages import Inbox
 from swarmtrack.network.topology import adjacency
@@ -51,7 +57,8 @@ def _measurements(steps, seed, blind_every=7):
 def test_one_model_equals_the_information_estimator(name, share):
     model = make_model(name, DT)
     upd = RangeBearingUpdate(*SIG)
-    plain = InformationEstimator(model, upd, 3, share=share, fake_vz_sigma=0.05)
+    sharing = InformationSharing() if share == "information" else MeasurementSharing()
+    plain = InformationEstimator(model, upd, 3, sharing=sharing, fake_vz_sigma=0.05)
     imm = IMMInformationEstimator([model], upd, 3, share=share, fake_vz_sigma=0.05)
     links = adjacency("line", 3)
     for k, z in enumerate(_measurements(80, 1)):
@@ -76,7 +83,7 @@ def test_identity_markov_bank_members_equal_their_single_model_filters(force_mix
     imm = IMMInformationEstimator([make_model(m, DT) for m in names], upd, 3, share="measurements",
                                   markov=np.eye(3), fake_vz_sigma=0.05)
     imm._mixing = force_mixing
-    single = [InformationEstimator(make_model(m, DT), upd, 3, share="measurements", fake_vz_sigma=0.05)
+    single = [InformationEstimator(make_model(m, DT), upd, 3, sharing=MeasurementSharing(), fake_vz_sigma=0.05)
               for m in names]
     links = adjacency("line", 3)
     for k, z in enumerate(_measurements(60, 2)):

@@ -3,6 +3,9 @@ import pytest
 
 from swarmtrack.estimation.information import (
     FilterDivergence,
+    FusionCentre,
+    InformationSharing,
+    MeasurementSharing,
     RangeBearingUpdate,
     add_position_information,
     check_information,
@@ -97,8 +100,9 @@ def test_full_topology_equals_centralized_ekf(mode, share):
     dt, n = 0.05, 4
     model = make_model("ct", dt)
     upd = RangeBearingUpdate(*SIG, mode=mode)
-    dec = OnboardEstimators(model, upd, n, share=share)
-    cen = OnboardEstimators(model, upd, n, centralized=True)
+    dec = OnboardEstimators(model, upd, n, sharing=InformationSharing() if share == "information" else
+                            MeasurementSharing())
+    cen = OnboardEstimators(model, upd, n, sharing=FusionCentre())
     full = adjacency("full", n)
     sensors = rng.uniform(-6, 6, size=(n, 2))
     for k, target in enumerate(_truth_track(200, dt, rng)):

@@ -14,11 +14,10 @@ import numpy as np
 
 from swarmtrack.estimation.base import Probe, TargetView
 from swarmtrack.models.base import MotionModel
+from swarmtrack.network.links import neighbour_sum
 from swarmtrack.sensors.range_bearing import polar_model, position_covariance, to_position, wrap_angle
 
 UPDATES = ("position", "polar")
-#: Models with a compiled cycle in :mod:`swarmtrack.estimation.kernels` (with the ``position`` update).
-COMPILED_MODELS = ("cv", "fs")
 
 
 class FilterDivergence(RuntimeError):
@@ -173,95 +172,181 @@ def check_information(Y: np.ndarray, y: np.ndarray, t: float) -> None:
         raise FilterDivergence(np.flatnonzero(~pd), t, "information matrix is not positive definite")
 
 
-class InformationEstimator:
-    """One information-form EKF per UAV (L24 Sec. 3) or, with ``centralized``, a single fusion centre over every
-    UAV's measurement (the baseline). Follows the object its sensor labels ``label``.
+class NeighbourSum:
+    """What a UAV does with its neighbours' contributions: add all of them (L24 eq. 7). The χ²-gate
+    (:class:`swarmtrack.estimation.sharing.Chi2Gate`) is the other choice."""
 
-    ``share: information``: each UAV broadcasts its own contribution ``I_i, i_i`` (L24 eq. 6) and adds what its
-    links deliver (eq. 7). ``share: measurements``: each UAV broadcasts its raw measurement and the position it
-    was taken from, and linearises every received one at its own prediction. ``compiled``: the numba kernels
-    (:mod:`swarmtrack.estimation.kernels`, same numbers as the numpy reference) for the CV and FS models with the
-    position update.
+    probes: tuple[Probe, ...] = ()
+
+    def reset(self) -> None:
+        """Start a step (a gate's counts)."""
+
+    def current(self, est: InformationEstimator, inbox) -> tuple[np.ndarray, np.ndarray]:
+        """The delivered contributions' sums ``I (N, 2, 2), i (N, 2)``, late parts as if current."""
+        return inbox.sum("info_matrix"), inbox.sum("info_vector")
+
+    def part(self, links, payloads: dict, rows: np.ndarray, prior) -> tuple[np.ndarray, np.ndarray]:
+        """The sums of one part of an inbox restricted to the sending ``rows`` (time-stamped fusion, which fuses
+        each part at the step it was taken; ``prior()`` gives each receiver's predicted position and its covariance
+        for that step, which a gate reads)."""
+        return (neighbour_sum(links, payloads["info_matrix"] * rows[:, None, None]),
+                neighbour_sum(links, payloads["info_vector"] * rows[:, None]))
+
+    def sample(self) -> dict[str, np.ndarray]:
+        return {}
+
+
+class InformationSharing:
+    """L24's sharing: each UAV broadcasts its own contribution ``I_i, i_i`` (eq. 6) and adds what its links deliver
+    (eq. 7), all of it or what ``neighbours`` (a gate) lets through."""
+
+    centralized = False
+    #: The update adds position-block information only (:meth:`contributions`), the form the compiled cycle takes.
+    additive = True
+
+    def __init__(self, neighbours: NeighbourSum | None = None):
+        self.neighbours = NeighbourSum() if neighbours is None else neighbours
+
+    def filters(self, n_uavs: int) -> int:
+        return n_uavs
+
+    def outbox(self, own: dict) -> dict:
+        return own
+
+    def contributions(self, est: InformationEstimator, inbox) -> tuple[np.ndarray, np.ndarray]:
+        """The position-block information each filter adds this step (L24 eq. 7)."""
+        I_n, i_n = self.neighbours.current(est, inbox)
+        return est.own["info_matrix"] + I_n, est.own["info_vector"] + i_n
+
+    def information(self, est: InformationEstimator, inbox) -> tuple[np.ndarray, np.ndarray]:
+        """Each filter's information after this step's measurements (L24 eq. 7)."""
+        return add_position_information(est.Y_pred, est.y_pred, *self.contributions(est, inbox))
+
+
+class MeasurementSharing(InformationSharing):
+    """Each UAV broadcasts its raw measurement and the position it was taken from, and linearises its own and every
+    delivered one at its own prediction."""
+
+    def outbox(self, own: dict) -> dict:
+        return {"z": own["z"], "sensor_pos": own["sensor_pos"], "seen": own["seen"]}
+
+    def contributions(self, est: InformationEstimator, inbox) -> tuple[np.ndarray, np.ndarray]:
+        """Per link, then per receiver: the information of every measurement it heard, its own first."""
+        got = inbox.payloads
+        recv, send = inbox.heard()  # own measurement first
+        Ipair, ipair = est.update_rule.contributions(est.x_pred[recv, :2], got["sensor_pos"][send], got["z"][send])
+        I = np.zeros((est.n, 2, 2))
+        i = np.zeros((est.n, 2))
+        np.add.at(I, recv, Ipair)
+        np.add.at(i, recv, ipair)
+        return I, i
+
+
+class FusionCentre(InformationSharing):
+    """The centralized baseline: one filter that receives every UAV's measurement (not onboard)."""
+
+    centralized = True
+
+    def filters(self, n_uavs: int) -> int:
+        return 1
+
+    def contributions(self, est: InformationEstimator, inbox) -> tuple[np.ndarray, np.ndarray]:
+        return (est.own["info_matrix"].sum(axis=0, keepdims=True),
+                est.own["info_vector"].sum(axis=0, keepdims=True))
+
+
+class NumpyCycle:
+    """The reference predict-update cycle of the information filter (numpy, every model and update). The compiled
+    twin for the CV and FS models is :class:`swarmtrack.estimation.information_compiled.CompiledCycle`."""
+
+    def start(self, Y: np.ndarray, y: np.ndarray) -> None:
+        """The initial information (the compiled cycle keeps it)."""
+
+    def share(self, est: InformationEstimator, z: np.ndarray, pos: np.ndarray, seen: np.ndarray) -> dict:
+        """Predict (L24 Sec. 3.1) and each UAV's own contribution (L24 eq. 6)."""
+        est.Y_pred, est.y_pred, est.x_pred = predict(est.model, est.x, est.P)
+        return est.measured(z, pos, seen, est.x, est.P, est.x_pred)
+
+    def fuse(self, est: InformationEstimator, inbox, t: float) -> None:
+        est.x, est.P = est.update(*est.sharing.information(est, inbox), t)
+
+
+class InformationEstimator:
+    """One information-form EKF per UAV (L24 Sec. 3), or the sharing's single fusion centre (the baseline). Follows
+    the object its sensor labels ``label``.
+
+    Composed of strategies the builder picks: ``sharing`` (what a UAV broadcasts and how it fuses what arrives:
+    :class:`InformationSharing` of L24 eqs. 6-7, with a gate or not; :class:`MeasurementSharing`;
+    :class:`FusionCentre`; covariance intersection, :class:`swarmtrack.estimation.sharing.CovarianceIntersection`)
+    and ``cycle`` (the numpy reference :class:`NumpyCycle`, or the compiled cycle of the CV and FS models with the
+    position update, same numbers). Late data fused at its time stamp is
+    :class:`swarmtrack.estimation.refilter.RefilteringEstimator`.
     """
 
     def __init__(self, model: MotionModel, update: RangeBearingUpdate, n_uavs: int, *, label: int = 0,
-                 share: str = "information", centralized: bool = False, initial_info: float = 1e-6,
-                 fake_vz_sigma: float | None = None, compiled: bool = False, gating: str = "none",
-                 gate_probability: float = 0.999):
-        self.model, self.update_rule, self.share_mode, self.centralized = model, update, share, centralized
-        self.gating, self.gate_probability = gating, gate_probability
+                 sharing: InformationSharing | None = None, cycle: NumpyCycle | None = None,
+                 initial_info: float = 1e-6, fake_vz_sigma: float | None = None):
+        self.model, self.update_rule = model, update
+        self.sharing = InformationSharing() if sharing is None else sharing
+        self.cycle = NumpyCycle() if cycle is None else cycle
         self.n, self.label = n_uavs, label
-        n_filters = 1 if centralized else n_uavs
-        Y, y = initial_information(model, n_filters, initial_info)
+        Y, y = initial_information(model, self.sharing.filters(n_uavs), initial_info)
         self.x, self.P = recover(Y, y)
-        self.compiled = compiled and model.name in COMPILED_MODELS and update.mode == "position" and \
-            not centralized and gating != "ci"
-        if self.compiled:
-            self._Y, self._y, self._q = Y, y, np.ascontiguousarray(np.diag(model.Q))
-        self._x_pred = self.x
-        self._Y_pred, self._y_pred = Y, y
-        self._vz = None
+        self.cycle.start(Y, y)
+        self.x_pred = self.x
+        self.Y_pred, self.y_pred = Y, y
+        self.vz = None
         if fake_vz_sigma is not None and hasattr(model, "VZ_INDEX"):
-            self._vz = (model.VZ_INDEX, 1.0 / fake_vz_sigma**2)
-        self._own = None
+            self.vz = (model.VZ_INDEX, 1.0 / fake_vz_sigma**2)
+        self.own = None
         self._detected = np.zeros(n_uavs)
-        self._nis = np.full(n_uavs, np.nan)
+        self.nis = np.full(n_uavs, np.nan)
         # the rows of F that predict the position, for the NIS: constant for the linear models and for FS (whose
         # position rows are x' = x + dt·vx, y' = y + dt·vy); CT's depend on the state
-        self._F2 = model.F[:2] if getattr(model, "linear", False) else \
+        self.F2 = model.F[:2] if getattr(model, "linear", False) else \
             model.jacobian(model.initial_state())[:2] if model.name == "fs" else None
-        self._Q2 = model.Q[:2, :2]
+        self.Q2 = model.Q[:2, :2]
         self.probes = (Probe("estimate", (model.dim,)), Probe("covariance", (model.dim, model.dim)),
-                       Probe("detected", ()), Probe("nis", ()))
-        self._gated = np.zeros(n_uavs)
-        self._rejected = np.zeros(n_uavs)
-        self._delivered = np.zeros(n_uavs)
-        self._threshold = -2.0 * np.log1p(-gate_probability)  # the χ²(2) quantile (χ²(2) is exponential, mean 2)
-        if gating == "chi2":  # whom each UAV gated: how many it left out, how many left each one's out, of how many
-            self.probes += (Probe("gated", ()), Probe("rejected", ()), Probe("delivered", ()))
+                       Probe("detected", ()), Probe("nis", ()), *self.gate.probes)
+
+    @property
+    def centralized(self) -> bool:
+        return self.sharing.centralized
+
+    @property
+    def gate(self) -> NeighbourSum:
+        """What the filter does with its neighbours' contributions (none for a fusion centre)."""
+        return getattr(self.sharing, "neighbours", None) or NeighbourSum()
 
     def share(self, t: float, nav: np.ndarray, own) -> dict:
         """Predict (L24 Sec. 3.1) and compute this UAV's own contribution (L24 eq. 6) for broadcast; a UAV that
         did not detect its target contributes zero information."""
-        self._reset_gate_counts()
-        z, pos, seen = own.of_label(self.label)
-        if self.compiled:
-            from swarmtrack.estimation import kernels
+        self.gate.reset()
+        self.own = self.cycle.share(self, *own.of_label(self.label))
+        return self.sharing.outbox(self.own)
 
-            self._x_pred = kernels.cv_predicted_position(self.x, self.model.dt)
-            u = self.update_rule
-            I, i = kernels.cv_position_contributions(self._x_pred, pos, z, u.sigma_range, u.sigma_bearing,
-                                                     u.min_range, u.own_sigma**2)
-            self._nis = kernels.position_nis(z, pos, self._x_pred[:, :2], self.P, self._F2, self._Q2, I)
-            self._own = self._contribution(I, i, z, pos, seen)
-        else:
-            self._Y_pred, self._y_pred, self._x_pred = predict(self.model, self.x, self.P)
-            self._own = self._measured(z, pos, seen, self.x, self.P, self._x_pred)
-        return self._own if self.share_mode == "information" or self.centralized else {
-            "z": z, "sensor_pos": pos, "seen": seen}
-
-    def _measured(self, z: np.ndarray, pos: np.ndarray, seen: np.ndarray, x: np.ndarray, P: np.ndarray,
-                  x_pred: np.ndarray) -> dict:
+    def measured(self, z: np.ndarray, pos: np.ndarray, seen: np.ndarray, x: np.ndarray, P: np.ndarray,
+                 x_pred: np.ndarray) -> dict:
         """Each UAV's own contribution (L24 eq. 6) linearised at ``x_pred``, predicted from the posterior ``x, P``
         (the fusion centre linearises every measurement at its one prediction), and its NIS."""
         x_pos = np.broadcast_to(x_pred[:, :2], pos.shape) if self.centralized else x_pred[:, :2]
         I, i = self.update_rule.contributions(x_pos, pos, z)
-        self._nis = self._own_nis(z, pos, I, x, P, x_pred)
-        return self._contribution(I, i, z, pos, seen)
+        self.nis = self._own_nis(z, pos, I, x, P, x_pred)
+        return self.contribution(I, i, z, pos, seen)
 
-    def _contribution(self, I, i, z, pos, seen) -> dict:
+    def contribution(self, I, i, z, pos, seen) -> dict:
         """The outbox row of each UAV: zero information and a NaN NIS where it saw nothing."""
         if not seen.all():  # unseen rows are NaN
             I[~seen] = 0.0
             i[~seen] = 0.0
-            self._nis[~seen] = np.nan
+            self.nis[~seen] = np.nan
         self._detected = seen.astype(float)
         return {"info_matrix": I, "info_vector": i, "z": z, "sensor_pos": pos, "seen": seen}
 
     def predicted_position_covariance(self, x: np.ndarray, P: np.ndarray) -> np.ndarray:
         """Position block (..., 2, 2) of ``P(k|k−1) = F P Fᵀ + Q`` predicted from the posterior ``x, P``."""
-        F = self._F2 if self._F2 is not None else self.model.jacobian(x)[..., :2, :]
-        return F @ P @ np.swapaxes(F, -1, -2) + self._Q2
+        F = self.F2 if self.F2 is not None else self.model.jacobian(x)[..., :2, :]
+        return F @ P @ np.swapaxes(F, -1, -2) + self.Q2
 
     def _own_nis(self, z: np.ndarray, pos: np.ndarray, I: np.ndarray, x: np.ndarray, P: np.ndarray,
                  x_pred: np.ndarray) -> np.ndarray:
@@ -273,95 +358,17 @@ class InformationEstimator:
         return position_nis(to_position(z, pos), I, x_pred[..., :2], self.predicted_position_covariance(x, P))
 
     def fuse(self, t: float, own, inbox) -> None:
-        """Update (L24 eq. 7): own information plus what the links delivered."""
-        mine = self._own
-        if self.centralized:  # the baseline's centre receives every measurement
-            I = mine["info_matrix"].sum(axis=0, keepdims=True)
-            i = mine["info_vector"].sum(axis=0, keepdims=True)
-        elif self.share_mode == "information":
-            if self.gating == "ci":
-                self._fuse_ci(t, inbox)
-                return
-            I_n, i_n = self._neighbour_information(inbox)
-            I = mine["info_matrix"] + I_n
-            i = mine["info_vector"] + i_n
-        else:
-            I, i = self._received_measurements(inbox)
-        if self.compiled:
-            from swarmtrack.estimation import kernels
+        """Update (L24 eq. 7): own information plus what the links delivered, as the sharing fuses it."""
+        self.cycle.fuse(self, inbox, t)
 
-            I, i, m = np.ascontiguousarray(I), np.ascontiguousarray(i), self.model
-            if m.name == "fs":
-                w_vz = 0.0 if self._vz is None else self._vz[1]
-                flags = kernels.fs_cycle(self.x, self.P, m.dt, self._q, I, i, m.mass, m.Ixx, m.Iyy, m.g, w_vz)
-            else:
-                flags = kernels.cv_cycle(self._Y, self._y, self.x, self.P, m.dt, self._q, I, i)
-            kernels.check_flags(flags, t)
-            return
-        self.x, self.P = self._update(*add_position_information(self._Y_pred, self._y_pred, I, i), t)
-
-    def _update(self, Y: np.ndarray, y: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
+    def update(self, Y: np.ndarray, y: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
         """The posterior from the information after the measurements (L24 eq. 7), with L24's fake vz = 0
         measurement (FS; local to every filter, never shared) and a divergence check."""
-        if self._vz is not None:
-            k, w_vz = self._vz
+        if self.vz is not None:
+            k, w_vz = self.vz
             Y[:, k, k] += w_vz
         check_information(Y, y, t)
         return recover(Y, y)
-
-    def _reset_gate_counts(self) -> None:
-        if self.gating == "chi2":
-            self._gated[:] = 0.0
-            self._rejected[:] = 0.0
-            self._delivered[:] = 0.0
-
-    def _neighbour_information(self, inbox):
-        """The sums of what the links delivered (L24 eq. 7), without the contributions the χ²-gate leaves out
-        (:func:`swarmtrack.estimation.gating.chi2_gate`, against this step's prediction); late parts as if
-        current."""
-        if self.gating != "chi2":
-            return inbox.sum("info_matrix"), inbox.sum("info_vector")
-        x_pos, P_pos = self._x_pred[..., :2], self.predicted_position_covariance(self.x, self.P)
-        I, i = 0.0, 0.0
-        for part in inbox.parts():
-            I_p, i_p = self.gate(part.links, part.payloads, x_pos, P_pos)
-            I, i = I + I_p, i + i_p
-        return I, i
-
-    def gate(self, links, payloads: dict, x_pos: np.ndarray, P_pos: np.ndarray):
-        """χ²-gated sums of one part of an inbox, counting the links (the ``gated``, ``rejected`` and ``delivered``
-        probes: per receiver the contributions it left out; per sender how many receivers left its out, and got
-        it)."""
-        from swarmtrack.estimation.gating import chi2_gate
-
-        I, i, recv, send, ok = chi2_gate(links, payloads, x_pos, P_pos, self._threshold, self.n)
-        np.add.at(self._gated, recv[~ok], 1.0)
-        np.add.at(self._rejected, send[~ok], 1.0)
-        np.add.at(self._delivered, send, 1.0)
-        return I, i
-
-    def _fuse_ci(self, t: float, inbox) -> None:
-        """Own measurement by eq. 7, then every neighbour's contribution by covariance intersection."""
-        from swarmtrack.estimation.gating import covariance_intersection
-
-        Y, y = add_position_information(self._Y_pred, self._y_pred, self._own["info_matrix"],
-                                        self._own["info_vector"])
-        for part in inbox.parts():
-            Y, y = covariance_intersection(Y, y, part.links, part.payloads)
-        self.x, self.P = self._update(Y, y, t)
-
-    def _received_measurements(self, inbox):
-        """Raw measurements: each UAV linearises its own and every delivered measurement at its own prediction
-        and sums their information (per link, then per receiver)."""
-        got = inbox.payloads
-        recv, send = inbox.heard()  # own measurement first
-        Ipair, ipair = self.update_rule.contributions(self._x_pred[recv, :2], got["sensor_pos"][send],
-                                                      got["z"][send])
-        I = np.zeros((self.n, 2, 2))
-        i = np.zeros((self.n, 2))
-        np.add.at(I, recv, Ipair)
-        np.add.at(i, recv, ipair)
-        return I, i
 
     def estimates(self) -> tuple[np.ndarray, np.ndarray]:
         """Every UAV's current estimate (N, n) and covariance (N, n, n)."""
@@ -375,7 +382,4 @@ class InformationEstimator:
 
     def sample(self) -> dict[str, np.ndarray]:
         x, P = self.estimates()
-        out = {"estimate": x, "covariance": P, "detected": self._detected, "nis": self._nis}
-        if self.gating == "chi2":
-            out.update(gated=self._gated.copy(), rejected=self._rejected.copy(), delivered=self._delivered.copy())
-        return out
+        return {"estimate": x, "covariance": P, "detected": self._detected, "nis": self.nis, **self.gate.sample()}

@@ -32,11 +32,10 @@ from swarmtrack.network.links import neighbour_sum
 
 
 class RefilteringEstimator(InformationEstimator):
-    """:class:`~swarmtrack.estimation.information.InformationEstimator` (``share: information``, decentralized or
-    centralized) that fuses every datum at its time stamp, re-filtering the last ``window`` steps (numpy path)."""
+    """:class:`~swarmtrack.estimation.information.InformationEstimator` (sharing information, decentralized or
+    centralized) that fuses every datum at its time stamp, re-filtering the last ``window`` steps (numpy cycle)."""
 
     def __init__(self, *args, window: int, **kwargs):
-        kwargs["compiled"] = False
         super().__init__(*args, **kwargs)
         self.window = int(window)
         size = self.window + 2  # posteriors of steps k − window − 1 .. k
@@ -70,7 +69,7 @@ class RefilteringEstimator(InformationEstimator):
         self._acc_I[slot] = 0.0
         self._acc_i[slot] = 0.0
         self._stale[:] = 0.0
-        self._reset_gate_counts()
+        self.gate.reset()
         taken = t if own.taken is None else own.taken
         s = int(self._step_of(t, taken))
         z, pos, seen = own.of_label(self.label)
@@ -79,12 +78,12 @@ class RefilteringEstimator(InformationEstimator):
             seen = np.zeros_like(seen)
         self._own_slot = s
         x, P = self._posterior(s - 1)
-        self._own = {**self._measured(z, pos, seen, x, P, self.model.f(x)), "taken": np.full(self.n, float(taken))}
-        return self._own
+        self.own = {**self.measured(z, pos, seen, x, P, self.model.f(x)), "taken": np.full(self.n, float(taken))}
+        return self.own
 
     def fuse(self, t: float, own, inbox) -> None:
         """Add each datum to the step it was taken at, then re-filter from the earliest step that changed."""
-        mine = self._own
+        mine = self.own
         first = self._k
         if mine["seen"].any():
             I, i = mine["info_matrix"], mine["info_vector"]
@@ -99,7 +98,7 @@ class RefilteringEstimator(InformationEstimator):
             slot = s % len(self._acc_I)
             Y[..., :2, :2] += self._acc_I[slot]
             y[..., :2] += self._acc_i[slot]
-            self._post_x[slot], self._post_P[slot] = self._update(Y, y, t)
+            self._post_x[slot], self._post_P[slot] = self.update(Y, y, t)
         x, P = self._posterior(self._k)
         self.x, self.P = x.copy(), P.copy()  # the ring's rows are rewritten by later steps
 
@@ -122,13 +121,11 @@ class RefilteringEstimator(InformationEstimator):
                 if s >= 0:
                     self._stale += neighbour_sum(part.links, rows.astype(float))
                 continue
-            if self.gating == "chi2":  # against this UAV's prediction for the step the data was taken at
-                x, P = self._posterior(int(s) - 1)
-                I, i = self.gate(part.links, {**got, "seen": rows}, self.model.f(x)[:, :2],
-                                 self.predicted_position_covariance(x, P))
-            else:
-                I = neighbour_sum(part.links, got["info_matrix"] * rows[:, None, None])
-                i = neighbour_sum(part.links, got["info_vector"] * rows[:, None])
+            def prior(s=int(s)):  # this UAV's prediction for the step the data was taken at (what a gate reads)
+                x, P = self._posterior(s - 1)
+                return self.model.f(x)[:, :2], self.predicted_position_covariance(x, P)
+
+            I, i = self.gate.part(part.links, got, rows, prior)
             first = min(first, self._add(int(s), I, i))
         return first
 

@@ -14,27 +14,50 @@ from swarmtrack.capabilities.tracking_swarm.settings import (
 from swarmtrack.control import kernels
 from swarmtrack.control.flocking import FlockingController, FlockingGains, flocking_control
 from swarmtrack.estimation.imm import IMMInformationEstimator
-from swarmtrack.estimation.information import InformationEstimator, RangeBearingUpdate
+from swarmtrack.estimation.information import (
+    FusionCentre,
+    InformationEstimator,
+    InformationSharing,
+    MeasurementSharing,
+    RangeBearingUpdate,
+)
+from swarmtrack.estimation.information_compiled import compiled_cycle
 from swarmtrack.estimation.refilter import RefilteringEstimator
+from swarmtrack.estimation.sharing import Chi2Gate, CovarianceIntersection
 from swarmtrack.models import make_model
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sim.build import Context, occluders
 from swarmtrack.sim.world import RangeBearingSensor
 
 
+def sharing(spec: FilterSpec, n_uavs: int) -> InformationSharing:
+    """What each UAV broadcasts and how it fuses what arrives: a fusion centre (the baseline), raw measurements, or
+    information contributions (L24 eqs. 6-7) added whole, through a χ²-gate or by covariance intersection."""
+    if spec.kind == "centralized":
+        return FusionCentre()
+    if spec.share == "measurements":
+        return MeasurementSharing()
+    if spec.gating == "ci":
+        return CovarianceIntersection()
+    return InformationSharing(Chi2Gate(n_uavs, spec.gate_probability) if spec.gating == "chi2" else None)
+
+
 def information(spec: FilterSpec, ctx: Context) -> InformationEstimator:
-    """L24's filter; with late data (latency, delays) and ``delayed_data: refilter``, the time-stamp-aware one."""
+    """L24's filter; with late data (latency, delays) and ``delayed_data: refilter``, the time-stamp-aware one,
+    which runs the numpy cycle; otherwise the compiled cycle where the model has one and the scenario's ``kernels``
+    allow it (the one place the choice is made)."""
     s = ctx.scenario.sensor
     window = refiltered_steps(ctx.scenario) if spec.delayed_data == "refilter" else 0
-    kind, extra = (RefilteringEstimator, {"window": window}) if window else (InformationEstimator, {})
     own = ctx.scenario.swarm.nav_position_std if spec.own_position == "include" else 0.0
-    return kind(
-        make_model(spec.model, ctx.dt_estimation, spec.q),
-        RangeBearingUpdate(s.sigma_range, s.sigma_bearing, s.update, own_sigma=own),
-        ctx.n_uavs, label=ctx.label_of("targets", spec.target - 1), share=spec.share,
-        centralized=spec.kind == "centralized", initial_info=spec.initial_information,
-        fake_vz_sigma=spec.fake_vz_sigma, compiled=ctx.compiled, gating=spec.gating,
-        gate_probability=spec.gate_probability, **extra)
+    model = make_model(spec.model, ctx.dt_estimation, spec.q)
+    update = RangeBearingUpdate(s.sigma_range, s.sigma_bearing, s.update, own_sigma=own)
+    shared = sharing(spec, ctx.n_uavs)
+    common = {"label": ctx.label_of("targets", spec.target - 1), "sharing": shared,
+              "initial_info": spec.initial_information, "fake_vz_sigma": spec.fake_vz_sigma}
+    if window:
+        return RefilteringEstimator(model, update, ctx.n_uavs, window=window, **common)
+    cycle = compiled_cycle(model, update, shared) if ctx.compiled else None
+    return InformationEstimator(model, update, ctx.n_uavs, cycle=cycle, **common)
 
 
 def imm(spec: IMMSpec, ctx: Context) -> IMMInformationEstimator:

@@ -4,8 +4,9 @@ per-group references, to the last bit, also when walkers reflect at the walls of
 import numpy as np
 
 from swarmtrack.sensors import footprint
+from swarmtrack.sim.sensors import FootprintSensor
 from swarmtrack.sim.streams import stream
-from swarmtrack.sim.world import FootprintSensor, Group, World
+from swarmtrack.sim.world import Group, World
 from swarmtrack.vehicles.fixed_wing import FixedWingParams
 from swarmtrack.vehicles.ground_walker import WalkerParams
 

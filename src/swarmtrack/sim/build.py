@@ -22,8 +22,9 @@ from swarmtrack.scenarios.schema import GroupSpec, Scenario, SensorSpec
 from swarmtrack.sim.agent import OnboardStack
 from swarmtrack.sim.clock import Clock
 from swarmtrack.sim.oracle import TruthOracle
+from swarmtrack.sim.sensors import Occluder, hidden_by
 from swarmtrack.sim.streams import stream
-from swarmtrack.sim.world import Group, Occluder, ProfileDriver, World, hidden_by
+from swarmtrack.sim.world import Group, ProfileDriver, World
 from swarmtrack.vehicles.fixed_wing import FixedWingParams
 from swarmtrack.vehicles.ground_walker import WalkerParams
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from swarmtrack.sensors import footprint, range_bearing
+from swarmtrack.sim.sensors import Scene, Sensor
 from swarmtrack.vehicles import double_integrator, fixed_wing, ground_walker, quadrotor
 from swarmtrack.vehicles import kernels as _kernels
 from swarmtrack.vehicles.profile import VelocityProfile
@@ -53,128 +53,6 @@ class Group:
     @property
     def size(self) -> int:
         return len(self.start)
-
-
-@dataclass(frozen=True)
-class RangeBearingSensor:
-    """Truth side of the range-bearing sensor (L24 Sec. 3.2): every UAV measures every object of the ``sensed``
-    groups (within ``max_range``), ``latency`` s late; the noise of the detections of each object comes from
-    that object's stream (``sensor/range_bearing/<group>/<member>``)."""
-
-    sigma_range: float
-    sigma_bearing: float
-    max_range: float | None = None
-    latency: float = 0.0
-    occluders: tuple[Occluder, ...] = ()
-    sensed: tuple[str, ...] = ("targets", "decoys")
-    name = "range_bearing"
-
-    def detect(self, objects, uavs, stamped, noise, t: float, aim, taken: float | None = None):
-        return range_bearing.sense(objects, uavs, stamped, self.sigma_range, self.sigma_bearing, noise,
-                                   self.max_range, hidden_by(self.occluders, objects, len(uavs), t), taken)
-
-    def detect_worlds(self, objects, uavs, stamped, noise, labels, taken: float | None = None):
-        """A batch of worlds, each UAV towards its own world's objects (no occluders: they name one world's UAVs)."""
-        return range_bearing.sense_worlds(objects, uavs, stamped, self.sigma_range, self.sigma_bearing, noise,
-                                          labels, self.max_range, taken)
-
-
-@dataclass(frozen=True)
-class Occluder:
-    """Hides the sensed objects from the UAVs ``uavs`` (0-based; empty: every UAV) while an object is inside
-    ``region`` ``(x0, y0, x1, y1)`` (None: anywhere) during ``window`` ``(t0, t1)`` s (None: always)."""
-
-    region: tuple[float, float, float, float] | None = None
-    window: tuple[float, float] | None = None
-    uavs: tuple[int, ...] = ()
-
-    def hides(self, objects: np.ndarray, n_uavs: int, t: float) -> np.ndarray:
-        """(N, M) the (UAV, object) pairs this occluder hides at time ``t``."""
-        hidden = np.ones((n_uavs, len(objects)), dtype=bool)
-        if self.window is not None and not self.window[0] <= t < self.window[1]:
-            return ~hidden
-        if self.region is not None:
-            x0, y0, x1, y1 = self.region
-            inside = (objects[:, 0] >= x0) & (objects[:, 0] <= x1) & (objects[:, 1] >= y0) & (objects[:, 1] <= y1)
-            hidden &= inside[None, :]
-        if self.uavs:
-            mask = np.zeros(n_uavs, dtype=bool)
-            mask[list(self.uavs)] = True
-            hidden &= mask[:, None]
-        return hidden
-
-
-def hidden_by(occluders, objects: np.ndarray, n_uavs: int, t: float) -> np.ndarray | None:
-    """(N, M) the (UAV, object) pairs any of ``occluders`` hides at time ``t``; None without occluders."""
-    hidden = None
-    for occ in occluders:
-        h = occ.hides(objects, n_uavs, t)
-        hidden = h if hidden is None else hidden | h
-    return hidden
-
-
-@dataclass(frozen=True)
-class CameraSensor:
-    """Truth side of the gimballed camera-frame position sensor (W20 Sec. 3.2, eqs. 4.14-4.16,
-    :mod:`swarmtrack.sensors.camera`): cameras ``height`` m above the ground, a rectangular field of view with
-    half-angle tangents ``tan_half``, noise ``sigma`` m per camera-frame axis, gimbals aimed at each UAV's latest
-    estimate (``home`` before it has one), ``occluders`` hiding objects; streams ``sensor/camera/<group>/<k>``."""
-
-    sigma: float
-    height: float
-    tan_half: tuple[float, float]
-    home: tuple[float, float] = (0.0, 0.0)
-    occluders: tuple[Occluder, ...] = ()
-    latency: float = 0.0
-    sensed: tuple[str, ...] = ("targets", "decoys")
-    name = "camera"
-    aims = True  # reads ``aim`` (the other sensors ignore it)
-
-    def detect(self, objects, uavs, stamped, noise, t: float, aim, taken: float | None = None):
-        from swarmtrack.sensors import camera
-
-        n = len(uavs)
-        aim = np.broadcast_to(self.home, (n, 2)) if aim is None else np.asarray(aim, dtype=float)
-        aim = np.where(np.isfinite(aim).all(axis=-1, keepdims=True), aim, self.home)  # no estimate yet: home
-        hidden = hidden_by(self.occluders, objects, n, t)
-        return camera.sense(objects, uavs, stamped, self.height, aim, self.tan_half, self.sigma, noise, hidden, taken)
-
-
-@dataclass(frozen=True)
-class FootprintSensor:
-    """Truth side of IB21's downward camera (Sec. 3.2, Sec. 6, eqs. 50-54; :mod:`swarmtrack.sensors.footprint`):
-    every target and decoy (walkers) inside a fixed-wing UAV's footprint is detected with box noise (uniform draws
-    from the object's stream ``sensor/footprint/<group>/<k>``) and labelled by the identification cones. ``beta`` and
-    ``gamma`` are each sensed object's cone angles, ``is_decoy`` which are decoys, ``J`` the decoys' confusion map
-    (drawn and built by :mod:`swarmtrack.sim.build`). What of these the sensor reads every frame is derived once
-    (``constants``, :class:`~swarmtrack.sensors.footprint.ObjectConstants`)."""
-
-    params: object
-    beta: np.ndarray
-    gamma: np.ndarray
-    is_decoy: np.ndarray
-    J: np.ndarray
-    latency: float = 0.0
-    occluders: tuple = ()
-    sensed: tuple[str, ...] = ("targets", "decoys")
-    constants: object = field(init=False, repr=False, compare=False)
-    name = "footprint"
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "constants", footprint.ObjectConstants.of(self.params, self.is_decoy, self.beta,
-                                                                         self.gamma, self.J))
-
-    def detect_world(self, world: World):
-        uavs = world.kinematic("uavs")
-        objects = np.concatenate([world.kinematic(g).state for g in self.sensed if world.kinematic(g) is not None])
-        if not len(objects):  # nothing to detect: sense's reference pass (the compiled one needs objects)
-            return footprint.sense(uavs.state[:, fixed_wing.X:fixed_wing.Z + 1], uavs.state[:, fixed_wing.PSI],
-                                   objects[:, :2], objects[:, ground_walker.HEADING], self.is_decoy, self.beta,
-                                   self.gamma, world.frame_uniforms(), self.params, self.J, constants=self.constants,
-                                   uav_trig=uavs.trig())
-        return footprint.sense_frame(uavs.state[:, fixed_wing.X:fixed_wing.Z + 1], uavs.state[:, fixed_wing.PSI],
-                                     objects[:, :2], objects[:, ground_walker.HEADING], world.frame_uniforms(),
-                                     self.params, self.constants, uav_trig=uavs.trig())
 
 
 class _Uniforms:
@@ -346,7 +224,7 @@ class World:
     objects, so every world evolves as it would on its own (:mod:`swarmtrack.sim.batch`).
     """
 
-    def __init__(self, groups: list[Group], sensor: RangeBearingSensor | CameraSensor, *, dt: float, ticks: int,
+    def __init__(self, groups: list[Group], sensor: Sensor, *, dt: float, ticks: int,
                  nav_std: tuple[float, float],
                  streams: Callable[[str], np.random.Generator] | Sequence[Callable[[str], np.random.Generator]],
                  compiled: bool = False):
@@ -473,7 +351,7 @@ class World:
     @property
     def aims(self) -> bool:
         """Whether the sensor is gimballed (:meth:`sense` reads its ``aim``)."""
-        return getattr(self.sensor, "aims", False)
+        return self.sensor.aims
 
     # --- truth, for the engine's recorder and the metrics only -------------------------------------------
     def _all_truth(self) -> np.ndarray:
@@ -537,34 +415,42 @@ class World:
 
     def sense(self, aim: np.ndarray | None = None):
         """Every UAV's detections, ``sensor.latency`` old, and (for the recorder and metrics only) the object
-        each came from. The navigation position stamped on a detection is also that old, with its own error,
-        so an onboard filter that takes the packet as current sees objects where they were. ``aim`` (N, 2): where
-        each UAV points a gimballed sensor (its latest estimate; NaN rows: none yet); others ignore it."""
-        if hasattr(self.sensor, "detect_world"):  # a sensor that needs full states (IB21's footprint camera)
-            det, source = self.sensor.detect_world(self)
-            return det, self._sensed[source]
-        lagged = len(self._history) > 1
-        taken = (self._tick - (len(self._history) - 1)) * self.dt  # when what the sensor reports was taken
-        then = self._history[(self._tick + 1) % len(self._history)] if lagged else self._all_truth()[:, :2]
-        uavs = then[self.slices["uavs"]]
-        sensed = self._sensed
+        each came from: what the sensor (:class:`~swarmtrack.sim.sensors.Sensor`) reports of this frame's
+        :class:`~swarmtrack.sim.sensors.Scene`. ``aim`` (N, 2): where each UAV points a gimballed sensor (its latest
+        estimate; NaN rows: none yet); others ignore it."""
+        det, source = self.sensor.sense(Scene(self, aim))
+        return det, self._sensed[source]
+
+    def lagged_positions(self) -> tuple[np.ndarray, float]:
+        """Every object's position ``sensor.latency`` ago (M, 2) and the time it was taken (a ring buffer)."""
+        if len(self._history) == 1:
+            return self._all_truth()[:, :2], self.t
+        taken = (self._tick - (len(self._history) - 1)) * self.dt
+        return self._history[(self._tick + 1) % len(self._history)], taken
+
+    def stamped(self, uavs: np.ndarray) -> np.ndarray:
+        """The navigation positions a sensor stamps on its detections: ``uavs`` (N, 2) plus their own navigation
+        error (the ``navigation`` stream)."""
         stamped = uavs.copy()
         if self._nav_std[0] > 0:
             stamped += self._draw(self._nav_rngs, 2) * self._nav_std[0]
-        if self.worlds > 1:  # each world's UAVs towards its own objects, with each object's own noise stream
+        return stamped
+
+    def normal_noise(self) -> np.ndarray:
+        """(N, M, 2) standard normal draws of this frame, each sensed object's (N, 2) from its own stream (a batch:
+        (B, n, M_b, 2), each world's UAVs towards its own objects)."""
+        if self.worlds > 1:
             labels, n = self._world_labels, self._world_uavs[0].stop
             noise = np.empty((self.worlds, n, labels.shape[1], 2))
             for b, row in enumerate(labels):
                 for j, label in enumerate(row):
                     noise[b, :, j] = self._sensor_rngs[label].standard_normal((n, 2))
-            det, source = self.sensor.detect_worlds(then[sensed[labels]], uavs.reshape(self.worlds, n, 2),
-                                                    stamped.reshape(self.worlds, n, 2), noise, labels, taken)
-            return det, sensed[source]
-        noise = np.empty((len(uavs), len(sensed), 2))
+            return noise
+        n = self.groups["uavs"].size
+        noise = np.empty((n, len(self._sensed), 2))
         for j, rng in enumerate(self._sensor_rngs):
-            noise[:, j] = rng.standard_normal((len(uavs), 2))
-        det, source = self.sensor.detect(then[sensed], uavs, stamped, noise, self.t, aim, taken)
-        return det, sensed[source]
+            noise[:, j] = rng.standard_normal((n, 2))
+        return noise
 
     # --- physics -----------------------------------------------------------------------------------------
     def advance(self, commands: dict[str, np.ndarray], ticks: int) -> None:

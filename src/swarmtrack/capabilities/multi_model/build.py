@@ -10,7 +10,7 @@ from swarmtrack.estimation.multimodel import MultiModelEstimator
 from swarmtrack.models import make_model
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sim.build import Context, occluders
-from swarmtrack.sim.world import CameraSensor
+from swarmtrack.sim.sensors import CameraSensor
 
 #: W20 Table 4.1: x̂0 = [h⁻¹(z0); 0], with CT's turn rate ω0 = 1e-5 rad/s.
 W20_HIDDEN_START = {"cv": (0.0, 0.0), "ca": (0.0,) * 4, "ct": (0.0, 0.0, 1e-5)}

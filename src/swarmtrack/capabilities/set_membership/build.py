@@ -17,8 +17,9 @@ from swarmtrack.models.fixed_wing import FixedWingParams
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sensors import footprint
 from swarmtrack.sim.build import Context
+from swarmtrack.sim.sensors import FootprintSensor
 from swarmtrack.sim.streams import stream
-from swarmtrack.sim.world import FootprintSensor, World
+from swarmtrack.sim.world import World
 
 
 def setmembership(spec: SetMembershipSpec, ctx: Context) -> SetMembershipEstimator:

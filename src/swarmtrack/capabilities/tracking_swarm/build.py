@@ -27,7 +27,7 @@ from swarmtrack.estimation.sharing import Chi2Gate, CovarianceIntersection
 from swarmtrack.models import make_model
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sim.build import Context, occluders
-from swarmtrack.sim.world import RangeBearingSensor
+from swarmtrack.sim.sensors import RangeBearingSensor
 
 
 def sharing(spec: FilterSpec, n_uavs: int) -> InformationSharing:

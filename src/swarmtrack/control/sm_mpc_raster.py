@@ -71,8 +71,8 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from swarmtrack.control import sm_mpc as sm
-from swarmtrack.control.sm_mpc import DEFAULT_SETTINGS, SMMPCSettings
+from swarmtrack.control import sm_mpc_problem as smp
+from swarmtrack.control.sm_mpc_problem import DEFAULT_SETTINGS, SMMPCSettings
 from swarmtrack.estimation import raster as rs
 
 #: Margin (m) of the interval guesses on a footprint's depth: a cell within it of an interval's threshold is
@@ -84,7 +84,7 @@ DELTA = rs.DELTA
 # --- the readable reference ----------------------------------------------------------------------------------------
 
 
-def reference_costs(grid: rs.Grid, region: rs.Field, rem: sm.Removals, xy: np.ndarray, s: SMMPCSettings,
+def reference_costs(grid: rs.Grid, region: rs.Field, rem: smp.Removals, xy: np.ndarray, s: SMMPCSettings,
                     window: tuple[int, int, int, int] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Area and distance terms (C,) of eq. 47 by the rounds of eqs. 44, 46, 48-49 literally (module docstring), on
     the cells ``window`` (default: the whole grid, the true costs): ``rem`` from :func:`sm_mpc.removals`, ``xy``
@@ -175,7 +175,7 @@ def _edge_lines(c):
     return out
 
 
-def scene(grid: rs.Grid, rem: sm.Removals, s: SMMPCSettings) -> Scene:
+def scene(grid: rs.Grid, rem: smp.Removals, s: SMMPCSettings) -> Scene:
     """The terms of one plan (eqs. 46, 48-49): the UAV's own footprint at each step for the node of each
     candidate, and each neighbour footprint eq. 48 keeps at step κ, steady or varying (module docstring)."""
     own = np.concatenate(rem.corners)
@@ -347,7 +347,7 @@ def _strip(grid: rs.Grid, region: rs.Field, window: tuple[int, int, int, int], g
 
 def plan_one_raster(grid: rs.Grid, region: rs.Field | None, own_states: np.ndarray, nb_states: np.ndarray,
                     s: SMMPCSettings = DEFAULT_SETTINGS, shared: dict | None = None, prune: bool = True,
-                    corners: tuple[np.ndarray, np.ndarray | None] | None = None) -> sm.Choice:
+                    corners: tuple[np.ndarray, np.ndarray | None] | None = None) -> smp.Choice:
     """Eq. 47 minimised over U_d^h for one UAV whose X^A is the raster ``region`` (a :class:`raster.Field` on
     ``grid``; None or empty: every cost 0, index 0), ``own_states`` (C, h, 7) and ``nb_states`` (L, h, 7) as
     :func:`sm_mpc.plan_one`. ``cost`` and ``area`` are over the window R (the true ones less one constant for all
@@ -355,17 +355,17 @@ def plan_one_raster(grid: rs.Grid, region: rs.Field | None, own_states: np.ndarr
     the distance only for the candidates whose area term leaves them a chance, the others' cost ``inf``.
     ``shared``: a dict kept across the UAVs of one fleet plan (:func:`member_rows`); ``corners``: the footprints'
     corners of both kinds of states, if known (:func:`sm_mpc.removals`)."""
-    cands = sm._candidates(tuple(s.inputs), s.horizon)  # the cached table, read only
+    cands = smp._candidates(tuple(s.inputs), s.horizon)  # the cached table, read only
     if region is None or region.is_empty:
         zero = np.zeros(len(cands))
-        return sm.Choice(0, cands[0].copy(), zero, zero.copy(), zero.copy())
-    rem = sm.removals(own_states, nb_states, s, neighbours=not s.baseline, polygons=False, corners=corners)
+        return smp.Choice(0, cands[0].copy(), zero, zero.copy(), zero.copy())
+    rem = smp.removals(own_states, nb_states, s, neighbours=not s.baseline, polygons=False, corners=corners)
     k = RasterKernel(grid, region, scene(grid, rem, s), rem.xy[-1], s, member_rows(grid, region, s, shared))
     areas, dist, cost, index = k.plan(prune)
     i0, j0, i1, j1 = k.sc.window
     c = grid.cell
     window = (grid.x0 + j0 * c, grid.y0 + i0 * c, grid.x0 + j1 * c, grid.y0 + i1 * c)
-    return sm.Choice(index, cands[index].copy(), cost, areas, dist, 0, window)
+    return smp.Choice(index, cands[index].copy(), cost, areas, dist, 0, window)
 
 
 #: At most this many member cells of G: the nearest distance searches them listed (:meth:`RasterKernel.distances`).
@@ -473,7 +473,7 @@ def warm() -> None:
     s = DEFAULT_SETTINGS
     grid = rs.Grid.over(shapely.box(0, 0, 400, 400), 1.0)
     nav = np.array([[200.0, 100.0, 100.0, 0.0, 0.0, 0.0, 0.0]])
-    own = sm.predict(nav[:, None, :], sm.candidates(s.inputs, s.horizon)[None], s)[0]
+    own = smp.predict(nav[:, None, :], smp.candidates(s.inputs, s.horizon)[None], s)[0]
     small = rs.union(grid, [rs.box(grid, (x, x, x + 10, x + 10)) for x in (20.0, 300.0)])
     for region in (small, rs.full(grid)):
         plan_one_raster(grid, region, own, np.zeros((0, s.horizon, 7)), s)

@@ -16,6 +16,8 @@ import shapely
 
 from swarmtrack.control import sm_mpc as sm
 from swarmtrack.control import sm_mpc_raster as smr
+from swarmtrack.control import sm_mpc_raster_members as members
+from swarmtrack.control import sm_mpc_raster_search as search
 from swarmtrack.estimation import raster as rs
 
 X0 = shapely.box(0, 0, 400, 400)
@@ -126,8 +128,8 @@ def every_listed_member(k: smr.RasterKernel, which: np.ndarray, row_search: bool
     ids = np.empty(sc.terms.shape[1] + len(sc.steady), dtype=np.int64)
     out = np.zeros(len(which))
     for q, cand in enumerate(which):
-        nid = smr._terms_of(sc.terms, sc.steady, cand, ids)
-        free = np.array([not smr._covered.py_func(ids, nid, sc.lines, sc.lag, k.spans, *sc.rows, i, j,
+        nid = search._terms_of(sc.terms, sc.steady, cand, ids)
+        free = np.array([not search._covered.py_func(ids, nid, sc.lines, sc.lag, k.spans, *sc.rows, i, j,
                                                   x0 + (j + 0.5) * c, y0 + (i + 0.5) * c, r, k.grid.slack + smr.DELTA)
                          for i, j in zip(ii, jj, strict=True)], dtype=bool)
         if free.any():
@@ -383,7 +385,7 @@ def test_a_controller_on_a_grid_loads_the_planner_kernels_before_its_first_plan(
 
 @pytest.mark.parametrize("seed", range(3))
 def test_a_strip_left_infinite_has_no_value_at_most_the_limit(seed):
-    """:func:`sm_mpc_raster._strip` gives ``+inf`` for a strip off the Field's window only where every value
+    """:func:`sm_mpc_raster_members._strip` gives ``+inf`` for a strip off the Field's window only where every value
     :func:`raster.values` gives there exceeds the limit (no member after the dilations, no area: the same numbers),
     and it does so for the usual windows (cores well inside them)."""
     rng = np.random.default_rng(40 + seed)
@@ -399,7 +401,7 @@ def test_a_strip_left_infinite_has_no_value_at_most_the_limit(seed):
             window = (max(window[0], 0), max(window[1], 0), min(window[2], GRID.ny), min(window[3], GRID.nx))
             if window[0] >= window[2] or window[1] >= window[3]:
                 continue
-            got = smr._strip(GRID, region, window, gap, limit)
+            got = members._strip(GRID, region, window, gap, limit)
             values = rs.values(GRID, region, window)
             if np.isinf(got).all():
                 skipped += 1
@@ -416,7 +418,7 @@ def test_the_listed_blocks_kernel_equals_its_numpy_reference():
         starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
         cols = np.concatenate([np.sort(rng.choice(400, k, replace=False)) for k in counts]).astype(np.int64)
         for size in (1, 3, 8):
-            got = smr._listed_blocks(starts, cols, size)
+            got = members._listed_blocks(starts, cols, size)
             for a, b in zip(got, smr.listed_blocks_reference(starts, cols, size), strict=True):
                 np.testing.assert_array_equal(a, b)
 

@@ -123,15 +123,14 @@ def every_listed_member(k: smr.RasterKernel, which: np.ndarray, row_search: bool
     search's arithmetic for the gap across the rows (its cell's upper side as ``y0 + (i + 1)·c``)."""
     rows, starts, cols, complete = k.rows.members
     assert complete
-    sc, (x0, y0, c, r) = k.sc, k.geo
+    sc, (x0, y0, c) = k.sc, k.geo[:3]
     ii, jj = np.repeat(rows, np.diff(starts)), cols
     ids = np.empty(sc.terms.shape[1] + len(sc.steady), dtype=np.int64)
     out = np.zeros(len(which))
     for q, cand in enumerate(which):
-        nid = search._terms_of(sc.terms, sc.steady, cand, ids)
-        free = np.array([not search._covered.py_func(ids, nid, sc.lines, sc.lag, k.spans, *sc.rows, i, j,
-                                                  x0 + (j + 0.5) * c, y0 + (i + 0.5) * c, r, k.grid.slack + smr.DELTA)
-                         for i, j in zip(ii, jj, strict=True)], dtype=bool)
+        cover = (ids, search._terms_of(sc.terms, sc.steady, cand, ids), k.feet, k.grid.slack + smr.DELTA)
+        free = np.array([not search._covered.py_func(cover, k.geo, i, j) for i, j in zip(ii, jj, strict=True)],
+                        dtype=bool)
         if free.any():
             px, py = k.xy[cand]
             dx = np.maximum(np.maximum(x0 + jj * c - px, px - (x0 + jj * c + c)), 0.0)

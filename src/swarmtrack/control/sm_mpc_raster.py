@@ -61,6 +61,15 @@ only) and :func:`scene` (≈ 0.03 ms each) and Python glue; one compiled call pe
 400 s ib21-fleet-6 mission ≈ 1.0 ms per UAV and plan on average on a loaded 2-core machine, where the code before
 these kernels' speed-ups took 1.4-1.5 ms (``benchmarks/bench_setmembership.py --sets raster``, "SM-MPC per UAV and
 plan", which also counts predicting the fleet's states and footprints once per plan).
+
+**Modules.** This one holds the reference, the planner (:func:`plan_one_raster`, :class:`RasterKernel`) and the
+plan kernel (:func:`_plan_costs`); the terms are built in :mod:`~swarmtrack.control.sm_mpc_raster_scene`, G's
+members kept in :mod:`~swarmtrack.control.sm_mpc_raster_members`, the area term computed in
+:mod:`~swarmtrack.control.sm_mpc_raster_areas` and the distance term in :mod:`~swarmtrack.control.sm_mpc_raster_search`
+(their docstrings name the tuples the kernels take their inputs in: a few arrays that describe one thing, ``g``,
+``lazy``, ``feet``, ``cover``, …). The problem shared with the polygon planner comes from
+:mod:`~swarmtrack.control.sm_mpc_problem`. numba's cache does not notice an edit to a kernel in another module
+than its caller's: after changing one of these modules, delete their ``__pycache__/sm_mpc_raster*.nb[ic]`` files.
 """
 
 from __future__ import annotations
@@ -176,9 +185,9 @@ class RasterKernel:
         self.grid, self.region, self.sc, self.s = grid, region, sc, s
         self.xy = np.ascontiguousarray(xy, dtype=float)
         self.rows = member_rows(grid, region, s) if rows is None else rows
-        self.clip = not s.baseline and grid.outside is not None
-        self.outside = grid.outside if self.clip else np.zeros((1, 1))
-        self.geo = np.array([grid.x0, grid.y0, grid.cell, 0.0 if s.baseline else s.target_speed * s.period])
+        #: the grid as the kernels take it: origin, cell side, dilation per round of eq. 44, c/√2
+        self.geo = np.array([grid.x0, grid.y0, grid.cell, 0.0 if s.baseline else s.target_speed * s.period,
+                             grid.slack])
         self.win = np.array(sc.window, dtype=np.int64)
         self._spans = self._base = self._members = None
 
@@ -187,8 +196,19 @@ class RasterKernel:
         """:func:`_spans` of the scene's footprints (once per plan)."""
         if self._spans is None:
             sc = self.sc
-            self._spans = _spans(sc.lines, sc.lag, self.geo, sc.rows[0], sc.rows[1], self.grid.nx, self.grid.slack)
+            self._spans = _spans(sc.lines, sc.lag, self.geo, sc.rows[0], sc.rows[1], self.grid.nx)
         return self._spans
+
+    @property
+    def feet(self) -> tuple:
+        """The scene's footprints as the kernels take them, ``(lines, lag, spans, t0, t1)``."""
+        sc = self.sc
+        return sc.lines, sc.lag, self.spans, sc.rows[0], sc.rows[1]
+
+    @property
+    def cands(self) -> tuple:
+        """The candidates as the distance kernels take them: their terms, the steady ones and their ends p."""
+        return self.sc.terms, self.sc.steady, self.xy
 
     def _listed(self, listed: int = LISTED_MEMBERS) -> bool:
         """Whether the nearest distance searches the listed member cells of G (at most ``listed`` of them; the list
@@ -197,8 +217,7 @@ class RasterKernel:
         if self.s.distance != "nearest":
             return False
         if m.members is None:
-            m.members = _member_list(m.src, m.fw, self.s.horizon, self.geo[3], self.outside, self.clip,
-                                     self.grid.slack + DELTA, m.ready, m.has, listed)
+            m.members = _member_list(m.g, m.ready, m.has, listed)
         if m.members[3] and m.blocks is None:
             m.blocks = _listed_blocks(m.members[1], m.members[2], ROW_BLOCK)
         return bool(m.members[3])
@@ -210,44 +229,35 @@ class RasterKernel:
         that can still win)."""
         sc, m, s = self.sc, self.rows, self.s
         listed = self._listed()
-        lists = (*m.members[:3], *m.blocks) if listed else _NO_LIST
+        members = (m.g, m.lazy, listed, (*m.members[:3], *m.blocks) if listed else _NO_LIST)
         self._spans, base, prefix, areas, dist, cost, index = _plan_costs(
-            sc.lines, sc.lag, sc.terms, sc.steady, sc.rows[0], sc.rows[1], self.win, self.geo, self.grid.slack,
-            self.grid.nx, m.src, m.fw, s.horizon, self.outside, self.clip, self.xy, s.alpha, prune,
-            s.distance == "hausdorff", listed, *lists, m.nxt, m.prv, m.ready, m.has, m.bmin, m.bmax, m.bready)
+            (sc.lines, sc.lag, sc.terms, sc.steady, sc.rows[0], sc.rows[1], self.win), self.xy, self.geo, members,
+            (s.alpha, prune, s.distance == "hausdorff"))
         self._base = (base, prefix)
         return areas, dist, cost, int(index)
 
     def base(self) -> tuple[np.ndarray, np.ndarray]:
         """On R: B (v without the candidates' terms) and the row prefix sums of cell_area(B) (once per plan)."""
         if self._base is None:
-            sc, m = self.sc, self.rows
-            self._base = _base_window(m.src, m.fw, self.geo, self.s.horizon, self.outside, self.clip, self.win,
-                                      sc.lines, sc.lag, sc.steady, self.spans, sc.rows[0])
+            self._base = _base_window(self.rows.g, self.geo, self.win, self.feet, self.sc.steady)
         return self._base
 
     def areas(self) -> np.ndarray:
         """Σ_R cell_area(v_c) (C,)."""
-        sc = self.sc
-        return _areas(sc.terms, sc.lines, sc.lag, self.spans, sc.rows[0], *self.base(), self.win, self.geo,
-                      self.grid.slack)
+        return _areas(self.sc.terms, self.feet, (self.win, *self.base()), self.geo)
 
     def distances(self, which: np.ndarray, listed: int = LISTED_MEMBERS) -> np.ndarray:
         """d of eq. 47 for the candidates ``which``: for the nearest distance to at most ``listed`` member cells
         of G, by a search over their list (:func:`_nearest_listed`; far from a few small sets, where every candidate
         ties on area and all 25 need a distance, each row search of the grid would cross the whole box), else by
         the row search."""
-        sc, m = self.sc, self.rows
+        m, which = self.rows, np.asarray(which, dtype=np.int64)
         if self._listed(listed):
-            return _nearest_listed(np.asarray(which, dtype=np.int64), sc.terms, sc.steady, sc.lines, sc.lag,
-                                   self.spans, sc.rows[0], sc.rows[1], self.geo, self.grid.slack, self.xy,
-                                   *m.members[:3], *m.blocks)
+            return _nearest_listed(which, self.cands, self.feet, self.geo, (*m.members[:3], *m.blocks))
         if self._members is None:
             self._members = _range_members(self.base()[0], self.grid.slack + DELTA, self.sc.window[1])
-        return _distances(np.asarray(which, dtype=np.int64), sc.terms, sc.steady, sc.lines, sc.lag, self.spans,
-                          sc.rows[0], sc.rows[1], self.geo, self.grid.slack, self.xy, self.s.distance == "hausdorff",
-                          m.src, m.fw, self.s.horizon, self.outside, self.clip, m.nxt, m.prv, m.ready, m.has,
-                          m.bmin, m.bmax, m.bready, self.win, *self._members)
+        return _distances(which, self.cands, self.feet, self.geo, self.s.distance == "hausdorff", m.g, m.lazy,
+                          (self.win, *self._members))
 
 
 _WARM: list[bool] = []  # set once this process has run :func:`warm`
@@ -296,49 +306,53 @@ def _choose(cost):
 
 
 @numba.njit(cache=True)
-def _some_distances(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, hausdorff, listed, rows,
-                    starts, cols, blo, bhi, src, fw, h, outside, clip, nxt, prv, ready, has, bmin, bmax, bready, win,
-                    wnxt, wprv):
-    """:meth:`RasterKernel.distances` for the candidates ``which`` on the path :meth:`RasterKernel._listed` chose."""
+def _some_distances(which, cands, feet, geo, hausdorff, members, inner):
+    """:meth:`RasterKernel.distances` for the candidates ``which`` on the path :meth:`RasterKernel._listed` chose
+    (``members``: as :func:`_plan_costs`; ``inner``: R and its members, :func:`_nearest`)."""
+    g, lazy, listed, listing = members
     if listed:
-        return _nearest_listed(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, rows, starts, cols,
-                               blo, bhi)
-    return _distances(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, hausdorff, src, fw, h,
-                      outside, clip, nxt, prv, ready, has, bmin, bmax, bready, win, wnxt, wprv)
+        return _nearest_listed(which, cands, feet, geo, listing)
+    return _distances(which, cands, feet, geo, hausdorff, g, lazy, inner)
 
 
 @numba.njit(cache=True)
-def _plan_costs(lines, lag, terms, steady, t0, t1, win, geo, slack, nx, src, fw, h, outside, clip, xy, alpha, prune,
-                hausdorff, listed, rows, starts, cols, blo, bhi, nxt, prv, ready, has, bmin, bmax, bready):
+def _plan_costs(scene, xy, geo, members, rule):
     """One plan of :func:`plan_one_raster` in one call: the spans, B and its prefix sums, every candidate's area
     over R, then eq. 47's distance for the first candidate of least area and for those its cost leaves a chance
     (``prune``; else for all), the costs and the pick (:func:`_choose`). Returns the spans, B, the prefix sums, the
-    areas, the distances (inf where not computed), the costs and the index."""
-    spans = _spans(lines, lag, geo, t0, t1, nx, slack)
-    base, prefix = _base_window(src, fw, geo, h, outside, clip, win, lines, lag, steady, spans, t0)
-    areas = _areas(terms, lines, lag, spans, t0, base, prefix, win, geo, slack)
+    areas, the distances (inf where not computed), the costs and the index.
+
+    ``scene``: :class:`Scene`'s tables ``(lines, lag, terms, steady, t0, t1, win)`` (``(t0, t1)`` its rows, ``win``
+    its window R); ``xy`` the candidates' ends p; ``geo`` the grid (:attr:`RasterKernel.geo`); ``members``: G's
+    members ``(g, lazy, listed, listing)`` (:class:`MemberRows`' ``g`` and ``lazy``, whether the nearest search runs
+    over the listed members, and their list and blocks); ``rule``: ``(alpha, prune, hausdorff)``, α of eq. 47,
+    whether to prune, and the distance's kind."""
+    lines, lag, terms, steady, t0, t1, win = scene
+    g, lazy, listed, _ = members
+    alpha, prune, hausdorff = rule
+    spans = _spans(lines, lag, geo, t0, t1, lazy[0].shape[1])
+    feet = (lines, lag, spans, t0, t1)
+    base, prefix = _base_window(g, geo, win, feet, steady)
+    areas = _areas(terms, feet, (win, base, prefix), geo)
     n = len(areas)
     if listed:
         wnxt, wprv = np.zeros((0, 0), dtype=np.int32), np.zeros((0, 0), dtype=np.int32)
     else:
-        wnxt, wprv = _range_members(base, slack + DELTA, win[1])
+        wnxt, wprv = _range_members(base, g[6], win[1])
+    inner, cands = (win, wnxt, wprv), (terms, steady, xy)
     dist = np.full(n, np.inf)
     need = np.ones(n, dtype=np.bool_)
     if prune:
         first = _choose(areas)
         one = np.full(1, first, dtype=np.int64)
-        dist[first] = _some_distances(one, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, hausdorff,
-                                      listed, rows, starts, cols, blo, bhi, src, fw, h, outside, clip, nxt, prv,
-                                      ready, has, bmin, bmax, bready, win, wnxt, wprv)[0]
+        dist[first] = _some_distances(one, cands, feet, geo, hausdorff, members, inner)[0]
         bound = areas[first] + alpha * dist[first]
         for q in range(n):
             need[q] = areas[q] <= bound + 1e-9 + 1e-12 * abs(bound)
         need[first] = False
     which = np.flatnonzero(need)
     if len(which):
-        got = _some_distances(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, hausdorff, listed,
-                              rows, starts, cols, blo, bhi, src, fw, h, outside, clip, nxt, prv, ready, has, bmin,
-                              bmax, bready, win, wnxt, wprv)
+        got = _some_distances(which, cands, feet, geo, hausdorff, members, inner)
         for q in range(len(which)):
             dist[which[q]] = got[q]
     cost = np.empty(n)

@@ -6,7 +6,8 @@ term can raise v and where it empties a cell (:func:`_spans`), the base B on the
 
 The kernels take the plan's footprints as one tuple ``feet = (lines, lag, spans, t0, t1)`` (edge lines, the rounds
 after each footprint's step, the per-row intervals on the rows ``[t0, t1)``), the window R as ``window = (win, base,
-prefix)`` and the grid as ``geo = (x0, y0, c, r, slack)`` (origin, cell side, dilation per round, c/√2).
+prefix)`` and the grid as the array ``geo = [x0, y0, c, r, slack]`` (origin, cell side, dilation per round,
+c/√2).
 """
 
 from __future__ import annotations
@@ -58,14 +59,14 @@ def _cell_area(v, c, slack):
 
 
 @numba.njit(cache=True)
-def _spans(lines, lag, geo, t0, t1, nx, slack):
+def _spans(lines, lag, geo, t0, t1, nx):
     """(F, t1 − t0, 4) per footprint and row: ``[ua, ub)`` a superset of the cells where its term is > 0 (it may
     raise v where v > 0) and ``[da, db)`` a subset of those where it is > c/√2 + 2·DELTA (the cell is empty); only
     the rows whose centres lie within the footprint's y-extent are visited (the others stay empty). The row at y
     meets each edge's half-plane ``(y − py)·ny + (x − px)·nx ≥ τ`` in a half-line of columns ``j ≥ k + τ·s`` (or
     ≤, as nx > 0 or < 0), so both intervals come from one pass; the thresholds are widened or narrowed by EPS for
     the round-off."""
-    x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
+    x0, y0, c, r, slack = geo[0], geo[1], geo[2], geo[3], geo[4]
     n_f, n_e = lines.shape[0], lines.shape[1]
     out = np.zeros((n_f, max(t1 - t0, 0), 4), dtype=np.int32)
     inv, k0 = np.empty(n_e), np.empty(n_e)
@@ -105,18 +106,20 @@ def _spans(lines, lag, geo, t0, t1, nx, slack):
 
 
 @numba.njit(cache=True)
-def _base_window(src, fw, geo, h, outside, clip, win, lines, lag, steady, spans, t0):
-    """On R: ``B`` (v without the candidates' terms) and the row prefix sums of ``cell_area(B)``. In a steady
+def _base_window(g, geo, win, feet, steady):
+    """On R (the cells ``win``): ``B`` (v without the candidates' terms: G, :func:`_g_row`, raised by the ``steady``
+    footprints of ``feet``) and the row prefix sums of ``cell_area(B)``. In a steady
     footprint's deep interval (:func:`_spans`: its term exceeds c/√2 + 2·DELTA, the cell is empty) ``B`` is set to
     ``+inf`` without evaluating the term: every use of B there (``cell_area(B) = 0``, not a member, no area left to
     remove) gives the same numbers."""
     x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
+    lines, lag, spans, t0 = feet[0], feet[1], feet[2], feet[3]
     i0, j0, i1, j1 = win[0], win[1], win[2], win[3]
     slack = c / math.sqrt(2.0)
     base = np.empty((i1 - i0, j1 - j0))
     prefix = np.zeros((i1 - i0, j1 - j0 + 1))
     for i in range(i0, i1):
-        _g_row(src, fw, i, j0, j1, h, r, outside, clip, base[i - i0])
+        _g_row(g, i, j0, j1, base[i - i0])
         y = y0 + (i + 0.5) * c
         for f in steady:
             a, b = max(spans[f, i - t0, 0], j0), min(spans[f, i - t0, 1], j1)
@@ -183,11 +186,15 @@ def _merge(lo, hi, n):
 
 
 @numba.njit(cache=True)
-def _removed_area(ids, nid, lines, lag, spans, t0, base, prefix, win, geo, slack, ulo, uhi, dlo, dhi):
-    """``Σ_R cell_area(B) − Σ_R cell_area(v_c)`` for the candidate whose terms are ``ids[:nid]``: per row, the empty
-    cells' share by prefix sums over the union of the deep intervals, and the band between it and the union of
-    the liberal intervals cell by cell."""
-    x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
+def _removed_area(ids, nid, feet, window, geo, room):
+    """``Σ_R cell_area(B) − Σ_R cell_area(v_c)`` for the candidate whose terms are ``ids[:nid]`` (footprints of
+    ``feet``), ``window`` R with B and its prefix sums: per row, the empty cells' share by prefix sums over the union
+    of the deep intervals, and the band between it and the union of the liberal intervals cell by cell. ``room``:
+    ``(ulo, uhi, dlo, dhi)``, space for a row's liberal and deep intervals (one per term)."""
+    x0, y0, c, r, slack = geo[0], geo[1], geo[2], geo[3], geo[4]
+    lines, lag, spans, t0 = feet[0], feet[1], feet[2], feet[3]
+    win, base, prefix = window
+    ulo, uhi, dlo, dhi = room
     i0, j0, i1, j1 = win[0], win[1], win[2], win[3]
     out = 0.0
     for i in range(i0, i1):
@@ -252,18 +259,19 @@ def _candidate_ids(terms, cand, ids):
 
 
 @numba.njit(cache=True)
-def _areas(terms, lines, lag, spans, t0, base, prefix, win, geo, slack):
-    """Per candidate, the area over R: ``Σ_R cell_area(B)`` less what its terms remove."""
+def _areas(terms, feet, window, geo):
+    """Per candidate (its footprints of ``feet`` in a row of ``terms``), the area over R: ``Σ_R cell_area(B)`` less
+    what its terms remove (``window``: R, B on it and the row prefix sums of ``cell_area(B)``)."""
+    prefix = window[2]
     n, width = terms.shape
     total = 0.0
     for row in range(prefix.shape[0]):
         total += prefix[row, prefix.shape[1] - 1]
     ids = np.empty(width, dtype=np.int64)
-    ulo, uhi = np.empty(width, dtype=np.int64), np.empty(width, dtype=np.int64)
-    dlo, dhi = np.empty(width, dtype=np.int64), np.empty(width, dtype=np.int64)
+    room = (np.empty(width, dtype=np.int64), np.empty(width, dtype=np.int64), np.empty(width, dtype=np.int64),
+            np.empty(width, dtype=np.int64))
     areas = np.empty(n)
     for cand in range(n):
         nid = _candidate_ids(terms, cand, ids)
-        areas[cand] = total - _removed_area(ids, nid, lines, lag, spans, t0, base, prefix, win, geo, slack,
-                                            ulo, uhi, dlo, dhi)
+        areas[cand] = total - _removed_area(ids, nid, feet, window, geo, room)
     return areas

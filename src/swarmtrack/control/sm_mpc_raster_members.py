@@ -39,22 +39,29 @@ class MemberRows:
     Members lie in the *box*, the Field's window grown by the reach of the h dilations (off its window, the Field's
     bound is at least the distance to the window's rectangle). ``src`` holds the Field's stored values and
     :func:`raster.values` on the four strips of the box about them (so the kernel asks the raster module for the
-    bounds off the window rather than recomputing them), ``fw`` the window and the box ``(i0, j0, i1, j1)`` × 2."""
+    bounds off the window rather than recomputing them), ``fw`` the window and the box ``(i0, j0, i1, j1)`` × 2;
+    ``g`` what the kernels need to evaluate G (module docstring)."""
 
     field: rs.Field
     src: tuple
     fw: np.ndarray
+    g: tuple
     nxt: np.ndarray
     prv: np.ndarray
     ready: np.ndarray
     has: np.ndarray
     #: per block of ROW_BLOCK grid rows, the least and greatest member column (``bmin > bmax``: none), filled with
     #: its rows when a search first reaches it (``bready``; :func:`_ensure_block`)
-    bmin: np.ndarray | None = None
-    bmax: np.ndarray | None = None
-    bready: np.ndarray | None = None
+    bmin: np.ndarray
+    bmax: np.ndarray
+    bready: np.ndarray
     members: tuple | None = None  # (rows, starts, columns, complete) of G's members, if few (:func:`_member_list`)
     blocks: tuple | None = None  # the listed rows' column extents per block of ROW_BLOCK (:func:`_listed_blocks`)
+
+    @property
+    def lazy(self) -> tuple:
+        """The member columns as the kernels take them, ``(nxt, prv, ready, has, bmin, bmax, bready)``."""
+        return self.nxt, self.prv, self.ready, self.has, self.bmin, self.bmax, self.bready
 
 
 def member_rows(grid: rs.Grid, region: rs.Field, s: SMMPCSettings, shared: dict | None = None) -> MemberRows:
@@ -75,8 +82,10 @@ def member_rows(grid: rs.Grid, region: rs.Field, s: SMMPCSettings, shared: dict 
            _strip(grid, region, (i0, b1, i1, j0), cj0 - j0, limit),
            _strip(grid, region, (i0, j1, i1, b3), j1 - cj1, limit))
     fw = np.array([i0, j0, i1, j1, b0, b1, b2, b3], dtype=np.int64)
+    clip = not s.baseline and grid.outside is not None  # eq. 44's clip to X0 (the baseline does not dilate)
+    g = (src, fw, s.horizon, r, grid.outside if clip else np.zeros((1, 1)), clip, grid.slack + DELTA)
     blocks = (grid.ny + ROW_BLOCK - 1) // ROW_BLOCK
-    rows = MemberRows(region, src, fw, np.empty((grid.ny, grid.nx), dtype=np.int32),
+    rows = MemberRows(region, src, fw, g, np.empty((grid.ny, grid.nx), dtype=np.int32),
                       np.empty((grid.ny, grid.nx), dtype=np.int32), np.zeros(grid.ny, dtype=np.uint8),
                       np.zeros(grid.ny, dtype=np.uint8), np.empty(blocks, dtype=np.int64),
                       np.empty(blocks, dtype=np.int64), np.zeros(blocks, dtype=np.uint8))
@@ -105,10 +114,12 @@ def _strip(grid: rs.Grid, region: rs.Field, window: tuple[int, int, int, int], g
 
 
 @numba.njit(cache=True)
-def _g_row(src, fw, i, j0, j1, h, r, outside, clip, out):
+def _g_row(g, i, j0, j1, out):
     """``G`` on cells (i, j0 … j1−1) into ``out[:j1 − j0]``: the Field's values after h rounds of eq. 44 without
-    removals. ``src`` (stored values, top, bottom, left and right strips of :func:`raster.values` about them) and
-    ``fw`` (stored window, box) as :class:`MemberRows`; ``+inf`` off the box (no member there)."""
+    removals. ``g`` (module docstring): ``src`` (stored values, top, bottom, left and right strips of
+    :func:`raster.values` about them) and ``fw`` (stored window, box) as :class:`MemberRows`, the h rounds of r and
+    of the clip to ``outside``; ``+inf`` off the box (no member there)."""
+    src, fw, h, r, outside, clip = g[0], g[1], g[2], g[3], g[4], g[5]
     data, top, bottom, left, right = src
     fi0, fj0, fi1, fj1, b0, b1, b2, b3 = fw[0], fw[1], fw[2], fw[3], fw[4], fw[5], fw[6], fw[7]
     for j in range(j1 - j0):
@@ -166,21 +177,22 @@ def _any_at_most(row, limit):
 
 
 @numba.njit(cache=True)
-def _member_list(src, fw, h, r, outside, clip, thr, ready, has, most):
+def _member_list(g, ready, has, most):
     """The cells where G is a member, row by row: the rows holding some (ascending), ``starts`` (one more) where
     each row's columns begin in ``cols`` (ascending within a row), and True; or empty arrays and False if there are
     more than ``most``. Rows marked ready without a member (:func:`_rows_without_members`) are not evaluated."""
+    fw, thr = g[1], g[6]
     rows, starts = np.empty(fw[6] - fw[4], dtype=np.int64), np.zeros(fw[6] - fw[4] + 1, dtype=np.int64)
     cols = np.empty(most, dtype=np.int64)
     n = nr = 0
     width = fw[7] - fw[5]
-    g = np.empty(max(width, 0))
+    vals = np.empty(max(width, 0))
     for i in range(fw[4], fw[6]):
         if ready[i] and not has[i]:
             continue
-        _g_row(src, fw, i, fw[5], fw[7], h, r, outside, clip, g)
+        _g_row(g, i, fw[5], fw[7], vals)
         for j in range(width):
-            if g[j] <= thr:
+            if vals[j] <= thr:
                 if n == most:
                     return rows[:0], starts[:1], cols[:0], False
                 cols[n] = fw[5] + j
@@ -216,13 +228,14 @@ def _listed_blocks(starts, cols, size):
 
 
 @numba.njit(cache=True)
-def _ensure_block(blk, src, fw, h, r, outside, clip, thr, nxt, prv, ready, has, bmin, bmax, bready):
-    """Fill the rows of block ``blk`` (ROW_BLOCK grid rows) of the G-member columns (:func:`_ensure_row`) and its
-    members' column extent (``bmin > bmax`` when it has none)."""
+def _ensure_block(blk, g, lazy):
+    """Fill the rows of block ``blk`` (ROW_BLOCK grid rows) of the G-member columns ``lazy`` (:func:`_ensure_row`)
+    and its members' column extent (``bmin > bmax`` when it has none)."""
+    nxt, prv, has, bmin, bmax, bready = lazy[0], lazy[1], lazy[3], lazy[4], lazy[5], lazy[6]
     ny, nx = nxt.shape
     lo, hi = nx, -1
     for i in range(blk * ROW_BLOCK, min((blk + 1) * ROW_BLOCK, ny)):
-        _ensure_row(i, src, fw, h, r, outside, clip, thr, nxt, prv, ready, has)
+        _ensure_row(i, g, lazy)
         if has[i]:
             lo, hi = min(lo, nxt[i, 0]), max(hi, prv[i, nx - 1])
     bmin[blk], bmax[blk] = lo, hi
@@ -230,20 +243,22 @@ def _ensure_block(blk, src, fw, h, r, outside, clip, thr, nxt, prv, ready, has, 
 
 
 @numba.njit(cache=True)
-def _ensure_row(i, src, fw, h, r, outside, clip, thr, nxt, prv, ready, has):
-    """Fill row i of the G-member columns (:class:`MemberRows`) if not done yet."""
+def _ensure_row(i, g, lazy):
+    """Fill row i of the G-member columns ``lazy`` (:attr:`MemberRows.lazy`) if not done yet."""
+    nxt, prv, ready, has = lazy[0], lazy[1], lazy[2], lazy[3]
     if ready[i]:
         return
+    fw, thr = g[1], g[6]
     nx = nxt.shape[1]
     last = -1
     b0, b1 = (fw[5], fw[7]) if fw[4] <= i < fw[6] else (nx, nx)
     for j in range(b0):
         prv[i, j] = -1
     if b0 < b1:
-        g = np.empty(b1 - b0)
-        _g_row(src, fw, i, b0, b1, h, r, outside, clip, g)
+        vals = np.empty(b1 - b0)
+        _g_row(g, i, b0, b1, vals)
         for j in range(b0, b1):
-            if g[j - b0] <= thr:
+            if vals[j - b0] <= thr:
                 last = j
             prv[i, j] = last
     for j in range(b1, nx):

@@ -34,10 +34,14 @@ def _terms_of(terms, steady, cand, ids):
 
 
 @numba.njit(cache=True, inline="always")
-def _covered(ids, nid, lines, lag, spans, t0, t1, i, j, x, y, r, thr):
-    """Whether some term of ``ids[:nid]`` makes cell (i, j) a non-member (exactly)."""
+def _covered(cover, geo, i, j):
+    """Whether some term of the candidate (``cover``, module docstring) makes cell (i, j) a non-member (exactly)."""
+    ids, nid, feet, thr = cover
+    lines, lag, spans, t0, t1 = feet
     if i < t0 or i >= t1:
         return False
+    x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
+    x, y = x0 + (j + 0.5) * c, y0 + (i + 0.5) * c
     for q in range(nid):
         f = ids[q]
         if spans[f, i - t0, 0] <= j < spans[f, i - t0, 1] and _term(lines, lag, f, x, y, r) > thr:
@@ -46,8 +50,11 @@ def _covered(ids, nid, lines, lag, spans, t0, t1, i, j, x, y, r, thr):
 
 
 @numba.njit(cache=True)
-def _row_covers(ids, nid, spans, t0, t1, i, lo, hi):
-    """The deep intervals of ``ids[:nid]`` on row i (sorted, merged) into lo/hi; returns their number."""
+def _row_covers(cover, i, lo, hi):
+    """The deep intervals of the candidate's terms (``cover``) on row i (sorted, merged) into lo/hi; returns their
+    number."""
+    ids, nid, feet, _ = cover
+    spans, t0, t1 = feet[2], feet[3], feet[4]
     if i < t0 or i >= t1:
         return 0
     n = 0
@@ -60,14 +67,17 @@ def _row_covers(ids, nid, spans, t0, t1, i, lo, hi):
 
 
 @numba.njit(cache=True)
-def _first_free(i, row, j, step, nxt, prv, a, b, ids, nid, lines, lag, spans, t0, t1, lo, hi, m, geo, thr, px, dy,
-                best):
-    """From column j of grid row i in direction ``step`` (±1), the first member not covered by a term, searched in
-    columns [a, b) with the next/previous member columns of that range ``nxt``/``prv`` (their row ``row``, column
+def _first_free(members, j, step, cover, deep, geo, probe):
+    """From column j of grid row i (``probe``) in direction ``step`` (±1), the first member not covered by a term
+    (``cover``; ``deep`` the row's merged deep intervals, :func:`_row_covers`), searched in columns [a, b) with the
+    next/previous member columns of that range (``members = (nxt, prv, row, a, b)``: their row ``row``, column
     j − a; b and a − 1 when none). Returns (column, 0), or (−1, 0) if there is none before the range's end, or
-    (−1, 1) if none is nearer than ``best`` (``dy`` the row's gap to p; ``best`` inf: no bound)."""
-    x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
-    y = y0 + (i + 0.5) * c
+    (−1, 1) if none is nearer than ``best`` (``probe = (i, px, dy, best)``, ``dy`` the row's gap to p; ``best``
+    inf: no bound)."""
+    nxt, prv, row, a, b = members
+    lo, hi, m = deep
+    i, px, dy, best = probe
+    x0, c = geo[0], geo[2]
     bound = best * best * (1 + 1e-9) - dy * dy  # dx² beyond which the distance is surely ≥ best (no hypot)
     while a <= j < b:
         j = nxt[row, j - a] if step > 0 else prv[row, j - a]
@@ -85,7 +95,7 @@ def _first_free(i, row, j, step, nxt, prv, a, b, ids, nid, lines, lag, spans, t0
                 break
         if jumped:
             continue
-        if _covered(ids, nid, lines, lag, spans, t0, t1, i, j, x0 + (j + 0.5) * c, y, r, thr):
+        if _covered(cover, geo, i, j):
             j += step
             continue
         return j, 0
@@ -93,20 +103,26 @@ def _first_free(i, row, j, step, nxt, prv, a, b, ids, nid, lines, lag, spans, t0
 
 
 @numba.njit(cache=True)
-def _nearest(px, py, ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h, outside, clip, nxt, prv, ready,
-             has, bmin, bmax, bready, lo, hi, win, wnxt, wprv, wi, wj):
-    """Nearest distance from (px, py) to the member squares of one candidate (0 if none): rows in order of their
-    gap to p, stopping at the best distance found; in each row the nearest free member on either side, first
-    within R (``win``, its members ``wnxt``/``wprv`` from the plan's base values) when p's column is in it, then
-    beyond it with the lazy rows of the grid (built only if a member there could still be nearer). Returns the
-    distance and the cell (i, j) that gives it ((−1, −1) if none).
+def _nearest(p, cover, room, geo, g, lazy, inner, warm):
+    """Nearest distance from p = (px, py) to the member squares of one candidate (``cover``; 0 if none): rows in
+    order of their gap to p, stopping at the best distance found; in each row the nearest free member on either
+    side, first within R (``inner = (win, wnxt, wprv)``: R and its members from the plan's base values) when p's
+    column is in it, then beyond it with the lazy rows of the grid (``g``, ``lazy``: :mod:`swarmtrack.control.
+    sm_mpc_raster_members`, built only if a member there could still be nearer). ``room``: ``(lo, hi)``, space for a
+    row's deep intervals. Returns the distance and the cell (i, j) that gives it ((−1, −1) if none).
 
-    Warm start: ``(wi, wj)``, a member cell of G (the previous candidate's nearest; −1: none), when this candidate's
-    terms leave it free, bounds the search from the start (its distance by the same arithmetic); and the rest of a
-    block of ROW_BLOCK grid rows in the search's direction is skipped when it has no member of G or the distance to
-    its members' columns (``bmin``/``bmax``, :func:`_ensure_block`) at the current row's gap is not below the best
-    (with a relative margin of 1e-9). The minimum is the same, found over fewer rows."""
-    x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
+    Warm start: ``warm = (wi, wj)``, a member cell of G (the previous candidate's nearest; −1: none), when this
+    candidate's terms leave it free, bounds the search from the start (its distance by the same arithmetic); and the
+    rest of a block of ROW_BLOCK grid rows in the search's direction is skipped when it has no member of G or the
+    distance to its members' columns (``bmin``/``bmax``, :func:`_ensure_block`) at the current row's gap is not
+    below the best (with a relative margin of 1e-9). The minimum is the same, found over fewer rows."""
+    px, py = p
+    lo, hi = room
+    win, wnxt, wprv = inner
+    wi, wj = warm
+    fw = g[1]
+    nxt, prv, has, bmin, bmax, bready = lazy[0], lazy[1], lazy[3], lazy[4], lazy[5], lazy[6]
+    x0, y0, c = geo[0], geo[1], geo[2]
     nx = nxt.shape[1]
     ip = int(math.floor((py - y0) / c))
     jp = int(math.floor((px - x0) / c))
@@ -114,8 +130,7 @@ def _nearest(px, py, ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h, 
     dn, up = min(ip, fw[6] - 1), max(ip + 1, fw[4])
     best = np.inf
     bi = bj = -1
-    if wi >= 0 and not _covered(ids, nid, lines, lag, spans, t0, t1, wi, wj, x0 + (wj + 0.5) * c,
-                                y0 + (wi + 0.5) * c, r, thr):
+    if wi >= 0 and not _covered(cover, geo, wi, wj):
         xl = x0 + wj * c
         dy = max(max(y0 + wi * c - py, py - (y0 + (wi + 1) * c)), 0.0)
         best = math.hypot(max(max(xl - px, px - (xl + c)), 0.0), dy)
@@ -133,27 +148,27 @@ def _nearest(px, py, ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h, 
             up += 1
         blk = i // ROW_BLOCK  # its rows farther from p than this one have a gap of at least dy
         if not bready[blk]:
-            _ensure_block(blk, src, fw, h, r, outside, clip, thr, nxt, prv, ready, has, bmin, bmax, bready)
+            _ensure_block(blk, g, lazy)
         if bmin[blk] > bmax[blk] or _block_beyond(bmin[blk], bmax[blk], px, dy, best, x0, c):
             up, dn = _past_block(blk, rising, up, dn)
             continue
-        m = _row_covers(ids, nid, spans, t0, t1, i, lo, hi)
+        deep = (lo, hi, _row_covers(cover, i, lo, hi))
         for step in (1, -1):
             start = jp if step > 0 else jp - 1
             found, cut = -1, 0
             if in_cols and win[0] <= i < win[2]:
-                found, cut = _first_free(i, i - win[0], start, step, wnxt, wprv, win[1], win[3], ids, nid, lines,
-                                         lag, spans, t0, t1, lo, hi, m, geo, thr, px, dy, best)
+                found, cut = _first_free((wnxt, wprv, i - win[0], win[1], win[3]), start, step, cover, deep, geo,
+                                         (i, px, dy, best))
                 start = win[3] if step > 0 else win[1] - 1
             elif not 0 <= start < nx:
                 start = max(start, 0) if step > 0 else min(start, nx - 1)
             if found < 0 and cut == 0 and 0 <= start < nx:
                 xl = x0 + start * c
                 if math.hypot(max(max(xl - px, px - (xl + c)), 0.0), dy) < best:
-                    _ensure_row(i, src, fw, h, r, outside, clip, thr, nxt, prv, ready, has)
+                    _ensure_row(i, g, lazy)
                     if has[i]:
-                        found, cut = _first_free(i, i, start, step, nxt, prv, 0, nx, ids, nid, lines, lag, spans,
-                                                 t0, t1, lo, hi, m, geo, thr, px, dy, best)
+                        found, cut = _first_free((nxt, prv, i, 0, nx), start, step, cover, deep, geo,
+                                                 (i, px, dy, best))
             if found >= 0:
                 xl = x0 + found * c
                 d = math.hypot(max(max(xl - px, px - (xl + c)), 0.0), dy)
@@ -163,16 +178,19 @@ def _nearest(px, py, ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h, 
 
 
 @numba.njit(cache=True)
-def _farthest(px, py, ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h, outside, clip, nxt, prv, ready,
-              has, lo, hi):
-    """Farthest distance from (px, py) to the member squares (their farthest corners) of one candidate (0 if
-    none): per row, the first free member from either end; rows whose raw extreme members cannot beat the best
-    are skipped."""
-    x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
+def _farthest(p, cover, room, geo, g, lazy):
+    """Farthest distance from p = (px, py) to the member squares (their farthest corners) of one candidate
+    (``cover``; 0 if none): per row, the first free member from either end; rows whose raw extreme members cannot
+    beat the best are skipped. ``g``, ``lazy`` and ``room`` as :func:`_nearest`'s."""
+    px, py = p
+    lo, hi = room
+    fw = g[1]
+    nxt, prv, has = lazy[0], lazy[1], lazy[3]
+    x0, y0, c = geo[0], geo[1], geo[2]
     nx = nxt.shape[1]
     best = -1.0
     for i in range(fw[4], fw[6]):
-        _ensure_row(i, src, fw, h, r, outside, clip, thr, nxt, prv, ready, has)
+        _ensure_row(i, g, lazy)
         if not has[i]:
             continue
         yl = y0 + i * c
@@ -181,10 +199,9 @@ def _farthest(px, py, ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h,
         bound = math.hypot(max(abs(x0 + a * c - px), abs(x0 + (b + 1) * c - px)), dy)
         if bound <= best:
             continue
-        m = _row_covers(ids, nid, spans, t0, t1, i, lo, hi)
+        deep = (lo, hi, _row_covers(cover, i, lo, hi))
         for start, step in ((0, 1), (nx - 1, -1)):
-            j, _ = _first_free(i, i, start, step, nxt, prv, 0, nx, ids, nid, lines, lag, spans, t0, t1, lo, hi, m,
-                               geo, thr, px, 0.0, np.inf)
+            j, _ = _first_free((nxt, prv, i, 0, nx), start, step, cover, deep, geo, (i, px, 0.0, np.inf))
             if j >= 0:
                 xl = x0 + j * c
                 best = max(best, math.hypot(max(abs(xl - px), abs(xl + c - px)), dy))
@@ -192,34 +209,35 @@ def _farthest(px, py, ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h,
 
 
 @numba.njit(cache=True)
-def _distances(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, hausdorff, src, fw, h, outside,
-               clip, nxt, prv, ready, has, bmin, bmax, bready, win, wnxt, wprv):
-    """d of eq. 47 for the candidates ``which``: nearest or farthest member square, with the steady terms."""
+def _distances(which, cands, feet, geo, hausdorff, g, lazy, inner):
+    """d of eq. 47 for the candidates ``which`` (``cands = (terms, steady, xy)``: each candidate's footprints of
+    ``feet``, the steady ones, the ends p): nearest (:func:`_nearest`) or farthest member square, with the steady
+    terms."""
+    terms, steady, xy = cands
     k = terms.shape[1] + len(steady)
     ids = np.empty(k, dtype=np.int64)
-    lo, hi = np.empty(k, dtype=np.int64), np.empty(k, dtype=np.int64)
+    room = (np.empty(k, dtype=np.int64), np.empty(k, dtype=np.int64))
     out = np.empty(len(which))
-    thr = slack + DELTA
+    thr = g[6]
     wi = wj = -1  # the previous candidate's nearest cell, the next one's warm start (:func:`_nearest`)
     for q in range(len(which)):
         cand = which[q]
-        nid = _terms_of(terms, steady, cand, ids)
+        cover = (ids, _terms_of(terms, steady, cand, ids), feet, thr)
+        p = (xy[cand, 0], xy[cand, 1])
         if hausdorff:
-            out[q] = _farthest(xy[cand, 0], xy[cand, 1], ids, nid, lines, lag, spans, t0, t1, geo, thr, src, fw, h,
-                               outside, clip, nxt, prv, ready, has, lo, hi)
+            out[q] = _farthest(p, cover, room, geo, g, lazy)
         else:
-            out[q], bi, bj = _nearest(xy[cand, 0], xy[cand, 1], ids, nid, lines, lag, spans, t0, t1, geo, thr, src,
-                                      fw, h, outside, clip, nxt, prv, ready, has, bmin, bmax, bready, lo, hi, win,
-                                      wnxt, wprv, wi, wj)
+            out[q], bi, bj = _nearest(p, cover, room, geo, g, lazy, inner, (wi, wj))
             if bi >= 0:
                 wi, wj = bi, bj
     return out
 
 
 @numba.njit(cache=True)
-def _nearest_listed(which, terms, steady, lines, lag, spans, t0, t1, geo, slack, xy, rows, starts, cols, blo, bhi):
+def _nearest_listed(which, cands, feet, geo, listing):
     """The nearest distance of :func:`_nearest` (0 if no member is left) over the listed member cells of G
-    (:func:`_member_list`), those the terms of the candidate and the steady ones cover left out: the member rows in
+    (``listing = (rows, starts, cols, blo, bhi)``, :func:`_member_list` and :func:`_listed_blocks`), those the terms
+    of the candidate and the steady ones cover left out (``cands`` as :func:`_distances`'): the member rows in
     order of their gap to p, stopping at the best distance found; in each, the nearest uncovered member on either
     side of p's column (found by bisection, jumping over the deep intervals). The same minimum as testing every
     listed cell, by the same arithmetic: along a row the distance only grows away from p.
@@ -230,7 +248,9 @@ def _nearest_listed(which, terms, steady, lines, lag, spans, t0, t1, geo, slack,
     search's direction is skipped when the distance to its columns at the current row's gap is not below the best
     (with a relative margin of 1e-9: a bound, the others' arithmetic need not agree with it to the last bit). The
     minimum is the same, found over fewer rows and cells."""
-    x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
+    terms, steady, xy = cands
+    rows, starts, cols, blo, bhi = listing
+    x0, y0, c, slack = geo[0], geo[1], geo[2], geo[4]
     k = terms.shape[1] + len(steady)
     ids = np.empty(k, dtype=np.int64)
     lo, hi = np.empty(k, dtype=np.int64), np.empty(k, dtype=np.int64)
@@ -239,7 +259,7 @@ def _nearest_listed(which, terms, steady, lines, lag, spans, t0, t1, geo, slack,
     wi = wj = -1  # the previous candidate's nearest cell (none yet)
     for q in range(len(which)):
         cand = which[q]
-        nid = _terms_of(terms, steady, cand, ids)
+        cover = (ids, _terms_of(terms, steady, cand, ids), feet, thr)
         px, py = xy[cand, 0], xy[cand, 1]
         ip = int(math.floor((py - y0) / c))
         jp = int(math.floor((px - x0) / c))
@@ -247,8 +267,7 @@ def _nearest_listed(which, terms, steady, lines, lag, spans, t0, t1, geo, slack,
         dn = up - 1
         best = np.inf
         bi = bj = -1
-        if wi >= 0 and not _covered(ids, nid, lines, lag, spans, t0, t1, wi, wj, x0 + (wj + 0.5) * c,
-                                    y0 + (wi + 0.5) * c, r, thr):
+        if wi >= 0 and not _covered(cover, geo, wi, wj):
             best = math.hypot(_gap(x0 + wj * c, px, c), _gap(y0 + wi * c, py, c))
             bi, bj = wi, wj
         while True:
@@ -268,11 +287,11 @@ def _nearest_listed(which, terms, steady, lines, lag, spans, t0, t1, geo, slack,
                 continue
             i = rows[at]
             a, b = starts[at], starts[at + 1]
-            m = _row_covers(ids, nid, spans, t0, t1, i, lo, hi)
+            deep = (lo, hi, _row_covers(cover, i, lo, hi))
             first = a + np.searchsorted(cols[a:b], jp)  # the first member column ≥ jp
             for step in (1, -1):
-                e = _first_listed(cols, first if step > 0 else first - 1, step, a, b, i, ids, nid, lines, lag,
-                                  spans, t0, t1, lo, hi, m, geo, thr, px, dy, best)
+                e = _first_listed((cols, a, b), first if step > 0 else first - 1, step, cover, deep, geo,
+                                  (i, px, dy, best))
                 if e >= 0:
                     d = math.hypot(_gap(x0 + cols[e] * c, px, c), dy)
                     if d < best:
@@ -284,12 +303,15 @@ def _nearest_listed(which, terms, steady, lines, lag, spans, t0, t1, geo, slack,
 
 
 @numba.njit(cache=True)
-def _first_listed(cols, e, step, a, b, i, ids, nid, lines, lag, spans, t0, t1, lo, hi, m, geo, thr, px, dy, best):
-    """From entry e of the listed member columns ``cols[a:b]`` of grid row i in direction ``step`` (±1), the first
-    one not covered by a term (``lo``/``hi`` its ``m`` merged deep intervals, :func:`_row_covers`), or −1 if there
-    is none or none nearer than ``best`` (``dy`` the row's gap to p)."""
-    x0, y0, c, r = geo[0], geo[1], geo[2], geo[3]
-    y = y0 + (i + 0.5) * c
+def _first_listed(listed, e, step, cover, deep, geo, probe):
+    """From entry e of the listed member columns ``cols[a:b]`` of grid row i (``listed = (cols, a, b)``, ``probe =
+    (i, px, dy, best)``) in direction ``step`` (±1), the first one not covered by a term (``cover``; ``deep`` the
+    row's merged deep intervals, :func:`_row_covers`), or −1 if there is none or none nearer than ``best`` (``dy``
+    the row's gap to p)."""
+    cols, a, b = listed
+    lo, hi, m = deep
+    i, px, dy, best = probe
+    x0, c = geo[0], geo[2]
     bound = best * best * (1 + 1e-9) - dy * dy  # dx² beyond which the distance is surely ≥ best (no hypot)
     while a <= e < b:
         j = cols[e]
@@ -304,7 +326,7 @@ def _first_listed(cols, e, step, a, b, i, ids, nid, lines, lag, spans, t0, t1, l
                 break
         if jumped:
             continue
-        if _covered(ids, nid, lines, lag, spans, t0, t1, i, j, x0 + (j + 0.5) * c, y, r, thr):
+        if _covered(cover, geo, i, j):
             e += step
             continue
         return e

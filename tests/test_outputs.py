@@ -2,7 +2,7 @@
 
 import pytest
 
-from swarmtrack.outputs import OutputError, partial_files
+from swarmtrack.outputs import MANIFEST, OutputError, dump_json, partial_files, run_folder
 
 
 def test_a_file_that_appeared_meanwhile_is_not_replaced_without_overwrite(tmp_path):
@@ -22,3 +22,32 @@ def test_with_overwrite_the_new_file_replaces_the_old_and_nothing_else_remains(t
     with partial_files([target]) as (tmp,):
         tmp.write_text("new")
     assert target.read_text() == "new" and [p.name for p in tmp_path.iterdir()] == ["report.json"]
+
+
+def _other_run(out):
+    """Another swarmtrack run's files in ``out`` (its manifest lists them)."""
+    out.mkdir(exist_ok=True)
+    (out / "metrics.json").write_text("{}")
+    (out / MANIFEST).write_text(dump_json({"written_by": "swarmtrack 0 (the other run)", "files": ["metrics.json"]}))
+
+
+@pytest.mark.parametrize("start", ["absent", "empty"])
+def test_a_run_folder_another_run_filled_meanwhile_is_never_replaced_without_overwrite(tmp_path, start):
+    out = tmp_path / "run"
+    if start == "empty":
+        out.mkdir()
+    with pytest.raises(OutputError, match="another run wrote its files there while this one ran"):
+        with run_folder(out) as staged:
+            (staged / "recording.txt").write_text("the late run's")
+            _other_run(out)  # the other run moves its files into place between the check and the move
+    assert sorted(p.name for p in out.iterdir()) == ["manifest.json", "metrics.json"]
+    assert "the other run" in (out / MANIFEST).read_text()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]  # no staging folder left
+
+
+def test_with_overwrite_a_run_folder_filled_meanwhile_is_replaced_file_by_file(tmp_path):
+    out = tmp_path / "run"
+    with run_folder(out, overwrite=True) as staged:
+        (staged / "recording.txt").write_text("the late run's")
+        _other_run(out)
+    assert sorted(p.name for p in out.iterdir()) == ["manifest.json", "recording.txt"]

@@ -4,6 +4,9 @@
   an interruption (Ctrl-C, SIGTERM, an error) removes the staging folder and leaves nothing half-written.
 * An existing non-empty folder is refused unless ``overwrite``; even then only the files an earlier swarmtrack
   run listed in its ``manifest.json`` are replaced: the tool deletes only what it created.
+* The destination is checked again when the staged folder is moved into place: without ``overwrite``, a folder
+  that another run filled meanwhile (two runs started together with the same ``--out``) is never replaced; the
+  late run fails (:class:`OutputError`, exit 2 in the CLI) saying so, and its staged files are removed.
 * JSON is strict (``null``, never ``NaN``) and every output names the swarmtrack version that wrote it.
 """
 
@@ -20,6 +23,8 @@ import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 
+from swarmtrack import __version__
+
 MANIFEST = "manifest.json"
 
 
@@ -27,11 +32,15 @@ class OutputError(ValueError):
     """An output folder that cannot be used, with a message naming it and why."""
 
 
+def package_version() -> str:
+    """The running swarmtrack's version: the source's ``__version__`` (an editable install's metadata keeps the version
+    it was installed at, so reading it would key caches with a stale version after an upgrade of the checkout)."""
+    return __version__
+
+
 @functools.lru_cache(maxsize=1)
 def version() -> str:
     """``swarmtrack X.Y.Z``, plus the git commit when run from a checkout with one."""
-    from swarmtrack.analysis.reproduce import package_version
-
     text = f"swarmtrack {package_version()}"
     here = Path(__file__).resolve().parent
     try:
@@ -237,20 +246,35 @@ def run_folder(out: Path, overwrite: bool = False):
             files = sorted(str(p.relative_to(tmp)) for p in tmp.rglob("*") if p.is_file())
             (tmp / MANIFEST).write_text(dump_json({"written_by": version(), "files": files}))
             with signals_held():  # the move is not interrupted halfway
-                _move_into_place(tmp, out, files)
+                _move_into_place(tmp, out, files, overwrite)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
 
-def _move_into_place(tmp: Path, out: Path, files: list[str]) -> None:
-    """Move the staged run into ``out``: a rename when ``out`` is new or empty; else the earlier run's files
-    (and only those, regular files, not links) are deleted and the new ones moved in. A new file whose place is
+def _filled_meanwhile(out: Path) -> OutputError:
+    return OutputError(f"--out {out}: another run wrote its files there while this one ran (it was free when this "
+                       "run started); they were left as they are and this run's files were not kept; run again with "
+                       "another --out, or add --overwrite to replace that run")
+
+
+def _move_into_place(tmp: Path, out: Path, files: list[str], overwrite: bool = True) -> None:
+    """Move the staged run into ``out``: a rename when ``out`` is new or empty (the rename fails, and nothing is
+    replaced, if another run's files got there first); else, with ``overwrite``, the earlier run's files (and only
+    those, regular files, not links) are deleted and the new ones moved in. Without ``overwrite`` a destination
+    that filled since :func:`check_destination` is refused (:class:`OutputError`). A new file whose place is
     taken by something the earlier run did not write is refused before anything changes."""
     if not out.exists() or not any(out.iterdir()):
-        if out.exists():
-            out.rmdir()  # empty: nothing to lose
-        tmp.rename(out)
+        try:
+            if out.exists():
+                out.rmdir()  # empty: nothing to lose (fails if files arrived meanwhile)
+            tmp.rename(out)  # atomic; onto a folder another run filled meanwhile it fails (not empty)
+        except OSError as exc:
+            if out.is_dir() and any(out.iterdir()):
+                raise _filled_meanwhile(out) from None
+            raise OutputError(f"--out {out}: {exc.strerror or exc}") from None
         return
+    if not overwrite:
+        raise _filled_meanwhile(out)
     old = earlier_run_files(out) or []  # checked by check_destination
     ours = set(old) | {MANIFEST}
     taken = [f for f in files if f not in ours and (out / f).exists()]

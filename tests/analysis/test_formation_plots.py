@@ -6,15 +6,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from swarmtrack.analysis import metrics, plots
+from swarmtrack.analysis import figure_style, metrics, plots
+from swarmtrack.capabilities.mpc import figures as mpc_figures
 from swarmtrack.scenarios import load_scenario
 from swarmtrack.sim.engine import simulate
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 FORMATION_FIGURES = ["formation_paths.png", "formation_xy.png", "slot_distances.png", "mpc_inputs.png",
                      "min_separation.png"]
-FIGURE_FUNCTIONS = [plots.plot_formation_paths, plots.plot_formation_xy_time, plots.plot_slot_distance,
-                    plots.plot_mpc_inputs, plots.plot_min_separation]
+FIGURE_FUNCTIONS = [mpc_figures.plot_formation_paths, mpc_figures.plot_formation_xy_time,
+                    mpc_figures.plot_slot_distance, mpc_figures.plot_mpc_inputs, mpc_figures.plot_min_separation]
 
 
 @pytest.fixture(scope="module")
@@ -68,7 +69,7 @@ def test_a_flocking_run_gets_no_formation_figures(tmp_path):
 
 
 def test_slot_distances_match_a_hand_computation_and_the_tracking_error(formation):
-    dist = plots.slot_distances(formation)
+    dist = mpc_figures.slot_distances(formation)
     offsets = np.array(formation.meta["controller"]["offsets"], dtype=float)
     k = 3 * len(formation.t) // 4
     for i in range(formation.n_agents):
@@ -81,24 +82,24 @@ def test_slot_distances_match_a_hand_computation_and_the_tracking_error(formatio
 
 
 def test_the_slot_distance_figure_draws_slot_distances(formation):
-    dist = plots.slot_distances(formation)
-    np.testing.assert_array_equal(plots._FormationSeries(formation, every=1).distance, dist)
-    np.testing.assert_array_equal(plots._FormationSeries(formation, every=4).distance, dist[::4])
+    dist = mpc_figures.slot_distances(formation)
+    np.testing.assert_array_equal(mpc_figures._FormationSeries(formation, every=1).distance, dist)
+    np.testing.assert_array_equal(mpc_figures._FormationSeries(formation, every=4).distance, dist[::4])
 
 
 def test_the_drawn_minimum_separation_keeps_the_closest_pass(collision):
     closest = metrics.spacing(collision)["min"]
-    at = int(np.argmin(plots._FormationSeries(collision, every=1).separation))
+    at = int(np.argmin(mpc_figures._FormationSeries(collision, every=1).separation))
     stride = next(k for k in (8, 7, 5, 3) if at % k)  # a stride whose kept steps skip the closest pass
     for every in (1, stride):
-        drawn = plots._FormationSeries(collision, every=every).separation
+        drawn = mpc_figures._FormationSeries(collision, every=every).separation
         assert len(drawn) == -(-len(collision.t) // every)
         assert drawn.min() == pytest.approx(closest, abs=1e-12)
 
 
 def test_the_input_is_the_setpoint_relative_to_the_position_before_the_plan(formation):
-    s = plots._FormationSeries(formation, every=1)
-    setpoint, solves = plots._probe(formation, "setpoint"), plots._probe(formation, "solves")
+    s = mpc_figures._FormationSeries(formation, every=1)
+    setpoint, solves = figure_style.whole_probe(formation, "setpoint"), figure_style.whole_probe(formation, "solves")
     i = 1
     rises = np.flatnonzero(np.diff(solves[:, i]) > 0) + 1  # steps that show a new plan's setpoint
     # the record of step k precedes that step's plan: a setpoint first shown at step k was planned at step k − 1
@@ -108,8 +109,8 @@ def test_the_input_is_the_setpoint_relative_to_the_position_before_the_plan(form
     for k in held[:3]:
         np.testing.assert_allclose(s.u[k + 1, i], setpoint[k + 1, i] - formation.uav[k - 1, i, :2], atol=1e-12)
     slow = simulate(load_scenario("w20-mpc-formation", overrides=["duration=22", "rates.estimation=10"]))
-    long = plots._FormationSeries(slow, every=1)
-    sp, so = plots._probe(slow, "setpoint"), plots._probe(slow, "solves")
+    long = mpc_figures._FormationSeries(slow, every=1)
+    sp, so = figure_style.whole_probe(slow, "setpoint"), figure_style.whole_probe(slow, "solves")
     k = int(np.flatnonzero(np.diff(so[:, i]) > 0)[3] + 1)
     assert not np.diff(so[:, i])[k]  # at 10 Hz the plan period is two steps: step k + 1 still shows plan k − 1's
     np.testing.assert_allclose(long.u[k + 1, i], sp[k + 1, i] - slow.uav[k - 1, i, :2], atol=1e-12)
@@ -119,7 +120,7 @@ def test_the_input_is_the_setpoint_relative_to_the_position_before_the_plan(form
 
 
 def test_a_blind_uav_has_its_own_blind_interval(occlusion):
-    s = plots._FormationSeries(occlusion)
+    s = mpc_figures._FormationSeries(occlusion)
     assert s.blind[0] == [] and s.blind[1] == []
     ((t0, t1),) = s.blind[2]
     assert (t0, t1) == (pytest.approx(40.0), pytest.approx(42.0))

@@ -2,7 +2,8 @@
 
 import numpy as np
 
-from swarmtrack.analysis.health import LOST_M, check
+from swarmtrack.analysis.health import check
+from swarmtrack.capabilities.tracking_swarm.metrics import LOST_M
 from swarmtrack.scenarios import load_scenario
 from swarmtrack.sim.engine import simulate
 from swarmtrack.sim.recorder import Recording

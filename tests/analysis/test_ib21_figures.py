@@ -10,13 +10,15 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from swarmtrack.analysis import metrics, plots
+from swarmtrack.analysis import metrics
 from swarmtrack.analysis import reproduce as rep
 from swarmtrack.analysis.papers import ib21
+from swarmtrack.capabilities.set_membership import figures as sm_figures
+from swarmtrack.capabilities.set_membership import metrics as sm_metrics
 from swarmtrack.cli import main
 
 N_BINS = 12
-QUANTITIES = ("phi_bar", *metrics.PHI_PARTS.values(), "solve_time")
+QUANTITIES = ("phi_bar", *sm_metrics.PHI_PARTS.values(), "solve_time")
 
 
 def series_of(name: str, seed: int) -> dict:
@@ -42,13 +44,13 @@ def study(runs: int = 3) -> dict[str, list[dict]]:
 def bands(monkeypatch):
     """Every band :func:`plots.plot_band` draws: (label, t, mean, std), still drawn."""
     drawn = []
-    real = plots.plot_band
+    real = sm_figures.plot_band
 
     def spy(ax, t, mean, std, label, color=None, alpha=0.25):
         drawn.append((label, np.asarray(t), np.asarray(mean), np.asarray(std)))
         return real(ax, t, mean, std, label, color=color, alpha=alpha)
 
-    monkeypatch.setattr(plots, "plot_band", spy)
+    monkeypatch.setattr(sm_figures, "plot_band", spy)
     return drawn
 
 
@@ -70,7 +72,7 @@ def test_fig8_bands_are_the_mean_and_std_of_the_runs_series(tmp_path, bands):
         assert std == pytest.approx(values.std(axis=0), rel=1e-12) and std.max() > 0
     right = bands[5:]  # one panel per part, the settings 2, 4 and 6 UAVs in each
     assert len(right) == 9
-    for k, part in enumerate(metrics.PHI_PARTS.values()):
+    for k, part in enumerate(sm_metrics.PHI_PARTS.values()):
         for (_, _, mean, _), name in zip(right[3 * k:3 * k + 3], ("ib21-fleet-2", "ib21-fleet-4", "ib21-fleet-6"),
                                          strict=True):
             assert mean == pytest.approx(np.mean([series_of(name, s)[part] for s in (1, 2, 3)], axis=0))
@@ -107,14 +109,14 @@ def test_a_real_runs_summary_draws_every_quantity(ib21_run, tmp_path, bands):
     ib21.draw_panel(ib21.FIGURES["8"][1], {"ib21-fleet-6": [summary]}, tmp_path)
     ib21.draw_panel(ib21.FIGURES["11"][1], {"ib21-fleet-6": [summary]}, tmp_path)
     assert len(bands) == 4
-    for (_, _, mean, std), q in zip(bands, [*metrics.PHI_PARTS.values(), "solve_time"], strict=True):
+    for (_, _, mean, std), q in zip(bands, [*sm_metrics.PHI_PARTS.values(), "solve_time"], strict=True):
         assert mean == pytest.approx(np.array(summary["series"][q], dtype=float), nan_ok=True)
         assert np.nanmax(std) == 0  # one run: no spread
 
 
 def test_the_parts_figure_needs_a_setting(tmp_path):
     with pytest.raises(ValueError):
-        plots.plot_phi_parts_bands({}, tmp_path / "none.png")
+        sm_figures.plot_phi_parts_bands({}, tmp_path / "none.png")
 
 
 # --- analyse on one figure's experiments ---

@@ -2,6 +2,7 @@ import numpy as np
 import pytest
 
 from swarmtrack.analysis import metrics
+from swarmtrack.capabilities.mpc import metrics as mpc_metrics
 from swarmtrack.sim.recorder import Recording
 
 
@@ -95,7 +96,7 @@ def _series_by_hand(rec, width=1.0):
     """Per-bin means of the three series, step by step from the whole-run arrays (no streaming)."""
     from collections import defaultdict
 
-    offsets, start, _ = metrics.formation_spec(rec)
+    offsets, start, _ = mpc_metrics.formation_spec(rec)
     sums = defaultdict(lambda: defaultdict(list))
     for k, t in enumerate(rec.t):
         b = int(np.floor(t / width + 1e-9))

@@ -7,7 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from swarmtrack.analysis import plots
+from swarmtrack.analysis import figure_style, plots
+from swarmtrack.capabilities.tracking_swarm import figures as swarm_figures
 from swarmtrack.sim.recorder import Recording
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -53,8 +54,8 @@ def rec() -> Recording:
 
 @pytest.mark.parametrize(
     "func",
-    [plots.plot_estimates, plots.plot_trajectories, plots.plot_target_distances,
-     plots.plot_inter_agent_distances, plots.plot_errors],
+    [swarm_figures.plot_estimates, plots.plot_trajectories, plots.plot_target_distances,
+     plots.plot_inter_agent_distances, swarm_figures.plot_errors],
 )
 def test_each_plot_writes_png(rec, tmp_path, func):
     out = func(rec, tmp_path / "sub" / f"{func.__name__}.png")
@@ -69,12 +70,10 @@ def test_trajectories_all_agents_and_bad_agent(rec, tmp_path):
         plots.plot_trajectories(rec, tmp_path / "bad.png", agent=3)
 
 
-def test_save_run_figures(rec, tmp_path):
+def test_a_gaussian_run_following_a_target_gets_the_five_run_figures(rec, tmp_path):
     paths = plots.save_run_figures(rec, tmp_path / "figs")
-    assert len(paths) == 5
-    assert [p.name for p in paths] == [
-        "estimates.png", "trajectories.png", "target_distances.png",
-        "inter_agent_distances.png", "errors.png",
+    assert sorted(p.name for p in paths) == [
+        "errors.png", "estimates.png", "inter_agent_distances.png", "target_distances.png", "trajectories.png",
     ]
     for p in paths:
         assert_png(p)
@@ -82,9 +81,9 @@ def test_save_run_figures(rec, tmp_path):
 
 def test_flocking_comparison(tmp_path):
     results = {name: make_recording(seed=s) for s, name in enumerate(["standard", "integral", "tailored"])}
-    assert_png(plots.plot_flocking_comparison(results, tmp_path / "flocking.png"))
+    assert_png(swarm_figures.plot_flocking_comparison(results, tmp_path / "flocking.png"))
     with pytest.raises(ValueError):
-        plots.plot_flocking_comparison({}, tmp_path / "empty.png")
+        swarm_figures.plot_flocking_comparison({}, tmp_path / "empty.png")
 
 
 def test_many_agents(tmp_path):
@@ -93,22 +92,22 @@ def test_many_agents(tmp_path):
     assert len(paths) == 5
     for p in paths:
         assert_png(p)
-    assert_png(plots.plot_flocking_comparison({"standard": rec}, tmp_path / "flocking.png"))
+    assert_png(swarm_figures.plot_flocking_comparison({"standard": rec}, tmp_path / "flocking.png"))
 
 
 def test_pair_labels_follow_the_metrics_pair_order(rec):
     from swarmtrack.analysis.metrics import pair_distances
 
-    assert plots.pair_labels(3) == ["1-2", "1-3", "2-3"]
+    assert figure_style.pair_labels(3) == ["1-2", "1-3", "2-3"]
     expected = np.linalg.norm(rec.uav[:, 0, :2] - rec.uav[:, 2, :2], axis=-1)
     np.testing.assert_allclose(pair_distances(rec)[:, 1], expected)  # column "1-3"
 
 
 def test_plot_band(tmp_path):
-    fig = plots._new_figure((4, 3))
+    fig = figure_style.new_figure((4, 3))
     ax = fig.subplots()
     t = np.linspace(0, 1, 50)
-    line = plots.plot_band(ax, t, np.sin(t), 0.1 * np.ones_like(t), label="mean")
+    line = figure_style.plot_band(ax, t, np.sin(t), 0.1 * np.ones_like(t), label="mean")
     assert line.get_label() == "mean"
     assert len(ax.collections) == 1
-    assert_png(plots._save(fig, tmp_path / "band.png"))
+    assert_png(figure_style.save_figure(fig, tmp_path / "band.png"))

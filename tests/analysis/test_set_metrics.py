@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from swarmtrack.analysis import health, metrics
+from swarmtrack.capabilities.set_membership import metrics as sm_metrics
 from swarmtrack.sim.recorder import Chunk, Recording
 
 
@@ -46,7 +47,7 @@ def test_set_membership_section_equals_a_hand_computation_on_the_uav_table(recor
     assert sm["phi_bar_mean"] == pytest.approx(bar.mean(), rel=1e-12)
     assert sm["area"] == 400.0 * 400.0
     assert sm["phi_bar_final_fraction"] == pytest.approx(bar.iloc[-1] / 160000.0, rel=1e-12)
-    for part, col in metrics.PHI_PARTS.items():
+    for part, col in sm_metrics.PHI_PARTS.items():
         assert sm["parts_final"][part] == pytest.approx(last[col].mean(), rel=1e-12, abs=1e-9)
     assert sm["identified_final"] == pytest.approx(last["n_identified"].mean())
     violations = by_step["guarantee_violations"].sum()
@@ -63,7 +64,7 @@ def test_plans_are_found_from_the_period_and_their_solve_times_summed_over_the_f
     wide = df.pivot(index="step", columns="uav", values="solve_time")
     changed = (wide.diff().fillna(wide) != 0).all(axis=1).to_numpy()  # a new plan: every UAV's time changes
     t = df.groupby("step")["t"].first().to_numpy()
-    plan = metrics.plan_steps(t, recorded.dt, 0.5)
+    plan = sm_metrics.plan_steps(t, recorded.dt, 0.5)
     assert plan.sum() == 8 and np.array_equal(plan, changed)  # plans at 0, 0.5 … 3.5 s, seen one step later
     fleet = wide.to_numpy()[plan].sum(axis=1)
     got = metrics.summary(recorded)["set_membership"]["solve_time"]
@@ -76,9 +77,9 @@ def test_plans_are_found_from_the_period_and_their_solve_times_summed_over_the_f
 
 def test_plan_steps_respect_a_start_and_periods_longer_than_a_step():
     t = np.arange(40) * 0.05
-    assert np.flatnonzero(metrics.plan_steps(t, 0.05, 0.5)).tolist() == [1, 11, 21, 31]
-    assert np.flatnonzero(metrics.plan_steps(t, 0.05, 0.5, start=1.0)).tolist() == [21, 31]
-    assert np.flatnonzero(metrics.plan_steps(np.arange(6) * 0.5, 0.5, 0.5)).tolist() == [1, 2, 3, 4, 5]
+    assert np.flatnonzero(sm_metrics.plan_steps(t, 0.05, 0.5)).tolist() == [1, 11, 21, 31]
+    assert np.flatnonzero(sm_metrics.plan_steps(t, 0.05, 0.5, start=1.0)).tolist() == [21, 31]
+    assert np.flatnonzero(sm_metrics.plan_steps(np.arange(6) * 0.5, 0.5, 0.5)).tolist() == [1, 2, 3, 4, 5]
 
 
 def test_uncertainty_series_are_per_bin_means_of_the_mean_over_uavs(recorded):

@@ -7,6 +7,8 @@ import numpy as np
 import pytest
 
 from swarmtrack.analysis import metrics, plots
+from swarmtrack.capabilities.set_membership import figures as sm_figures
+from swarmtrack.capabilities.set_membership import metrics as sm_metrics
 from swarmtrack.sim.recorder import Chunk, Recording
 
 IB21_FIGURES = ["uncertainty.png", "uncertainty_per_uav.png", "search_map.png"]
@@ -32,8 +34,8 @@ def test_a_followed_target_run_gets_none_of_them(tmp_path):
 
 
 def test_long_runs_are_decimated_to_the_point_budget(ib21_run, monkeypatch):
-    monkeypatch.setattr(plots, "MAX_POINTS", 30)
-    s = plots._SetSeries(ib21_run)
+    monkeypatch.setattr(sm_figures, "MAX_POINTS", 30)
+    s = sm_figures._SetSeries(ib21_run)
     assert s.every == 3 and len(s.t) == 27 and s.phi.shape == (27, 6)  # steps 0, 3, … 78 of 80
     assert s.paths["targets"].shape == (27, 3, 2) and s.paths["uavs"].shape == (27, 6, 2)
     assert s.health.counts()["guarantee_violations"] == 0  # counted over every step, not the kept ones
@@ -43,7 +45,7 @@ def _scaled(rec: Recording, factor: float) -> Recording:
     """The run with every Φ probe times ``factor`` (one chunk in memory)."""
     parts = list(rec.chunks())
     probes = {k: np.concatenate([c.probes[k] for c in parts]) for k in parts[0].probes}
-    for k in ("phi", *metrics.PHI_PARTS.values()):
+    for k in ("phi", *sm_metrics.PHI_PARTS.values()):
         probes[k] = probes[k] * factor
     chunk = Chunk(0, np.concatenate([c.t for c in parts]), np.concatenate([c.truth for c in parts]),
                   np.concatenate([c.phase for c in parts]), probes)
@@ -52,16 +54,16 @@ def _scaled(rec: Recording, factor: float) -> Recording:
 
 def test_phi_bands_are_the_mean_and_std_over_runs(ib21_run, tmp_path):
     runs = [ib21_run, _scaled(ib21_run, 1.5), metrics.summary(_scaled(ib21_run, 2.0))]  # recordings or summaries
-    band = plots.phi_bands(runs, "phi_bar")
+    band = sm_figures.phi_bands(runs, "phi_bar")
     base = np.asarray(metrics.series(ib21_run)["phi_bar"])
     assert band["runs"] == 3 and band["n"] == [3] * len(base)
     assert band["mean"] == pytest.approx((1.5 * base).tolist(), rel=1e-12)
     assert band["std"] == pytest.approx((np.std([1.0, 1.5, 2.0]) * base).tolist(), rel=1e-12)
-    out = plots.plot_phi_bands({"N_u = 6": runs, "half": [_scaled(ib21_run, 0.5)]}, tmp_path / "fig8.png")
+    out = sm_figures.plot_phi_bands({"N_u = 6": runs, "half": [_scaled(ib21_run, 0.5)]}, tmp_path / "fig8.png")
     _assert_png(out)
-    parts = plots.plot_phi_bands({"N_u = 6": runs}, tmp_path / "fig8_right.png",
-                                 quantities=list(metrics.PHI_PARTS.values()))
+    parts = sm_figures.plot_phi_bands({"N_u = 6": runs}, tmp_path / "fig8_right.png",
+                                 quantities=list(sm_metrics.PHI_PARTS.values()))
     _assert_png(parts)
-    _assert_png(plots.plot_phi_bands({"6 UAVs": [ib21_run]}, tmp_path / "fig11.png", quantities=["solve_time"]))
+    _assert_png(sm_figures.plot_phi_bands({"6 UAVs": [ib21_run]}, tmp_path / "fig11.png", quantities=["solve_time"]))
     with pytest.raises(ValueError):
-        plots.plot_phi_bands({}, tmp_path / "none.png")
+        sm_figures.plot_phi_bands({}, tmp_path / "none.png")

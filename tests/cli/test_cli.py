@@ -257,3 +257,20 @@ def test_a_termination_during_kernel_compilation_waits_until_the_compiler_return
         with pytest.raises(outputs.Terminated):
             signal.getsignal(signal.SIGALRM)(signal.SIGALRM, sys._getframe())
     assert signal.getitimer(signal.ITIMER_REAL)[0] == 0
+
+
+def test_two_runs_started_together_with_one_out_never_both_report_success(tmp_path):
+    """Without --overwrite the late run never replaces the first's files: it fails (exit 2) naming the cause, or
+    was refused at its start; exactly one run's files are there, and they are the ones its manifest lists."""
+    out = tmp_path / "run"
+    cmd = [sys.executable, "-m", "swarmtrack.cli", "run", "l24-cv", "--set", "duration=3", "--out", str(out),
+           "--no-plots"]
+    procs = [subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for _ in range(2)]
+    results = [p.communicate(timeout=240) for p in procs]
+    codes = sorted(p.returncode for p in procs)
+    assert codes == [0, 2], (codes, [err[-2000:] for _, err in results])
+    late = next(err for p, (_, err) in zip(procs, results, strict=True) if p.returncode == 2)
+    assert "another run wrote its files there" in late or "holds an earlier run" in late, late[-2000:]
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["files"] and all((out / f).is_file() for f in manifest["files"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]  # no staging folder left

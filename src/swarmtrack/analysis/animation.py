@@ -1,9 +1,9 @@
 """The animation of one guaranteed search-and-track run (IB21's videos; ``swarmtrack run SCENARIO --animate out.gif``).
 
 The sets exist only onboard and only at each instant, so the frames are captured while the run runs: a
-:class:`FrameCapture` is added to the built simulation's ``monitors`` (:class:`swarmtrack.sim.build.Simulation`)
-*after* the recorder took its probe list, so the recording and every metric are those of a run without it. It is
-called once per estimation step, after the fusion: it keeps every UAV's true position (the paths) and, every
+:class:`FrameCapture` is the step loop's ``on_step`` hook (:func:`swarmtrack.sim.engine.step_loop`), which records
+nothing, so the recording and every metric are those of a run without it. It is called once per estimation step,
+after the fusion and the step's record: it keeps every UAV's true position (the paths) and, every
 ``every`` seconds of simulated time, a frame: the sets of the view (three geometries, so a long run's frames stay
 small), each UAV's footprint, the true targets and decoys, and Φ̄.
 
@@ -30,7 +30,10 @@ import shapely
 
 from swarmtrack.estimation.polygons import union_all
 from swarmtrack.estimation.raster import to_polygon
+from swarmtrack.models import fixed_wing
 from swarmtrack.outputs import OutputError, check_file_destination, partial_files
+from swarmtrack.sensors.footprint import footprint_corners, footprint_polygons
+from swarmtrack.sim import engine
 
 __all__ = ["FORMATS", "AnimationError", "Frame", "FrameCapture", "check_destination", "render", "simulate_animated",
            "view_sets"]
@@ -43,7 +46,8 @@ TRAIL = 30.0  #: s of each UAV's path drawn behind it
 SET_STYLE = {"unexplored": ("tab:blue", 0.22, r"$\bar X$ unexplored"),
              "unidentified": ("tab:orange", 0.55, r"$X^U$ detected, unidentified"),
              "identified": ("tab:red", 0.65, r"$X$ identified targets")}
-"""Face colour, opacity and legend of each set (the colours of the parts in :func:`plots.plot_uncertainty`)."""
+"""Face colour, opacity and legend of each set (the colours of the parts in
+:func:`swarmtrack.capabilities.set_membership.figures.plot_uncertainty`)."""
 
 
 class AnimationError(ValueError):
@@ -68,40 +72,40 @@ class Frame:
 
 
 class FrameCapture:
-    """A truth-side monitor (``Simulation.monitors``) that captures a :class:`Frame` every ``every`` s of simulated
-    time (the first at t = 0), its sets seen as ``uav`` (:func:`view_sets`), and the UAVs' true positions at every
-    call; it returns zeros (N,) and changes nothing."""
+    """The step loop's ``on_step`` hook (truth side, :func:`swarmtrack.sim.engine.step_loop`): captures a
+    :class:`Frame` every ``every`` s of simulated time (the first at t = 0), its sets seen as ``uav``
+    (:func:`view_sets`), and the UAVs' true positions at every call; it changes nothing. The simulation it watches
+    is ``sim`` from the first call on."""
 
-    def __init__(self, sim, every: float = 1.0, uav: int | None = None):
-        if not hasattr(sim.stack.estimator, "beliefs"):
-            raise AnimationError("the animation shows a set-membership estimator's sets; this scenario has none "
-                                 "(estimator.kind: setmembership)")
+    def __init__(self, every: float = 1.0, uav: int | None = None):
         if every <= 0:
             raise AnimationError(f"--animate-every {every:g}: must be positive")
-        n = sim.world.slices["uavs"].stop - sim.world.slices["uavs"].start
-        if uav is not None and not 1 <= uav <= n:
-            raise AnimationError(f"--animate-uav {uav}: the run has UAVs 1-{n}")
-        self.sim, self.every, self.uav = sim, float(every), uav
+        self.every, self.uav, self.sim = float(every), uav, None
         self.frames: list[Frame] = []
         self.path: list[np.ndarray] = []
         self._next = 0.0
-        world = sim.world
-        self.area = sim.meta["estimator"]["area"]
-        self._params = world.sensor.params
-        self.n_uavs = n
 
-    def __call__(self) -> np.ndarray:
-        world = self.sim.world
+    def _start(self, sim) -> None:
+        if not hasattr(sim.stack.estimator, "beliefs"):
+            raise AnimationError("the animation shows a set-membership estimator's sets; this scenario has none "
+                                 "(estimator.kind: setmembership)")
+        n = sim.world.slices["uavs"].stop - sim.world.slices["uavs"].start
+        if self.uav is not None and not 1 <= self.uav <= n:
+            raise AnimationError(f"--animate-uav {self.uav}: the run has UAVs 1-{n}")
+        self.sim, self.n_uavs = sim, n
+        self.area = sim.meta["estimator"]["area"]
+        self._params = sim.world.sensor.params
+
+    def __call__(self, sim) -> None:
+        if self.sim is None:
+            self._start(sim)
+        world = sim.world
         self.path.append(world.truth("uavs")[:, :2])
         if world.t >= self._next - 1e-9:
             self.frames.append(self._frame(world))
             self._next = (np.floor(world.t / self.every + 1e-9) + 1) * self.every
-        return np.zeros(self.n_uavs)
 
     def _frame(self, world) -> Frame:
-        from swarmtrack.models import fixed_wing
-        from swarmtrack.sensors.footprint import footprint_corners, footprint_polygons
-
         b = self.sim.stack.estimator.beliefs
         s = world.kinematic("uavs").state
         corners = footprint_corners(s[:, [fixed_wing.X, fixed_wing.Y]], s[:, fixed_wing.PSI], s[:, fixed_wing.Z],
@@ -114,19 +118,13 @@ class FrameCapture:
 
 def simulate_animated(scenario, every: float = 1.0, uav: int | None = None,
                       progress: Callable[[float], None] | None = None, record_to: Path | None = None):
-    """:func:`swarmtrack.sim.engine.simulate` with a :class:`FrameCapture` (a frame every ``every`` s, the sets seen
-    as ``uav``): ``(recording, capture)``. The recording is the one ``simulate`` gives (same probes, same numbers:
-    the capture only reads)."""
-    from swarmtrack.sim.build import build
-    from swarmtrack.sim.engine import step_loop
-    from swarmtrack.sim.recorder import Recorder
-
-    sim = build(scenario)
-    probes = {**sim.stack.probes, **dict.fromkeys(sim.monitors, ())}
-    recorder = Recorder(sim.meta, sim.world.n_objects, scenario.swarm.n_uavs, probes, record_to)
-    capture = FrameCapture(sim, every, uav)
-    sim.monitors = {**sim.monitors, "animation_frames": capture}  # after the probe list: not recorded
-    return step_loop(sim, recorder, progress), capture
+    """:func:`swarmtrack.sim.engine.simulate` with a :class:`FrameCapture` as its ``on_step`` hook (a frame every
+    ``every`` s, the sets seen as ``uav``): ``(recording, capture)``. The recording is the one ``simulate`` gives
+    (same probes, same numbers: the capture only reads)."""
+    if uav is not None and not 1 <= uav <= scenario.swarm.n_uavs:
+        raise AnimationError(f"--animate-uav {uav}: the run has UAVs 1-{scenario.swarm.n_uavs}")
+    capture = FrameCapture(every, uav)
+    return engine.simulate(scenario, progress, record_to, on_step=capture), capture
 
 
 def view_sets(beliefs, uav: int | None = None) -> dict[str, shapely.Geometry]:
@@ -161,7 +159,7 @@ class _Canvas:
         from matplotlib.lines import Line2D
         from matplotlib.patches import Patch
 
-        from swarmtrack.analysis.plots import DECOY_COLOR, TARGET_COLOR
+        from swarmtrack.analysis.figure_style import DECOY_COLOR, TARGET_COLOR  # matplotlib: only when drawing
 
         self.capture, self.title = capture, title
         self.fig = Figure(figsize=(6.4, 7.2), dpi=DPI)
@@ -187,7 +185,7 @@ class _Canvas:
         """Replace what moves by ``frame``'s."""
         from shapely.plotting import patch_from_polygon
 
-        from swarmtrack.analysis.plots import DECOY_COLOR, TARGET_COLOR, agent_color
+        from swarmtrack.analysis.figure_style import DECOY_COLOR, TARGET_COLOR, agent_color  # matplotlib
 
         for artist in self.moving:
             artist.remove()

@@ -12,19 +12,18 @@ line, never reused. Runs are spread over processes.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import multiprocessing
 import os
-import signal
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from swarmtrack import outputs
-from swarmtrack.analysis.metrics import summary
 from swarmtrack.analysis.papers import PAPERS, Claim
-from swarmtrack.outputs import dump_json, version, write_together
+from swarmtrack.analysis.runs import batches, run_batch, run_key, run_one, worker_signals
+from swarmtrack.analysis.sweep import close_client, dask_client
+from swarmtrack.outputs import dump_json, package_version, version, write_together
 from swarmtrack.scenarios import Scenario, load_scenario
 
 __all__ = ["CACHE_FORMAT", "Claim", "cache_path", "figure_experiments", "package_version", "read_cached",
@@ -34,21 +33,6 @@ __all__ = ["CACHE_FORMAT", "Claim", "cache_path", "figure_experiments", "package
 CACHE_FORMAT = 1
 
 Job = tuple[str, int]  # (built-in scenario name, seed)
-
-
-def package_version() -> str:
-    """The running swarmtrack's version: the source's ``__version__`` (an editable install's metadata keeps the version
-    it was installed at, so reading it would key caches with a stale version after an upgrade of the checkout)."""
-    from swarmtrack import __version__
-
-    return __version__
-
-
-def run_key(scenario: Scenario, version: str | None = None) -> str:
-    """sha256 (hex) of what determines a run's result: the resolved scenario, seed included, and the version."""
-    payload = {"scenario": scenario.model_dump(mode="json"), "version": version or package_version()}
-    text = json.dumps(payload, sort_keys=True, separators=(",", ":"), ensure_ascii=True)
-    return hashlib.sha256(text.encode()).hexdigest()
 
 
 def cache_path(cache: Path, scenario: Scenario, key: str) -> Path:
@@ -96,63 +80,6 @@ def warn_stderr(message: str) -> None:
     print(message, file=sys.stderr, flush=True)
 
 
-def run_one(scenario: Scenario) -> dict:
-    """One resolved scenario's metrics, or the divergence message."""
-    from swarmtrack.estimation.information import FilterDivergence
-    from swarmtrack.sim.engine import simulate
-
-    try:
-        return summary(simulate(scenario))
-    except FilterDivergence as exc:
-        return {"diverged": str(exc)}
-
-
-#: Largest batch of worlds run as one (:mod:`swarmtrack.sim.batch`): UAVs over all its worlds, and worlds. Batches
-#: are for small swarms (their links are dense), and a batch is lost whole when a study is interrupted.
-BATCH_UAVS, BATCH_WORLDS = 256, 32
-
-
-def batches(scenarios: Sequence[Scenario], workers: int = 1) -> list[list[int]]:
-    """Indices of ``scenarios`` grouped into the batches they run in: runs of one scenario (seeds apart) that
-    :func:`~swarmtrack.sim.batch.unbatchable` accepts, at most :data:`BATCH_WORLDS` worlds and
-    :data:`BATCH_UAVS` UAVs each, split so that ``workers`` processes all get work; the rest one by one."""
-    from swarmtrack.sim.batch import unbatchable
-
-    groups: dict[str, list[int]] = {}
-    for k, s in enumerate(scenarios):
-        groups.setdefault(s.model_dump_json(exclude={"seed"}), []).append(k)
-    out = []
-    for members in groups.values():
-        n = scenarios[members[0]].swarm.n_uavs
-        if len(members) < 2 or n > BATCH_UAVS // 2 or unbatchable([scenarios[k] for k in members[:2]]):
-            out += [[k] for k in members]
-            continue
-        size = min(BATCH_WORLDS, BATCH_UAVS // n, -(-len(members) // max(1, workers)))
-        out += [members[i:i + size] for i in range(0, len(members), size)]
-    return out
-
-
-def run_batch(scenarios: Sequence[Scenario]) -> list[dict]:
-    """:func:`run_one` of each scenario, as one batch of worlds when there are several (same numbers); a batch that
-    raises (a filter that diverged, anything else) is run again one world at a time, so each run gets its own
-    result or error."""
-    if len(scenarios) == 1:
-        return [run_one(scenarios[0])]
-    from swarmtrack.sim.batch import simulate_batch
-
-    try:
-        return [summary(rec) for rec in simulate_batch(list(scenarios))]
-    except Exception:  # noqa: BLE001 - each run's own outcome comes from running it alone
-        return [run_one(s) for s in scenarios]
-
-
-def _worker_signals() -> None:
-    """Workers leave Ctrl-C to the parent, which stops them at once (:func:`run_all`), and die quietly on the
-    parent's SIGTERM (not with the handler a forked worker inherits)."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-
-
 def _run_indexed(item: tuple[list[int], list[Scenario]]) -> list[tuple[int, dict]]:
     """A batch of jobs (their indices and scenarios) to their ``(index, metrics)``."""
     return list(zip(item[0], run_batch(item[1]), strict=True))
@@ -172,15 +99,11 @@ def run_all(jobs: list[Job], cache: Path, workers: int | None, on_done: Callable
     resolved = {job: load_scenario(*resolve(job[0], overrides), seed=job[1]) for job in jobs}
     client = None
     if cluster is not None:  # reached before anything is written
-        from swarmtrack.analysis.sweep import dask_client
-
         client = dask_client(cluster, workers)
     try:
         return _run_all(resolved, cache, workers, on_done, warn, client)
     finally:
         if client is not None:
-            from swarmtrack.analysis.sweep import close_client
-
             close_client(client)
 
 
@@ -231,7 +154,7 @@ def _run_all(resolved: dict, cache: Path, workers: int | None, on_done, warn, cl
     else:
         # a multiprocessing pool (not concurrent.futures): terminate() stops running workers at once, where an
         # executor lets them finish their runs (30-40 s after Ctrl-C) and throws the results away
-        with multiprocessing.Pool(n_workers, _worker_signals) as pool:
+        with multiprocessing.Pool(n_workers, worker_signals) as pool:
             for done in pool.imap_unordered(_run_indexed, tasks):
                 for k, metrics in done:
                     keep(*todo[k], metrics)

@@ -3,7 +3,7 @@
 The store is a folder: ``sweep.json`` (what was asked, the store format) and ``results/``, one Parquet file per
 finished run, written the moment the run finishes (to a temporary name, then renamed), so an interrupted sweep
 loses only the runs in progress and ``resume`` runs only what is missing. A run's file is named by the key of what
-determines its result (the resolved scenario and the version, :func:`~swarmtrack.analysis.reproduce.run_key`), so a
+determines its result (the resolved scenario and the version, :func:`~swarmtrack.analysis.runs.run_key`), so a
 run is never stored twice. A row holds the grid values, the seed, the status (``ok``, ``diverged``, ``failed``), the
 error, the wall time, the version, the run's scalar metrics and (an ``ok`` run) its time series as list columns
 ``series.t``, ``series.position_error`` … with their bin width ``series.bin_s``
@@ -22,9 +22,14 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from swarmtrack import outputs
-from swarmtrack.analysis.reproduce import _worker_signals, batches, package_version, run_key, run_one
+from swarmtrack.analysis.metrics import summary
+from swarmtrack.analysis.report import markdown_table
+from swarmtrack.analysis.runs import batches, run_key, run_one, worker_signals
+from swarmtrack.analysis.statistics import mean_std_ci
+from swarmtrack.outputs import package_version
 from swarmtrack.scenarios import Scenario, load_scenario
 from swarmtrack.scenarios.loader import ScenarioError
+from swarmtrack.sim import batch
 
 #: Layout of the store; a store of another format is refused. 2: rows carry the run's time series.
 STORE_FORMAT = 2
@@ -108,7 +113,7 @@ def _row(metrics: dict) -> dict:
 
 
 def _run(item: tuple[int, Scenario]) -> tuple[int, dict]:
-    """One job in a worker (:func:`~swarmtrack.analysis.reproduce.run_one`): its status, error, wall time,
+    """One job in a worker (:func:`~swarmtrack.analysis.runs.run_one`): its status, error, wall time,
     metrics and time series; an exception is a failed run, not a stop."""
     k, scenario = item
     t0 = time.perf_counter()
@@ -128,12 +133,9 @@ def _run_batch(item: tuple[list[int], list[Scenario]]) -> list[tuple[int, dict]]
     ks, scenarios = item
     if len(ks) == 1:
         return [_run((ks[0], scenarios[0]))]
-    from swarmtrack.analysis.metrics import summary
-    from swarmtrack.sim.batch import simulate_batch
-
     t0 = time.perf_counter()
     try:
-        results = [summary(rec) for rec in simulate_batch(scenarios)]
+        results = [summary(rec) for rec in batch.simulate_batch(scenarios)]
     except Exception:  # noqa: BLE001 - each run's own outcome comes from running it alone
         return [_run((k, s)) for k, s in zip(ks, scenarios, strict=True)]
     share = (time.perf_counter() - t0) / len(ks)
@@ -150,10 +152,7 @@ def warm(scenario: Scenario | None = None) -> float:
     0.6 s in a fresh process). Every worker does this before its first job, so a job's stored wall time is its own
     and a Dask cluster's workers are ready before the sweep's clock matters. A failing warm-up run is ignored: the
     real run reports it. Returns the seconds it took."""
-    t0 = time.perf_counter()
-    import swarmtrack.analysis.metrics  # noqa: F401
-    import swarmtrack.sim.engine  # noqa: F401
-
+    t0 = time.perf_counter()  # the imports are this module's (the simulator's, the metrics')
     if scenario is not None:
         short = WARM_UP_S if scenario.duration is None else min(scenario.duration, WARM_UP_S)
         _run((0, scenario.model_copy(update={"duration": short})))
@@ -161,8 +160,8 @@ def warm(scenario: Scenario | None = None) -> float:
 
 
 def _worker_init(scenario: Scenario | None) -> None:
-    """A local worker process's start: the parent handles Ctrl-C (:func:`_worker_signals`), then :func:`warm`."""
-    _worker_signals()
+    """A local worker process's start: the parent handles Ctrl-C (:func:`worker_signals`), then :func:`warm`."""
+    worker_signals()
     warm(scenario)
 
 
@@ -351,8 +350,6 @@ HEADLINE = ("rmse_total_x", "rmse_total_y", "rmse_total_vx", "rmse_total_vy", "n
 def summarize(out: Path) -> tuple[str, dict]:
     """Mean ± std and the 95 % t-interval of the mean of every headline metric per setting, over the stored runs
     that finished (``ok``); counts of diverged and failed runs beside. Returns the markdown table and the numbers."""
-    from swarmtrack.analysis.papers.base import mean_std_ci
-
     table = load_results(out)
     if table.empty:
         raise ScenarioError(f"{out}: no stored runs (is it a sweep's result store?)")
@@ -380,8 +377,6 @@ def summarize(out: Path) -> tuple[str, dict]:
             cells.append(f"{st['mean']:.4g} ± {st['std']:.2g}{interval}")
         numbers.append(entry)
         rows.append([*(str(k) for k in key), f"{entry['ok']}/{entry['runs']}", *cells])
-    from swarmtrack.analysis.report import markdown_table
-
     md = markdown_table([*(p[6:] for p in params), "ok runs", *(f"{m} mean ± std [95 % CI]" for m in metrics)], rows)
     series = {q: [{"setting": e["setting"], **band}
                   for e, key in zip(numbers, ordered, strict=True)
@@ -450,18 +445,18 @@ BANDS_PER_FIGURE = 6
 
 def plot_series(numbers: dict, folder: Path) -> list[Path]:
     """Each time series of :func:`summarize` over time: per setting the mean line and a ±1 std band over the seeds
-    (:func:`swarmtrack.analysis.plots.plot_band`), ``<quantity>_over_time.png``."""
-    from swarmtrack.analysis import plots
+    (:func:`swarmtrack.analysis.figure_style.plot_band`), ``<quantity>_over_time.png``."""
+    from swarmtrack.analysis import figure_style  # matplotlib, only when drawing
 
     paths = []
     for q, bands in numbers.get("series", {}).items():
         for page in range(0, len(bands), BANDS_PER_FIGURE):
-            fig = plots._new_figure((7.2, 4.2))
+            fig = figure_style.new_figure((7.2, 4.2))
             ax = fig.add_subplot(1, 1, 1)
             for band in bands[page:page + BANDS_PER_FIGURE]:
                 label = ", ".join(f"{k}={v}" for k, v in band["setting"].items()) or q
                 nan = [float("nan") if v is None else v for v in band["mean"]]
-                plots.plot_band(ax, band["t"], nan, [float("nan") if v is None else v for v in band["std"]],
+                figure_style.plot_band(ax, band["t"], nan, [float("nan") if v is None else v for v in band["std"]],
                                 f"{label} ({band['runs']} runs)")
             if q == "nees":
                 ax.axhline(4.0, color="0.4", ls="--", lw=0.9, label="4: a consistent filter")
@@ -471,19 +466,19 @@ def plot_series(numbers: dict, folder: Path) -> list[Path]:
             ax.legend(fontsize="small")
             ax.grid(alpha=0.3)
             suffix = "" if not page else f"_{page // BANDS_PER_FIGURE + 1}"
-            paths.append(plots._save(fig, folder / f"{q}_over_time{suffix}.png"))
+            paths.append(figure_style.save_figure(fig, folder / f"{q}_over_time{suffix}.png"))
     return paths
 
 
 def plot_summary(numbers: dict, folder: Path) -> list[Path]:
     """Each headline metric against each grid key (mean and 95 % interval; the other keys' settings as lines)."""
-    from swarmtrack.analysis import plots
+    from swarmtrack.analysis import figure_style  # matplotlib, only when drawing
 
     paths = []
     params = numbers["params"]
     for m in numbers["metrics"]:
         for p in params:
-            fig = plots._new_figure((6.4, 4.0))
+            fig = figure_style.new_figure((6.4, 4.0))
             ax = fig.add_subplot(1, 1, 1)
             lines: dict[tuple, list] = {}
             for e in numbers["settings"]:
@@ -506,5 +501,5 @@ def plot_summary(numbers: dict, folder: Path) -> list[Path]:
             if len(lines) > 1:
                 ax.legend(fontsize="small")
             ax.grid(alpha=0.3)
-            paths.append(plots._save(fig, folder / f"{m}_vs_{p.replace('.', '_')}.png"))
+            paths.append(figure_style.save_figure(fig, folder / f"{m}_vs_{p.replace('.', '_')}.png"))
     return paths

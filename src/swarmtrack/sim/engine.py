@@ -20,17 +20,20 @@ from swarmtrack.sim.recorder import Recorder, Recording
 
 
 def simulate(scenario: Scenario, progress: Callable[[float], None] | None = None,
-             record_to: Path | None = None) -> Recording:
+             record_to: Path | None = None, on_step: Callable[[Simulation], None] | None = None) -> Recording:
     """Run one closed-loop simulation and return its recording (kept in memory, or streamed to ``record_to``).
-    Same scenario and seed, same numbers."""
+    Same scenario and seed, same numbers. ``on_step``: see :func:`step_loop`."""
     sim = build(scenario)
     probes = {**sim.stack.probes, **dict.fromkeys(sim.monitors, ())}
     recorder = Recorder(sim.meta, sim.world.n_objects, scenario.swarm.n_uavs, probes, record_to)
-    return step_loop(sim, recorder, progress)
+    return step_loop(sim, recorder, progress, on_step)
 
 
-def step_loop(sim: Simulation, recorder: Recorder, progress: Callable[[float], None] | None = None) -> Recording:
-    """Run a built simulation to its end, recording every estimation step."""
+def step_loop(sim: Simulation, recorder: Recorder, progress: Callable[[float], None] | None = None,
+              on_step: Callable[[Simulation], None] | None = None) -> Recording:
+    """Run a built simulation to its end, recording every estimation step. ``on_step(sim)`` (truth side, e.g. the
+    animation's frame capture) is called after each estimation step's record, before the control; it may read the
+    simulation, never change it."""
     world, stack, channel, clock = sim.world, sim.stack, sim.channel, sim.clock
     uavs = world.slices["uavs"]
     u = np.zeros((uavs.stop - uavs.start, 2))
@@ -52,6 +55,8 @@ def step_loop(sim: Simulation, recorder: Recorder, progress: Callable[[float], N
             if posteriors:  # the second message of the step travels over the links that carried the first
                 stack.estimator.combine(t, Inbox(links, posteriors))
         recorder.record(t, truth, world.phase_index(), {**stack.sample(), **{k: f() for k, f in sim.monitors.items()}})
+        if on_step is not None:
+            on_step(sim)
         view = stack.guide.view()
         offset = 0  # physics ticks since the estimation step
         for control_now, ticks in clock.control_segments(k):

@@ -209,7 +209,7 @@ def _with_series(runs: list[dict]) -> list[dict]:
 def draw_panel(panel: Panel, by_scenario: dict[str, list[dict]], out: Path) -> Path | None:
     """One panel of IB21 Figs. 8-11 into ``out/<name>.png``: per setting the mean line and ±1 std band over its runs
     (each run's ``series``: Φ̄, its parts or the solve time); None when none of its experiments has a finished run."""
-    from swarmtrack.analysis import plots
+    from swarmtrack.capabilities.set_membership import figures as plots  # matplotlib, only when drawing
 
     results = {label: _with_series(by_scenario.get(e, [])) for label, e in panel.settings.items()}
     results = {label: runs for label, runs in results.items() if runs}

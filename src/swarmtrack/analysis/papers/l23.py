@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
+import swarmtrack
 from swarmtrack.analysis.metrics import COMPONENTS
 from swarmtrack.analysis.papers.base import Claim, Paper, converged, stats
 from swarmtrack.analysis.report import markdown_table
@@ -57,12 +58,10 @@ def analyse(by_scenario: dict[str, list[dict]]) -> tuple[list[Claim], str, dict]
 
 def figures(out: Path, overrides: Sequence[str] = ()) -> list[Path]:
     """Fig. 1: inter-agent distances of the three flocking variants side by side (seed 1)."""
-    from swarmtrack.analysis import plots
-    from swarmtrack.scenarios import load_scenario
-    from swarmtrack.sim.engine import simulate
+    from swarmtrack.capabilities.tracking_swarm import figures  # matplotlib, only when drawing
 
-    recs = {v: simulate(load_scenario(f"l23-flocking-{v}", overrides, seed=1)) for v in FLOCKING}
-    return [plots.plot_flocking_comparison(recs, out / "l23_fig1_flocking.png")]
+    recs = {v: swarmtrack.simulate(swarmtrack.load_scenario(f"l23-flocking-{v}", overrides, seed=1)) for v in FLOCKING}
+    return [figures.plot_flocking_comparison(recs, out / "l23_fig1_flocking.png")]
 
 
 PAPER = Paper("l23", "Lizzio et al., EASN 2022: fusion and flocking for a tracking swarm (Table 1, Fig. 1)",

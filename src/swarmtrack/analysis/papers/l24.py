@@ -9,6 +9,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
+import swarmtrack
 from swarmtrack.analysis.metrics import COMPONENTS
 from swarmtrack.analysis.papers.base import Claim, Paper, converged, stats
 from swarmtrack.analysis.report import markdown_table
@@ -75,14 +76,13 @@ def analyse(by_scenario: dict[str, list[dict]]) -> tuple[list[Claim], str, dict]
 
 def figures(out: Path, overrides: Sequence[str] = ()) -> list[Path]:
     """Figs. 2-4 (estimates), 5 (trajectories), 6 (target distances), 7 (inter-agent distances) per model."""
-    from swarmtrack.analysis import plots
-    from swarmtrack.scenarios import load_scenario
-    from swarmtrack.sim.engine import simulate
+    from swarmtrack.analysis import plots  # matplotlib, only when drawing
+    from swarmtrack.capabilities.tracking_swarm.figures import plot_estimates
 
     paths = []
     for name in EXPERIMENTS:
-        rec = simulate(load_scenario(name, overrides, seed=1))
-        paths += [plots.plot_estimates(rec, out / f"{name}_estimates.png"),
+        rec = swarmtrack.simulate(swarmtrack.load_scenario(name, overrides, seed=1))
+        paths += [plot_estimates(rec, out / f"{name}_estimates.png"),
                   plots.plot_trajectories(rec, out / f"{name}_trajectories.png"),
                   plots.plot_target_distances(rec, out / f"{name}_target_distances.png"),
                   plots.plot_inter_agent_distances(rec, out / f"{name}_inter_agent_distances.png")]

@@ -265,7 +265,7 @@ def _fmt(s: dict | None) -> str:
 def figures(out: Path, overrides: Sequence[str] = (), by_scenario: dict | None = None,
             figure: str | None = None) -> list[Path]:
     """The degradation curves (mean, ±1 std over the runs) of the groups that ran."""
-    from swarmtrack.analysis import plots
+    from swarmtrack.analysis.papers import robustness_figures as plots  # matplotlib, only when drawing
 
     by = by_scenario or {}
     drawn = []

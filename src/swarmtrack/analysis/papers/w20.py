@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+import swarmtrack
 from swarmtrack.analysis.papers.base import Claim, Paper, converged, mean_std_ci
 from swarmtrack.analysis.report import markdown_table
 
@@ -213,13 +214,11 @@ def _imm_claim(by_scenario: dict[str, list[dict]]) -> tuple[Claim, str, dict]:
 def figures(out: Path, overrides: Sequence[str] = ()) -> list[Path]:
     """Figs. 4.4-4.11 (seed 1): paths and x/y over time (mixed team, evasive T-test), model selection, IMM
     probabilities, the ML run's covariance, and the occlusion policies' errors."""
-    from swarmtrack.analysis import plots
-    from swarmtrack.scenarios import load_scenario
-    from swarmtrack.sim.engine import simulate
+    from swarmtrack.capabilities.multi_model import figures as plots  # matplotlib, only when drawing
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    rec = {n: simulate(load_scenario(n, overrides, seed=1))
+    rec = {n: swarmtrack.simulate(swarmtrack.load_scenario(n, overrides, seed=1))
            for n in ("w20-switching", "w20-evasive", "w20-evasive-ml", "w20-evasive-imm-thesis", *OCCLUSION)}
     paths = []
     for n in ("w20-switching", "w20-evasive"):

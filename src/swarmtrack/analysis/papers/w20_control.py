@@ -18,8 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
+import swarmtrack
 from swarmtrack.analysis.papers.base import Claim, Paper, converged, mean_std_ci
 from swarmtrack.analysis.report import markdown_table
+from swarmtrack.control.identification import identify, identify_axis, simulate_axis, step_response_log
 
 #: Table 5.6 and the thesis' hypothesis (Sec. 5.4.2): scenario -> (propagation, horizon, thesis average [m])
 SINGLE = {"w20-mpc-single": ("multi-model", 5, 0.29), "w20-mpc-single-cv": ("single-model (CV)", 5, 0.28),
@@ -159,8 +161,6 @@ def _collision_claim(by_scenario) -> tuple[Claim, list[list[str]], dict]:
 
 def _identification_claim() -> tuple[Claim, dict]:
     """Identification of a known model from its own noise-free data, and of the project's quadrotor."""
-    from swarmtrack.control.identification import identify, identify_axis, simulate_axis, step_response_log
-
     rng = np.random.default_rng(7)
     A, b = np.array([[0.97, 0.18], [-0.25, 0.7]]), np.array([0.03, 0.25])
     u = np.repeat(rng.uniform(-2, 2, 60), 4)[:200]
@@ -228,14 +228,12 @@ def analyse(by_scenario: dict[str, list[dict]]) -> tuple[list[Claim], str, dict]
 def figures(out: Path, overrides: Sequence[str] = ()) -> list[Path]:
     """Figs. 5.6-5.14 (seed 1): the single UAV's path and inputs, the two UAVs' crossing and their separation, the
     formation and the occluded formation (paths, x/y over time, distance from each place)."""
-    from swarmtrack.analysis import plots
-    from swarmtrack.scenarios import load_scenario
-    from swarmtrack.sim.engine import simulate
+    from swarmtrack.capabilities.mpc import figures as plots  # matplotlib, only when drawing
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     names = ("w20-mpc-single", "w20-mpc-collision", "w20-mpc-formation", "w20-mpc-occlusion")
-    rec = {n: simulate(load_scenario(n, overrides, seed=1)) for n in names}
+    rec = {n: swarmtrack.simulate(swarmtrack.load_scenario(n, overrides, seed=1)) for n in names}
     paths = [plots.plot_formation_paths(rec[n], out / f"{n}_paths.png") for n in names]
     paths += [plots.plot_mpc_inputs(rec["w20-mpc-single"], out / "w20-mpc-single_inputs.png"),
               plots.plot_min_separation(rec["w20-mpc-collision"], out / "w20-mpc-collision_separation.png")]

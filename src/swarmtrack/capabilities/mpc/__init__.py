@@ -1,6 +1,7 @@
 """W20 Ch. 5: the distributed MPC formation controller."""
 
 from swarmtrack import registry
-from swarmtrack.capabilities.mpc import settings
+from swarmtrack.capabilities.mpc import metrics, settings
 
-registry.register("controller", settings.MPCSpec, "swarmtrack.capabilities.mpc.build:mpc")
+registry.register("controller", settings.MPCSpec, "swarmtrack.capabilities.mpc.build:mpc", metrics=metrics.METRICS,
+                  figures=metrics.FIGURES)

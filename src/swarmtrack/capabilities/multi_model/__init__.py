@@ -1,9 +1,10 @@
 """W20 Ch. 4: the gimballed camera and the multi-model distributed EKF."""
 
 from swarmtrack import registry
-from swarmtrack.capabilities.multi_model import settings
+from swarmtrack.capabilities.multi_model import metrics, settings
 
 _BUILD = "swarmtrack.capabilities.multi_model.build:"
 
 registry.register("sensor", settings.CameraSpec, _BUILD + "camera")
-registry.register("estimator", settings.MultiModelSpec, _BUILD + "multimodel")
+registry.register("estimator", settings.MultiModelSpec, _BUILD + "multimodel", metrics=metrics.METRICS,
+                  health=metrics.HEALTH, figures=metrics.FIGURES)

@@ -2,11 +2,11 @@
 set-membership MPC."""
 
 from swarmtrack import registry
-from swarmtrack.capabilities.set_membership import settings
+from swarmtrack.capabilities.set_membership import metrics, settings
 
 _BUILD = "swarmtrack.capabilities.set_membership.build:"
 
 registry.register("sensor", settings.FootprintSpec, _BUILD + "footprint_sensor")
 registry.register("estimator", settings.SetMembershipSpec, _BUILD + "setmembership",
-                  monitors=_BUILD + "guarantee_monitor")
+                  monitors=_BUILD + "guarantee_monitor", metrics=metrics.METRICS, figures=metrics.FIGURES)
 registry.register("controller", settings.SMMPCSpec, _BUILD + "sm_mpc")

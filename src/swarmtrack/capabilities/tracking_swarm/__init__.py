@@ -2,12 +2,15 @@
 baseline, the IMM bank over models of different sizes and the flocking controller."""
 
 from swarmtrack import registry
-from swarmtrack.capabilities.tracking_swarm import settings
+from swarmtrack.capabilities.tracking_swarm import metrics, settings
 
 _BUILD = "swarmtrack.capabilities.tracking_swarm.build:"
 
 registry.register("sensor", settings.RangeBearingSpec, _BUILD + "range_bearing", batched=True)
-registry.register("estimator", settings.InformationSpec, _BUILD + "information", batched=True)
-registry.register("estimator", settings.CentralizedSpec, _BUILD + "information")
-registry.register("estimator", settings.IMMSpec, _BUILD + "imm")
+registry.register("estimator", settings.InformationSpec, _BUILD + "information", batched=True,
+                  metrics=metrics.METRICS, health=metrics.HEALTH, figures=metrics.FIGURES)
+registry.register("estimator", settings.CentralizedSpec, _BUILD + "information", metrics=metrics.METRICS,
+                  health=metrics.HEALTH, figures=metrics.FIGURES)
+registry.register("estimator", settings.IMMSpec, _BUILD + "imm", metrics=metrics.METRICS, health=metrics.HEALTH,
+                  figures=(*metrics.FIGURES, metrics.PROBABILITIES))
 registry.register("controller", settings.FlockingSpec, _BUILD + "flocking", batched=True)

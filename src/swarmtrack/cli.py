@@ -65,7 +65,9 @@ def run_cmd(scenario: str, out: Path | None, overwrite: bool, seed: int | None, 
 
     Writes scenario.yaml (resolved), metrics.json, recording/ (Parquet; load it with
     swarmtrack.sim.recorder.Recording.load), manifest.json and, unless --no-plots, PNG figures. An existing
-    non-empty --out is refused unless it holds an earlier run and --overwrite is given. With --animate, also the
+    non-empty --out is refused unless it holds an earlier run and --overwrite is given; without --overwrite, an
+    --out that another run fills while this one runs is not replaced either (exit 2, this run's files are not
+    kept). With --animate, also the
     animation (a frame every --animate-every s of simulated time, played at 10 frames per second)."""
     from rich.progress import Progress
 

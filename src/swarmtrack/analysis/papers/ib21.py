@@ -164,7 +164,8 @@ def analyse(by_scenario: dict[str, list[dict]]) -> tuple[list[Claim], str, dict]
 class Panel:
     """One panel of IB21 Figs. 8-11: the file ``name`` (``.png``), its ``title``, the settings drawn (legend label →
     experiment) and the time series of the runs' ``series`` drawn for each (:func:`swarmtrack.analysis.metrics.series`);
-    ``parts``: one sub-panel per part of Φ̄ instead (:func:`swarmtrack.analysis.plots.plot_phi_parts_bands`)."""
+    ``parts``: one sub-panel per part of Φ̄ instead
+    (:func:`swarmtrack.capabilities.set_membership.figures.plot_phi_parts_bands`)."""
 
     name: str
     title: str

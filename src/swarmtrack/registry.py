@@ -57,11 +57,25 @@ def _always(rec) -> bool:
 class Metric:
     """A section of ``metrics.json``: ``make(recording)`` gives an accumulator (``add(chunk, keep, err)`` per chunk of
     the recording, then ``result()``) when ``applies(recording)``. An accumulator that also has ``warnings()``
-    contributes them to the run's ``warnings``."""
+    contributes them to the run's ``warnings``. ``scalars(section)`` flattens the section into the numbers a sweep
+    stores per run (default: its top-level numbers as ``<section>_<key>``), of which ``headline`` are the ones
+    ``swarmtrack summarize`` tabulates. A time-series section's accumulator class names its quantities' axis labels
+    in ``labels``."""
 
     section: str
     make: Ref
     applies: Callable = _always
+    scalars: Callable | None = None
+    headline: tuple[str, ...] = ()
+
+    def flatten(self, value) -> dict[str, float | None]:
+        """The section's scalars (``scalars``, or its top-level numbers)."""
+        if self.scalars is not None:
+            return self.scalars(value)
+        if not isinstance(value, dict):
+            return {}
+        return {f"{self.section}_{k}": v for k, v in value.items()
+                if v is None or (isinstance(v, (int, float)) and not isinstance(v, bool))}
 
 
 @dataclass(frozen=True)
@@ -169,6 +183,17 @@ def get(role: str, name: Any) -> Kind:
     if not isinstance(name, str) or name not in table:
         raise UnknownKind(f"unknown {role} kind {name!r}; known: {', '.join(sorted(table))}")
     return table[name]
+
+
+def all_metrics() -> list[Metric]:
+    """Every registered metric section once (the first registration of a section name wins), in registration
+    order: what a sweep can find in a run's metrics."""
+    seen: dict[str, Metric] = {}
+    for role in ROLES:
+        for kind in kinds(role).values():
+            for metric in kind.metrics:
+                seen.setdefault(metric.section, metric)
+    return list(seen.values())
 
 
 def of_run(meta: dict) -> list[Kind]:

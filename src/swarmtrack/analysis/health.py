@@ -115,7 +115,7 @@ def networked(rec: Recording) -> bool:
 
 
 #: The ``network`` section of ``metrics.json`` (its counts) and its warnings, for the kinds that register it.
-NETWORK = Metric("network", NetworkHealth, networked)
+NETWORK = Metric("network", NetworkHealth, networked, lambda section: {})
 
 
 def check(rec: Recording) -> list[dict]:

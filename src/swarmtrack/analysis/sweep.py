@@ -21,7 +21,8 @@ import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from swarmtrack import outputs
+from swarmtrack import outputs, registry
+from swarmtrack.analysis.metrics import SERIES as SERIES_SECTION
 from swarmtrack.analysis.metrics import summary
 from swarmtrack.analysis.report import markdown_table
 from swarmtrack.analysis.runs import batches, run_key, run_one, worker_signals
@@ -36,15 +37,19 @@ STORE_FORMAT = 2
 #: Columns every stored row has, and those an ``ok`` row has besides (its time series' bins).
 ROW_COLUMNS = ("seed", "status", "error", "wall_s", "version", "key")
 OK_ROW_COLUMNS = ("series.bin_s", "series.t")
-#: The time series ``summarize`` draws, with their axis labels.
-SERIES = {"position_error": "position error, RMS over UAVs [m]",
-          "nees": "NEES [x, y, vx, vy], mean over UAVs",
-          "tracking_error": "distance to formation slot, mean over UAVs [m]",
-          "phi_bar": "Φ̄, mean over UAVs of Φ_i [m²]",
-          "phi_unexplored": "φ(X̄), mean over UAVs [m²]",
-          "phi_unidentified": "φ(Xᵁ), mean over UAVs [m²]",
-          "phi_identified": "φ(X), mean over UAVs [m²]",
-          "solve_time": "fleet MPC solve time per plan [s]"}
+#: The time series every run has, with their axis labels (the kinds' own: their series sections' ``labels``).
+GENERIC_SERIES: dict[str, str] = {}
+
+
+def series_labels() -> dict[str, str]:
+    """The time series ``summarize`` draws, with their axis labels: the registered series sections' quantities."""
+    out = dict(GENERIC_SERIES)
+    for role in registry.ROLES:  # every kind's: each registers its own part of the series section
+        for kind in registry.kinds(role).values():
+            for metric in kind.metrics:
+                if metric.section == SERIES_SECTION:
+                    out.update(getattr(registry.resolve(metric.make), "labels", {}))
+    return out
 
 
 def parse_grid(specs: Sequence[str]) -> dict[str, list[str]]:
@@ -82,20 +87,15 @@ def settings(grid: dict[str, list[str]]) -> list[dict[str, str]]:
 
 
 def scalars(metrics: dict) -> dict[str, float | None]:
-    """The scalar metrics of one run's summary, flattened (``rmse_total_x``, ``nees``, ``mean_error_all``, ...)."""
+    """The scalar metrics of one run's summary, flattened: what every run has (``target_distance_mean``,
+    ``spacing_offset``, ``warnings``) and each registered section's (:meth:`swarmtrack.registry.Metric.flatten`:
+    ``rmse_total_x``, ``nees``, ``phi_bar_final``, ...)."""
     out: dict[str, float | None] = {}
-    for c, v in metrics.get("rmse", {}).get("total", {}).items():
-        out[f"rmse_total_{c}"] = v
-    out["nees"] = metrics.get("nees")
-    for k in ("all", "occluded"):
-        out[f"mean_error_{k}"] = metrics.get("mean_error", {}).get(k)
-    out["model_switches"] = metrics.get("model_use", {}).get("switches")
+    for metric in registry.all_metrics():
+        if metric.section in metrics and metric.section != SERIES_SECTION:
+            out.update(metric.flatten(metrics[metric.section]))
     out["target_distance_mean"] = metrics.get("target_distance", {}).get("mean")
     out["spacing_offset"] = metrics.get("inter_agent_distance", {}).get("offset")
-    sm = metrics.get("set_membership", {})
-    for k in ("phi_bar_final", "phi_bar_mean", "guarantee_violations", "empty_set_alarms",
-              "time_unexplored_cleared"):
-        out[k] = sm.get(k)
     out["warnings"] = float(len(metrics.get("warnings", [])))
     return {k: (None if v is None else float(v)) for k, v in out.items()}
 
@@ -342,9 +342,14 @@ def load_results(out: Path):
     return pd.concat(tables, ignore_index=True)
 
 
-#: The metrics ``summarize`` tabulates first, when a sweep has them.
-HEADLINE = ("rmse_total_x", "rmse_total_y", "rmse_total_vx", "rmse_total_vy", "nees", "mean_error_all",
-            "model_switches", "spacing_offset")
+#: The metrics of every run that ``summarize`` tabulates, after the registered sections' headlines.
+GENERIC_HEADLINE = ("spacing_offset",)
+
+
+def headline() -> tuple[str, ...]:
+    """The metrics ``summarize`` tabulates, when a sweep has them: the registered sections' headlines, then
+    :data:`GENERIC_HEADLINE`."""
+    return (*(name for metric in registry.all_metrics() for name in metric.headline), *GENERIC_HEADLINE)
 
 
 def summarize(out: Path) -> tuple[str, dict]:
@@ -354,7 +359,7 @@ def summarize(out: Path) -> tuple[str, dict]:
     if table.empty:
         raise ScenarioError(f"{out}: no stored runs (is it a sweep's result store?)")
     params = [c for c in table.columns if c.startswith("param.")]
-    metrics = [m for m in HEADLINE if m in table.columns and table[m].notna().any()]
+    metrics = [m for m in headline() if m in table.columns and table[m].notna().any()]
     groups = {(k if isinstance(k, tuple) else (k,)): g for k, g in table.groupby(params)} if params else {(): table}
     order = {tuple(s.values()): n for n, s in enumerate(settings(json.loads((out / "sweep.json").read_text())["grid"]))}
     numbers, rows = [], []
@@ -381,7 +386,7 @@ def summarize(out: Path) -> tuple[str, dict]:
     series = {q: [{"setting": e["setting"], **band}
                   for e, key in zip(numbers, ordered, strict=True)
                   if (band := series_band(groups[key], q)) is not None]
-              for q in SERIES}
+              for q in series_labels()}
     series = {q: bands for q, bands in series.items() if bands}
     md += "\n\n## Time series\n\n" + _series_text(series, table)
     return md, {"settings": numbers, "metrics": metrics, "params": [p[6:] for p in params], "series": series}
@@ -430,12 +435,14 @@ def _series_text(series: dict, table) -> str:
     if not series:
         if not (table["status"] == "ok").any():
             return "No time series: no stored run finished (ok)."
-        return "No time series: the finished runs recorded none of " + ", ".join(SERIES) + "."
+        return "No time series: the finished runs recorded none of " + ", ".join(series_labels()) + "."
+    labels = series_labels()
     lines = []
     for q, bands in series.items():
         widths = sorted({b["bin_s"] for b in bands})
-        lines.append(f"- `{q}` ({SERIES[q]}): mean ± 1 std over seeds per bin of {'/'.join(f'{w:g}' for w in widths)} "
-                     f"s, {len(bands)} setting(s), {sum(b['runs'] for b in bands)} runs")
+        bins = "/".join(f"{w:g}" for w in widths)
+        lines.append(f"- `{q}` ({labels.get(q, q)}): mean ± 1 std over seeds per bin of {bins} s, {len(bands)} "
+                     f"setting(s), {sum(b['runs'] for b in bands)} runs")
     return "\n".join(lines)
 
 
@@ -449,6 +456,7 @@ def plot_series(numbers: dict, folder: Path) -> list[Path]:
     from swarmtrack.analysis import figure_style  # matplotlib, only when drawing
 
     paths = []
+    labels = series_labels()
     for q, bands in numbers.get("series", {}).items():
         for page in range(0, len(bands), BANDS_PER_FIGURE):
             fig = figure_style.new_figure((7.2, 4.2))
@@ -461,7 +469,7 @@ def plot_series(numbers: dict, folder: Path) -> list[Path]:
             if q == "nees":
                 ax.axhline(4.0, color="0.4", ls="--", lw=0.9, label="4: a consistent filter")
             ax.set_xlabel("t [s]")
-            ax.set_ylabel(SERIES[q])
+            ax.set_ylabel(labels.get(q, q))
             ax.set_title(f"{q}: mean, ±1 std over seeds", fontsize="medium")
             ax.legend(fontsize="small")
             ax.grid(alpha=0.3)

@@ -110,6 +110,7 @@ class FormationSeries:
     step, from the MPC's start on (W20 Ch. 5's tracking error over time)."""
 
     quantities = ("tracking_error",)
+    labels = {"tracking_error": "distance to formation slot, mean over UAVs [m]"}
 
     def __init__(self, rec: Recording):
         self.rec = rec
@@ -121,7 +122,7 @@ class FormationSeries:
         return {"tracking_error": (c.t[after], dist.mean(axis=1))}
 
 
-METRICS = (Metric("formation", _Formation, applies), Metric(SERIES, FormationSeries, applies))
+METRICS = (Metric("formation", _Formation, applies, lambda section: {}), Metric(SERIES, FormationSeries, applies))
 FIGURES = (Figure("formation_paths.png", _FIGURES + "plot_formation_paths", _planned),
            Figure("formation_xy.png", _FIGURES + "plot_formation_xy_time", _planned),
            Figure("slot_distances.png", _FIGURES + "plot_slot_distance", _planned),

@@ -47,7 +47,8 @@ class _ModelUse:
         return {"share": share, "switches": self.switches}
 
 
-METRICS = (*gaussian.METRICS, Metric("model_use", _ModelUse, _model_use_applies))
+METRICS = (*gaussian.METRICS, Metric("model_use", _ModelUse, _model_use_applies,
+                                     lambda section: {"model_switches": section.get("switches")}, ("model_switches",)))
 HEALTH = gaussian.HEALTH
 FIGURES = (*gaussian.FIGURES,
            Figure("model_estimates_path.png", _FIGURES + "plot_w20_path", recorded("own_estimate")),

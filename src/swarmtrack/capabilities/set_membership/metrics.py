@@ -209,6 +209,10 @@ class SetSeries:
     the fleet's total MPC solve time per plan (sum over the UAVs at the steps that show a new plan,
     :func:`plan_steps`), s (runs with ``solve_time`` and a controller ``period``: IB21 Fig. 11 right)."""
 
+    labels = {"phi_bar": "Φ̄, mean over UAVs of Φ_i [m²]", "phi_unexplored": "φ(X̄), mean over UAVs [m²]",
+              "phi_unidentified": "φ(Xᵁ), mean over UAVs [m²]", "phi_identified": "φ(X), mean over UAVs [m²]",
+              "solve_time": "fleet MPC solve time per plan [s]"}
+
     def __init__(self, rec: Recording):
         self.rec = rec
         self.quantities = ["phi_bar", *PHI_PARTS.values()]
@@ -228,7 +232,13 @@ class SetSeries:
         return out
 
 
-METRICS = (NETWORK, Metric("set_membership", _SetMembership, guaranteed), Metric(SERIES, SetSeries, guaranteed))
+def _set_scalars(section: dict) -> dict:
+    return {k: section.get(k) for k in ("phi_bar_final", "phi_bar_mean", "guarantee_violations", "empty_set_alarms",
+                                        "time_unexplored_cleared")}
+
+
+METRICS = (NETWORK, Metric("set_membership", _SetMembership, guaranteed, _set_scalars),
+           Metric(SERIES, SetSeries, guaranteed))
 FIGURES = (Figure("uncertainty.png", _FIGURES + "plot_uncertainty", guaranteed),
            Figure("uncertainty_per_uav.png", _FIGURES + "plot_uncertainty_per_uav", guaranteed),
            Figure("search_map.png", _FIGURES + "plot_search_map", guaranteed))

@@ -291,6 +291,7 @@ class GaussianSeries:
     ``[x, y, vx, vy]``, mean over the UAVs per step."""
 
     quantities = ("position_error", "nees")
+    labels = {"position_error": "position error, RMS over UAVs [m]", "nees": "NEES [x, y, vx, vy], mean over UAVs"}
 
     def __init__(self, rec: Recording):
         self.rec = rec
@@ -302,9 +303,24 @@ class GaussianSeries:
 
 
 #: The sections a Gaussian estimator's runs get (and the network's, when they gate or fuse late data).
-METRICS = (Metric("rmse", _Rmse, applies), Metric("spread", _Spread, applies),
-           Metric("reported_std", _ReportedStd, applies), Metric("consistency", _Consistency, applies),
-           Metric("mean_error", _MeanError, applies), NETWORK, Metric(SERIES, GaussianSeries, applies))
+def _rmse_scalars(rmse: dict) -> dict:
+    return {f"rmse_total_{c}": v for c, v in rmse.get("total", {}).items()}
+
+
+def _nees_scalar(consistency: dict) -> dict:
+    return {"nees": consistency.get("total", {}).get("nees")}
+
+
+def _mean_error_scalars(mean_error: dict) -> dict:
+    return {f"mean_error_{k}": mean_error.get(k) for k in ("all", "occluded")}
+
+
+METRICS = (Metric("rmse", _Rmse, applies, _rmse_scalars, tuple(f"rmse_total_{c}" for c in COMPONENTS)),
+           Metric("spread", _Spread, applies, lambda section: {}),
+           Metric("reported_std", _ReportedStd, applies, lambda section: {}),
+           Metric("consistency", _Consistency, applies, _nees_scalar, ("nees",)),
+           Metric("mean_error", _MeanError, applies, _mean_error_scalars, ("mean_error_all",)), NETWORK,
+           Metric(SERIES, GaussianSeries, applies))
 #: The health checks of a Gaussian estimator's runs.
 HEALTH = (Metric("warnings", Health, applies),)
 #: The figures of a run whose estimators follow one target (drawn by :mod:`.figures`).

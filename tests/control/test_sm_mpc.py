@@ -11,6 +11,7 @@ import shapely
 from swarmtrack.control import sm_mpc as sm
 from swarmtrack.estimation import polygons as pg
 from swarmtrack.estimation.base import TargetView
+from swarmtrack.estimation.set_backends import PolygonSets
 from swarmtrack.models import fixed_wing as fw
 from swarmtrack.network.messages import Inbox
 from swarmtrack.sensors.footprint import footprint_corners, footprint_polygons
@@ -193,7 +194,7 @@ def test_the_fast_path_without_pruning_gives_every_candidates_cost_up_to_one_con
 def test_the_controller_commands_yaw_accelerations_and_records_its_solve_time():
     region = shapely.box(0, 0, 400, 400).difference(shapely.box(100, 100, 200, 200))
     nav = np.stack([uav(50, 50, 0.0), uav(150, 60, 1.0), uav(300, 300, -2.0)])
-    mpc = sm.SetMembershipMPC(X0, regions=lambda view: np.array([region] * 3, dtype=object))
+    mpc = sm.SetMembershipMPC(PolygonSets(X0), regions=lambda view: np.array([region] * 3, dtype=object))
     beacons = mpc.broadcast(0.0, nav)
     assert beacons["state"].shape == (3, 7)
     links = np.array([[0, 1, 0], [1, 0, 0], [0, 0, 0]], dtype=bool)
@@ -211,7 +212,7 @@ def test_the_controller_commands_yaw_accelerations_and_records_its_solve_time():
 
 
 def test_the_controller_reads_the_region_from_the_view_by_default():
-    mpc = sm.SetMembershipMPC(X0)
+    mpc = sm.SetMembershipMPC(PolygonSets(X0))
     with pytest.raises(ValueError, match="region"):
         mpc.command(0.0, np.stack([uav(10, 10, 0.0)]), TargetView(np.zeros((1, 4))), None, 0.5)
 

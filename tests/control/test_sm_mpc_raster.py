@@ -19,6 +19,7 @@ from swarmtrack.control import sm_mpc_raster as smr
 from swarmtrack.control import sm_mpc_raster_members as members
 from swarmtrack.control import sm_mpc_raster_search as search
 from swarmtrack.estimation import raster as rs
+from swarmtrack.estimation.set_backends import PolygonSets, RasterSets
 
 X0 = shapely.box(0, 0, 400, 400)
 GRID = rs.Grid.over(X0, 1.0)
@@ -375,10 +376,11 @@ def test_a_controller_on_a_grid_loads_the_planner_kernels_before_its_first_plan(
     monkeypatch.setattr(smr, "plan_one_raster", lambda grid, region, *a, **k: planned.append(len(
         np.flatnonzero(rs.members(grid, region)))))
     grid = rs.Grid.over(shapely.box(0, 0, 400, 400), 1.0)
-    sm.SetMembershipMPC(shapely.box(0, 0, 400, 400), n_uavs=2, grid=grid)
+    area = shapely.box(0, 0, 400, 400)
+    sm.SetMembershipMPC(RasterSets(area, grid), n_uavs=2)
     assert len(planned) == 2 and min(planned) <= smr.LISTED_MEMBERS < max(planned)  # both distance paths
-    sm.SetMembershipMPC(shapely.box(0, 0, 400, 400), n_uavs=2, grid=grid)
-    sm.SetMembershipMPC(shapely.box(0, 0, 400, 400), n_uavs=2)  # polygons: nothing to load
+    sm.SetMembershipMPC(RasterSets(area, grid), n_uavs=2)
+    sm.SetMembershipMPC(PolygonSets(area), n_uavs=2)  # polygons: nothing to load
     assert len(planned) == 2  # once per process
 
 

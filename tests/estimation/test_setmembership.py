@@ -143,7 +143,7 @@ def test_the_estimator_updates_at_sharing_times_and_identification_frames_and_fu
     phi = est.sample()["phi_unexplored"]
     side = 2 * 100 * footprint.tan_half(np.pi / 4, "full")
     assert phi[0] == pytest.approx(phi[1]) and phi[0] < 200 * 200 - 2 * side * side + 1.0  # both footprints fused
-    region = est.view().region
+    region = est.view().region.sets
     assert shapely.covers(region[0], shapely.Point(55.0, 52.0))  # the object seen unidentified stays in X^A
     assert est.containing(obj, np.array([0])).all()
 

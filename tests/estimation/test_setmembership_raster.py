@@ -114,7 +114,7 @@ def test_the_raster_estimator_updates_and_fuses_over_links_like_the_polygon_one(
     assert (r["phi_unexplored"] <= p["phi_unexplored"] + edges * GRID.slack).all()  # and close
     assert r["phi"] == pytest.approx(p["phi"], rel=0.02)
     assert ests[1].containing(obj, np.array([0])).all()
-    assert rs.holds(GRID, ests[1].view().region[0], obj).all()  # the object seen unidentified stays in X^A
+    assert rs.holds(GRID, ests[1].view().region.sets[0], obj).all()  # the object seen unidentified stays in X^A
     assert np.allclose(ests[1].view().state[:, :2], ests[0].view().state[:, :2], atol=1.0)
 
 

@@ -89,6 +89,7 @@ from swarmtrack.control.sm_mpc_problem import (
 )
 from swarmtrack.estimation import polygons as pg
 from swarmtrack.estimation.base import Probe, TargetView
+from swarmtrack.estimation.set_backends import RasterSets, SetBackend
 from swarmtrack.models import fixed_wing as fw
 from swarmtrack.network.links import edge_list
 
@@ -430,11 +431,10 @@ def plan_all(nav, regions, area, s: SMMPCSettings = DEFAULT_SETTINGS, links=None
 
 
 def _view_region(view: TargetView) -> np.ndarray:
-    region = getattr(view, "region", None)
-    if region is None:
+    if view.region is None:
         raise ValueError("the set-membership MPC needs each UAV's aggregated set X^A: an estimator whose view() has "
-                         "`region` (N,), or a `regions` callable")
-    return region
+                         "`region` (Regions), or a `regions` callable")
+    return view.region.sets
 
 
 def _own_state(nav: np.ndarray) -> np.ndarray:
@@ -448,16 +448,18 @@ class SetMembershipMPC:
     (:func:`plan_all`) and commands the first input of its plan, held until the next plan, as the yaw acceleration
     (N, 1) rad/s².
 
-    ``area``: X0 (a shapely geometry). ``regions``: ``TargetView → (N,)`` X^A per UAV (default: ``view.region``,
-    what the set-membership estimator exposes); ``grid``: they are raster fields on it (``estimator.sets: raster``).
+    ``sets``: the run's set backend (:mod:`swarmtrack.estimation.set_backends`: X0 as polygons, or as raster fields
+    on a grid, the estimator's own). ``regions``: ``TargetView → (N,)`` X^A per UAV (default: ``view.region.sets``,
+    what the set-membership estimator exposes).
     ``start``: s before which every UAV flies straight.
     Broadcasts each UAV's state (its beacon for eq. 48); reads a neighbour's plan only over the links that carried
     its beacon."""
 
-    def __init__(self, area, settings: SMMPCSettings = DEFAULT_SETTINGS, *,
-                 regions: Callable[[TargetView], np.ndarray] | None = None, start: float = 0.0,
-                 n_uavs: int = 0, grid=None):
-        self.area, self.s, self.start, self.n, self.grid = area, settings, start, n_uavs, grid
+    def __init__(self, sets: SetBackend, settings: SMMPCSettings = DEFAULT_SETTINGS, *,
+                 regions: Callable[[TargetView], np.ndarray] | None = None, start: float = 0.0, n_uavs: int = 0):
+        self.area, self.s, self.start, self.n = sets.area, settings, start, n_uavs
+        self.grid = sets.grid if isinstance(sets, RasterSets) else None
+        grid = self.grid
         if grid is not None:  # the raster planner's kernels, loaded before any plan is timed
             from swarmtrack.control.sm_mpc_raster import warm
 

@@ -34,12 +34,22 @@ class TargetView:
     """What controllers read: each UAV's estimate of the target it follows, ``[x, y, vx, vy]`` (N, 4); where the
     estimate follows a motion model (W20 Ch. 4's T-test winner), that model's name per UAV (N,) and its states
     beyond ``[x, y, vx, vy]`` as ``[ax, ay, ω]`` (N, 3), zero where the model has none (what W20 eq. 5.23 propagates
-    the target with); a set-valued estimator's region per UAV (N,) (IB21 eq. 43's aggregated set, shapely)."""
+    the target with); a set-valued estimator's aggregated set per UAV (IB21 eq. 43, :class:`Regions`)."""
 
     state: np.ndarray
     model: np.ndarray | None = None
     motion: np.ndarray | None = None
-    region: np.ndarray | None = None
+    region: Regions | None = None
+
+
+@dataclass(frozen=True)
+class Regions:
+    """Each UAV's aggregated set X^A (IB21 eq. 43), ``sets`` (N,), as the run's set backend holds them
+    (:mod:`swarmtrack.estimation.set_backends`): shapely geometries (``grid`` None) or raster fields on ``grid``
+    (:class:`~swarmtrack.estimation.raster.Field`, :class:`~swarmtrack.estimation.raster.Grid`)."""
+
+    sets: np.ndarray
+    grid: object | None = None
 
 
 class Estimator(Protocol):

@@ -48,7 +48,7 @@ import numpy as np
 import shapely
 
 from swarmtrack.estimation import polygons as pg
-from swarmtrack.estimation.base import Probe, TargetView
+from swarmtrack.estimation.base import Probe, Regions, TargetView
 from swarmtrack.sensors.detections import IDENTIFIED_FALSE, UNLABELLED  # noqa: F401 (the labels it reads)
 
 
@@ -359,6 +359,9 @@ class SetMembershipEstimator:
     approximation (:func:`polygons.inner`).
     """
 
+    #: The raster grid of the sets (None: polygons; :mod:`swarmtrack.estimation.set_backends`).
+    grid = None
+
     def __init__(self, n_uavs: int, n_ids: int, area, *, speed: float, bound, period: float = 0.5):
         self.n, self.area, self.speed, self.bound, self.period = n_uavs, area, speed, tuple(bound), period
         self.beliefs = self._start(n_uavs, n_ids, area)
@@ -465,7 +468,7 @@ class SetMembershipEstimator:
         region = self._aggregated() if region is None else region
         state = np.full((self.n, 4), np.nan)
         state[:, :2] = self._centres(region)
-        return TargetView(state, region=region)
+        return TargetView(state, region=Regions(region, self.grid))
 
     def _centres(self, region: np.ndarray) -> np.ndarray:
         """(N, 2) the centroid of each aggregated set, NaN where empty."""

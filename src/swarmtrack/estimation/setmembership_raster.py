@@ -266,8 +266,8 @@ class RasterSetMembershipEstimator(SetMembershipEstimator):
     view) on raster sets of cells of side ``cell`` (m). The view's ``region`` is each UAV's X^A as a
     :class:`~swarmtrack.estimation.raster.Field` (what the set-membership MPC plans against on the same grid)."""
 
-    def __init__(self, n_uavs: int, n_ids: int, area, *, cell: float = 1.0, **kwargs):
-        self.grid = rs.Grid.over(area, cell)
+    def __init__(self, n_uavs: int, n_ids: int, area, *, grid: rs.Grid | None = None, cell: float = 1.0, **kwargs):
+        self.grid = rs.Grid.over(area, cell) if grid is None else grid
         super().__init__(n_uavs, n_ids, area, **kwargs)
 
     def _start(self, n_uavs: int, n_ids: int, area) -> RasterBeliefs:

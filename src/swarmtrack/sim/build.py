@@ -43,6 +43,14 @@ class Context:
     """``label_of(group, member)``: the label the sensor reports for ``group`` member ``member`` (0-based)."""
     command_width: int = 2
     """What a UAV's controller commands per UAV: 2 (a planar acceleration) or 1 (a fixed wing's yaw acceleration)."""
+    resources: dict = dataclasses.field(default_factory=dict, compare=False)
+
+    def shared(self, name: str, make: Callable[[], object]):
+        """What several components of one build share, made once (e.g. IB21's set backend, held the same way by
+        the estimator and the MPC)."""
+        if name not in self.resources:
+            self.resources[name] = make()
+        return self.resources[name]
 
 
 def occluders(s: SensorSpec) -> tuple[Occluder, ...]:

@@ -10,9 +10,8 @@ import shapely
 
 from swarmtrack.capabilities.set_membership.settings import FootprintSpec, SetMembershipSpec, SMMPCSpec
 from swarmtrack.control.sm_mpc import SetMembershipMPC, SMMPCSettings
-from swarmtrack.estimation import setmembership_raster as raster_sets
-from swarmtrack.estimation.raster import Grid
-from swarmtrack.estimation.setmembership import ReplayingSetMembershipEstimator, SetMembershipEstimator
+from swarmtrack.estimation.set_backends import PolygonSets, RasterSets, SetBackend
+from swarmtrack.estimation.setmembership import SetMembershipEstimator
 from swarmtrack.models.fixed_wing import FixedWingParams
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sensors import footprint
@@ -22,15 +21,18 @@ from swarmtrack.sim.streams import stream
 from swarmtrack.sim.world import World
 
 
+def set_backend(spec: SetMembershipSpec) -> SetBackend:
+    """How the run holds its sets (``estimator.sets``): polygons, or raster fields of side ``estimator.cell``."""
+    area = shapely.box(*spec.area)
+    return RasterSets.over(area, spec.cell) if spec.sets == "raster" else PolygonSets(area)
+
+
 def setmembership(spec: SetMembershipSpec, ctx: Context) -> SetMembershipEstimator:
-    """IB21's estimator; with network delays and ``delayed_data: refilter``, the one that replays (Sec. 4.5)."""
-    window = spec.replayed_periods(ctx.scenario)
-    kind, extra = (ReplayingSetMembershipEstimator, {"window": window}) if window else (SetMembershipEstimator, {})
-    if spec.sets == "raster":
-        kind = raster_sets.RasterReplayingSetMembershipEstimator if window else raster_sets.RasterSetMembershipEstimator
-        extra = {**extra, "cell": spec.cell}
-    return kind(ctx.n_uavs, ctx.scenario.targets.size(), shapely.box(*spec.area),
-                speed=spec.speed_bound(ctx.scenario), bound=tuple(spec.noise_bound), period=spec.period, **extra)
+    """IB21's estimator on the run's set backend; with network delays and ``delayed_data: refilter``, the one that
+    replays (Sec. 4.5)."""
+    sets = ctx.shared("sets", lambda: set_backend(spec))
+    return sets.estimator(ctx.n_uavs, ctx.scenario.targets.size(), window=spec.replayed_periods(ctx.scenario),
+                          speed=spec.speed_bound(ctx.scenario), bound=tuple(spec.noise_bound), period=spec.period)
 
 
 def sm_mpc(spec: SMMPCSpec, ctx: Context) -> SetMembershipMPC:
@@ -40,10 +42,8 @@ def sm_mpc(spec: SMMPCSpec, ctx: Context) -> SetMembershipMPC:
                              spec.distance, sc.estimator.speed_bound(sc), sc.network.r_comm,
                              FixedWingParams(f.speed, f.altitude, f.yaw_rate_max),
                              footprint.tan_half(sensor.opening, sensor.convention), sensor.orientation, spec.baseline)
-    area = shapely.box(*sc.estimator.area)
-    # the estimator's X^A are fields on this grid when its sets are rasters
-    grid = Grid.over(area, sc.estimator.cell) if sc.estimator.sets == "raster" else None
-    return SetMembershipMPC(area, settings, n_uavs=ctx.n_uavs, grid=grid)
+    sets = ctx.shared("sets", lambda: set_backend(sc.estimator))  # the estimator's: its X^A are what it plans on
+    return SetMembershipMPC(sets, settings, n_uavs=ctx.n_uavs)
 
 
 def footprint_sensor(s: FootprintSpec, scenario: Scenario) -> FootprintSensor:

@@ -56,8 +56,8 @@ def test_advance_equals_reference_steps(params, vehicle):
         else:
             point_cmd[:n] = cmd
         run = int(rng.integers(1, 6))
-        kernels.advance(quads, points, quad_cmd, point_cmd, quad_driver, point_driver, v_cmd, a_ff, wind, gains,
-                        tick, run, DT, consts, history, quad_obj, point_obj)
+        kernels.advance((quads, quad_cmd, quad_driver, quad_obj), (points, point_cmd, point_driver, point_obj),
+                        (v_cmd, a_ff, wind, gains), tick, run, DT, consts, history)
         for k in range(tick, tick + run):
             a = velocity_tracking_accel(v_cmd[k, 0], ref_q[0, 2:4], a_ff[k, 0], gains[0]) + wind[k, 0]
             accel = np.concatenate([a[None], cmd]) if quad else a[None]
@@ -81,9 +81,9 @@ def test_advance_refuses_ticks_beyond_the_sampled_profile():
     profile = np.zeros((10, 1, 2))
     none = np.zeros(0, dtype=np.int64)
     with pytest.raises(IndexError):
-        kernels.advance(quads, np.empty((0, 4)), np.zeros((1, 2)), np.zeros((0, 2)), np.zeros(1, dtype=np.int64),
-                        none, profile, profile, profile, np.ones(1), 8, 3, DT, kernels.params_tuple(QuadrotorParams()),
-                        hist, np.zeros(1, dtype=np.int64), none)
+        kernels.advance((quads, np.zeros((1, 2)), np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64)),
+                        (np.empty((0, 4)), np.zeros((0, 2)), none, none), (profile, profile, profile, np.ones(1)), 8,
+                        3, DT, kernels.params_tuple(QuadrotorParams()), hist)
 
 
 def _world(overrides, kernels_kind):

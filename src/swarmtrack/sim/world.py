@@ -186,9 +186,9 @@ class _KinematicPack:
         """One tick of every group (from tick ``tick``): a new state array, and new trig."""
         out = np.empty_like(self.state)
         angles = np.empty(2 * len(out))
-        if _kernels.kinematic_step(self.state, self.walker, self.v_dt, self.dt, self.rate_max, self.area, self.draws,
-                                   min(tick, len(self.draws) - 1), self.command, self.cos_h, self.sin_h, self.cos_g,
-                                   self.sin_g, self.group, out, angles, self._ok):
+        if _kernels.kinematic_step(self.state, (self.walker, self.v_dt, self.rate_max, self.area, self.group),
+                                   (self.cos_h, self.sin_h, self.cos_g, self.sin_g), self.draws,
+                                   min(tick, len(self.draws) - 1), self.command, self.dt, out, angles, self._ok):
             # a walker group with a member crossing a wall: its module's reference step
             for g in np.flatnonzero(~self._ok):
                 k, a, b = self._rows[g]
@@ -472,9 +472,10 @@ class World:
             return
         start = self._tick
         if self._physics:
-            self._kernel(self._quads, self._points, self._quad_cmd, self._point_cmd, self._quad_driver,
-                         self._point_driver, self._v_cmd, self._a_ff, self._wind, self._gains, self._tick, ticks,
-                         self.dt, self._kernel_consts, self._history, self._quad_obj, self._point_obj)
+            self._kernel((self._quads, self._quad_cmd, self._quad_driver, self._quad_obj),
+                         (self._points, self._point_cmd, self._point_driver, self._point_obj),
+                         (self._v_cmd, self._a_ff, self._wind, self._gains), self._tick, ticks, self.dt,
+                         self._kernel_consts, self._history)
         for tick in range(start, start + ticks):
             self._step_kinematic(tick)
         self._tick += ticks

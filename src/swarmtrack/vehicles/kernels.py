@@ -40,12 +40,14 @@ def _clip(v, lim):
 
 
 @numba.njit(cache=True, fastmath=False, inline="always")
-def _quadrotor_step(S, m, ax, ay, dt, g, a_max, a_max_g, kp, kd, alpha_phi, alpha_theta, f_max):
+def _quadrotor_step(S, m, ax, ay, dt, consts):
     """Vehicle ``m`` of the quadrotor states ``S`` (8, M) (one row per state component, the reference's internal
-    layout) advanced by ``dt`` under the command ``(ax, ay)``, in place.
+    layout) advanced by ``dt`` under the command ``(ax, ay)``, in place; ``consts`` the vehicle parameters of
+    :func:`params_tuple`.
 
     Exactly the operations of :func:`swarmtrack.vehicles.quadrotor.step` for one vehicle, no disturbance.
     """
+    g, a_max, a_max_g, kp, kd, alpha_phi, alpha_theta, f_max = consts
     phi = S[4, m]
     theta = S[5, m]
     phi_dot = S[6, m]
@@ -88,11 +90,13 @@ def _quadrotor_step(S, m, ax, ay, dt, g, a_max, a_max_g, kp, kd, alpha_phi, alph
 
 
 @numba.njit(cache=True, fastmath=False)
-def _advance(S, points, quad_cmd, point_cmd, quad_driver, point_driver, v_cmd, a_ff, wind, gains, tick, ticks, dt,
-             consts, history, quad_obj, point_obj):
-    g, a_max, a_max_g, kp, kd, alpha_phi, alpha_theta, f_max = consts
+def _advance(quads, points, profile, tick, ticks, dt, consts, history):
+    states, quad_cmd, quad_driver, quad_obj = quads
+    S = states.T  # (8, Mq), C-contiguous for the Fortran-ordered states the reference returns
+    P, point_cmd, point_driver, point_obj = points
+    v_cmd, a_ff, wind, gains = profile
     n_quad = S.shape[1]
-    n_point = points.shape[0]
+    n_point = P.shape[0]
     lag = history.shape[0]
     for k in range(tick, tick + ticks):
         for m in range(n_quad):
@@ -103,21 +107,21 @@ def _advance(S, points, quad_cmd, point_cmd, quad_driver, point_driver, v_cmd, a
             else:  # commanded onboard
                 ax = quad_cmd[m, 0]
                 ay = quad_cmd[m, 1]
-            _quadrotor_step(S, m, ax, ay, dt, g, a_max, a_max_g, kp, kd, alpha_phi, alpha_theta, f_max)
+            _quadrotor_step(S, m, ax, ay, dt, consts)
         for m in range(n_point):  # double integrators: velocity first, then position
             d = point_driver[m]
             if d >= 0:
-                ax = gains[d] * (v_cmd[k, d, 0] - points[m, 2]) + a_ff[k, d, 0] + wind[k, d, 0]
-                ay = gains[d] * (v_cmd[k, d, 1] - points[m, 3]) + a_ff[k, d, 1] + wind[k, d, 1]
+                ax = gains[d] * (v_cmd[k, d, 0] - P[m, 2]) + a_ff[k, d, 0] + wind[k, d, 0]
+                ay = gains[d] * (v_cmd[k, d, 1] - P[m, 3]) + a_ff[k, d, 1] + wind[k, d, 1]
             else:
                 ax = point_cmd[m, 0]
                 ay = point_cmd[m, 1]
-            vx = ax * dt + points[m, 2]
-            vy = ay * dt + points[m, 3]
-            points[m, 0] = vx * dt + points[m, 0]
-            points[m, 1] = vy * dt + points[m, 1]
-            points[m, 2] = vx
-            points[m, 3] = vy
+            vx = ax * dt + P[m, 2]
+            vy = ay * dt + P[m, 3]
+            P[m, 0] = vx * dt + P[m, 0]
+            P[m, 1] = vy * dt + P[m, 1]
+            P[m, 2] = vx
+            P[m, 3] = vy
         # Ring buffer of past positions: slot (k + 1) mod lag holds the truth after this tick.
         if lag > 1:
             slot = (k + 1) % lag
@@ -125,8 +129,8 @@ def _advance(S, points, quad_cmd, point_cmd, quad_driver, point_driver, v_cmd, a
                 history[slot, quad_obj[m], 0] = S[0, m]
                 history[slot, quad_obj[m], 1] = S[1, m]
             for m in range(n_point):
-                history[slot, point_obj[m], 0] = points[m, 0]
-                history[slot, point_obj[m], 1] = points[m, 1]
+                history[slot, point_obj[m], 0] = P[m, 0]
+                history[slot, point_obj[m], 1] = P[m, 1]
 
 
 def params_tuple(params: QuadrotorParams) -> tuple[float, ...]:
@@ -137,24 +141,25 @@ def params_tuple(params: QuadrotorParams) -> tuple[float, ...]:
             float(f_max))
 
 
-def advance(quads, points, quad_cmd, point_cmd, quad_driver, point_driver, v_cmd, a_ff, wind, gains,
-            tick: int, ticks: int, dt: float, consts: tuple[float, ...], history, quad_obj, point_obj) -> None:
+def advance(quads: tuple, points: tuple, profile: tuple, tick: int, ticks: int, dt: float, consts: tuple[float, ...],
+            history) -> None:
     """Advance every vehicle by ``ticks`` physics ticks from tick ``tick``, **in place**.
 
-    ``quads`` (Mq, 8) quadrotor and ``points`` (Mp, 4) double-integrator states ``[x, y, vx, vy]``. A vehicle is
-    either *driven* (``quad_driver[m]``/``point_driver[m]`` = d ≥ 0: its autopilot flies the velocity profile
-    ``v_cmd[:, d]`` with feed-forward ``a_ff[:, d]``, gain ``gains[d]`` and gust ``wind[:, d]``, all (K, D, 2)
-    sampled at every tick) or *commanded* (−1: the acceleration ``quad_cmd[m]``/``point_cmd[m]`` is held over
-    the ticks). ``consts`` from :func:`params_tuple`. ``history`` (L, M, 2) is the ring buffer of past positions
-    of the world's M objects (``quad_obj``, ``point_obj`` give each vehicle's object index): after tick ``k``
-    (global) slot ``(k + 1) mod L`` holds the positions; with L = 1 it is not kept. The kernel works on
-    ``quads.T`` (8, Mq), the layout :func:`~swarmtrack.vehicles.quadrotor.step` computes in: with the
-    Fortran-ordered states it returns (which the world keeps) that is C-contiguous.
+    ``quads`` = ``(states, cmd, driver, obj)`` the quadrotors: states (Mq, 8), held commands (Mq, 2), drivers (Mq,)
+    and object indices (Mq,); ``points`` = ``(states, cmd, driver, obj)`` the double integrators, states (Mp, 4)
+    ``[x, y, vx, vy]``. A vehicle is either *driven* (``driver[m]`` = d ≥ 0: its autopilot flies the velocity
+    profile ``v_cmd[:, d]`` with feed-forward ``a_ff[:, d]``, gain ``gains[d]`` and gust ``wind[:, d]``, the
+    ``profile`` = ``(v_cmd, a_ff, wind, gains)``, the first three (K, D, 2) sampled at every tick) or *commanded*
+    (−1: the acceleration ``cmd[m]`` is held over the ticks). ``consts`` from :func:`params_tuple`. ``history``
+    (L, M, 2) is the ring buffer of past positions of the world's M objects (``obj`` gives each vehicle's object
+    index): after tick ``k`` (global) slot ``(k + 1) mod L`` holds the positions; with L = 1 it is not kept. The
+    kernel works on ``states.T`` (8, Mq), the layout :func:`~swarmtrack.vehicles.quadrotor.step` computes in: with
+    the Fortran-ordered states it returns (which the world keeps) that is C-contiguous.
     """
+    v_cmd, a_ff, wind, _ = profile
     if tick < 0 or tick + ticks > min(len(v_cmd), len(a_ff), len(wind)):
         raise IndexError(f"ticks {tick}..{tick + ticks - 1} are beyond the sampled profile ({len(v_cmd)} ticks)")
-    _advance(quads.T, points, quad_cmd, point_cmd, quad_driver, point_driver, v_cmd, a_ff, wind, gains, int(tick),
-             int(ticks), float(dt), consts, history, quad_obj, point_obj)
+    _advance(quads, points, profile, int(tick), int(ticks), float(dt), consts, history)
 
 
 
@@ -165,19 +170,21 @@ PACK_WIDTH = 7
 
 
 @numba.njit(cache=True)
-def kinematic_step(S, walker, v_dt, dt, rate_max, area, draws, tick, command, cos_h, sin_h, cos_g, sin_g, group,
-                   out, angles, ok):  # pragma: no cover (compiled)
+def kinematic_step(S, members, trig, draws, tick, command, dt, out, angles, ok):  # pragma: no cover (compiled)
     """One tick of every member of a packed set of kinematic groups (rows of ``S`` (K, 7), in place into ``out``).
 
-    Row i is a walker (``walker[i]``; its five columns, :func:`swarmtrack.vehicles.ground_walker.step`'s rows inside
-    the ``area[i]`` box, input ``draws[tick, i]``) or a fixed wing (its seven columns,
-    :func:`swarmtrack.models.fixed_wing.step`'s rows, input ``command[i]``, yaw rate saturated at ``rate_max[i]``), with
-    ``v_dt[i] = dt·speed``. ``cos_h``, ``sin_h`` are numpy's cosine and sine of each row's heading, ``cos_g``, ``sin_g``
-    of a fixed wing's γ. The products and sums are the per-group compiled passes' (``_step_inside``,
-    ``_step_kernel``), so the numbers are the same. A walker that would cross a wall clears ``ok[group[i]]``: its
-    group is stepped by the reference (its rows here are then not meaningful). ``angles`` (2K,) receives each new
-    row's heading, then its γ (a walker's yaw rate, not used), for the next tick's trig. Returns the number of
-    groups stepped by the reference."""
+    ``members`` = ``(walker, v_dt, rate_max, area, group)`` the rows' constants; ``trig`` = ``(cos_h, sin_h, cos_g,
+    sin_g)``. Row i is a walker (``walker[i]``; its five columns,
+    :func:`swarmtrack.vehicles.ground_walker.step`'s rows inside the ``area[i]`` box, input ``draws[tick, i]``) or a
+    fixed wing (its seven columns, :func:`swarmtrack.models.fixed_wing.step`'s rows, input ``command[i]``, yaw rate
+    saturated at ``rate_max[i]``), with ``v_dt[i] = dt·speed``. ``cos_h``, ``sin_h`` are numpy's cosine and sine of
+    each row's heading, ``cos_g``, ``sin_g`` of a fixed wing's γ. The products and sums are the per-group compiled
+    passes' (``_step_inside``, ``_step_kernel``), so the numbers are the same. A walker that would cross a wall
+    clears ``ok[group[i]]``: its group is stepped by the reference (its rows here are then not meaningful).
+    ``angles`` (2K,) receives each new row's heading, then its γ (a walker's yaw rate, not used), for the next
+    tick's trig. Returns the number of groups stepped by the reference."""
+    walker, v_dt, rate_max, area, group = members
+    cos_h, sin_h, cos_g, sin_g = trig
     ok[:] = True
     k_total = len(S)
     for i in range(k_total):

@@ -231,10 +231,11 @@ def test_the_compiled_sense_equals_the_reference_bit_for_bit(confusion, orientat
         u = rng.random((n, m, 2))
         args = (uav_xyz, psi, obj_xy, obj_heading, is_decoy, beta, gamma, u, params)
         ref, src_ref = fp.sense(*args, compiled=False)
-        # the compiled pass, deriving the objects' constants itself or given them (and the UAVs' cos ψ, sin ψ) once
+        # the compiled pass, deriving the objects' constants itself (sense) or given them and the UAVs' cos ψ, sin ψ
         constants = fp.ObjectConstants.of(params, is_decoy, beta, gamma)
         for fast, src_fast in (fp.sense(*args),
-                               fp.sense(*args, constants=constants, uav_trig=(np.cos(psi), np.sin(psi)))):
+                               fp.sense_frame(uav_xyz, psi, obj_xy, obj_heading, u, params, constants,
+                                              uav_trig=(np.cos(psi), np.sin(psi)))):
             np.testing.assert_array_equal(fast.footprint, ref.footprint)
             np.testing.assert_array_equal(src_fast, src_ref)
             np.testing.assert_array_equal(fast.owner, ref.owner)

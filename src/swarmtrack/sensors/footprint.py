@@ -44,6 +44,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from fractions import Fraction
+from functools import cached_property
 
 import numba
 import numpy as np
@@ -268,7 +269,7 @@ class ObjectConstants:
     object's index among its kind and ``confused_as`` (m,) the target each decoy is confused with (``J``, eq. 4;
     ``IDENTIFIED_FALSE`` for targets); ``negate``: ``q^f`` is eq. 53 negated (``"outside_inner_cone"``). Of the sensor
     itself, which does not change either: ``tan_half`` (:attr:`FootprintParams.tan_half`) and the noise half-widths
-    ``bound_x``, ``bound_y``."""
+    ``bound_x``, ``bound_y``. :attr:`cones` groups what the compiled pass reads of the cones."""
 
     is_decoy: np.ndarray
     beta: np.ndarray
@@ -302,11 +303,17 @@ class ObjectConstants:
                    params.confusion == "outside_inner_cone", params.tan_half,
                    *np.asarray(params.noise_bound, dtype=float).tolist())
 
+    @cached_property
+    def cones(self) -> tuple:
+        """The objects' cone constants as the compiled pass takes them (:func:`_sense_kernel`): ``(sin_gamma,
+        cos_gamma, cos_g, cos_inner, is_decoy, idx, confused_as, negate)``, built once."""
+        return (self.sin_gamma, self.cos_gamma, self.cos_g, self.cos_inner, self.is_decoy, self.idx, self.confused_as,
+                self.negate)
+
 
 def sense(uav_xyz, uav_heading, obj_xy, obj_heading, is_decoy, beta, gamma, noise_u,
           params: FootprintParams = FootprintParams(), J=None, stamped=None,
-          compiled: bool = True, constants: ObjectConstants | None = None,
-          uav_trig: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[Detections, np.ndarray]:
+          compiled: bool = True) -> tuple[Detections, np.ndarray]:
     """One frame of the footprint sensor of every UAV (truth side; IB21 Sec. 3.2, Sec. 6, eqs. 3-8, 50-54).
 
     ``uav_xyz`` (n, 3) and ``uav_heading`` (n,) are the UAVs' true poses (they place the footprint and the cone
@@ -321,19 +328,17 @@ def sense(uav_xyz, uav_heading, obj_xy, obj_heading, is_decoy, beta, gamma, nois
     :class:`~swarmtrack.sensors.detections.Detections` (UAV-major, objects in order) and, for the world only, the
     object index each came from.
 
-    A caller that senses the same objects every frame passes their ``constants`` (:class:`ObjectConstants`, built
-    once from ``is_decoy``, ``beta``, ``gamma``, ``params`` and ``J``, which the compiled pass then does not read)
-    and may pass ``uav_trig``, the ``(cos, sin)`` of ``uav_heading`` it already has: the compiled pass then
-    recomputes neither.
+    A caller that senses the same objects every frame calls :func:`sense_frame` with their constants
+    (:class:`ObjectConstants`, built once from ``is_decoy``, ``beta``, ``gamma``, ``params`` and ``J``) and, if it
+    has them, the ``(cos, sin)`` of ``uav_heading``: the compiled pass then recomputes neither.
     """
     uav_xyz = np.asarray(uav_xyz, dtype=float).reshape(-1, 3)
     obj_xy = np.asarray(obj_xy, dtype=float).reshape(-1, 2)
     n, m = len(uav_xyz), len(obj_xy)
     noise_u = np.asarray(noise_u, dtype=float).reshape(n, m, 2)
     if compiled and m:
-        if constants is None:
-            constants = ObjectConstants.of(params, is_decoy, beta, gamma, J)
-        return sense_frame(uav_xyz, uav_heading, obj_xy, obj_heading, noise_u, params, constants, stamped, uav_trig)
+        return sense_frame(uav_xyz, uav_heading, obj_xy, obj_heading, noise_u, params,
+                           ObjectConstants.of(params, is_decoy, beta, gamma, J), stamped)
     corners = footprint_corners(uav_xyz[:, :2], uav_heading, uav_xyz[:, 2], params.tan_half, params.orientation)
     seen = inside(corners, obj_xy)  # (n, m)
     obj_xyz = np.column_stack([obj_xy, np.zeros(m)])
@@ -349,8 +354,9 @@ def sense_frame(uav_xyz: np.ndarray, uav_heading, obj_xy: np.ndarray, obj_headin
                 params: FootprintParams, constants: ObjectConstants, stamped=None,
                 uav_trig: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[Detections, np.ndarray]:
     """:func:`sense`'s compiled pass for a caller whose arrays are already what it converts them to (``uav_xyz``
-    (n, 3), ``obj_xy`` (m, 2) with m > 0, ``noise_u`` (n, m, 2), all float) and that holds the objects' ``constants``:
-    the same detections and sources, without the conversions (the world's sensor, every frame)."""
+    (n, 3), ``obj_xy`` (m, 2) with m > 0, ``noise_u`` (n, m, 2), all float) and that holds the objects' ``constants``
+    (and may pass ``uav_trig``, the ``(cos, sin)`` of ``uav_heading``): the same detections and sources, without the
+    conversions (the world's sensor, every frame)."""
     corners, owner, source, z, label = _frame_compiled(uav_xyz, uav_heading, obj_xy, obj_heading, noise_u, params,
                                                        constants, uav_trig)
     pos = uav_xyz[:, :2] if stamped is None else np.asarray(stamped, dtype=float).reshape(len(uav_xyz), 2)
@@ -400,8 +406,8 @@ def _frame_compiled(uav_xyz, uav_heading, obj_xy, obj_heading, noise_u, params, 
     c = constants
     az = np.asarray(obj_heading, dtype=float) + c.beta  # the cone axes' azimuths (eqs. 51, 54)
     done, corners, owner, source, z, label = _frame_kernel(
-        np.ascontiguousarray(uav_xyz), *uav_trig, c.tan_half, obj, np.cos(az), np.sin(az), c.sin_gamma, c.cos_gamma,
-        c.cos_g, c.cos_inner, c.is_decoy, c.idx, c.confused_as, c.negate, noise, c.bound_x, c.bound_y)
+        (np.ascontiguousarray(uav_xyz), *uav_trig), c.tan_half, (obj, np.cos(az), np.sin(az)), c.cones, noise,
+        c.bound_x, c.bound_y)
     if done:
         return corners, owner, source, z, label
     corners, seen, labels = _sense_compiled(uav_xyz, uav_heading, obj_xy, obj_heading, params, constants, uav_trig)
@@ -422,16 +428,14 @@ def _uav_trig(uav_heading, n: int, orientation: str, uav_trig=None) -> tuple[np.
 
 
 @numba.njit(cache=True)
-def _frame_kernel(uav, cos_psi, sin_psi, tan_half, obj, cos_az, sin_az, sin_gamma, cos_gamma, cos_g, cos_inner,
-                  is_decoy, idx, confused_as, negate, noise, bound_x, bound_y):  # pragma: no cover (compiled)
+def _frame_kernel(uavs, tan_half, objects, cones, noise, bound_x, bound_y):  # pragma: no cover (compiled)
     """:func:`_sense_kernel` then, when no orientation test was within rounding of an edge, :func:`_detections_kernel`:
     ``(True, corners, owner, source, z, label)``; else ``(False, corners, …)`` with empty detections."""
-    corners, seen, unsure, labels = _sense_kernel(uav, cos_psi, sin_psi, tan_half, obj, cos_az, sin_az, sin_gamma,
-                                                  cos_gamma, cos_g, cos_inner, is_decoy, idx, confused_as, negate)
+    corners, seen, unsure, labels = _sense_kernel(uavs, tan_half, objects, cones)
     if unsure.any():
         none = np.empty(0, dtype=np.int64)
         return False, corners, none, none, np.empty((0, 2)), none
-    owner, source, z, label = _detections_kernel(seen, labels, obj, noise, bound_x, bound_y)
+    owner, source, z, label = _detections_kernel(seen, labels, objects[0], noise, bound_x, bound_y)
     return True, corners, owner, source, z, label
 
 
@@ -444,9 +448,8 @@ def _sense_compiled(uav_xyz, uav_heading, obj_xy, obj_heading, params, constants
     uav_trig = _uav_trig(uav_heading, len(uav_xyz), params.orientation, uav_trig)
     c = constants
     az = np.asarray(obj_heading, dtype=float) + c.beta  # the cone axes' azimuths (eqs. 51, 54)
-    corners, seen, unsure, labels = _sense_kernel(
-        np.ascontiguousarray(uav_xyz), *uav_trig, params.tan_half, np.ascontiguousarray(obj_xy), np.cos(az),
-        np.sin(az), c.sin_gamma, c.cos_gamma, c.cos_g, c.cos_inner, c.is_decoy, c.idx, c.confused_as, c.negate)
+    corners, seen, unsure, labels = _sense_kernel((np.ascontiguousarray(uav_xyz), *uav_trig), params.tan_half,
+                                                  (np.ascontiguousarray(obj_xy), np.cos(az), np.sin(az)), c.cones)
     if unsure.any():  # the footprints with a test within rounding of an edge: decided exactly, as the reference does
         rows = np.flatnonzero(unsure)
         seen[rows] = inside(corners[rows], obj_xy)
@@ -454,8 +457,14 @@ def _sense_compiled(uav_xyz, uav_heading, obj_xy, obj_heading, params, constants
 
 
 @numba.njit(cache=True)
-def _sense_kernel(uav, cos_psi, sin_psi, tan_half, obj, cos_az, sin_az, sin_gamma, cos_gamma, cos_g, cos_inner,
-                  is_decoy, idx, confused_as, negate):  # pragma: no cover (compiled)
+def _sense_kernel(uavs, tan_half, objects, cones):  # pragma: no cover (compiled)
+    """The footprints ``corners`` (n, 4, 2), ``seen`` (n, m) by :func:`inside`'s float test, ``unsure`` (n,) the
+    footprints with a test within rounding of an edge, and the ``labels`` (n, m) of :func:`identify`. ``uavs`` =
+    ``(uav (n, 3), cos ψ, sin ψ)`` the UAVs' poses, ``objects`` = ``(obj (m, 2), cos az, sin az)`` the objects'
+    positions and cone azimuths (eqs. 51, 54), ``cones`` = :attr:`ObjectConstants.cones`."""
+    uav, cos_psi, sin_psi = uavs
+    obj, cos_az, sin_az = objects
+    sin_gamma, cos_gamma, cos_g, cos_inner, is_decoy, idx, confused_as, negate = cones
     n, m = len(uav), len(obj)
     signs = ((-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0))
     axis = np.empty((m, 3))  # cone_axis, and its norm as np.linalg.norm sums it

@@ -215,8 +215,7 @@ class FootprintSensor(Sensor):
         if not len(objects):  # nothing to detect: sense's reference pass (the compiled one needs objects)
             return footprint.sense(uavs.state[:, fixed_wing.X:fixed_wing.Z + 1], uavs.state[:, fixed_wing.PSI],
                                    objects[:, :2], objects[:, ground_walker.HEADING], self.is_decoy, self.beta,
-                                   self.gamma, scene.uniforms(), self.params, self.J, constants=self.constants,
-                                   uav_trig=uavs.trig())
+                                   self.gamma, scene.uniforms(), self.params, self.J)
         return footprint.sense_frame(uavs.state[:, fixed_wing.X:fixed_wing.Z + 1], uavs.state[:, fixed_wing.PSI],
                                      objects[:, :2], objects[:, ground_walker.HEADING], scene.uniforms(),
                                      self.params, self.constants, uav_trig=uavs.trig())

@@ -44,20 +44,25 @@ _POSTERIOR = 2
 _NAN = math.nan
 _INF = math.inf
 _POSITION_COV_FLOOR = float(MIN_RANGE)  # the floor position_covariance applies on top of min_range
+_NAN10 = (_NAN,) * 10  # a failed symmetric 4 x 4 (its lower triangle)
+_NAN4 = (_NAN,) * 4
 
 
 # Inlined at numba-IR level: ~15 % faster cycles than leaving the call to LLVM.
 @numba.njit(cache=True, fastmath=False, inline="always")
-def _chol_inv_solve4(a00, a10, a11, a20, a21, a22, a30, a31, a32, a33, b0, b1, b2, b3):
-    """Inverse and ``A⁻¹ b`` of a symmetric 4 x 4 ``A`` (lower triangle given) by Cholesky ``A = L Lᵀ``.
+def _chol_inv_solve4(a, b):
+    """Inverse and ``A⁻¹ b`` of a symmetric 4 x 4 ``A`` by Cholesky ``A = L Lᵀ``: ``a`` its lower triangle row by
+    row, ``(a00, a10, a11, a20, a21, a22, a30, a31, a32, a33)``, ``b`` = ``(b0, b1, b2, b3)``.
 
-    Returns ``(ok, v00, v10, v11, v20, v21, v22, v30, v31, v32, v33, s0, s1, s2, s3)`` with ``v`` the lower
-    triangle of ``A⁻¹ = L⁻ᵀ L⁻¹`` and ``s = A⁻¹ b`` (forward then back substitution). ``ok`` is False, and
-    everything else NaN, when a pivot is ≤ 0 or non-finite or the results are not finite.
+    Returns ``(ok, v, s)`` with ``v`` the lower triangle of ``A⁻¹ = L⁻ᵀ L⁻¹`` in the same order and ``s = A⁻¹ b``
+    (forward then back substitution), tuples of scalars (registers, as the unrolled code needs). ``ok`` is False,
+    and everything else NaN, when a pivot is ≤ 0 or non-finite or the results are not finite.
     """
+    a00, a10, a11, a20, a21, a22, a30, a31, a32, a33 = a
+    b0, b1, b2, b3 = b
     d = a00
     if not (d > 0.0 and d < _INF):
-        return (False, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN)
+        return False, _NAN10, _NAN4
     l00 = math.sqrt(d)
     r0 = 1.0 / l00
     l10 = a10 * r0
@@ -65,20 +70,20 @@ def _chol_inv_solve4(a00, a10, a11, a20, a21, a22, a30, a31, a32, a33, b0, b1, b
     l30 = a30 * r0
     d = a11 - l10 * l10
     if not (d > 0.0 and d < _INF):
-        return (False, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN)
+        return False, _NAN10, _NAN4
     l11 = math.sqrt(d)
     r1 = 1.0 / l11
     l21 = (a21 - l20 * l10) * r1
     l31 = (a31 - l30 * l10) * r1
     d = a22 - l20 * l20 - l21 * l21
     if not (d > 0.0 and d < _INF):
-        return (False, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN)
+        return False, _NAN10, _NAN4
     l22 = math.sqrt(d)
     r2 = 1.0 / l22
     l32 = (a32 - l30 * l20 - l31 * l21) * r2
     d = a33 - l30 * l30 - l31 * l31 - l32 * l32
     if not (d > 0.0 and d < _INF):
-        return (False, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN)
+        return False, _NAN10, _NAN4
     l33 = math.sqrt(d)
     r3 = 1.0 / l33
 
@@ -112,12 +117,14 @@ def _chol_inv_solve4(a00, a10, a11, a20, a21, a22, a30, a31, a32, a33, b0, b1, b
     s0 = (w0 - l10 * s1 - l20 * s2 - l30 * s3) * r0
 
     if not math.isfinite(v00 + v11 + v22 + v33 + s0 + s1 + s2 + s3):
-        return (False, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN)
-    return (True, v00, v10, v11, v20, v21, v22, v30, v31, v32, v33, s0, s1, s2, s3)
+        return False, _NAN10, _NAN4
+    return True, (v00, v10, v11, v20, v21, v22, v30, v31, v32, v33), (s0, s1, s2, s3)
 
 
 @numba.njit(cache=True, fastmath=False)
-def _store_sym4(M, k, v00, v10, v11, v20, v21, v22, v30, v31, v32, v33):
+def _store_sym4(M, k, v):
+    """``M[k]`` = the symmetric 4 x 4 of lower triangle ``v`` (row by row, as :func:`_chol_inv_solve4` gives it)."""
+    v00, v10, v11, v20, v21, v22, v30, v31, v32, v33 = v
     M[k, 0, 0] = v00
     M[k, 1, 0] = v10
     M[k, 0, 1] = v10
@@ -137,7 +144,8 @@ def _store_sym4(M, k, v00, v10, v11, v20, v21, v22, v30, v31, v32, v33):
 
 
 @numba.njit(cache=True, fastmath=False)
-def _store4(v, k, s0, s1, s2, s3):
+def _store4(v, k, s):
+    s0, s1, s2, s3 = s
     v[k, 0] = s0
     v[k, 1] = s1
     v[k, 2] = s2
@@ -156,26 +164,25 @@ def cv_recover(Y, y):
     P = np.empty((n, 4, 4))
     flags = np.zeros(n, np.uint8)
     for k in range(n):
-        res = _chol_inv_solve4(
-            Y[k, 0, 0],
-            0.5 * (Y[k, 1, 0] + Y[k, 0, 1]),
-            Y[k, 1, 1],
-            0.5 * (Y[k, 2, 0] + Y[k, 0, 2]),
-            0.5 * (Y[k, 2, 1] + Y[k, 1, 2]),
-            Y[k, 2, 2],
-            0.5 * (Y[k, 3, 0] + Y[k, 0, 3]),
-            0.5 * (Y[k, 3, 1] + Y[k, 1, 3]),
-            0.5 * (Y[k, 3, 2] + Y[k, 2, 3]),
-            Y[k, 3, 3],
-            y[k, 0],
-            y[k, 1],
-            y[k, 2],
-            y[k, 3],
+        ok, v, s = _chol_inv_solve4(
+            (
+                Y[k, 0, 0],
+                0.5 * (Y[k, 1, 0] + Y[k, 0, 1]),
+                Y[k, 1, 1],
+                0.5 * (Y[k, 2, 0] + Y[k, 0, 2]),
+                0.5 * (Y[k, 2, 1] + Y[k, 1, 2]),
+                Y[k, 2, 2],
+                0.5 * (Y[k, 3, 0] + Y[k, 0, 3]),
+                0.5 * (Y[k, 3, 1] + Y[k, 1, 3]),
+                0.5 * (Y[k, 3, 2] + Y[k, 2, 3]),
+                Y[k, 3, 3],
+            ),
+            (y[k, 0], y[k, 1], y[k, 2], y[k, 3]),
         )
-        if not res[0]:
+        if not ok:
             flags[k] = _POSTERIOR
-        _store_sym4(P, k, res[1], res[2], res[3], res[4], res[5], res[6], res[7], res[8], res[9], res[10])
-        _store4(x, k, res[11], res[12], res[13], res[14])
+        _store_sym4(P, k, v)
+        _store4(x, k, s)
     return x, P, flags
 
 
@@ -238,52 +245,50 @@ def cv_cycle(Y, y, x, P, dt, q, I, i):
         g12 = p21 + T * p32
         g11 = p11 + T * p31
         g13 = p31 + T * p33
-        res = _chol_inv_solve4(
-            g00 + T * g02 + q0,
-            g10 + T * g12,
-            g11 + T * g13 + q1,
-            p20 + T * p22,
-            p21 + T * p32,
-            p22 + q2,
-            p30 + T * p32,
-            p31 + T * p33,
-            p32,
-            p33 + q3,
-            xp0,
-            xp1,
-            xp2,
-            xp3,
+        ok, v, s = _chol_inv_solve4(
+            (
+                g00 + T * g02 + q0,
+                g10 + T * g12,
+                g11 + T * g13 + q1,
+                p20 + T * p22,
+                p21 + T * p32,
+                p22 + q2,
+                p30 + T * p32,
+                p31 + T * p33,
+                p32,
+                p33 + q3,
+            ),
+            (xp0, xp1, xp2, xp3),
         )
-        if not res[0]:
+        if not ok:
             flags[k] = _PREDICT
-            _store_sym4(Y, k, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN)
-            _store4(y, k, _NAN, _NAN, _NAN, _NAN)
-            _store_sym4(P, k, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN)
-            _store4(x, k, _NAN, _NAN, _NAN, _NAN)
+            _store_sym4(Y, k, _NAN10)
+            _store4(y, k, _NAN4)
+            _store_sym4(P, k, _NAN10)
+            _store4(x, k, _NAN4)
             continue
         # Update (eq. 7): add the fused position-block information.
-        Y00 = res[1] + I[k, 0, 0]
-        Y10 = res[2] + 0.5 * (I[k, 1, 0] + I[k, 0, 1])
-        Y11 = res[3] + I[k, 1, 1]
-        Y20 = res[4]
-        Y21 = res[5]
-        Y22 = res[6]
-        Y30 = res[7]
-        Y31 = res[8]
-        Y32 = res[9]
-        Y33 = res[10]
-        y0 = res[11] + i[k, 0]
-        y1 = res[12] + i[k, 1]
-        y2 = res[13]
-        y3 = res[14]
-        _store_sym4(Y, k, Y00, Y10, Y11, Y20, Y21, Y22, Y30, Y31, Y32, Y33)
-        _store4(y, k, y0, y1, y2, y3)
+        Yk = (
+            v[0] + I[k, 0, 0],
+            v[1] + 0.5 * (I[k, 1, 0] + I[k, 0, 1]),
+            v[2] + I[k, 1, 1],
+            v[3],
+            v[4],
+            v[5],
+            v[6],
+            v[7],
+            v[8],
+            v[9],
+        )
+        yk = (s[0] + i[k, 0], s[1] + i[k, 1], s[2], s[3])
+        _store_sym4(Y, k, Yk)
+        _store4(y, k, yk)
         # Recover x, P from the posterior information.
-        res = _chol_inv_solve4(Y00, Y10, Y11, Y20, Y21, Y22, Y30, Y31, Y32, Y33, y0, y1, y2, y3)
-        if not res[0]:
+        ok, v, s = _chol_inv_solve4(Yk, yk)
+        if not ok:
             flags[k] = _POSTERIOR
-        _store_sym4(P, k, res[1], res[2], res[3], res[4], res[5], res[6], res[7], res[8], res[9], res[10])
-        _store4(x, k, res[11], res[12], res[13], res[14])
+        _store_sym4(P, k, v)
+        _store4(x, k, s)
     return flags
 
 

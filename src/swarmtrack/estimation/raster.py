@@ -570,7 +570,7 @@ def remove(grid: Grid, f: Field, region) -> Field:
     a0, b0, a1, b1 = max(F.i0, fi0), max(F.j0, fj0), min(F.i1, fi1), min(F.j1, fj1)
     if a0 >= a1 or b0 >= b1:
         return f
-    args = (a0 - fi0, b0 - fj0, a1 - fi0, b1 - fj0, grid.y0 + (a0 + 0.5) * grid.cell,
+    args = ((a0 - fi0, b0 - fj0, a1 - fi0, b1 - fj0), grid.y0 + (a0 + 0.5) * grid.cell,
             grid.x0 + (b0 + 0.5) * grid.cell, grid.cell, F.corners, F.normals, DELTA, grid.slack + DELTA)
     if _raise(f.data, *args, False) == 0:
         return f
@@ -581,9 +581,12 @@ def remove(grid: Grid, f: Field, region) -> Field:
 
 
 @numba.njit(cache=True)
-def _raise(data, r0, c0, r1, c1, y0, x0, c, corners, normals, delta, member, write):  # pragma: no cover (compiled)
-    """``data[r0:r1, c0:c1] = max(data, depth − delta)`` (cell (r0, c0)'s centre at ``(x0, y0)``; ``write`` False:
-    only look). Returns 0 if nothing rises, 1 if something does, 2 if a member cell (``≤ member``) stops being one."""
+def _raise(data, cells, y0, x0, c, corners, normals, delta, member, write):  # pragma: no cover (compiled)
+    """``data[r0:r1, c0:c1] = max(data, depth − delta)`` on the ``cells`` = ``(r0, c0, r1, c1)`` of ``data``, cell
+    (r0, c0)'s centre at ``(x0, y0)``, cells of side ``c`` (``write`` False: only look); the depth in the convex region
+    of ``corners`` and inward ``normals`` (:func:`depth`, its readable reference). Returns 0 if nothing rises, 1 if
+    something does, 2 if a member cell (``≤ member``) stops being one."""
+    r0, c0, r1, c1 = cells
     out = 0
     for a in range(r1 - r0):
         y = y0 + a * c

@@ -375,11 +375,11 @@ def test_the_unrolled_fs_prediction_is_f_p_ft_plus_q_with_the_models_jacobian():
     for r, c, _ in kernels._FS_E:
         E[r, c] = J[r, c]
     np.testing.assert_array_equal(np.eye(12) + E, J)
-    args = {name: J[r, c] for r, c, name in kernels._FS_E}.values()  # in the generated signature's order
+    args = tuple({name: J[r, c] for r, c, name in kernels._FS_E}.values())  # in the generated values' order
     P = rng.standard_normal((1, 12, 12))  # not symmetric: only its symmetric part counts
     A = np.empty((12, 12))
     q = np.diag(model.Q).copy()
-    kernels._fs_predicted_covariance(P, 0, A, q, *args)
+    kernels._fs_predicted_covariance(P, 0, A, q, args)
     S = 0.5 * (P[0] + P[0].T)
     np.testing.assert_allclose(A, J @ S @ J.T + np.diag(q), rtol=1e-12, atol=1e-12)
     assert np.array_equal(A, A.T)

@@ -447,8 +447,9 @@ _FS_E = ((0, 2, "dt"), (1, 3, "dt"), (2, 6, "e26"), (2, 11, "e2T"), (3, 5, "e35"
 
 
 def _predicted_covariance_source(name: str, n: int, pattern) -> str:
-    """Source of ``name(P, k, A, q, *values)``: ``A = F S Fᵀ + diag(q)`` for ``S`` the symmetric part of ``P[k]``
-    and ``F = I + E``, ``E`` sparse with ``pattern`` ((row, column, value name), ...); every entry a local.
+    """Source of ``name(P, k, A, q, values)``: ``A = F S Fᵀ + diag(q)`` for ``S`` the symmetric part of ``P[k]``
+    and ``F = I + E``, ``E`` sparse with ``pattern`` ((row, column, value name), ...), ``values`` the tuple of the
+    named values in their order of first appearance; every entry a local.
 
     ``G = F S = S + E S`` on the rows E touches, then ``A = G Fᵀ = G + G Eᵀ`` on the lower triangle, mirrored
     (``A`` exactly symmetric). The same arithmetic as the looped form, about 8 % faster for FS.
@@ -464,7 +465,7 @@ def _predicted_covariance_source(name: str, n: int, pattern) -> str:
     def g(a, c):
         return f"g{a}_{c}" if a in rows else s(a, c)
 
-    lines = [f"def {name}(P, k, A, q, {', '.join(names)}):"]
+    lines = [f"def {name}(P, k, A, q, values):", f"    {', '.join(names)}, = values"]
     for a in range(n):
         lines.append("    " + "; ".join(f"s{a}_{c} = 0.5 * (P[k, {a}, {c}] + P[k, {c}, {a}])" for c in range(a + 1)))
     for a in sorted(rows):
@@ -492,7 +493,7 @@ del _source
 #: finite, i.e. every LDLᵀ pivot (the square of a Cholesky pivot) is > 0 and < inf. A NaN or inf anywhere in the
 #: lower triangle reaches a later pivot (as NaN or -inf), so the pivots alone carry the finiteness check.
 _positive_definite12 = numba.njit(fastmath=False)(_namespace.pop("_positive_definite12"))
-#: ``_fs_predicted_covariance(P, k, A, q, dt, e26, …)``: FS's ``P⁻ = F P Fᵀ + Q`` of agent ``k`` into ``A`` (12, 12).
+#: ``_fs_predicted_covariance(P, k, A, q, (dt, e26, …))``: FS's ``P⁻ = F P Fᵀ + Q`` of agent ``k`` into ``A`` (12, 12).
 _fs_predicted_covariance = numba.njit(fastmath=False, inline="always")(_namespace.pop("_fs_predicted_covariance"))
 
 
@@ -545,7 +546,7 @@ def fs_cycle(x, P, dt, q, I, i, mass, Ixx, Iyy, g, w_vz):
         e45 = -dt * thrust / mass * sphi * cth
         e46 = -dt * thrust / mass * cphi * sth
         e4T = dt / mass * cphi * cth
-        _fs_predicted_covariance(P, k, A, q, dt, e26, e2T, e35, e36, e3T, e45, e46, e4T, e79, e8X)
+        _fs_predicted_covariance(P, k, A, q, (dt, e26, e2T, e35, e36, e3T, e45, e46, e4T, e79, e8X))
         if not _positive_definite12(A):
             flags[k] = _PREDICT
             _fill_nan(x, P, k)

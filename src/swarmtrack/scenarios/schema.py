@@ -22,6 +22,14 @@ from pydantic import (
 )
 
 from swarmtrack import registry
+from swarmtrack.vehicles.profile import (
+    Phase,
+    VelocityProfile,
+    evasive_segments,
+    ground_robot_profile,
+    l23_profile,
+    l24_profile,
+)
 
 
 def _is_numeric(annotation) -> bool:
@@ -207,15 +215,6 @@ class MemberSpec(Strict):
     def velocity_profile(self, rng=None):
         """The :class:`~swarmtrack.vehicles.profile.VelocityProfile` this member flies; an evasive one draws its
         manoeuvres from ``rng`` (a ``numpy.random.Generator``)."""
-        from swarmtrack.vehicles.profile import (
-            Phase,
-            VelocityProfile,
-            evasive_segments,
-            ground_robot_profile,
-            l23_profile,
-            l24_profile,
-        )
-
         if self.profile == "l24":
             return l24_profile()
         if self.profile == "l23":

@@ -19,6 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from swarmtrack.sensors.detections import Detections
+
 #: W20 Sec. 3.2.2.2: the field of view is 1.2 m x 0.9 m at 1.5 m.
 W20_FOOTPRINT = (1.2, 0.9)
 W20_FOOTPRINT_RANGE = 1.5
@@ -85,8 +87,6 @@ def sense(objects: np.ndarray, uavs: np.ndarray, stamped: np.ndarray, height: fl
     it lies in the field of view and is not hidden; its label is its index (a marker the detector reads).
     Returns the :class:`~swarmtrack.sensors.detections.Detections` and the index of the object each came from.
     """
-    from swarmtrack.sensors.detections import Detections
-
     C = rotation(stamped, height, aim)  # (N, 3, 3)
     pc = camera_frame(objects[None, :, :], C[:, None], uavs[:, None, :], height)  # (N, M, 3), true pose
     seen = in_view(pc, tan_half)

@@ -20,6 +20,8 @@ import functools
 
 import numpy as np
 
+from swarmtrack.sensors.detections import Detections
+
 #: L24 Sec. 4 sensor noise: (σ_range [m], σ_bearing [rad]).
 L24_SIGMA: tuple[float, float] = (0.08, 0.02)
 #: L23 sensor noise: (σ_range [m], σ_bearing [rad]).
@@ -147,8 +149,6 @@ def sense(
     :class:`~swarmtrack.sensors.detections.Detections` (UAV-major order, stamped ``taken``) and, for the world
     only, the index of the object each came from. ``hidden`` (N, M): pairs an occluder hides (no detection).
     """
-    from swarmtrack.sensors.detections import Detections
-
     n, m = len(uavs), len(objects)
     z = measure(objects[None, :, :], uavs[:, None, :], sigma_range, sigma_bearing, noise=noise)  # (N, M, 2)
     owner, source = _grid(n, m)
@@ -170,8 +170,6 @@ def sense_worlds(objects: np.ndarray, uavs: np.ndarray, stamped: np.ndarray, sig
     ``objects`` (B, M, 2), ``uavs`` and ``stamped`` (B, N, 2), ``noise`` (B, N, M, 2), ``labels`` (B, M) each
     object's label. The detections of world b's UAV i are those of UAV ``b·N + i``; the pairs of each world are
     computed as :func:`sense` computes them alone. Returns the detections and each one's label."""
-    from swarmtrack.sensors.detections import Detections
-
     worlds, n, m = uavs.shape[0], uavs.shape[1], objects.shape[1]
     z = measure(objects[:, None, :, :], uavs[:, :, None, :], sigma_range, sigma_bearing, noise=noise)  # (B, N, M, 2)
     owner = np.repeat(np.arange(worlds * n), m)

@@ -24,6 +24,7 @@ from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sim.agent import OnboardStack
 from swarmtrack.sim.build import Context, Simulation, _group, build_component, profiles, run_meta, spawn_positions
 from swarmtrack.sim.clock import Clock
+from swarmtrack.sim.engine import step_loop
 from swarmtrack.sim.recorder import Chunk, Recorder, Recording
 from swarmtrack.sim.streams import stream
 from swarmtrack.sim.world import Group, World
@@ -108,8 +109,6 @@ def build_batch(scenarios: list[Scenario]) -> tuple[Simulation, list[dict]]:
 
 def simulate_batch(scenarios: list[Scenario], progress=None) -> list[Recording]:
     """Run several seeds of one scenario as one batch; one in-memory recording per world, in the given order."""
-    from swarmtrack.sim.engine import step_loop
-
     sim, metas = build_batch(scenarios)
     n = scenarios[0].swarm.n_uavs
     recording = step_loop(sim, Recorder(sim.meta, sim.world.n_objects, n * len(scenarios), sim.stack.probes),

@@ -15,7 +15,7 @@ ONBOARD_PACKAGES = ("swarmtrack.estimation", "swarmtrack.control", "swarmtrack.m
                     "swarmtrack.network")
 #: Onboard modules in packages that also hold truth-side ones.
 ONBOARD_MODULES = ("swarmtrack.sim.agent",)
-TRUTH = ("swarmtrack.sim.world", "swarmtrack.sim.build", "swarmtrack.sim.engine", "swarmtrack.sim.oracle",
+TRUTH = ("swarmtrack.sim.world", "swarmtrack.sim.sensors", "swarmtrack.sim.build", "swarmtrack.sim.engine", "swarmtrack.sim.oracle",
          "swarmtrack.sim.batch", "swarmtrack.vehicles", "swarmtrack.scenarios", "swarmtrack.analysis",
          "swarmtrack.capabilities")
 

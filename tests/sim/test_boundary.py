@@ -15,9 +15,9 @@ ONBOARD_PACKAGES = ("swarmtrack.estimation", "swarmtrack.control", "swarmtrack.m
                     "swarmtrack.network")
 #: Onboard modules in packages that also hold truth-side ones.
 ONBOARD_MODULES = ("swarmtrack.sim.agent",)
-TRUTH = ("swarmtrack.sim.world", "swarmtrack.sim.sensors", "swarmtrack.sim.build", "swarmtrack.sim.engine", "swarmtrack.sim.oracle",
-         "swarmtrack.sim.batch", "swarmtrack.vehicles", "swarmtrack.scenarios", "swarmtrack.analysis",
-         "swarmtrack.capabilities")
+TRUTH = ("swarmtrack.sim.world", "swarmtrack.sim.sensors", "swarmtrack.sim.build", "swarmtrack.sim.engine",
+         "swarmtrack.sim.oracle", "swarmtrack.sim.batch", "swarmtrack.vehicles", "swarmtrack.scenarios",
+         "swarmtrack.analysis", "swarmtrack.capabilities")
 
 
 def _walk_and_import(packages, modules=(), extra_path: dict | None = None) -> tuple[list[str], set[str]]:

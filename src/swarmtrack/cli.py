@@ -16,6 +16,7 @@ from pathlib import Path
 import click
 import yaml
 
+from swarmtrack import registry
 from swarmtrack.analysis.papers import PAPERS
 from swarmtrack.scenarios.loader import ScenarioError, builtin_names, load_raw, load_scenario
 
@@ -157,9 +158,10 @@ def _check_animation(scn, animate: Path | None, every: float | None, uav: int | 
         if every is not None or uav is not None:
             raise UsageFailure("--animate-every and --animate-uav need --animate FILE")
         return
-    if scn.estimator.kind != "setmembership":
+    if not registry.get("estimator", scn.estimator.kind).animated:
+        animated = ", ".join(name for name, kind in registry.kinds("estimator").items() if kind.animated)
         raise UsageFailure(f"--animate: {scn.name} has estimator.kind {scn.estimator.kind}; the animation shows the "
-                           "sets of a set-membership estimator (estimator.kind: setmembership, e.g. ib21-fleet-6)")
+                           f"sets of a set-membership estimator (estimator.kind: {animated}, e.g. ib21-fleet-6)")
     if uav is not None and uav > scn.swarm.n_uavs:
         raise UsageFailure(f"--animate-uav {uav}: {scn.name} has {scn.swarm.n_uavs} UAVs")
     check_destination(animate, overwrite)

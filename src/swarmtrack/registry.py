@@ -100,6 +100,9 @@ class Kind:
     metrics: tuple[Metric, ...] = ()
     health: tuple[Metric, ...] = ()
     figures: tuple[Figure, ...] = ()
+    animated: bool = False
+    """Whether its runs can be animated (``swarmtrack run --animate``: a set-valued estimator's sets frame by frame,
+    :mod:`swarmtrack.analysis.animation`)."""
     batched: bool = False
     """Whether its component runs several worlds as one batch (per-UAV state only, no UAV named in its settings:
     :mod:`swarmtrack.sim.batch`)."""
@@ -141,8 +144,8 @@ def _load() -> None:
         ep.load()
 
 
-def register(role: str, settings: type, build: Ref, *, metrics=(), health=(), figures=(), batched: bool = False,
-             monitors: Ref | None = None) -> Kind:
+def register(role: str, settings: type, build: Ref, *, metrics=(), health=(), figures=(), animated: bool = False,
+             batched: bool = False, monitors: Ref | None = None) -> Kind:
     """Register a kind for ``role``: its name is the default of ``settings.kind`` (a string literal), ``settings``
     subclasses the role's base settings class (declared by the schema, :func:`declare_role`), and ``build`` makes
     the component (estimator and controller: ``build(settings, context)``; sensor: ``build(settings, scenario)``).
@@ -159,7 +162,7 @@ def register(role: str, settings: type, build: Ref, *, metrics=(), health=(), fi
         raise TypeError(f"{settings.__name__}.kind needs a string default (its kind)")
     if name in _KINDS[role]:
         raise ValueError(f"{role} kind {name!r} is already registered (by {_KINDS[role][name].module})")
-    kind = Kind(role, name, settings, build, tuple(metrics), tuple(health), tuple(figures), batched, monitors,
+    kind = Kind(role, name, settings, build, tuple(metrics), tuple(health), tuple(figures), animated, batched, monitors,
                 module=getattr(settings, "__module__", ""))
     _KINDS[role][name] = kind
     return kind

@@ -30,6 +30,7 @@ import shapely
 
 from swarmtrack.estimation.polygons import union_all
 from swarmtrack.estimation.raster import to_polygon
+from swarmtrack.estimation.setmembership import SetMembershipEstimator
 from swarmtrack.models import fixed_wing
 from swarmtrack.outputs import OutputError, check_file_destination, partial_files
 from swarmtrack.sensors.footprint import footprint_corners, footprint_polygons
@@ -86,7 +87,7 @@ class FrameCapture:
         self._next = 0.0
 
     def _start(self, sim) -> None:
-        if not hasattr(sim.stack.estimator, "beliefs"):
+        if not isinstance(sim.stack.estimator, SetMembershipEstimator):
             raise AnimationError("the animation shows a set-membership estimator's sets; this scenario has none "
                                  "(estimator.kind: setmembership)")
         n = sim.world.slices["uavs"].stop - sim.world.slices["uavs"].start

@@ -315,8 +315,8 @@ class InformationEstimator:
 
     @property
     def gate(self) -> NeighbourSum:
-        """What the filter does with its neighbours' contributions (none for a fusion centre)."""
-        return getattr(self.sharing, "neighbours", None) or NeighbourSum()
+        """What the filter does with its neighbours' contributions (a fusion centre's sums all it hears)."""
+        return self.sharing.neighbours
 
     def share(self, t: float, nav: np.ndarray, own) -> dict:
         """Predict (L24 Sec. 3.1) and compute this UAV's own contribution (L24 eq. 6) for broadcast; a UAV that

@@ -174,9 +174,10 @@ def unregister(role: str, name: str) -> None:
 
 
 def kinds(role: str) -> dict[str, Kind]:
-    """Every registered kind of ``role``, by name (in registration order)."""
+    """Every registered kind of ``role``, by name, in the names' order (whatever order the capabilities were
+    imported in: the reference, the metrics and the figures list them the same way every time)."""
     _load()
-    return dict(_KINDS[role])
+    return dict(sorted(_KINDS[role].items()))
 
 
 def get(role: str, name: Any) -> Kind:
@@ -189,8 +190,8 @@ def get(role: str, name: Any) -> Kind:
 
 
 def all_metrics() -> list[Metric]:
-    """Every registered metric section once (the first registration of a section name wins), in registration
-    order: what a sweep can find in a run's metrics."""
+    """Every registered metric section once (the first registration of a section name wins; roles in
+    :data:`ROLES` order, kinds by name): what a sweep can find in a run's metrics."""
     seen: dict[str, Metric] = {}
     for role in ROLES:
         for kind in kinds(role).values():

@@ -117,6 +117,7 @@ def circles(graph: dict[str, set[str]]) -> list[list[str]]:
     return out
 
 
+@pytest.mark.slow
 def test_the_package_has_no_import_circle_counting_imports_inside_functions():
     found = circles(import_graph(_modules()))
     assert not found, "import circles:\n" + "\n".join(" <-> ".join(c) for c in found)
@@ -143,6 +144,7 @@ def _parameters(fn: ast.FunctionDef | ast.AsyncFunctionDef) -> int:
     return n - (bool(names) and names[0].arg in ("self", "cls"))
 
 
+@pytest.mark.slow
 def test_no_function_takes_more_than_twelve_parameters():
     wide = {}
     for name, path in _modules().items():
@@ -152,6 +154,7 @@ def test_no_function_takes_more_than_twelve_parameters():
     assert not wide, f"functions over {MAX_PARAMETERS} parameters: {wide}"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("module", ["swarmtrack.scenarios.schema"])
 def test_the_schema_imports_no_simulator_code(module):
     banned = tuple(f"swarmtrack.{p}" for p in ("sim", "control", "estimation", "models", "network"))

@@ -21,6 +21,7 @@ def test_the_guide_has_python_examples():
     assert len(python_blocks(ROOT / "docs/tracking-swarm.md")) >= 2
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("code", EXAMPLES)
 def test_python_example_runs(code, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)

@@ -22,6 +22,7 @@ def captured():
     return rec, capture, simulate(scn)
 
 
+@pytest.mark.slow
 def test_capturing_changes_nothing_in_the_run(captured):
     rec, _, plain = captured
     assert rec.meta["probes"] == plain.meta["probes"] and "animation_frames" not in rec.meta["probes"]
@@ -57,6 +58,7 @@ def test_the_union_view_holds_every_uavs_sets_and_one_uavs_view_is_its_own(captu
         assert region.area == pytest.approx(capture.sim.stack.estimator.sample()["phi"][i], rel=1e-9)
 
 
+@pytest.mark.slow
 def test_the_gif_has_one_image_per_frame_and_replaces_nothing(captured, tmp_path):
     _, capture, _ = captured
     out = animation.render(capture, tmp_path / "run.gif", title="test")

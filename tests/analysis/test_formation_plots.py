@@ -41,6 +41,7 @@ def assert_png(path):
     assert path.read_bytes()[:8] == PNG_MAGIC
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fn", FIGURE_FUNCTIONS, ids=lambda fn: fn.__name__)
 @pytest.mark.parametrize("run", ["formation"])
 def test_every_formation_figure_writes_a_png(fn, run, request, tmp_path):
@@ -48,6 +49,7 @@ def test_every_formation_figure_writes_a_png(fn, run, request, tmp_path):
     assert_png(fn(rec, tmp_path / "figure.png"))
 
 
+@pytest.mark.slow
 def test_mpc_runs_get_the_formation_figures(collision, tmp_path):
     names = [p.name for p in plots.save_run_figures(collision, tmp_path)]
     assert [n for n in names if n in FORMATION_FIGURES] == FORMATION_FIGURES
@@ -55,6 +57,7 @@ def test_mpc_runs_get_the_formation_figures(collision, tmp_path):
         assert_png(tmp_path / name)
 
 
+@pytest.mark.slow
 def test_a_single_uav_gets_no_separation_figure(tmp_path):
     rec = simulate(load_scenario("w20-mpc-single", overrides=["duration=3"]))
     names = [p.name for p in plots.save_run_figures(rec, tmp_path)]
@@ -62,6 +65,7 @@ def test_a_single_uav_gets_no_separation_figure(tmp_path):
     assert not (tmp_path / "min_separation.png").exists()
 
 
+@pytest.mark.slow
 def test_a_flocking_run_gets_no_formation_figures(tmp_path):
     rec = simulate(load_scenario("l24-cv", overrides=["duration=2"]))
     names = {p.name for p in plots.save_run_figures(rec, tmp_path)}
@@ -119,6 +123,7 @@ def test_the_input_is_the_setpoint_relative_to_the_position_before_the_plan(form
     assert np.nanmax(np.abs(s.u)) <= bound + 0.1  # within the bound up to the navigation noise
 
 
+@pytest.mark.slow
 def test_a_blind_uav_has_its_own_blind_interval(occlusion):
     s = mpc_figures._FormationSeries(occlusion)
     assert s.blind[0] == [] and s.blind[1] == []

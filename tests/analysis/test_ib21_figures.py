@@ -58,6 +58,7 @@ def _assert_png(path):
     assert path.is_file() and path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 1000
 
 
+@pytest.mark.slow
 def test_fig8_bands_are_the_mean_and_std_of_the_runs_series(tmp_path, bands):
     paths = ib21.figures(tmp_path, (), study(), "8")
     assert [p.name for p in paths] == ["ib21-fig8-left.png", "ib21-fig8-right.png"]
@@ -94,6 +95,7 @@ def test_diverged_runs_are_left_out_of_the_bands(tmp_path, bands):
     assert mean == pytest.approx(np.mean([series_of("ib21-fleet-2", s)["phi_bar"] for s in (1, 3)], axis=0))
 
 
+@pytest.mark.slow
 def test_every_figure_group_draws_its_panels_from_its_own_experiments(tmp_path):
     data = study(runs=2)
     for figure, panels in ib21.FIGURES.items():
@@ -103,6 +105,7 @@ def test_every_figure_group_draws_its_panels_from_its_own_experiments(tmp_path):
     assert ib21.draw_panel(ib21.FIGURES["9"][0], {}, tmp_path) is None
 
 
+@pytest.mark.slow
 def test_a_real_runs_summary_draws_every_quantity(ib21_run, tmp_path, bands):
     """The summary `reproduce` caches carries what the figures read: Φ̄, its parts and the solve time."""
     summary = metrics.summary(ib21_run)
@@ -146,6 +149,7 @@ def fake_runs(monkeypatch):
     return seen
 
 
+@pytest.mark.slow
 def test_figure_8_runs_only_fig8s_experiments_and_draws_only_its_figures(tmp_path, fake_runs):
     report = rep.reproduce("ib21", tmp_path, runs=2, workers=1, quiet=True, figure="8", overrides=["duration=12"])
     assert sorted(fake_runs) == sorted((e, s, 12.0) for e in ib21.FLEET for s in (1, 2))

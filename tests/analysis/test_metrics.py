@@ -59,6 +59,7 @@ def test_overshoot_counts_only_after_the_first_crossing():
     assert abs(metrics.spacing_overshoot(rec) - 1.0) < 0.03
 
 
+@pytest.mark.slow
 def test_consistency_per_phase_shows_what_the_run_wide_nees_averages_away():
     from swarmtrack.scenarios import load_scenario
     from swarmtrack.sim.engine import simulate
@@ -78,6 +79,7 @@ def test_consistency_bands_contain_a_consistent_filter():
         assert lo < row["nees"] < hi
 
 
+@pytest.mark.slow
 def test_nis_of_the_own_measurement_is_reported_per_phase_with_its_band():
     from swarmtrack.scenarios import load_scenario
     from swarmtrack.sim.engine import simulate

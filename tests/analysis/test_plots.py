@@ -52,6 +52,7 @@ def rec() -> Recording:
     return make_recording()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "func",
     [swarm_figures.plot_estimates, plots.plot_trajectories, plots.plot_target_distances,
@@ -70,6 +71,7 @@ def test_trajectories_all_agents_and_bad_agent(rec, tmp_path):
         plots.plot_trajectories(rec, tmp_path / "bad.png", agent=3)
 
 
+@pytest.mark.slow
 def test_a_gaussian_run_following_a_target_gets_the_five_run_figures(rec, tmp_path):
     paths = plots.save_run_figures(rec, tmp_path / "figs")
     assert sorted(p.name for p in paths) == [
@@ -79,6 +81,7 @@ def test_a_gaussian_run_following_a_target_gets_the_five_run_figures(rec, tmp_pa
         assert_png(p)
 
 
+@pytest.mark.slow
 def test_flocking_comparison(tmp_path):
     results = {name: make_recording(seed=s) for s, name in enumerate(["standard", "integral", "tailored"])}
     assert_png(swarm_figures.plot_flocking_comparison(results, tmp_path / "flocking.png"))
@@ -86,6 +89,7 @@ def test_flocking_comparison(tmp_path):
         swarm_figures.plot_flocking_comparison({}, tmp_path / "empty.png")
 
 
+@pytest.mark.slow
 def test_many_agents(tmp_path):
     rec = make_recording(n_agents=15, k=120, seed=3, meta={})
     paths = plots.save_run_figures(rec, tmp_path)

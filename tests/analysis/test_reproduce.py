@@ -8,6 +8,7 @@ from swarmtrack.analysis.reproduce import CACHE_FORMAT, cache_path, package_vers
 from swarmtrack.scenarios import Scenario, load_scenario
 
 
+@pytest.mark.slow
 def test_l23_reproduction_reports_every_claim_and_resumes(tmp_path):
     report = reproduce("l23", tmp_path, runs=1, workers=1, quiet=True)
     assert (tmp_path / "l23_fig1_flocking.png").stat().st_size > 1000
@@ -29,6 +30,7 @@ def test_l23_reproduction_reports_every_claim_and_resumes(tmp_path):
     assert [p.stat().st_mtime_ns for p in cached] == stamps
 
 
+@pytest.mark.slow
 def test_l24_claims_that_the_project_reproduces_hold_on_one_seed():
     from swarmtrack.analysis.metrics import rmse_table
     from swarmtrack.sim.engine import simulate
@@ -186,6 +188,7 @@ def test_overrides_reach_every_run_and_the_report(tmp_path, monkeypatch):
     assert sorted(seen) == [("l24-ct", 3.0, 0.0), ("l24-cv", 3.0, 0.0)] and len(results) == 2
 
 
+@pytest.mark.slow
 def test_ctrl_c_stops_a_parallel_reproduction_at_once_and_keeps_finished_runs(tmp_path):
     import os
     import signal

@@ -18,6 +18,7 @@ def _assert_png(path):
     assert path.is_file() and path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 1000
 
 
+@pytest.mark.slow
 def test_an_ib21_run_gets_its_uncertainty_figures_and_map(ib21_run, tmp_path):
     paths = plots.save_run_figures(ib21_run, tmp_path)
     assert [p.name for p in paths] == IB21_FIGURES
@@ -25,6 +26,7 @@ def test_an_ib21_run_gets_its_uncertainty_figures_and_map(ib21_run, tmp_path):
         _assert_png(p)
 
 
+@pytest.mark.slow
 def test_a_followed_target_run_gets_none_of_them(tmp_path):
     from swarmtrack.scenarios import load_scenario
     from swarmtrack.sim.engine import simulate
@@ -52,6 +54,7 @@ def _scaled(rec: Recording, factor: float) -> Recording:
     return Recording(rec.meta, [chunk])
 
 
+@pytest.mark.slow
 def test_phi_bands_are_the_mean_and_std_over_runs(ib21_run, tmp_path):
     runs = [ib21_run, _scaled(ib21_run, 1.5), metrics.summary(_scaled(ib21_run, 2.0))]  # recordings or summaries
     band = sm_figures.phi_bands(runs, "phi_bar")

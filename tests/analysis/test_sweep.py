@@ -117,6 +117,7 @@ def test_parallel_workers_give_the_rows_of_one_process(tmp_path):
     assert a.equals(b)
 
 
+@pytest.mark.slow
 def test_summarize_gives_mean_std_and_interval_per_setting_in_the_grid_order(tmp_path):
     out = tmp_path / "s"
     sw.sweep("l24-cv", {"sensor.latency": ["0.15", "0"]}, 3, out, workers=1, overrides=SHORT)
@@ -138,6 +139,7 @@ def test_a_resume_with_another_scenario_is_refused(tmp_path):
         sw.sweep("l24-ct", {"sensor.latency": ["0"]}, 1, tmp_path / "s", workers=1, overrides=SHORT, resume=True)
 
 
+@pytest.mark.slow
 def test_a_dask_local_cluster_gives_the_rows_of_local_processes(tmp_path):
     grid = {"sensor.latency": ["0", "0.15"]}
     sw.sweep("l24-cv", grid, 2, tmp_path / "a", workers=1, overrides=SHORT)
@@ -148,6 +150,7 @@ def test_a_dask_local_cluster_gives_the_rows_of_local_processes(tmp_path):
     assert a.equals(b)
 
 
+@pytest.mark.slow
 def test_an_unreachable_scheduler_exits_2_before_anything_is_written(tmp_path):
     result = CliRunner().invoke(main, ["sweep", "l24-cv", "--grid", "sensor.latency=0", "--runs", "1",
                                        "--out", str(tmp_path / "s"), "--cluster", "tcp://127.0.0.1:1"])
@@ -156,6 +159,7 @@ def test_an_unreachable_scheduler_exits_2_before_anything_is_written(tmp_path):
     assert not (tmp_path / "s").exists()
 
 
+@pytest.mark.slow
 def test_reproduce_runs_through_dask_with_the_same_results(tmp_path):
     from swarmtrack.analysis.reproduce import run_all
 
@@ -189,6 +193,7 @@ SYNTHETIC = [
 ]
 
 
+@pytest.mark.slow
 def test_time_series_bands_are_the_mean_and_std_over_seeds_of_the_aligned_bins(tmp_path):
     out = tmp_path / "s"
     _store(out, SYNTHETIC, {"a": ["1", "2"]})
@@ -212,6 +217,7 @@ def test_time_series_bands_are_the_mean_and_std_over_seeds_of_the_aligned_bins(t
     assert json.loads((out / "summary.json").read_text())["series"]["position_error"][0]["std"] == [1, 1, 0, None]
 
 
+@pytest.mark.slow
 def test_time_series_bands_over_many_settings_go_to_several_figures(tmp_path):
     rows = [{"param.a": str(k), "series.bin_s": 1.0, "series.t": [0.5, 1.5], "series.position_error": [k, 2.0]}
             for k in range(sw.BANDS_PER_FIGURE + 1)]
@@ -254,6 +260,7 @@ def test_a_store_of_another_format_or_with_incomplete_rows_exits_2_with_the_caus
     assert not (lacking / "summary.md").exists()
 
 
+@pytest.mark.slow
 def test_dask_workers_are_warmed_with_the_sweeps_scenario_before_the_first_job():
     def compiled():  # defined here, so Dask ships it by value and the worker imports nothing of this test
         from swarmtrack.estimation import kernels

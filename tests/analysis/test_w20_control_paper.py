@@ -50,6 +50,7 @@ def test_every_claim_holds_on_favourable_numbers():
     assert verdicts(by_scenario()) == dict.fromkeys(IDS, True)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("change", "broken"), [
     ({"w20-mpc-single-cv": [0.05]}, {"w20-mpc-multi-equals-single"}),
     ({"w20-mpc-formation": [0.6, 1.0, 1.5], "w20-mpc-occlusion": [0.61, 0.98, 2.5]}, {"w20-mpc-formation-order"}),

@@ -112,6 +112,7 @@ def test_the_paper_is_registered_with_builtin_scenarios():
     assert set(paper.experiments) <= set(builtin_names())
 
 
+@pytest.mark.slow
 def test_figures_of_a_shortened_run(tmp_path):
     paths = w20.figures(tmp_path, ["duration=4", "estimator.solo_steps=30"])  # seven 4 s runs
     assert len(paths) == 9 and all(p.is_file() and p.stat().st_size > 10_000 for p in paths)

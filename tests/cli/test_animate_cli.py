@@ -12,6 +12,7 @@ from swarmtrack.cli import main
 SHORT = ["ib21-fleet-2", "--set", "duration=5", "--no-plots"]
 
 
+@pytest.mark.slow
 def test_run_writes_the_animation_beside_the_run(tmp_path):
     gif = tmp_path / "run.gif"
     res = CliRunner().invoke(main, ["run", *SHORT, "--out", str(tmp_path / "run"), "--animate", str(gif),

@@ -16,6 +16,7 @@ from swarmtrack.sim.recorder import Recording
 SHORT = ["--set", "duration=6", "--set", "target.profile=l23"]
 
 
+@pytest.mark.slow
 def test_run_writes_resolved_scenario_metrics_timeseries_and_figures(tmp_path):
     out = tmp_path / "run"
     res = CliRunner().invoke(main, ["run", "l24-cv", "--out", str(out), "--seed", "4", *SHORT])
@@ -65,6 +66,7 @@ def test_scenarios_lists_builtins():
     assert res.exit_code == 0 and "l24-fs" in res.output and "l23-flocking-tailored" in res.output
 
 
+@pytest.mark.slow
 def test_impossible_spawn_box_is_a_clear_error(tmp_path):
     res = CliRunner().invoke(main, ["run", "l24-cv", "--out", str(tmp_path / "o"), "--no-plots",
                                     "--set", "swarm.spawn_half_width=0.1"])
@@ -120,6 +122,7 @@ def test_a_scenario_name_is_a_label_not_a_path(tmp_path, monkeypatch, name):
     assert not any(tmp_path.iterdir())
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
 def test_an_interrupted_run_leaves_nothing_half_written(tmp_path, sig):
     out = tmp_path / "run"
@@ -259,6 +262,7 @@ def test_a_termination_during_kernel_compilation_waits_until_the_compiler_return
     assert signal.getitimer(signal.ITIMER_REAL)[0] == 0
 
 
+@pytest.mark.slow
 def test_two_runs_started_together_with_one_out_never_both_report_success(tmp_path):
     """Without --overwrite the late run never replaces the first's files: it fails (exit 2) naming the cause, or
     was refused at its start; exactly one run's files are there, and they are the ones its manifest lists."""

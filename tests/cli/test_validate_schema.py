@@ -1,3 +1,4 @@
+import pytest
 import yaml
 from click.testing import CliRunner
 
@@ -19,6 +20,7 @@ def test_validate_prints_the_resolved_scenario_that_loads_back_to_the_same(tmp_p
     assert again.exit_code == 0 and again.output == res.output
 
 
+@pytest.mark.slow
 def test_validate_every_builtin():
     for name in builtin_names():
         res = CliRunner().invoke(main, ["validate", name])

@@ -269,6 +269,7 @@ def _offset_and_overshoot(D, d=4.0, dt=0.05, last=10.0):
     return offset, overshoot
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("target_velocity", [(0.0, 0.0), (0.5, 0.0)])
 def test_l23_fig1_standard_offset_integral_removes_it_tailored_smoother(target_velocity):
     seeds = range(6)

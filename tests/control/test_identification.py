@@ -290,6 +290,7 @@ def test_cli_bad_log_exits_2_with_the_cause_and_writes_nothing(tmp_path):
     _bad([str(tmp_path / "flat.csv"), "--simulator"], tmp_path, "either a LOG file or --simulator (not both)")
 
 
+@pytest.mark.slow
 def test_cli_simulator_writes_yaml_with_a_4x4_A_and_4x2_B(tmp_path):
     out, saved = tmp_path / "model.yaml", tmp_path / "sim.csv"
     res = CliRunner().invoke(main, ["identify", "--simulator", "--out", str(out), "--save-log", str(saved)])

@@ -19,6 +19,7 @@ def _close(a, b, tol=TOL):
     np.testing.assert_allclose(a, b, rtol=0, atol=tol * scale)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("variant", VARIANTS)
 @pytest.mark.parametrize("n", [1, 2, 5, 40])
 @pytest.mark.parametrize("gains", [FlockingGains(), FlockingGains(accel_limit=np.inf, d=3.0, r_comm=6.0, h=0.5)])
@@ -94,6 +95,7 @@ def _random_inputs(rng, n):
     return p, q_t, p_t, state, rng.random(n) < 0.7
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("variant", VARIANTS)
 @pytest.mark.parametrize("control", [flocking_control, flocking_control_compiled], ids=["numpy", "compiled"])
 def test_sparse_links_give_the_dense_reference_at_n_2000(variant, control):

@@ -150,6 +150,7 @@ def _mission_like(rng, n_sweeps=5):
     return region
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("distance", ["nearest", "hausdorff"])
 def test_the_local_window_picks_the_input_of_the_full_set_reference(distance):
     rng = np.random.default_rng(21)

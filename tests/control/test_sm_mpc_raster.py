@@ -87,6 +87,7 @@ def random_scene(rng, area=X0, n_nb=3, edge=None):
 # --- the kernel against the reference -----------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("distance", ["nearest", "hausdorff"])
 @pytest.mark.parametrize("case", ["box", "odd_area", "baseline", "near_range"])
 def test_the_kernel_equals_the_numpy_reference(case, distance):
@@ -141,6 +142,7 @@ def every_listed_member(k: smr.RasterKernel, which: np.ndarray, row_search: bool
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", range(3))
 def test_the_nearest_distance_over_the_listed_members_equals_the_row_search(seed):
     """Both paths of :meth:`RasterKernel.distances` (the search over the listed member cells of G, the row search of
@@ -170,6 +172,7 @@ def test_the_nearest_distance_over_the_listed_members_equals_the_row_search(seed
                 np.testing.assert_array_equal(rows_dist, every_listed_member(k, every, row_search=True))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("horizon, inputs", [(1, (0.0, 0.25, -0.25, 0.5, -0.5)), (3, (0.0, 0.5, -0.5))])
 def test_the_kernel_equals_the_numpy_reference_at_other_horizons(horizon, inputs):
     area = shapely.box(0, 0, 250, 250)
@@ -207,6 +210,7 @@ def test_the_kernel_equals_the_reference_for_a_set_far_from_the_uav_and_off_its_
         assert np.ptp(areas) == 0.0 and dist.min() > 300
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", range(3))
 def test_window_costs_differ_from_the_full_grid_costs_by_one_constant(seed):
     """The costs over R (module docstring) equal the true costs (the reference on the whole grid) less one constant
@@ -306,6 +310,7 @@ def test_uavs_holding_the_same_field_share_its_member_rows():
 # --- against the polygon planner ----------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", range(3))
 def test_raster_area_terms_match_the_polygon_planner_within_perimeter_times_cell(seed):
     """On the rasterisation of a polygon P (its exact distance field), each candidate's true raster area term is
@@ -384,6 +389,7 @@ def test_a_controller_on_a_grid_loads_the_planner_kernels_before_its_first_plan(
     assert len(planned) == 2  # once per process
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", range(3))
 def test_a_strip_left_infinite_has_no_value_at_most_the_limit(seed):
     """:func:`sm_mpc_raster_members._strip` gives ``+inf`` for a strip off the Field's window only where every value
@@ -424,6 +430,7 @@ def test_the_listed_blocks_kernel_equals_its_numpy_reference():
                 np.testing.assert_array_equal(a, b)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("distance", ["nearest", "hausdorff"])
 def test_the_one_call_plan_equals_the_separate_kernels(distance):
     """:meth:`RasterKernel.plan` (one compiled call) gives the areas and distances of :meth:`RasterKernel.areas` and

@@ -45,6 +45,7 @@ def _ci_by_hand(Y, y, neighbours, pay):
     return Y, y
 
 
+@pytest.mark.slow
 def test_covariance_intersection_picks_the_determinant_minimising_weight_on_an_irregular_graph():
     rng = np.random.default_rng(0)
     n = 4
@@ -68,6 +69,7 @@ def test_covariance_intersection_picks_the_determinant_minimising_weight_on_an_i
     assert (np.linalg.eigvalsh(Ysum - Yci) > -1e-9).all()  # never more information than the plain sum
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("gating", ["none", "chi2"])
 def test_a_liar_among_five_is_contained_by_the_gate_and_named(gating):
     base = ["duration=40", "network.topology=full", "swarm.n_uavs=5", "sensor.latency=0"]

@@ -52,6 +52,7 @@ def _measurements(steps, seed, blind_every=7):
     return zs
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("share", ["information", "measurements"])
 @pytest.mark.parametrize("name", ["cv", "ct", "fs"])
 def test_one_model_equals_the_information_estimator(name, share):
@@ -73,6 +74,7 @@ def test_one_model_equals_the_information_estimator(name, share):
     assert np.all(imm.sample()["probability"] == 1.0)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("force_mixing", [False, True])
 def test_identity_markov_bank_members_equal_their_single_model_filters(force_mixing):
     """With rho = I nothing is mixed: every member is its model's own filter (share: measurements, each member
@@ -116,6 +118,7 @@ def default_bank_run():
     return imm, np.array(mus), np.array(covs), mixed, _turning_track(len(zs))[-1]
 
 
+@pytest.mark.slow
 def test_probabilities_stay_normalised_and_non_negative(default_bank_run):
     _, mus, _, _, _ = default_bank_run
     assert mus.shape == (240, 3, 3)
@@ -170,6 +173,7 @@ def test_schema_refuses_bad_markov_and_unknown_models_naming_the_field(override,
         load_scenario("l24-imm", [override])
 
 
+@pytest.mark.slow
 def test_l24_imm_short_run_tracks():
     from swarmtrack.analysis.metrics import summary
     from swarmtrack.sim.engine import simulate

@@ -93,6 +93,7 @@ def _step_bank(bank, nav_pos, z, links, t):
     return bank.estimates()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mode", ["position", "polar"])
 @pytest.mark.parametrize("share", ["measurements", "information"])
 def test_full_topology_equals_centralized_ekf(mode, share):

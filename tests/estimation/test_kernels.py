@@ -337,6 +337,7 @@ def test_fs_cycle_flags_a_posterior_that_is_not_positive_definite():
     assert flags.tolist() == [0, POSTERIOR_NOT_PD] and np.isnan(P[1]).all() and np.isfinite(P[0]).all()
 
 
+@pytest.mark.slow
 def test_the_unrolled_12x12_check_agrees_with_numpys_cholesky():
     """The straight-line LDLᵀ check of fs_cycle says positive definite exactly when numpy's Cholesky succeeds
     (away from singular-to-rounding matrices), and refuses NaN and inf anywhere in the lower triangle."""
@@ -362,6 +363,7 @@ def test_the_unrolled_12x12_check_agrees_with_numpys_cholesky():
             assert not _positive_definite12(Ab)
 
 
+@pytest.mark.slow
 def test_the_unrolled_fs_prediction_is_f_p_ft_plus_q_with_the_models_jacobian():
     """kernels._FS_E (E = F − I, the pattern the unrolled P⁻ is generated from) is models/fs.py's Jacobian, and
     the unrolled P⁻ equals F S Fᵀ + Q for S the symmetric part of P, exactly symmetric."""
@@ -396,6 +398,7 @@ def test_the_scalar_3x3_solve_equals_numpy_on_every_pivot_order():
         np.testing.assert_allclose(C @ X, B, atol=1e-8 * np.linalg.cond(C) * (1 + abs(B).max()))
 
 
+@pytest.mark.slow
 def test_the_compiled_fs_estimator_equals_the_numpy_one_in_the_loop():
     from swarmtrack.scenarios import load_scenario
     from swarmtrack.sim.engine import simulate

@@ -164,6 +164,7 @@ def test_a_uav_without_measurement_or_neighbours_carries_on():
     assert est._winner[0] == 0  # its only candidate is itself
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fusion", ["imm-thesis", "imm", "ml"])
 def test_every_fusion_tracks_and_keeps_probabilities_and_covariances_valid(fusion):
     est = _estimator(fusion=fusion)
@@ -188,6 +189,7 @@ def test_divergence_names_the_uav_its_model_and_the_time():
         _step(est, _detections([0.0, 0.0]), FULL, t=2.0)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fusion", ["ttest", "imm"])
 def test_the_compiled_update_equals_the_numpy_reference(fusion):
     """multimodel_kernels.stacked_update gives the numpy reference's numbers (to rounding)."""

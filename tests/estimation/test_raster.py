@@ -33,6 +33,7 @@ def rotated_square(rng, side):
     return np.array([cx, cy]) + (np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * side / 2) @ rot.T
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_sweeps_of_dilations_and_removals_stay_below_the_exact_distance(seed):
     rng = np.random.default_rng(seed)
@@ -55,6 +56,7 @@ def test_a_shorter_dilation_would_break_the_bound():
     assert (v > exact_distances(GRID, exact) + 1e-9).any()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [3, 4])
 def test_unions_intersections_and_meets_of_boxes_and_blobs_stay_below_the_exact_distance(seed):
     rng = np.random.default_rng(seed)

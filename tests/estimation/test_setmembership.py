@@ -73,6 +73,7 @@ def mission(seed: int, true_bound: float, assumed_bound: float, duration: float 
     return violations, alarms, b
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_every_true_target_stays_in_its_sets_while_the_noise_bound_holds(seed):
     violations, _, b = mission(seed, true_bound=5.0, assumed_bound=5.0)
@@ -80,11 +81,13 @@ def test_every_true_target_stays_in_its_sets_while_the_noise_bound_holds(seed):
     assert uncertainty(b)["phi"].max() < AREA.area  # and the sets did learn something
 
 
+@pytest.mark.slow
 def test_without_decoys_and_with_a_matched_bound_no_alarm_is_raised():
     violations, alarms, _ = mission(4, true_bound=5.0, assumed_bound=5.0, decoys=0)
     assert violations == 0 and alarms == 0
 
 
+@pytest.mark.slow
 def test_an_underestimated_noise_bound_loses_targets_visibly():
     lost = [mission(seed, true_bound=20.0, assumed_bound=1.0, decoys=0)[:2] for seed in (1, 2, 3)]
     assert sum(v + a for v, a in lost) > 0  # violations found by the monitor, or the estimator's own alarms
@@ -247,6 +250,7 @@ def _random_blobs(rng, n, radius, quad_segs=8):
     return shapely.union_all(shapely.buffer(shapely.points(rng.uniform(0, 200, (n, 2))), radius, quad_segs=quad_segs))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", range(6))
 def test_within_on_sets_loosened_once_contains_the_exact_intersection(seed):
     rng = np.random.default_rng(seed)

@@ -76,6 +76,7 @@ def make(window: int = 0, sets: str = "polygons"):
     return SetMembershipEstimator(N, N_T, AREA, **kw)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [1, 2])
 def test_the_guarantee_holds_with_random_delays_up_to_one_second(seed):
     channel = Channel("full", N, 1e6, delay=0.0, delay_max=1.0, dt=DT, delay_rng=np.random.default_rng(seed))
@@ -141,6 +142,7 @@ def _all_sets(est):
     return [*b.unexplored, *b.unidentified, *b.identified.ravel()]
 
 
+@pytest.mark.slow
 def test_a_late_message_gives_the_sets_it_would_have_given_on_time():
     frames = world(3, 160)
     on_time, late = make(), make(window=2)
@@ -166,6 +168,7 @@ def _no_larger(a, b, updates: int) -> bool:
     return shapely.difference(a, shapely.buffer(b, margin)).area < 1e-6
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [4, 5])
 def test_a_late_message_makes_the_sets_no_larger_than_ignoring_it(seed):
     """Fusion intersects where each target can be (``X_j ∪ Xᵁ ∪ X̄``), ``Xᵁ ∪ X̄`` and ``X̄`` over the UAVs
@@ -196,6 +199,7 @@ def test_sets_older_than_the_window_are_dropped_and_counted():
     assert [g.wkb for g in _all_sets(short)] == [g.wkb for g in _all_sets(ignored)]  # as if never sent
 
 
+@pytest.mark.slow
 def test_with_nothing_late_the_replaying_estimator_gives_the_plain_sets_bit_for_bit():
     frames = world(5, 120)
     plain, replaying = make(), make(window=2)
@@ -239,6 +243,7 @@ REPLAYS = {  # late messages whose replay fuses again on the way (what _one_late
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [3, 4])
 @pytest.mark.parametrize("case", sorted(REPLAYS))
 def test_a_replay_that_fuses_again_stays_with_the_on_time_sets(case, seed):
@@ -272,6 +277,7 @@ def _equal(a, b) -> bool:
     return all(np.array_equal(x, y) for x, y in zip(_grids(a), _grids(b), strict=True))
 
 
+@pytest.mark.slow
 def test_the_guarantee_holds_on_raster_sets_with_random_delays():
     channel = Channel("full", N, 1e6, delay=0.0, delay_max=1.0, dt=DT, delay_rng=np.random.default_rng(1))
     est = make(window=2, sets="raster")
@@ -300,6 +306,7 @@ def test_a_late_message_gives_the_on_time_raster_sets_exactly():
     assert not _equal(on_time, ignored)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", sorted(REPLAYS))
 def test_a_raster_replay_that_fuses_again_gives_the_on_time_sets_exactly(case):
     sends, links = REPLAYS[case]

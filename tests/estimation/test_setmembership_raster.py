@@ -64,6 +64,7 @@ def mission(seed: int, true_bound: float, assumed_bound: float, duration: float 
     return r_bad, alarms, p_bad, rb, pb
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_every_true_target_stays_in_its_raster_sets_and_phi_stays_near_the_polygons(seed):
     r_bad, _, p_bad, rb, pb = mission(seed, true_bound=5.0, assumed_bound=5.0)
@@ -74,6 +75,7 @@ def test_every_true_target_stays_in_its_raster_sets_and_phi_stays_near_the_polyg
     assert np.allclose(phi_r, phi_p, rtol=0.15)  # and about as much as the polygons (measured: 7-8 % above)
 
 
+@pytest.mark.slow
 def test_an_underestimated_noise_bound_loses_targets_visibly_on_raster_sets():
     lost = [mission(seed, true_bound=20.0, assumed_bound=1.0, decoys=0)[:2] for seed in (1, 2)]
     assert sum(v + a for v, a in lost) > 0

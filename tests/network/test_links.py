@@ -45,6 +45,7 @@ def test_sparse_proximity_is_exactly_the_dense_proximity(seed):
     assert n_links(links) == n_links(dense) > 0
 
 
+@pytest.mark.slow
 def test_pairs_at_exactly_r_comm_are_out_and_coincident_uavs_are_in():
     # on an integer grid with spacing 3 and r_comm = 6, many pairs sit at exactly 6 (and √(36) is exact);
     # the KD-tree alone would count them as inside

@@ -183,6 +183,7 @@ def test_options_that_use_the_keys_still_take_them():
     assert scn.swarm.initial_positions == [(0, 0), (5, 0), (10, 0)]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name, extra", [(name, []) for name in builtin_names()] + [
     ("l24-cv", ["network.topology=edges", "network.edges=[[1, 3]]"]),
     ("l24-cv", ["target.profile=custom", "target.phases=[{name: a, duration: 5, c: [0.5, 0]}]"]),

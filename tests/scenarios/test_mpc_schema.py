@@ -40,6 +40,7 @@ def test_a_given_model_is_used_and_the_thesis_models_by_name():
     assert T == 0.2 and A[2, 0] == -0.151 and B[3, 1] == 0.111
 
 
+@pytest.mark.slow
 def test_the_yaml_block_identify_writes_plugs_into_a_scenario():
     import yaml
 

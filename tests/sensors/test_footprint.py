@@ -41,6 +41,7 @@ def test_footprint_is_a_ccw_square_below_the_uav_aligned_with_its_heading():
     np.testing.assert_allclose(n[1], xy[1] + 50 * T * np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]), atol=1e-12)
 
 
+@pytest.mark.slow
 def test_inside_agrees_with_shapely_covers_including_points_on_the_edges():
     rng = np.random.default_rng(5)
     xy = rng.uniform(0, 100, (6, 2))

@@ -14,6 +14,7 @@ def _seeds(name: str, overrides: list[str], seeds=(1, 2, 3)):
     return [load_scenario(name, overrides, seed=s) for s in seeds]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("name", "overrides"), [
     ("l24-cv", ["duration=8"]),
     ("l24-ct", ["duration=6", "network.loss_probability=0.3"]),  # each world's losses from its own stream

@@ -10,6 +10,8 @@ import json
 import subprocess
 import sys
 
+import pytest
+
 #: Packages whose every module runs onboard (or is shared by the onboard code and the world, and so must not see it).
 ONBOARD_PACKAGES = ("swarmtrack.estimation", "swarmtrack.control", "swarmtrack.models", "swarmtrack.sensors",
                     "swarmtrack.network")
@@ -41,6 +43,7 @@ def _loaded_after_importing(modules: list[str]) -> set[str]:
     return _walk_and_import((), modules)[1]
 
 
+@pytest.mark.slow
 def test_onboard_modules_never_load_the_world_the_vehicles_or_the_scenarios():
     walked, loaded = _walk_and_import(ONBOARD_PACKAGES, ONBOARD_MODULES)
     # modules a hand-kept list once missed are walked
@@ -50,6 +53,7 @@ def test_onboard_modules_never_load_the_world_the_vehicles_or_the_scenarios():
     assert not leaked, f"onboard code loads truth-side modules: {leaked}"
 
 
+@pytest.mark.slow
 def test_a_new_onboard_module_that_imports_the_world_is_found(tmp_path):
     # a module nobody listed, dropped into the estimation package's search path, is walked and caught
     (tmp_path / "intruder.py").write_text("from swarmtrack.sim.world import World\n")
@@ -58,6 +62,7 @@ def test_a_new_onboard_module_that_imports_the_world_is_found(tmp_path):
     assert "swarmtrack.sim.world" in {m for m in loaded if m.startswith(TRUTH)}
 
 
+@pytest.mark.slow
 def test_the_check_sees_a_truth_side_import():
     # the same check on the engine must flag the world (it is allowed there): the test can fail
     loaded = _loaded_after_importing(["swarmtrack.sim.engine"])

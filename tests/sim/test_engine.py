@@ -37,6 +37,7 @@ def test_fusion_reduces_error_spread():
     assert rmse_table(full)["total"]["x"] < rmse_table(none)["total"]["x"]
 
 
+@pytest.mark.slow
 def test_latency_delays_the_estimate_by_the_target_motion():
     fresh = simulate(load_scenario("l24-cv", ["duration=30", "sensor.latency=0"]))
     late = simulate(load_scenario("l24-cv", ["duration=30", "sensor.latency=0.2"]))
@@ -51,6 +52,7 @@ def test_divergence_stops_the_run_naming_uav_and_time():
         simulate(load_scenario("l24-cv", ["duration=3", "estimator.q=[1.7e308, 1.7e308, 1.7e308, 1.7e308]"]))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name, extra", [
     ("l24-cv", []),  # compiled physics, flocking and CV filter
     ("l24-fs", []),  # compiled physics, flocking and FS filter (in covariance form)
@@ -81,6 +83,7 @@ def test_compiled_kernels_are_deterministic():
     assert np.array_equal(a.estimate, b.estimate) and np.array_equal(a.uav, b.uav)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("model", ["cv", "ca", "ct", "fs"])
 @pytest.mark.parametrize("options", [
     ["network.topology=none"],

@@ -41,6 +41,7 @@ def test_fixed_wings_fly_at_their_speed_and_walkers_stay_in_the_area(short):
     assert (objs >= 0).all() and (objs <= 400).all()
 
 
+@pytest.mark.slow
 def test_raster_sets_keep_the_guarantee_end_to_end_and_shrink_like_the_polygons():
     """``estimator.sets: raster``: the raster estimator and the SM-MPC on its fields, 20 s of ib21-fleet-6."""
     from swarmtrack.sim.build import build
@@ -97,6 +98,7 @@ def refused_ib21():
     return check
 
 
+@pytest.mark.slow
 def test_the_compiled_walker_and_fixed_wing_steps_fly_the_numpy_run_bit_for_bit():
     """``kernels: auto`` steps the walkers and the fixed wings with their compiled passes, ``numpy`` with the readable
     references: the same truth, to the last bit, and so the same sets and commands."""

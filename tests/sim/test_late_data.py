@@ -2,6 +2,7 @@
 costs little accuracy; random network delays (reordering) are fused at their stamps with nothing dropped."""
 
 import numpy as np
+import pytest
 
 from swarmtrack.analysis.metrics import summary
 from swarmtrack.scenarios import load_scenario
@@ -23,6 +24,7 @@ def test_a_sensor_latency_fused_at_its_time_stamp_is_no_longer_overconfident():
     assert stamped_rmse < naive_rmse and stamped_rmse <= 1.5 * on_time_rmse
 
 
+@pytest.mark.slow
 def test_random_network_delays_are_fused_with_nothing_dropped():
     rec = simulate(load_scenario("robust-5", ["duration=20", "network.delay_max=0.5"]))
     assert np.isfinite(rec.estimate).all()

@@ -18,6 +18,7 @@ def collision():
     return {q_s: summary(simulate(load_scenario("w20-mpc-collision", [f"controller.Q_s={q_s}"]))) for q_s in (6, 0)}
 
 
+@pytest.mark.slow
 def test_the_separation_term_keeps_two_crossing_uavs_apart(collision):
     assert collision[6]["inter_agent_distance"]["min"] > 1.0  # measured 1.17 m
     assert not [w for w in collision[6]["warnings"] if w["kind"] in ("collision", "solver_fallback")]
@@ -40,6 +41,7 @@ def test_a_single_uav_settles_on_a_resting_target_slot():
     np.testing.assert_allclose(rec.uav[-1, 0, :2], [3.0, 4.0], atol=0.05)
 
 
+@pytest.mark.slow
 def test_only_the_blind_and_cut_off_uav_degrades():
     clear = summary(simulate(load_scenario("w20-mpc-formation")))["formation"]["tracking_error"]
     occluded = summary(simulate(load_scenario("w20-mpc-occlusion")))["formation"]["tracking_error"]
@@ -80,6 +82,7 @@ def test_an_outage_cuts_every_link_of_the_uav_during_its_window_only():
     assert not to_dense(ch.beacon_links(pos, 50.0))[:, 2].any()
 
 
+@pytest.mark.slow
 def test_the_multimodel_view_carries_the_winners_model_and_extra_states(monkeypatch):
     from swarmtrack.sim import engine
 

@@ -1,6 +1,7 @@
 """W20 Ch. 4 in the closed loop: static UAVs, gimballed cameras aimed at their own estimates, a ground robot."""
 
 import numpy as np
+import pytest
 
 from swarmtrack.analysis.metrics import summary
 from swarmtrack.scenarios import load_scenario
@@ -20,6 +21,7 @@ def test_the_switching_team_tracks_the_robot_to_centimetres_and_records_its_mode
     assert not [w for w in s["warnings"] if w["kind"] in ("lost_target", "never_detected")]
 
 
+@pytest.mark.slow
 def test_a_camera_whose_footprint_is_too_small_for_its_estimate_loses_the_robot():
     """The gimbal aims at the UAV's own estimate: with a 5 mm footprint at 1.5 m (the estimate errs by about as
     much) the robot leaves the view."""
@@ -30,6 +32,7 @@ def test_a_camera_whose_footprint_is_too_small_for_its_estimate_loses_the_robot(
     assert seen["narrow"] < 0.9
 
 
+@pytest.mark.slow
 def test_an_occlusion_interval_is_measured_and_predicted_through():
     rec = simulate(load_scenario("w20-occlusion", ["duration=26", "estimator.solo_steps=30"], seed=1))
     s = summary(rec)
@@ -38,6 +41,7 @@ def test_an_occlusion_interval_is_measured_and_predicted_through():
     assert s["mean_error"]["all"] < 0.05  # found again after the blackout
 
 
+@pytest.mark.slow
 def test_every_fusion_runs_in_the_loop():
     for fusion in ("imm-thesis", "imm", "ml", "none"):
         s = summary(simulate(load_scenario("w20-evasive", ["duration=6", "estimator.solo_steps=30",
@@ -45,6 +49,7 @@ def test_every_fusion_runs_in_the_loop():
         assert s["mean_error"]["all"] < 0.05, fusion
 
 
+@pytest.mark.slow
 def test_lost_messages_leave_each_uav_with_what_arrived():
     """W20 Sec. 3.2.2.2: lossless communication is not assumed. With half the messages lost (both rounds) every
     fusion still tracks, from the candidates whose messages arrived."""

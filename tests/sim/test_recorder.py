@@ -28,6 +28,7 @@ def _close(a, b):
         assert a == b
 
 
+@pytest.mark.slow
 def test_a_recording_streamed_to_disk_reads_back_equal_to_the_one_in_memory(scenario, tmp_path, monkeypatch):
     memory = simulate(scenario)
     monkeypatch.setattr(recorder, "CHUNK_ROWS", 100)  # many small row groups
@@ -43,6 +44,7 @@ def test_a_recording_streamed_to_disk_reads_back_equal_to_the_one_in_memory(scen
     assert disk.meta == loaded.meta
 
 
+@pytest.mark.slow
 def test_metrics_do_not_depend_on_how_the_steps_are_chunked(scenario, monkeypatch):
     whole = summary(simulate(scenario))
     monkeypatch.setattr(recorder, "CHUNK_ROWS", 7)  # two steps of 4 objects per chunk
@@ -57,6 +59,7 @@ def test_a_recording_of_another_format_is_refused(scenario, tmp_path):
         Recording.load(tmp_path)
 
 
+@pytest.mark.slow
 def test_the_steps_are_the_same_however_the_buffers_are_blocked(scenario, monkeypatch):
     """The recorder copies the steps into blocks of BLOCK_STEPS steps and joins them per chunk: the same arrays with
     blocks of 7 steps (several per chunk, a chunk ending inside a block) as with one block per chunk."""

@@ -1,6 +1,7 @@
 """A world of vehicle groups: several targets with their own profiles, decoys, and UAVs in one run."""
 
 import numpy as np
+import pytest
 
 from swarmtrack.analysis.metrics import rmse_table
 from swarmtrack.scenarios.loader import load_raw, validate
@@ -48,6 +49,7 @@ def test_two_targets_and_a_decoy_group_fly_their_own_profiles_in_one_world():
     assert not np.allclose(truth[-1, targets.start, :2], truth[-1, targets.start + 1, :2])
 
 
+@pytest.mark.slow
 def test_the_filter_follows_the_target_it_is_told_to_and_the_metrics_score_that_one():
     first, second = simulate(_scenario(follow=1)), simulate(_scenario(follow=2))
     assert first.tracked != second.tracked

@@ -197,6 +197,7 @@ def test_evasive_segments_cover_exactly_the_duration(seed):
     assert all(0.5 <= s.duration <= 2.0 for s in segments[:-1]) and 0.0 < segments[-1].duration <= 2.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("seed", "kw"),
     [(s, {}) for s in range(10)]

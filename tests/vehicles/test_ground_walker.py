@@ -76,6 +76,7 @@ def _walk(state, params, ticks, rng):
     return worst, inside, state
 
 
+@pytest.mark.slow
 def test_1e5_steps_near_the_border_stay_in_the_closed_area_and_move_at_most_v_dt_per_tick():
     # a 2 x 1 m area keeps every object within a few ticks of a wall all the time; starts on walls and corners
     params = gw.WalkerParams(area=(-1.0, 3.0, 1.0, 4.0))
@@ -89,6 +90,7 @@ def test_1e5_steps_near_the_border_stay_in_the_closed_area_and_move_at_most_v_dt
     assert np.ptp(state[:, 0]) > 0.5  # they did move around
 
 
+@pytest.mark.slow
 def test_an_area_thinner_than_one_step_folds_every_path_inside():
     params = gw.WalkerParams(area=(0.0, 0.0, 0.03, 0.011))  # several walls crossed per tick
     rng = np.random.default_rng(8)
@@ -114,6 +116,7 @@ def test_objects_pushed_into_every_wall_of_the_paper_area_stay_inside():
     assert inside and worst <= VDT + 1e-12
 
 
+@pytest.mark.slow
 def test_yaw_rate_spreads_like_the_random_walk_of_the_equation():
     # x5 is white (x5 = v), so x4 after K ticks sums K - 1 draws: std = T_d·(π/8)/√3·√(K - 1)
     rng = np.random.default_rng(11)

@@ -90,6 +90,7 @@ def _world(overrides, kernels_kind):
     return build(load_scenario("l24-cv", [*overrides, f"kernels={kernels_kind}"])).world
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("vehicle", ["quadrotor", "double_integrator"])
 def test_world_advance_equals_world_steps(vehicle):
     common = [f"swarm.vehicle={vehicle}", "sensor.latency=0.15", "swarm.n_uavs=5", "target.wind_std=0.5",

@@ -125,6 +125,7 @@ def test_velocity_tracking_accel_is_feedforward_plus_proportional():
     np.testing.assert_allclose(velocity_tracking_accel([1.0, 0.0], np.zeros(2), None, 1.5), [1.5, 0.0])
 
 
+@pytest.mark.slow
 def test_target_flying_l24_profile_tracks_velocity_on_linear_and_sinusoidal_phases():
     prof = l24_profile()
     n = int(round(prof.total_duration / DT))

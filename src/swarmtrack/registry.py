@@ -162,8 +162,8 @@ def register(role: str, settings: type, build: Ref, *, metrics=(), health=(), fi
         raise TypeError(f"{settings.__name__}.kind needs a string default (its kind)")
     if name in _KINDS[role]:
         raise ValueError(f"{role} kind {name!r} is already registered (by {_KINDS[role][name].module})")
-    kind = Kind(role, name, settings, build, tuple(metrics), tuple(health), tuple(figures), animated, batched, monitors,
-                module=getattr(settings, "__module__", ""))
+    kind = Kind(role, name, settings, build, metrics=tuple(metrics), health=tuple(health), figures=tuple(figures),
+                animated=animated, batched=batched, monitors=monitors, module=settings.__module__)
     _KINDS[role][name] = kind
     return kind
 

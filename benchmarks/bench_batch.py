@@ -5,8 +5,8 @@ metrics of each run (what a study keeps).
 
 * one process per seed: a fresh interpreter per run (import, numba cache load, run, metrics), as a naive study
   script or a job array does; timed on a few seeds and taken per run;
-* one world at a time: :func:`swarmtrack.analysis.reproduce.run_one` per seed in this process;
-* batched: :func:`swarmtrack.analysis.reproduce.run_batch` in batches of at most ``BATCH_WORLDS`` worlds.
+* one world at a time: :func:`swarmtrack.analysis.runs.run_one` per seed in this process;
+* batched: :func:`swarmtrack.analysis.runs.run_batch` in batches of at most ``BATCH_WORLDS`` worlds.
 
 Run: ``PYTHONPATH=src .venv/bin/python benchmarks/bench_batch.py [--json] [--quick]`` (about 1.5 min; ``--quick``
 runs 20 seeds of 30 s instead of 100 full ones). ``--json`` prints one flat JSON object.
@@ -26,11 +26,11 @@ import subprocess  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 
-from swarmtrack.analysis.reproduce import BATCH_WORLDS, run_batch, run_one  # noqa: E402
+from swarmtrack.analysis.runs import BATCH_WORLDS, run_batch, run_one  # noqa: E402
 from swarmtrack.scenarios import load_scenario  # noqa: E402
 
 GOAL = 5.0
-_ONE = ("import sys; from swarmtrack.analysis.reproduce import run_one; from swarmtrack.scenarios import "
+_ONE = ("import sys; from swarmtrack.analysis.runs import run_one; from swarmtrack.scenarios import "
         "load_scenario; run_one(load_scenario('l24-cv', sys.argv[2:], seed=int(sys.argv[1])))")
 
 

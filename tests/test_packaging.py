@@ -1,4 +1,8 @@
+import subprocess
+import sys
 from pathlib import Path
+
+import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "swarmtrack"
 
@@ -17,3 +21,15 @@ def test_the_source_version_is_the_packaged_one():
 
     project = tomllib.loads((SRC.parents[1] / "pyproject.toml").read_text())["project"]
     assert swarmtrack.__version__ == project["version"]
+
+
+BENCHMARKS = sorted((SRC.parents[1] / "benchmarks").glob("*.py"))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("script", BENCHMARKS, ids=[p.stem for p in BENCHMARKS])
+def test_every_benchmark_still_imports_what_it_measures(script):
+    """A benchmark imports the package's names at its top: one that a refactor moved fails here, not months later in
+    ``make bench``."""
+    res = subprocess.run([sys.executable, str(script), "--help"], capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stderr[-2000:]

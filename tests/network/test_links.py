@@ -193,3 +193,49 @@ def test_the_compiled_dense_proximity_equals_the_numpy_blocks_bit_for_bit(dim):
         dense = proximity_links(q, 4.8, sparse=False)
         assert dense.dtype == bool and np.array_equal(dense, proximity_blocks(q[None], 4.8)[0])
         assert dense[0, 1] and dense[1, 0] and not dense[3].any() and not dense[:, 3].any()
+
+
+@pytest.mark.parametrize("sparse", [False, True])
+def test_a_subsets_inbox_holds_its_rows_and_sums_them_as_the_swarm(sparse):
+    """Inbox.restrict: the rows of the subset's receivers (no self-loop), every sender's payloads, the late parts
+    restricted too; its sums, edges and own-first lists are the swarm's rows, bit for bit."""
+    from swarmtrack.network.messages import Inbox
+
+    rng = np.random.default_rng(4)
+    n = 30
+    links = drop(proximity_links(rng.uniform(0, 12, (n, 2)), 4.8, sparse=sparse), 0.1, rng)
+    late = drop(static_links("ring", n, sparse=sparse), 0.5, rng)
+    payload = {"info_vector": rng.normal(size=(n, 2)), "info_matrix": rng.normal(size=(n, 2, 2)),
+               "seen": rng.random(n) < 0.8}
+    whole = Inbox(links, payload, (Inbox(late, {**payload, "info_vector": payload["info_vector"] + 1.0}),))
+    recv, send = whole.heard()
+    for uavs in ([0], [7], [n - 1], [3, 4, 20]):
+        sub = whole.restrict(uavs)
+        assert sub.links.shape == (len(uavs), n) and is_sparse(sub.links) == sparse
+        assert np.array_equal(sub.receivers, uavs) and np.array_equal(sub.late[0].receivers, uavs)
+        for name in ("info_vector", "info_matrix"):
+            assert np.array_equal(sub.sum(name), whole.sum(name)[uavs])
+        r, s = sub.edges()
+        keep = np.isin(whole.edges()[0], uavs)
+        assert np.array_equal(np.asarray(uavs)[r], whole.edges()[0][keep])
+        assert np.array_equal(s, whole.edges()[1][keep])
+        r, s = sub.heard()
+        own = np.isin(recv, uavs)
+        assert sorted(zip(np.asarray(uavs)[r].tolist(), s.tolist(), strict=True)) == \
+            sorted(zip(recv[own].tolist(), send[own].tolist(), strict=True))
+    with pytest.raises(ValueError, match="increasing order"):
+        whole.restrict([3, 1])
+
+
+def test_a_subsets_detections_are_its_own_renumbered():
+    from swarmtrack.sensors.detections import Detections
+
+    owner = np.array([0, 0, 1, 3, 3, 3])
+    det = Detections(owner, np.arange(12.0).reshape(6, 2), np.arange(12.0).reshape(6, 2) + 100, np.arange(6), 4,
+                     taken=1.5)
+    sub = det.of_uavs([1, 3])
+    assert sub.n_uavs == 2 and sub.taken == 1.5
+    assert np.array_equal(sub.owner, [0, 1, 1, 1]) and np.array_equal(sub.label, [2, 3, 4, 5])
+    z, pos, seen = sub.of_label(4)
+    z_all, pos_all, seen_all = det.of_label(4)
+    assert np.array_equal(z, z_all[[1, 3]], equal_nan=True) and np.array_equal(seen, seen_all[[1, 3]])

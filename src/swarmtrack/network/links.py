@@ -7,6 +7,10 @@ are no self-loops. It is one of
 * a ``scipy.sparse.csr_array`` of bool with the same meaning, canonical (sorted indices, no duplicates, no
   explicit zeros, no diagonal).
 
+Links may also be *rectangular*, ``(R, N)``: the rows of R receivers, a subset of the swarm's UAVs (one UAV's own
+process, :meth:`swarmtrack.network.messages.Inbox.restrict`), over all N senders. Row r is the links of the swarm's
+UAV ``receivers[r]`` (:func:`rows_of`), which holds no self-loop; only square links have a diagonal to leave out.
+
 Both hold exactly the same set of links; the constructors here choose the form from the swarm size
 (``sparse=None``: sparse from :data:`SPARSE_MIN_UAVS` UAVs up) and every function accepts both, so without
 message loss the numbers downstream do not depend on the choice. Message loss (:func:`drop`) draws one uniform
@@ -22,6 +26,8 @@ from typing import TYPE_CHECKING, Union
 
 import numba
 import numpy as np
+
+from swarmtrack.network.rows import Rows
 
 if TYPE_CHECKING:  # scipy is imported where sparse links are built: small swarms never pay for it (~0.4 s)
     from scipy import sparse as sp
@@ -79,37 +85,75 @@ def to_dense(links: Links) -> np.ndarray:
 def neighbour_lists(links: Links) -> tuple[np.ndarray, np.ndarray]:
     """CSR structure ``(indptr, senders)``: UAV i hears ``senders[indptr[i]:indptr[i + 1]]``.
 
-    CSR links are returned as stored (no copy); for dense links the diagonal, if set, is left out, so both
-    forms of the same links give the same lists.
+    CSR links are returned as stored (no copy); for dense square links the diagonal, if set, is left out, so both
+    forms of the same links give the same lists (rectangular links hold no self-loop, :func:`rows_of`).
     """
     if is_sparse(links):
         return links.indptr, links.indices
     receivers, senders = np.nonzero(links)
-    keep = receivers != senders
-    receivers, senders = receivers[keep], senders[keep]
+    if _square(links):
+        keep = receivers != senders
+        receivers, senders = receivers[keep], senders[keep]
     return _indptr(receivers, links.shape[0]), senders
+
+
+def _square(links: Links) -> bool:
+    return links.shape[0] == links.shape[1]
 
 
 def edge_list(links: Links) -> tuple[np.ndarray, np.ndarray]:
     """Directed links as ``(receivers, senders)`` int arrays in row-major order, self-loops left out (a dense
-    mask or a hand-made CSR array may carry some)."""
+    mask or a hand-made CSR array may carry some). Rectangular links give the rows' indices as receivers."""
     indptr, senders = neighbour_lists(links)
     receivers = np.repeat(np.arange(len(indptr) - 1), np.diff(indptr))
-    if is_sparse(links):
+    if is_sparse(links) and _square(links):
         keep = receivers != senders
         receivers, senders = receivers[keep], senders[keep]
     return receivers, senders
 
 
-def neighbour_sum(links: Links, payload: np.ndarray) -> np.ndarray:
-    """Inbox sum ``Σ_j links[i, j] payload_j`` for every i (L24 eq. 7): payload ``(N, ...)`` → ``(N, ...)``.
+def neighbour_sum(links: Links, payload: np.ndarray, receivers: np.ndarray | None = None) -> np.ndarray:
+    """Inbox sum ``Σ_j links[i, j] payload_j`` for every receiver i (L24 eq. 7): payload ``(N, ...)`` →
+    ``(R, ...)`` for links ``(R, N)``.
 
-    Dense: ``links (N, N) @ payload``; sparse: the CSR product, O(links · payload size per UAV).
+    Dense: ``links @ payload``; sparse: the CSR product, O(links · payload size per UAV), row by row. Rectangular
+    dense links of the swarm's UAVs ``receivers`` are multiplied in the swarm's shape
+    (:meth:`swarmtrack.network.rows.Rows.matmul`), so each row is bit for bit the whole swarm's.
     """
     flat = payload.reshape(payload.shape[0], -1)
+    shape = (links.shape[0], *payload.shape[1:])
     if is_sparse(links):  # bool CSR @ float upcasts by itself (no float copy of the links: 4x faster)
-        return np.asarray(links @ flat).reshape(payload.shape)
-    return (links.astype(payload.dtype) @ flat).reshape(payload.shape)
+        return np.asarray(links @ flat).reshape(shape)
+    weights = links.astype(payload.dtype)
+    if receivers is None or _square(links):
+        return (weights @ flat).reshape(shape)
+    return Rows(receivers, links.shape[1]).matmul(weights, flat).reshape(shape)
+
+
+def rows_of(links: Links, receivers: np.ndarray) -> Links:
+    """The rows of the swarm's UAVs ``receivers`` (sorted, distinct) of square ``links``: rectangular links
+    ``(R, N)``, in the same form, without self-loops (module docstring)."""
+    receivers = np.asarray(receivers, dtype=np.int64)
+    if len(receivers) == links.shape[0]:
+        return links
+    rows = np.arange(len(receivers))
+    if not is_sparse(links):
+        out = np.array(links[receivers], dtype=bool)
+        out[rows, receivers] = False
+        return out
+    from scipy import sparse as sp
+
+    indptr, senders = links.indptr, links.indices
+    parts = [senders[indptr[i]:indptr[i + 1]] for i in receivers]
+    cols = [p[p != i] for p, i in zip(parts, receivers, strict=True)]
+    counts = np.array([len(c) for c in cols], dtype=np.int64)
+    ptr = np.zeros(len(receivers) + 1, dtype=senders.dtype)
+    np.cumsum(counts, out=ptr[1:])
+    flat = np.concatenate(cols) if cols else np.empty(0, dtype=senders.dtype)
+    out = sp.csr_array((np.ones(flat.size, dtype=bool), flat.astype(senders.dtype), ptr),
+                       shape=(len(receivers), links.shape[1]))
+    out.has_sorted_indices = True
+    return out
 
 
 def drop(links: Links, probability: float, rng: np.random.Generator | None) -> Links:

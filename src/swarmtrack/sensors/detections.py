@@ -45,6 +45,15 @@ class Detections:
     def __len__(self) -> int:
         return len(self.owner)
 
+    def of_uavs(self, uavs) -> Detections:
+        """The detections of the swarm's UAVs ``uavs`` (sorted, distinct, 0-based), their owners renumbered
+        ``0..R-1`` in that order: what one UAV's own process (or a subset's) is handed."""
+        uavs = np.asarray(uavs, dtype=np.int64)
+        pick = np.isin(self.owner, uavs)
+        return Detections(np.searchsorted(uavs, self.owner[pick]), self.z[pick], self.sensor_pos[pick],
+                          self.label[pick], len(uavs), self.grid, None if self.frame is None else self.frame[pick],
+                          None if self.footprint is None else self.footprint[uavs], self.taken)
+
     def of_label(self, label) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Per-UAV arrays of the detection labelled ``label`` (one label, or one per UAV (N,): UAVs of a batch of
         worlds follow their own world's target): ``z`` (N, m), ``sensor_pos`` (N, 2) and ``seen`` (N,); rows of UAVs

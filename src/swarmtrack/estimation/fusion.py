@@ -181,17 +181,19 @@ def _log_gaussian_small(nu: np.ndarray, S: np.ndarray) -> np.ndarray:
     return np.where(ok & np.isfinite(out), out, np.nan)
 
 
-def imm_predict(mu: np.ndarray, rho: np.ndarray) -> np.ndarray:
+def imm_predict(mu: np.ndarray, rho: np.ndarray, matmul=np.matmul) -> np.ndarray:
     """Predicted mode probabilities ``μ_j(k|k−1) = Σ_i ρ_ij μ_i(k−1|k−1)`` (W20 eq. 4.34), i.e. ``mu @ rho``.
 
     ``mu`` (B, M), ``rho`` (M, M) with ``rho[i, j]`` the probability of switching from i to j (rows sum to 1).
+    ``matmul``: how the product is taken (a subset of a swarm's UAVs: :meth:`~swarmtrack.network.rows.Rows.matmul`,
+    each row bit for bit the whole swarm's).
     """
     mu = np.asarray(mu, dtype=float)
     rho = np.asarray(rho, dtype=float)
     M = mu.shape[-1]
     if rho.shape != (M, M):
         raise ValueError(f"rho has shape {rho.shape}, expected {(M, M)}")
-    return mu @ rho
+    return matmul(mu, rho)
 
 
 def imm_update(mu_pred: np.ndarray, loglik: np.ndarray, valid: np.ndarray) -> np.ndarray:
@@ -251,7 +253,8 @@ def moment_combine(w: np.ndarray, x: np.ndarray, P: np.ndarray):
     return xbar[..., 0, :], _full(vals[..., 0, :], full_of, d)
 
 
-def imm_mix(mu: np.ndarray, rho: np.ndarray, x: np.ndarray, P: np.ndarray, valid: np.ndarray | None = None):
+def imm_mix(mu: np.ndarray, rho: np.ndarray, x: np.ndarray, P: np.ndarray, valid: np.ndarray | None = None,
+            matmul=np.matmul):
     """IMM interaction (mixing) step (Bar-Shalom; W20 builds on it in Sec. 4.3.2).
 
     ``c̄_j = Σ_i ρ_ij μ_i``, ``μ_{i|j} = ρ_ij μ_i / c̄_j``, ``x0_j = Σ_i μ_{i|j} x_i`` and
@@ -262,13 +265,13 @@ def imm_mix(mu: np.ndarray, rho: np.ndarray, x: np.ndarray, P: np.ndarray, valid
     i, renormalised to sum to 1. Every destination j gets a mixed prior (the caller decides which ones it runs).
     A column whose valid sources all have ``ρ_ij μ_i = 0`` is not mixed: ``x0_j = x_j``, ``P0_j = P_j``.
     The returned ``mu_pred = mu @ rho`` (``imm_predict``, over all candidates) is the ``μ(k|k−1)`` that
-    ``imm_update`` takes, so that mass of a candidate without evidence is carried, not lost.
-    Returns ``x0`` (B, M, d), ``P0`` (B, M, d, d), ``mu_pred`` (B, M).
+    ``imm_update`` takes, so that mass of a candidate without evidence is carried, not lost. ``matmul`` as in
+    :func:`imm_predict`. Returns ``x0`` (B, M, d), ``P0`` (B, M, d, d), ``mu_pred`` (B, M).
     """
     mu = np.asarray(mu, dtype=float)
     x = np.asarray(x, dtype=float)
     P = np.asarray(P, dtype=float)
-    mu_pred = imm_predict(mu, rho)
+    mu_pred = imm_predict(mu, rho, matmul)
     rho = np.asarray(rho, dtype=float)
     M, d = x.shape[-2], x.shape[-1]
     x_in, P_in = x, P
@@ -281,7 +284,7 @@ def imm_mix(mu: np.ndarray, rho: np.ndarray, x: np.ndarray, P: np.ndarray, valid
         P = np.where(valid[..., None, None], P, 0.0)
         mu_src = np.where(valid, mu, 0.0)
     A = mu_src[..., :, None] * rho
-    cbar = mu_src @ rho if valid is not None else mu_pred  # Σ over the valid sources i of ρ_ij μ_i, (B, M_j)
+    cbar = matmul(mu_src, rho) if valid is not None else mu_pred  # Σ over the valid sources i of ρ_ij μ_i, (B, M_j)
     mixed = cbar > 0
     W = np.swapaxes(A / np.where(mixed, cbar, 1.0)[..., None, :], -1, -2)  # W[b, j, i] = μ_{i|j}
     x0 = W @ x  # (B, M_j, d)

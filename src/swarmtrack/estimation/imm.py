@@ -48,6 +48,7 @@ from swarmtrack.estimation.information import (
     symmetrize,
 )
 from swarmtrack.models.base import MotionModel
+from swarmtrack.network.rows import Rows
 from swarmtrack.sensors.range_bearing import to_position
 
 COMMON = fusion.COMMON
@@ -60,12 +61,14 @@ class IMMInformationEstimator:
 
     ``markov`` (M, M): ``markov[i, j]`` is the probability of switching from model i to model j (rows sum to 1);
     default: ``STAY`` on the diagonal (:func:`fusion.default_markov`). ``share``, ``initial_info`` and
-    ``fake_vz_sigma`` as in :class:`~swarmtrack.estimation.information.InformationEstimator`.
+    ``fake_vz_sigma`` as in :class:`~swarmtrack.estimation.information.InformationEstimator`; ``n_uavs`` rows, the
+    swarm's UAVs ``rows`` (default: a whole swarm of ``n_uavs``), each bit for bit the whole swarm's given the same
+    inputs (:mod:`swarmtrack.network.rows`).
     """
 
     def __init__(self, models: list[MotionModel], update: RangeBearingUpdate, n_uavs: int, *, label: int = 0,
                  share: str = "information", markov=None, initial_info: float = 1e-6,
-                 fake_vz_sigma: float | None = None):
+                 fake_vz_sigma: float | None = None, rows: Rows | None = None):
         if share not in ("information", "measurements"):
             raise ValueError(f"unknown share mode {share!r}; expected 'information' or 'measurements'")
         M = len(models)
@@ -77,6 +80,7 @@ class IMMInformationEstimator:
             raise ValueError(f"markov must be {M} x {M}, non-negative, with rows summing to 1; got {rho.tolist()}")
         self.models, self.rho, self.update_rule, self.share_mode = tuple(models), rho, update, share
         self.n, self.label = n_uavs, label
+        self.rows = Rows.all(n_uavs) if rows is None else rows
         self._mixing = M > 1 and not np.array_equal(rho, np.eye(M))
         self.x, self.P = [], []  # per model: (N, n_m), (N, n_m, n_m)
         for model in models:
@@ -103,7 +107,7 @@ class IMMInformationEstimator:
         x0, P0, self._mu_pred = self._mix()
         self._pred = []
         for model, x, P in zip(self.models, x0, P0, strict=True):
-            Y, y, x_pred = predict(model, x, P)
+            Y, y, x_pred = predict(model, x, P, self.rows)
             F2 = model.F[:2] if getattr(model, "linear", False) else model.jacobian(x)[..., :2, :]
             P_pos = symmetrize(F2 @ P @ np.swapaxes(F2, -1, -2) + model.Q[:2, :2])
             self._pred.append((Y, y, x_pred, P_pos))
@@ -153,10 +157,10 @@ class IMMInformationEstimator:
     def _mix(self):
         """Mixed priors of every member (module docstring, 1) and ``μ(k|k−1)``."""
         if not self._mixing:
-            return self.x, self.P, fusion.imm_predict(self.mu, self.rho)
+            return self.x, self.P, fusion.imm_predict(self.mu, self.rho, self.rows.matmul)
         xc = np.stack([x[:, :COMMON] for x in self.x], axis=1)
         Pc = np.stack([P[:, :COMMON, :COMMON] for P in self.P], axis=1)
-        x0c, P0c, mu_pred = fusion.imm_mix(self.mu, self.rho, xc, Pc)
+        x0c, P0c, mu_pred = fusion.imm_mix(self.mu, self.rho, xc, Pc, matmul=self.rows.matmul)
         x0, P0 = [], []
         for m in range(len(self.models)):
             xm, Pm = fusion.extend_to_model(self.x[m], self.P[m], x0c[:, m], P0c[:, m])

@@ -15,6 +15,7 @@ import numpy as np
 from swarmtrack.estimation.base import Probe, TargetView
 from swarmtrack.models.base import MotionModel
 from swarmtrack.network.links import neighbour_sum
+from swarmtrack.network.rows import Rows
 from swarmtrack.sensors.range_bearing import polar_model, position_covariance, to_position, wrap_angle
 
 UPDATES = ("position", "polar")
@@ -126,14 +127,16 @@ def recover(Y: np.ndarray, y: np.ndarray):
     return sol[..., 0], symmetrize(sol[..., 1:])
 
 
-def predict(model: MotionModel, x: np.ndarray, P: np.ndarray):
+def predict(model: MotionModel, x: np.ndarray, P: np.ndarray, rows: Rows | None = None):
     """Prediction in information form from the posterior moments (L24 Sec. 3.1; linear case: ``∇f = F``).
 
     ``Y(k|k-1) = (∇f P ∇fᵀ + Q)⁻¹`` and ``y(k|k-1) = Y(k|k-1) f(x)``, both from one solve against
-    ``P(k|k-1)``. ``x, P`` come from :func:`recover`. Returns ``Y_pred, y_pred, x_pred``.
+    ``P(k|k-1)``. ``x, P`` come from :func:`recover`; ``rows``: the swarm's UAVs they are (a subset's
+    prediction is bit for bit the whole swarm's, :meth:`~swarmtrack.network.rows.Rows.rowwise`). Returns
+    ``Y_pred, y_pred, x_pred``.
     """
     F = model.jacobian(x)
-    x_pred = model.f(x)
+    x_pred = model.f(x) if rows is None else rows.rowwise(model.f, x)
     P_pred = symmetrize(F @ P @ np.swapaxes(F, -1, -2) + model.Q)
     n = model.dim
     sol = np.linalg.solve(P_pred, np.concatenate(
@@ -185,12 +188,13 @@ class NeighbourSum:
         """The delivered contributions' sums ``I (N, 2, 2), i (N, 2)``, late parts as if current."""
         return inbox.sum("info_matrix"), inbox.sum("info_vector")
 
-    def part(self, links, payloads: dict, rows: np.ndarray, prior) -> tuple[np.ndarray, np.ndarray]:
-        """The sums of one part of an inbox restricted to the sending ``rows`` (time-stamped fusion, which fuses
+    def part(self, part, rows: np.ndarray, prior) -> tuple[np.ndarray, np.ndarray]:
+        """The sums of one ``part`` of an inbox restricted to the sending ``rows`` (time-stamped fusion, which fuses
         each part at the step it was taken; ``prior()`` gives each receiver's predicted position and its covariance
         for that step, which a gate reads)."""
-        return (neighbour_sum(links, payloads["info_matrix"] * rows[:, None, None]),
-                neighbour_sum(links, payloads["info_vector"] * rows[:, None]))
+        got = part.payloads
+        return (neighbour_sum(part.links, got["info_matrix"] * rows[:, None, None], part.receivers),
+                neighbour_sum(part.links, got["info_vector"] * rows[:, None], part.receivers))
 
     def sample(self) -> dict[str, np.ndarray]:
         return {}
@@ -264,7 +268,7 @@ class NumpyCycle:
 
     def share(self, est: InformationEstimator, z: np.ndarray, pos: np.ndarray, seen: np.ndarray) -> dict:
         """Predict (L24 Sec. 3.1) and each UAV's own contribution (L24 eq. 6)."""
-        est.Y_pred, est.y_pred, est.x_pred = predict(est.model, est.x, est.P)
+        est.Y_pred, est.y_pred, est.x_pred = predict(est.model, est.x, est.P, est.rows)
         return est.measured(z, pos, seen, est.x, est.P, est.x_pred)
 
     def fuse(self, est: InformationEstimator, inbox, t: float) -> None:
@@ -281,15 +285,19 @@ class InformationEstimator:
     and ``cycle`` (the numpy reference :class:`NumpyCycle`, or the compiled cycle of the CV and FS models with the
     position update, same numbers). Late data fused at its time stamp is
     :class:`swarmtrack.estimation.refilter.RefilteringEstimator`.
+
+    ``n_uavs`` rows, the swarm's UAVs ``rows`` (default: a whole swarm of ``n_uavs``); a subset's rows are bit for
+    bit the whole swarm's, given the same inputs (:mod:`swarmtrack.network.rows`).
     """
 
     def __init__(self, model: MotionModel, update: RangeBearingUpdate, n_uavs: int, *, label: int = 0,
                  sharing: InformationSharing | None = None, cycle: NumpyCycle | None = None,
-                 initial_info: float = 1e-6, fake_vz_sigma: float | None = None):
+                 initial_info: float = 1e-6, fake_vz_sigma: float | None = None, rows: Rows | None = None):
         self.model, self.update_rule = model, update
         self.sharing = InformationSharing() if sharing is None else sharing
         self.cycle = NumpyCycle() if cycle is None else cycle
         self.n, self.label = n_uavs, label
+        self.rows = Rows.all(n_uavs) if rows is None else rows
         Y, y = initial_information(model, self.sharing.filters(n_uavs), initial_info)
         self.x, self.P = recover(Y, y)
         self.cycle.start(Y, y)

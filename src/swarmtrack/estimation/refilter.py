@@ -78,7 +78,8 @@ class RefilteringEstimator(InformationEstimator):
             seen = np.zeros_like(seen)
         self._own_slot = s
         x, P = self._posterior(s - 1)
-        self.own = {**self.measured(z, pos, seen, x, P, self.model.f(x)), "taken": np.full(self.n, float(taken))}
+        self.own = {**self.measured(z, pos, seen, x, P, self.rows.rowwise(self.model.f, x)),
+                    "taken": np.full(self.n, float(taken))}
         return self.own
 
     def fuse(self, t: float, own, inbox) -> None:
@@ -94,7 +95,7 @@ class RefilteringEstimator(InformationEstimator):
             for part in inbox.parts():
                 first = min(first, self._add_part(t, part))
         for s in range(first, self._k + 1):
-            Y, y, _ = predict(self.model, *self._posterior(s - 1))
+            Y, y, _ = predict(self.model, *self._posterior(s - 1), self.rows)
             slot = s % len(self._acc_I)
             Y[..., :2, :2] += self._acc_I[slot]
             y[..., :2] += self._acc_i[slot]
@@ -119,13 +120,13 @@ class RefilteringEstimator(InformationEstimator):
                 continue
             if not self._in_window(int(s)):
                 if s >= 0:
-                    self._stale += neighbour_sum(part.links, rows.astype(float))
+                    self._stale += neighbour_sum(part.links, rows.astype(float), part.receivers)
                 continue
             def prior(s=int(s)):  # this UAV's prediction for the step the data was taken at (what a gate reads)
                 x, P = self._posterior(s - 1)
-                return self.model.f(x)[:, :2], self.predicted_position_covariance(x, P)
+                return self.rows.rowwise(self.model.f, x)[:, :2], self.predicted_position_covariance(x, P)
 
-            I, i = self.gate.part(part.links, got, rows, prior)
+            I, i = self.gate.part(part, rows, prior)
             first = min(first, self._add(int(s), I, i))
         return first
 

@@ -15,16 +15,21 @@ class Chi2Gate:
     """Each neighbour's contribution is added only when the position it implies passes a χ²(2) test against the
     receiver's own prediction (:func:`~swarmtrack.estimation.gating.chi2_gate`). Records whom: per receiver the
     contributions it left out (``gated``), per sender how many receivers left its out (``rejected``), and got it
-    (``delivered``)."""
+    (``delivered``).
+
+    Built for a subset of the swarm (``n_uavs`` receivers of a swarm of ``senders``): ``gated`` is per receiver;
+    ``rejected`` and ``delivered`` stay per sender (``senders``,), tallied over this subset's receivers only, so the
+    swarm's counts are the sums of its processes' (a sender cannot know who gated it)."""
 
     probes = (Probe("gated", ()), Probe("rejected", ()), Probe("delivered", ()))
 
-    def __init__(self, n_uavs: int, probability: float = 0.999):
+    def __init__(self, n_uavs: int, probability: float = 0.999, *, senders: int | None = None):
         self.n = n_uavs
+        senders = n_uavs if senders is None else senders
         self.threshold = -2.0 * np.log1p(-probability)  # the χ²(2) quantile (χ²(2) is exponential, mean 2)
         self._gated = np.zeros(n_uavs)
-        self._rejected = np.zeros(n_uavs)
-        self._delivered = np.zeros(n_uavs)
+        self._rejected = np.zeros(senders)
+        self._delivered = np.zeros(senders)
 
     def reset(self) -> None:
         self._gated[:] = 0.0
@@ -48,10 +53,10 @@ class Chi2Gate:
             I, i = I + I_p, i + i_p
         return I, i
 
-    def part(self, links, payloads: dict, rows: np.ndarray, prior) -> tuple[np.ndarray, np.ndarray]:
-        """The gated sums of the sending ``rows`` of one part, against the prediction ``prior()`` for the step
+    def part(self, part, rows: np.ndarray, prior) -> tuple[np.ndarray, np.ndarray]:
+        """The gated sums of the sending ``rows`` of one ``part``, against the prediction ``prior()`` for the step
         their data was taken at."""
-        return self._gate(links, {**payloads, "seen": rows}, *prior())
+        return self._gate(part.links, {**part.payloads, "seen": rows}, *prior())
 
     def sample(self) -> dict[str, np.ndarray]:
         return {"gated": self._gated.copy(), "rejected": self._rejected.copy(), "delivered": self._delivered.copy()}

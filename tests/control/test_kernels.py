@@ -147,3 +147,29 @@ def test_sparse_path_never_builds_an_n_by_n_array():
     finally:
         tracemalloc.stop()
     assert is_sparse(links) and peak < 20e6
+
+
+@pytest.mark.parametrize("variant", VARIANTS)
+@pytest.mark.parametrize("n, form", [(2, "dense"), (40, "dense"), (40, "csr"), (400, "csr")])
+def test_a_subsets_commands_are_the_whole_swarms_rows_bit_for_bit(variant, n, form):
+    """R receivers over N senders (one UAV's own process): each row of the compiled kernels and of the numpy
+    reference is exactly the whole swarm's (the dense kernel sums a receiver's lower senders, then its higher)."""
+    from swarmtrack.network.links import rows_of
+
+    rng = np.random.default_rng(n)
+    q = rng.uniform(-1.5, 1.5, (n, 2)) * max(1.0, np.sqrt(n))
+    p, q_t, p_t = rng.normal(0, 1, (n, 2)), rng.normal(0, 3, (n, 2)), rng.normal(0, 1, (n, 2))
+    links = proximity_links(q, 4.8, sparse=form == "csr")
+    links = drop(links, 0.2, rng)  # not symmetric
+    state = FlockingState(rng.normal(0, 2, (n, 2)), rng.normal(0, 2, (n, 2)))
+    active = rng.random(n) < 0.8
+    subsets = [np.array([i]) for i in range(min(n, 6))] + [np.array([0, n - 1]), np.sort(rng.choice(n, n // 2, False))]
+    for law in (flocking_control, flocking_control_compiled):
+        u, s = law(q, p, q_t, p_t, links, state, FlockingGains(), variant, 0.05, active=active)
+        for rows in subsets:
+            part = FlockingState(state.e_int_integral[rows], state.v_int_integral[rows])
+            u_r, s_r = law(q, p, q_t[rows], p_t[rows], rows_of(links, rows), part, FlockingGains(), variant, 0.05,
+                           active=active[rows], receivers=rows)
+            assert np.array_equal(u_r, u[rows])
+            assert np.array_equal(s_r.e_int_integral, s.e_int_integral[rows])
+            assert np.array_equal(s_r.v_int_integral, s.v_int_integral[rows])

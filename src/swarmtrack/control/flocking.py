@@ -16,6 +16,9 @@ reductions over the pair axis (``Σ_j c_ij (x_i - x_j) = x_i Σ_j c_ij - (C x)_i
 are computed per stored link and summed per receiver, in O(N + links) memory. Both give the same numbers to
 rounding.
 
+The commands can be computed for R receivers, a subset of the swarm's N UAVs (one UAV's own process), from their
+rows of the links (R, N) and every sender's beacon: the same numbers, bit for bit, as the whole swarm's rows.
+
 Conventions
 -----------
 * ``a_ij`` weighting is applied consistently to every neighbour sum, including ``e_int``: the papers write
@@ -210,31 +213,42 @@ def _laplacian_apply(c: np.ndarray, x: np.ndarray) -> np.ndarray:
 
 
 def _dense_neighbour_terms(
-    q: np.ndarray, p: np.ndarray, neighbours: np.ndarray, gains: FlockingGains
+    q: np.ndarray, p: np.ndarray, neighbours: np.ndarray, gains: FlockingGains, receivers: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """``(e_int, Σ_j a_ij (p_i − p_j))`` (L23 eq. 7, L24 velocity matching) over an ``(N, N)`` mask."""
+    """``(e_int, Σ_j a_ij (p_i − p_j))`` (L23 eq. 7, L24 velocity matching) over an ``(N, N)`` mask; for the rows
+    (R, N) of the swarm's UAVs ``receivers``, in the swarm's shape with the other rows empty (the products then
+    take the whole swarm's path: :mod:`swarmtrack.network.rows`)."""
+    if receivers is not None:
+        full = np.zeros((q.shape[0], q.shape[0]), dtype=bool)
+        full[receivers] = neighbours
+        e_int, dp = _dense_neighbour_terms(q, p, full, gains)
+        return e_int[receivers], dp[receivers]
     w, c = _pair_weights(q, neighbours, gains)
     return -_laplacian_apply(c, q), _laplacian_apply(w, p)
 
 
 def _sparse_neighbour_terms(
-    q: np.ndarray, p: np.ndarray, links: Links, gains: FlockingGains
+    q: np.ndarray, p: np.ndarray, links: Links, gains: FlockingGains, receivers: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """Same as :func:`_dense_neighbour_terms` for CSR links: ``a_ij``, ``c_ij`` per stored link (receiver i,
     sender j), summed per receiver; O(N + links) memory."""
-    n = q.shape[0]
+    own_q, own_p = (q, p) if receivers is None else (q[receivers], p[receivers])
     i, j = edge_list(links)
-    dq = q[i] - q[j]
+    dq = own_q[i] - q[j]
     sig = _sigma_from_sq(dq[:, 0] * dq[:, 0] + dq[:, 1] * dq[:, 1], gains.eps)
     w = bump(sig / _sigma_from_sq(gains.r_comm**2, gains.eps), gains.h)
     c = _regulator_coefficients(w, sig, gains)
-    e_int = -_edge_laplacian_apply(c, i, j, q, n)
-    return e_int, _edge_laplacian_apply(w, i, j, p, n)
+    e_int = -_edge_laplacian_apply(c, (i, j), own_q, q)
+    return e_int, _edge_laplacian_apply(w, (i, j), own_p, p)
 
 
-def _edge_laplacian_apply(c: np.ndarray, i: np.ndarray, j: np.ndarray, x: np.ndarray, n: int) -> np.ndarray:
-    """``Σ_j c_ij (x_i − x_j)`` for all i, with ``c`` given per directed link ``(i, j)``."""
-    out = x * np.bincount(i, weights=c, minlength=n)[:, None]
+def _edge_laplacian_apply(c: np.ndarray, edges: tuple[np.ndarray, np.ndarray], own: np.ndarray,
+                          x: np.ndarray) -> np.ndarray:
+    """``Σ_j c_ij (x_i − x_j)`` for every receiver i, with ``c`` given per directed link ``edges = (i, j)``, the
+    receivers' own ``own`` (R, d) and the senders' ``x`` (N, d)."""
+    i, j = edges
+    n = own.shape[0]
+    out = own * np.bincount(i, weights=c, minlength=n)[:, None]
     for k in range(x.shape[1]):
         out[:, k] -= np.bincount(i, weights=c * x[j, k], minlength=n)
     return out
@@ -259,17 +273,19 @@ def flocking_control(
     variant: str = "tailored",
     dt: float = 0.05,
     active: np.ndarray | None = None,
+    receivers: np.ndarray | None = None,
 ) -> tuple[np.ndarray, FlockingState]:
-    """Flocking acceleration commands for N agents and the updated integrator state (pure function).
+    """Flocking acceleration commands for N agents (or R of them, ``receivers``) and the updated integrator state
+    (pure function).
 
     Parameters
     ----------
     q, p : (N, 2)
-        Each agent's own position and velocity.
-    q_t, p_t : (N, 2) or (2,)
-        Target position and velocity as *each* agent knows it (its own estimate; a (2,) array is broadcast).
-    neighbours : (N, N) bool array or CSR links
-        ``neighbours[i, j]``: agent i receives agent j's state (diagonal ignored). The bump ``a_ij`` on
+        Each agent's own position and velocity (the beacons of every sender).
+    q_t, p_t : (R, 2) or (2,)
+        Target position and velocity as *each* receiver knows it (its own estimate; a (2,) array is broadcast).
+    neighbours : (R, N) bool array or CSR links
+        ``neighbours[r, j]``: receiver r receives agent j's state (its own ignored). The bump ``a_ij`` on
         ``‖q_i − q_j‖σ/‖r_comm‖σ`` additionally zeroes agents beyond r_comm. Sparse links
         (:func:`swarmtrack.network.links.proximity_links` for large swarms) give the same numbers to
         rounding without any ``(N, N)`` array.
@@ -289,6 +305,10 @@ def flocking_control(
     active : (N,) bool, optional
         Agents not yet chasing (e.g. before the filter has converged) only hold position,
         ``u = −K_vt p_i``, and their integrals do not accumulate. Default: all active.
+    receivers : (R,) int, optional
+        The agents (sorted, 0-based) the commands are for: the rows of ``neighbours``, ``q_t``, ``p_t``, ``state``
+        and ``active``; their own states are ``q[receivers]``, ``p[receivers]``. Default: all N. Each row is bit
+        for bit the whole swarm's.
 
     Returns
     -------
@@ -300,15 +320,18 @@ def flocking_control(
     if variant not in VARIANTS:
         raise ValueError(f"unknown flocking variant {variant!r}; expected one of {VARIANTS}")
     g = FlockingGains() if gains is None else gains
-    q = np.asarray(q, dtype=float)
-    p = np.asarray(p, dtype=float)
+    q_s = np.asarray(q, dtype=float)
+    p_s = np.asarray(p, dtype=float)
+    if receivers is not None and len(receivers) == len(q_s):
+        receivers = None  # all of them (sorted): the whole swarm
+    q, p = (q_s, p_s) if receivers is None else (q_s[receivers], p_s[receivers])
     n = q.shape[0]
     q_t = np.broadcast_to(np.asarray(q_t, dtype=float), (n, 2))
     p_t = np.broadcast_to(np.asarray(p_t, dtype=float), (n, 2))
 
     # e_int,i = Σ_j c_ij (q_j − q_i) = −Σ_j c_ij (q_i − q_j)   (L23 eq. 7, a_ij-weighted)
     neighbour_terms = _sparse_neighbour_terms if is_sparse(neighbours) else _dense_neighbour_terms
-    e_int, p_disagreement = neighbour_terms(q, p, neighbours, g)
+    e_int, p_disagreement = neighbour_terms(q_s, p_s, neighbours, g, receivers)
     u_d = g.K_d * e_int  # L24 eq. 1 distance regulator: −K_d Σ c_ij (q_i − q_j)
     u_v = -g.K_v * p_disagreement  # L24 velocity matching
     eq = q - q_t
@@ -342,6 +365,8 @@ def flocking_control(
 class FlockingController:
     """Onboard flocking (L24 Sec. 2): each UAV beacons its own navigation state and follows its own estimate of
     the target, holding position until ``chase_after`` seconds (the first filter iterations, L24 Sec. 4).
+    ``n_uavs`` rows: the whole swarm, or the receivers of its inboxes (:attr:`Inbox.receivers`, one UAV's own
+    process), whose rows are bit for bit the whole swarm's.
 
     ``law``: the control law, :func:`flocking_control` (the numpy reference) or its compiled twin
     (:func:`swarmtrack.control.kernels.compiled_law`, same numbers to rounding); the builder picks it.
@@ -360,15 +385,16 @@ class FlockingController:
         return {"nav": nav}
 
     def command(self, t: float, nav: np.ndarray, view, inbox, dt: float) -> np.ndarray:
-        """Acceleration command (N, 2): UAV i uses beacon j only where its inbox has a link from j."""
-        # row j of the beacons is UAV j's own navigation state (row i: this UAV's own); the pair terms read
-        # row j only where the link i <- j delivered it
+        """Acceleration command (R, 2): UAV i uses beacon j only where its inbox has a link from j."""
+        # row j of the beacons is UAV j's own navigation state (row receivers[r]: this UAV's own); the pair terms
+        # read row j only where the link i <- j delivered it
         beacons = inbox.payloads["nav"]
+        receivers = None if len(inbox.receivers) == len(beacons) else inbox.receivers
         # t counts physics ticks and chase_after estimation steps: their float products can differ by an ulp
         active = np.full(nav.shape[0], t >= self.chase_after - 1e-9)
         target = view.state
         u, self.state = self._control(beacons[:, :2], beacons[:, 2:4], target[:, :2], target[:, 2:4], inbox.links,
-                                      self.state, self.gains, self.variant, dt, active=active)
+                                      self.state, self.gains, self.variant, dt, active=active, receivers=receivers)
         return u
 
     def sample(self) -> dict[str, np.ndarray]:

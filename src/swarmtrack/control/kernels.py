@@ -18,7 +18,10 @@ with ``k_dt = K_dt`` (standard, integral) or ``atan(‖q_i − q_t‖/D_dt)`` (t
 one squared distance.
 
 The dense kernel loops over the O(N²) unordered pairs (each evaluated once, added to both agents that hear
-the other); the CSR kernel loops over the stored links only, O(N + links) time and memory. Converting a dense
+the other); the CSR kernel loops over the stored links only, O(N + links) time and memory. For R receivers, a
+subset of the swarm (one UAV's own process), :func:`flocking_kernel_rows` takes their rows (R, N) of a dense mask
+and sums, per receiver, its lower senders then its higher ones, as the pair loop does, so that each row is bit for
+bit the whole swarm's; the CSR kernel takes the receivers' rows as they are. Converting a dense
 mask to CSR (``np.nonzero``) to use one kernel for both was measured 2-5x slower than the dense kernel on
 dense input at every size (N = 3: 3 µs vs 10 µs; N = 1,000: 0.8 ms vs 3.6 ms), so both are kept; they share
 the pair arithmetic (:func:`_pair_weight`) and the per-agent commands (:func:`_commands`).
@@ -39,6 +42,7 @@ import numpy as np
 
 from swarmtrack.control.flocking import VARIANTS, FlockingGains, FlockingState, _sigma_from_sq
 from swarmtrack.network.links import Links, is_sparse, neighbour_lists
+from swarmtrack.network.rows import everyone
 
 #: ``variant`` argument of :func:`flocking_kernel`: index in :data:`~swarmtrack.control.flocking.VARIANTS`.
 STANDARD, INTEGRAL, TAILORED = (VARIANTS.index(v) for v in ("standard", "integral", "tailored"))
@@ -140,19 +144,65 @@ def flocking_kernel(qp, qp_t, neighbours, e_int_integral, v_int_integral, active
 
 
 @numba.njit(cache=True, fastmath=False)
-def flocking_kernel_csr(qp, qp_t, indptr, indices, e_int_integral, v_int_integral, active, gains, variant, dt):
-    """:func:`flocking_kernel` over CSR links: UAV i hears ``indices[indptr[i]:indptr[i + 1]]`` (a self-link
-    is ignored). Same arguments otherwise; O(N + links) time and memory."""
+def flocking_kernel_rows(qp, receivers, qp_t, neighbours, e_int_integral, v_int_integral, active, gains, variant, dt):
+    """:func:`flocking_kernel` for the swarm's agents ``receivers`` (R,), sorted: ``neighbours`` (R, N) their rows
+    of the mask, ``qp`` (N, ≥4) every sender's state, ``qp_t``, the integrals and ``active`` (R, ...) theirs.
+
+    Per receiver i, the pair terms of the senders below i are summed first, then those above, each in sender
+    order, and the two sums added: the order in which :func:`flocking_kernel` adds them, so each row is bit for
+    bit the whole swarm's. O(R N) time."""
     eps = gains[7]
     h = gains[8]
     sig_d = gains[9]
     sig_r = gains[10]
     cutoff = gains[11] * _CUTOFF_MARGIN
     n = qp.shape[0]
+    rows = receivers.shape[0]
+    sums = np.zeros((rows, 6))
+    part = np.zeros(6)
+    for r in range(rows):
+        i = receivers[r]
+        for half in range(2):  # senders j < i (added to i by the pair loop's earlier rows), then j > i
+            part[:] = 0.0
+            lo, hi = (0, i) if half == 0 else (i + 1, n)
+            for j in range(lo, hi):
+                if not neighbours[r, j]:
+                    continue
+                # the pair loop's difference: lower index minus higher
+                dx = qp[j, 0] - qp[i, 0] if half == 0 else qp[i, 0] - qp[j, 0]
+                dy = qp[j, 1] - qp[i, 1] if half == 0 else qp[i, 1] - qp[j, 1]
+                sq = dx * dx + dy * dy
+                if sq > cutoff:  # beyond r_comm: a_ij = 0
+                    continue
+                w, c = _pair_weight(sq, eps, h, sig_d, sig_r)
+                part[0] += w
+                part[1] += c
+                part[2] += c * qp[j, 0]
+                part[3] += c * qp[j, 1]
+                part[4] += w * qp[j, 2]
+                part[5] += w * qp[j, 3]
+            for k in range(6):
+                sums[r, k] += part[k]
+    return _commands(qp[receivers], qp_t, sums, e_int_integral, v_int_integral, active, gains, variant, dt)
+
+
+@numba.njit(cache=True, fastmath=False)
+def flocking_kernel_csr(qp, own, receivers, qp_t, indptr, indices, e_int_integral, v_int_integral, active, gains,
+                        variant, dt):
+    """:func:`flocking_kernel` over CSR links: receiver r, the swarm's agent ``receivers[r]``, hears
+    ``indices[indptr[r]:indptr[r + 1]]`` (a self-link is ignored); ``qp`` (N, ≥4) every sender's state, ``own``
+    (R, ≥4) the receivers' (``qp[receivers]``), ``qp_t``, the integrals and ``active`` theirs. Same arguments
+    otherwise; O(N + links) time and memory."""
+    eps = gains[7]
+    h = gains[8]
+    sig_d = gains[9]
+    sig_r = gains[10]
+    cutoff = gains[11] * _CUTOFF_MARGIN
+    n = receivers.shape[0]
     sums = np.zeros((n, 6))
     for i in range(n):
-        qx = qp[i, 0]
-        qy = qp[i, 1]
+        qx = own[i, 0]
+        qy = own[i, 1]
         sw = 0.0
         sc = 0.0
         cqx = 0.0
@@ -161,7 +211,7 @@ def flocking_kernel_csr(qp, qp_t, indptr, indices, e_int_integral, v_int_integra
         wpy = 0.0
         for k in range(indptr[i], indptr[i + 1]):
             j = indices[k]
-            if j == i:
+            if j == receivers[i]:
                 continue
             dx = qx - qp[j, 0]
             dy = qy - qp[j, 1]
@@ -181,13 +231,13 @@ def flocking_kernel_csr(qp, qp_t, indptr, indices, e_int_integral, v_int_integra
         sums[i, 3] = cqy
         sums[i, 4] = wpx
         sums[i, 5] = wpy
-    return _commands(qp, qp_t, sums, e_int_integral, v_int_integral, active, gains, variant, dt)
+    return _commands(own, qp_t, sums, e_int_integral, v_int_integral, active, gains, variant, dt)
 
 
 @numba.njit(cache=True, fastmath=False)
 def _commands(qp, qp_t, sums, e_int_integral, v_int_integral, active, gains, variant, dt):
     """Commands and next integrals from the neighbour sums ``[Σ a_ij, Σ c_ij, Σ c_ij q_j, Σ a_ij p_j]``
-    (L24 eq. 1-3, L23 eq. 7-10)."""
+    (L24 eq. 1-3, L23 eq. 7-10); ``qp`` the receivers' own states, row by row with the sums."""
     K_d = gains[0]
     K_v = gains[1]
     K_dt = gains[2]
@@ -268,17 +318,21 @@ def flocking_control_compiled(
     dt: float = 0.05,
     active: np.ndarray | None = None,
     gain_vec: np.ndarray | None = None,
+    receivers: np.ndarray | None = None,
 ) -> tuple[np.ndarray, FlockingState]:
     """Same arguments, results and equations as :func:`swarmtrack.control.flocking.flocking_control`, through
-    :func:`flocking_kernel` (dense ``neighbours``) or :func:`flocking_kernel_csr` (CSR links); ``gain_vec``,
-    :func:`gain_vector` of ``gains`` computed once by a caller that calls every step."""
+    :func:`flocking_kernel` (dense ``neighbours``), :func:`flocking_kernel_rows` (the dense rows of a subset
+    ``receivers``) or :func:`flocking_kernel_csr` (CSR links); ``gain_vec``, :func:`gain_vector` of ``gains``
+    computed once by a caller that calls every step."""
     code = variant_code(variant)
     g = FlockingGains() if gains is None else gains
     q = np.asarray(q, dtype=float)
-    n = q.shape[0]
-    qp = np.empty((n, 4))
+    qp = np.empty((q.shape[0], 4))
     qp[:, :2] = q
     qp[:, 2:] = p
+    if receivers is not None and len(receivers) == len(q):
+        receivers = None  # all of them (sorted): the whole swarm
+    n = q.shape[0] if receivers is None else len(receivers)
     qp_t = np.empty((n, 4))
     qp_t[:, :2] = q_t
     qp_t[:, 2:] = p_t
@@ -288,7 +342,13 @@ def flocking_control_compiled(
     gv = gain_vector(g) if gain_vec is None else gain_vec
     if is_sparse(neighbours):
         indptr, senders = neighbour_lists(neighbours)
-        u, e, v = flocking_kernel_csr(qp, qp_t, indptr, senders, e_int, v_int, act, gv, code, float(dt))
+        rows = everyone(n) if receivers is None else np.asarray(receivers, dtype=np.int64)
+        own = qp if receivers is None else qp[rows]
+        u, e, v = flocking_kernel_csr(qp, own, rows, qp_t, indptr, senders, e_int, v_int, act, gv, code, float(dt))
+    elif receivers is not None:
+        u, e, v = flocking_kernel_rows(qp, np.asarray(receivers, dtype=np.int64), qp_t,
+                                       np.ascontiguousarray(neighbours, dtype=bool), e_int, v_int, act, gv, code,
+                                       float(dt))
     else:
         u, e, v = flocking_kernel(qp, qp_t, np.ascontiguousarray(neighbours, dtype=bool), e_int, v_int, act, gv,
                                   code, float(dt))
@@ -302,4 +362,4 @@ def compiled_law(gains: FlockingGains) -> Callable[..., tuple[np.ndarray, Flocki
 
 
 __all__ = ["INTEGRAL", "STANDARD", "TAILORED", "compiled_law", "flocking_control_compiled", "flocking_kernel",
-           "flocking_kernel_csr", "gain_vector", "variant_code"]
+           "flocking_kernel_csr", "flocking_kernel_rows", "gain_vector", "variant_code"]

@@ -17,7 +17,7 @@ class StaticSpec(ControllerSpec):
 
 
 def build(spec: StaticSpec, ctx) -> StaticController:
-    return StaticController(ctx.n_uavs, ctx.command_width)
+    return StaticController(len(ctx.uavs), ctx.command_width)
 
 
 registry.register("controller", StaticSpec, build, batched=True)

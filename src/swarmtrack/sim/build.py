@@ -17,6 +17,7 @@ from swarmtrack import registry
 from swarmtrack.network.channel import Channel
 from swarmtrack.network.faults import Liar
 from swarmtrack.network.links import edge_list, proximity_links
+from swarmtrack.network.rows import Rows, subset_of
 from swarmtrack.scenarios.loader import ScenarioError
 from swarmtrack.scenarios.schema import GroupSpec, Scenario, SensorSpec
 from swarmtrack.sim.agent import OnboardStack
@@ -32,7 +33,12 @@ from swarmtrack.vehicles.ground_walker import WalkerParams
 @dataclass(frozen=True)
 class Context:
     """What a builder may use besides its own settings: the scenario, the rates and the labels the sensor reports
-    for the world's objects. Not the world itself: what a builder hands an onboard component must not be truth."""
+    for the world's objects. Not the world itself: what a builder hands an onboard component must not be truth.
+
+    ``uavs``: the swarm's UAVs (0-based, sorted) the component is built for, default all of them (the simulator);
+    a builder makes a component of ``len(uavs)`` rows with each UAV's own settings, which produces for those rows
+    exactly what the whole swarm's component produces given the same inputs (one UAV's own process in the live
+    runtime). ``n_uavs`` is the swarm's size either way."""
 
     scenario: Scenario
     n_uavs: int
@@ -43,7 +49,23 @@ class Context:
     """``label_of(group, member)``: the label the sensor reports for ``group`` member ``member`` (0-based)."""
     command_width: int = 2
     """What a UAV's controller commands per UAV: 2 (a planar acceleration) or 1 (a fixed wing's yaw acceleration)."""
+    uavs: np.ndarray | None = dataclasses.field(default=None, compare=False)
     resources: dict = dataclasses.field(default_factory=dict, compare=False)
+
+    def __post_init__(self) -> None:
+        uavs = np.arange(self.n_uavs) if self.uavs is None else subset_of(self.uavs, self.n_uavs)
+        object.__setattr__(self, "uavs", uavs)
+
+    @property
+    def rows(self) -> Rows:
+        """The UAVs of the build (:class:`~swarmtrack.network.rows.Rows`)."""
+        return Rows(self.uavs, self.n_uavs)
+
+    def whole_swarm_only(self, kind: str, why: str) -> None:
+        """Refuse a build for a subset of the swarm's UAVs (``NotImplementedError`` naming the kind and why)."""
+        if len(self.uavs) != self.n_uavs:
+            raise NotImplementedError(f"{kind}: cannot be built for a subset of the swarm's UAVs "
+                                      f"({self.uavs.tolist()} of {self.n_uavs}): {why}")
 
     def shared(self, name: str, make: Callable[[], object]):
         """What several components of one build share, made once (e.g. IB21's set backend, held the same way by

@@ -18,6 +18,7 @@ W20_HIDDEN_START = {"cv": (0.0, 0.0), "ca": (0.0,) * 4, "ct": (0.0, 0.0, 1e-5)}
 
 def multimodel(spec: MultiModelSpec, ctx: Context) -> MultiModelEstimator:
     """W20 Ch. 4: one model per UAV with Q = q I (ω: q_turn_rate), P0 = p0 I (ω: p0_turn_rate)."""
+    ctx.whole_swarm_only("multimodel", "its subset build is not written yet")
     def diag(name: str, value: float, turn: float) -> list[float]:
         dim = make_model(name, ctx.dt_estimation).dim
         return [value] * 4 + ([turn] if name == "ct" else [value] * (dim - 4))

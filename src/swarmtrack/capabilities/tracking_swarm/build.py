@@ -30,7 +30,7 @@ from swarmtrack.sim.build import Context, occluders
 from swarmtrack.sim.sensors import RangeBearingSensor
 
 
-def sharing(spec: FilterSpec, n_uavs: int) -> InformationSharing:
+def sharing(spec: FilterSpec, ctx: Context) -> InformationSharing:
     """What each UAV broadcasts and how it fuses what arrives: a fusion centre (the baseline), raw measurements, or
     information contributions (L24 eqs. 6-7) added whole, through a χ²-gate or by covariance intersection."""
     if spec.kind == "centralized":
@@ -39,25 +39,30 @@ def sharing(spec: FilterSpec, n_uavs: int) -> InformationSharing:
         return MeasurementSharing()
     if spec.gating == "ci":
         return CovarianceIntersection()
-    return InformationSharing(Chi2Gate(n_uavs, spec.gate_probability) if spec.gating == "chi2" else None)
+    gate = Chi2Gate(len(ctx.uavs), spec.gate_probability, senders=ctx.n_uavs) if spec.gating == "chi2" else None
+    return InformationSharing(gate)
 
 
 def information(spec: FilterSpec, ctx: Context) -> InformationEstimator:
     """L24's filter; with late data (latency, delays) and ``delayed_data: refilter``, the time-stamp-aware one,
     which runs the numpy cycle; otherwise the compiled cycle where the model has one and the scenario's ``kernels``
-    allow it (the one place the choice is made)."""
+    allow it (the one place the choice is made). Built for any of the swarm's UAVs (``ctx.uavs``), except the
+    fusion centre, which is not a UAV's."""
+    if spec.kind == "centralized":
+        ctx.whole_swarm_only("centralized", "the fusion centre is one filter fed every UAV's measurement, not a "
+                             "UAV's own component")
     s = ctx.scenario.sensor
     window = refiltered_steps(ctx.scenario) if spec.delayed_data == "refilter" else 0
     own = ctx.scenario.swarm.nav_position_std if spec.own_position == "include" else 0.0
     model = make_model(spec.model, ctx.dt_estimation, spec.q)
     update = RangeBearingUpdate(s.sigma_range, s.sigma_bearing, s.update, own_sigma=own)
-    shared = sharing(spec, ctx.n_uavs)
+    shared = sharing(spec, ctx)
     common = {"label": ctx.label_of("targets", spec.target - 1), "sharing": shared,
-              "initial_info": spec.initial_information, "fake_vz_sigma": spec.fake_vz_sigma}
+              "initial_info": spec.initial_information, "fake_vz_sigma": spec.fake_vz_sigma, "rows": ctx.rows}
     if window:
-        return RefilteringEstimator(model, update, ctx.n_uavs, window=window, **common)
+        return RefilteringEstimator(model, update, len(ctx.uavs), window=window, **common)
     cycle = compiled_cycle(model, update, shared) if ctx.compiled else None
-    return InformationEstimator(model, update, ctx.n_uavs, cycle=cycle, **common)
+    return InformationEstimator(model, update, len(ctx.uavs), cycle=cycle, **common)
 
 
 def imm(spec: IMMSpec, ctx: Context) -> IMMInformationEstimator:
@@ -65,9 +70,9 @@ def imm(spec: IMMSpec, ctx: Context) -> IMMInformationEstimator:
     qs = spec.q or [None] * len(spec.models)
     return IMMInformationEstimator(
         [make_model(m, ctx.dt_estimation, q) for m, q in zip(spec.models, qs, strict=True)],
-        RangeBearingUpdate(s.sigma_range, s.sigma_bearing, s.update), ctx.n_uavs,
+        RangeBearingUpdate(s.sigma_range, s.sigma_bearing, s.update), len(ctx.uavs),
         label=ctx.label_of("targets", spec.target - 1), share=spec.share, markov=spec.markov,
-        initial_info=spec.initial_information, fake_vz_sigma=spec.fake_vz_sigma)
+        initial_info=spec.initial_information, fake_vz_sigma=spec.fake_vz_sigma, rows=ctx.rows)
 
 
 def flocking_gains(spec: FlockingSpec, r_comm: float) -> FlockingGains:
@@ -79,7 +84,7 @@ def flocking(spec: FlockingSpec, ctx: Context) -> FlockingController:
     """L24's flocking; the compiled law (numba) or the numpy reference, as the scenario's ``kernels`` asks."""
     gains = flocking_gains(spec, ctx.scenario.network.r_comm)
     law = kernels.compiled_law(gains) if ctx.compiled else flocking_control
-    return FlockingController(gains, spec.variant, ctx.n_uavs, spec.chase_after_steps * ctx.dt_estimation, law=law)
+    return FlockingController(gains, spec.variant, len(ctx.uavs), spec.chase_after_steps * ctx.dt_estimation, law=law)
 
 
 def range_bearing(s: RangeBearingSpec, scenario: Scenario) -> RangeBearingSensor:

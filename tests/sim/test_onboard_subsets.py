@@ -241,6 +241,23 @@ CASES = {
     "flocking-integral-numpy": ("l23-flocking-integral", ["kernels=numpy", "network.loss_probability=0.2"]),
     "flocking-sparse": ("robust-5", ["network.topology=proximity", "sparse"]),
     "static": ("l24-cv", ["controller={kind: static}"]),
+    "multimodel-ttest": ("w20-switching", ["estimator.solo_steps=40"]),
+    "multimodel-ttest-numpy-trace": ("w20-occlusion", ["estimator.solo_steps=40", "kernels=numpy",
+                                                       "estimator.occlusion=trace",
+                                                       "sensor.occluders=[{window: [4.0, 4.6]}]"]),
+    "multimodel-ttest-last-one-blind": ("w20-occlusion", ["estimator.solo_steps=40",
+                                                          "sensor.occluders=[{window: [3.0, 5.0], uavs: [2]}, "
+                                                          "{window: [4.0, 4.5]}]"]),
+    "multimodel-imm-thesis": ("w20-switching", ["estimator.solo_steps=40", "estimator.fusion=imm-thesis",
+                                                "network.topology=line"]),
+    "multimodel-imm-mixing": ("w20-switching", ["estimator.solo_steps=40", "estimator.fusion=imm",
+                                                "estimator.models=ct,cv,ct"]),
+    "multimodel-ml": ("w20-switching", ["estimator.solo_steps=40", "estimator.fusion=ml",
+                                        "network.loss_probability=0.3"]),
+    "multimodel-none-range-bearing": ("w20-switching", ["estimator.solo_steps=40", "estimator.fusion=none",
+                                                        "estimator.models=cv,cv,ca",
+                                                        "sensor={kind: range_bearing, sigma_range: 0.05, "
+                                                        "sigma_bearing: 0.02}"]),
 }
 
 
@@ -278,7 +295,6 @@ def test_each_uav_commands_exactly_as_the_whole_swarm(recorded):
     ("estimator", "ib21-fleet-6", [], "not written yet"),
     ("controller", "ib21-fleet-6", [], "sequential rounds"),
     ("controller", "w20-mpc-formation", [], "sequential rounds"),
-    ("estimator", "w20-switching", [], "not written yet"),
 ])
 def test_the_kinds_without_a_subset_build_refuse_one_by_name(role, name, overrides, why):
     scenario = load_scenario(name, overrides, seed=3)

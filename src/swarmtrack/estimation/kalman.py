@@ -10,12 +10,15 @@ import numpy as np
 
 from swarmtrack.estimation.information import symmetrize
 from swarmtrack.models.base import MotionModel
+from swarmtrack.network.rows import Rows
 
 
-def ekf_predict(model: MotionModel, x: np.ndarray, P: np.ndarray):
-    """``x(k|k-1) = f(x)``, ``P(k|k-1) = ∇f P ∇fᵀ + Q``."""
+def ekf_predict(model: MotionModel, x: np.ndarray, P: np.ndarray, rows: Rows | None = None):
+    """``x(k|k-1) = f(x)``, ``P(k|k-1) = ∇f P ∇fᵀ + Q``; ``rows``: which of a batch's rows ``x`` holds (a subset's
+    prediction bit for bit the whole batch's, :meth:`~swarmtrack.network.rows.Rows.rowwise`)."""
     F = model.jacobian(x)
-    return model.f(x), symmetrize(F @ P @ np.swapaxes(F, -1, -2) + model.Q)
+    x_pred = model.f(x) if rows is None else rows.rowwise(model.f, x)
+    return x_pred, symmetrize(F @ P @ np.swapaxes(F, -1, -2) + model.Q)
 
 
 def ekf_update(x: np.ndarray, P: np.ndarray, H: np.ndarray, R: np.ndarray, innovation: np.ndarray):

@@ -34,6 +34,7 @@ from swarmtrack.estimation.base import Probe, TargetView
 from swarmtrack.estimation.information import FilterDivergence, positive_definite, symmetrize
 from swarmtrack.estimation.kalman import ekf_predict
 from swarmtrack.models.base import MotionModel
+from swarmtrack.network.rows import Rows
 
 FUSIONS = ("ttest", "imm-thesis", "imm", "ml", "none")
 OCCLUSION_POLICIES = ("last", "trace", "eigenvalue")
@@ -44,10 +45,11 @@ W20_STAY = 0.99
 
 
 class _Bank:
-    """The filters of the UAVs ``idx`` that share one model: ``x`` (n, d), ``P`` (n, d, d)."""
+    """The filters of the UAVs ``idx`` (rows) that share one model: ``x`` (n, d), ``P`` (n, d, d); ``rows``: which
+    of the swarm's filters of that model they are."""
 
-    def __init__(self, model: MotionModel, idx: np.ndarray, P0: np.ndarray, x0_hidden: np.ndarray):
-        self.model, self.idx = model, idx
+    def __init__(self, model: MotionModel, idx: np.ndarray, P0: np.ndarray, x0_hidden: np.ndarray, rows: Rows):
+        self.model, self.idx, self.rows = model, idx, rows
         self.P0, self.x0_hidden = P0, x0_hidden
         self.x = np.zeros((len(idx), model.dim))
         self.P = np.broadcast_to(P0, (len(idx), model.dim, model.dim)).copy()
@@ -62,28 +64,39 @@ class MultiModelEstimator:
     (rows sum to 1); ``P0`` per model name, (d, d); ``x0_hidden`` per model name, the initial states after
     ``[x, y]`` (zeros, CT's ω0 = 1e-5); ``compiled``: the numba stacked update
     (:mod:`swarmtrack.estimation.multimodel_kernels`) instead of its numpy reference.
+
+    Built for a subset of the swarm's UAVs (one UAV's own process): ``models`` are theirs, ``team`` (N,) the names
+    of every UAV's model (the candidates a UAV fuses and names in its view) and ``rows`` which UAVs they are; every
+    row is bit for bit the whole swarm's given the same inputs. Candidates (``winner``, the columns of
+    ``probability``, ``markov``) are numbered by the swarm's UAVs either way.
     """
 
     def __init__(self, models: list[MotionModel], measurement, *, label: int = 0, fusion_rule: str = "ttest",
                  occlusion: str = "last", window: int = 10, solo_steps: int = 100, markov: np.ndarray | None = None,
-                 P0: dict[str, np.ndarray], x0_hidden: dict[str, np.ndarray] | None = None, compiled: bool = False):
+                 P0: dict[str, np.ndarray], x0_hidden: dict[str, np.ndarray] | None = None, compiled: bool = False,
+                 team: tuple[list[str], Rows] | None = None):
         if fusion_rule not in FUSIONS:
             raise ValueError(f"unknown fusion {fusion_rule!r}; expected one of {FUSIONS}")
         if occlusion not in OCCLUSION_POLICIES:
             raise ValueError(f"unknown occlusion policy {occlusion!r}; expected one of {OCCLUSION_POLICIES}")
         n = len(models)
+        names = [m.name for m in models]
+        self.team, self.rows = (names, Rows.all(n)) if team is None else team
         self.n, self.label, self.measurement = n, label, measurement
         self.fusion, self.occlusion, self.window, self.solo_steps = fusion_rule, occlusion, window, solo_steps
-        self.model_names = [m.name for m in models]
+        self.model_names = self.team  # of every candidate, by the swarm's UAVs
         self.compiled = compiled  # the numba stacked update (multimodel_kernels), same numbers as the numpy one
-        self.rho = fusion.default_markov(n, W20_STAY) if markov is None else np.asarray(markov, dtype=float)
+        n_team = len(self.team)
+        self.rho = fusion.default_markov(n_team, W20_STAY) if markov is None else np.asarray(markov, dtype=float)
         x0_hidden = x0_hidden or {}
         self._banks = []
-        for name in dict.fromkeys(self.model_names):
-            idx = np.flatnonzero([m == name for m in self.model_names])
+        for name in dict.fromkeys(names):
+            idx = np.flatnonzero([m == name for m in names])
             model = models[idx[0]]
             hidden = np.asarray(x0_hidden.get(name, np.zeros(model.dim - 2)), dtype=float)
-            self._banks.append(_Bank(model, idx, np.asarray(P0[name], dtype=float), hidden))
+            members = np.flatnonzero([m == name for m in self.team])  # the swarm's filters of this model
+            rows = Rows(np.searchsorted(members, self.rows.uavs[idx]), len(members))
+            self._banks.append(_Bank(model, idx, np.asarray(P0[name], dtype=float), hidden, rows))
         self._k = 0
         self.initialised = np.zeros(n, dtype=bool)
         self._x_pos = np.zeros((n, 2))  # each filter's predicted position, where measurements are linearised
@@ -92,7 +105,7 @@ class MultiModelEstimator:
         self._nis = np.full(n, np.nan)
         self._measured = np.zeros(n, dtype=bool)
         self._detected = np.zeros(n)
-        self._mu = np.full((n, n), 1.0 / n)  # UAV i's probabilities of the team's n filters
+        self._mu = np.full((n, n_team), 1.0 / n_team)  # UAV i's probabilities of the team's filters
         self._winner = np.full(n, -1)
         self.switches = np.zeros(n, dtype=np.int64)
         self.out_x = np.full((n, COMMON), np.nan)
@@ -104,7 +117,7 @@ class MultiModelEstimator:
                        Probe("own_estimate", (COMMON,)), Probe("detected", ()), Probe("measured", ()),
                        Probe("nis", ()), Probe("winner", ()), Probe("switches", ()))
         if fusion_rule in ("imm-thesis", "imm"):
-            self.probes += (Probe("probability", (n,)),)
+            self.probes += (Probe("probability", (n_team,)),)
 
     # --- the steps the engine drives -------------------------------------------------------------------------
     def share(self, t: float, nav: np.ndarray, own) -> dict:
@@ -112,7 +125,7 @@ class MultiModelEstimator:
         first ``solo_steps`` steps; before, nobody shares)."""
         self._k += 1
         for bank in self._banks:
-            bank.x, bank.P = ekf_predict(bank.model, bank.x, bank.P)
+            bank.x, bank.P = ekf_predict(bank.model, bank.x, bank.P, bank.rows)
             self._x_pos[bank.idx] = bank.x[:, :2]
         self._own = self.measurement.payload(own, self.label)
         self._detected = self._own["seen"].astype(float)
@@ -236,19 +249,20 @@ class MultiModelEstimator:
         """Raise :class:`FilterDivergence` naming the UAVs, the model and the time where ``ok`` is False."""
         if ok.all():
             return
-        raise FilterDivergence(bank.idx[local[~ok]], t, f"the {bank.model.name.upper()} filter's covariance is not "
-                                                        "positive definite or not finite")
+        raise FilterDivergence(self.rows.uavs[bank.idx[local[~ok]]], t, f"the {bank.model.name.upper()} filter's "
+                               "covariance is not positive definite or not finite")
 
     def publish(self, t: float) -> dict:
         """Broadcast the posterior on ``[x, y, vx, vy]``, the likelihood and the residual window (W20 Sec. 4.3.4)."""
         x, P = self._posterior = self._common()  # what sample() records as own_estimate (before any mixing)
-        self._team_motion = self._motion()
+        motion = self._motion()
+        self._team_motion = self.rows.widen(motion)  # by the swarm's UAVs, as the view reads it
         if not self._sharing or self.fusion == "none":
             self.out_x, self.out_P = x, P
-            self._winner = np.where(self.initialised, np.arange(self.n), -1)
+            self._winner = np.where(self.initialised, self.rows.uavs, -1)
             return {}
         return {"x": x, "P": P, "loglik": self._loglik.copy(), "measured": self._measured.copy(),
-                "started": self.initialised.copy(), "window": self._windows.copy(), "motion": self._team_motion}
+                "started": self.initialised.copy(), "window": self._windows.copy(), "motion": motion}
 
     def _common(self) -> tuple[np.ndarray, np.ndarray]:
         x = np.full((self.n, COMMON), np.nan)
@@ -272,13 +286,13 @@ class MultiModelEstimator:
         """Fuse the candidates each UAV received (itself and the neighbours whose messages arrived) into its output."""
         got = inbox.payloads
         self._team_motion = got["motion"]
-        n = self.n
+        n, n_team, own = self.n, len(self.team), self.rows.uavs
         recv, send = inbox.edges()
-        valid = np.zeros((n, n), dtype=bool)
+        valid = np.zeros((n, n_team), dtype=bool)
         valid[recv, send] = got["started"][send]
-        valid[np.arange(n), np.arange(n)] = self.initialised
-        X = np.broadcast_to(got["x"], (n, n, COMMON))
-        P = np.broadcast_to(got["P"], (n, n, COMMON, COMMON))
+        valid[np.arange(n), own] = self.initialised
+        X = np.broadcast_to(got["x"], (n, n_team, COMMON))
+        P = np.broadcast_to(got["P"], (n, n_team, COMMON, COMMON))
         evidence = valid & got["measured"][None, :]
         if self.fusion == "ttest":
             winner = self._select(valid, evidence, got)
@@ -286,12 +300,12 @@ class MultiModelEstimator:
             return
         if self.fusion == "ml":
             live = np.flatnonzero(self.initialised)
-            self.out_x[live], self.out_P[live] = fusion.ml_fuse(X[live], P[live], valid[live], live)
-            self._note(np.where(self.initialised, np.arange(n), -1))
+            self.out_x[live], self.out_P[live] = fusion.ml_fuse(X[live], P[live], valid[live], own[live])
+            self._note(np.where(self.initialised, own, -1))
             return
         # IMM: probabilities (eqs. 4.32-4.34), combination (4.35); with mixing, each filter restarts from its mix
-        mu_pred = fusion.imm_predict(self._mu, self.rho)
-        loglik = np.broadcast_to(got["loglik"], (n, n))
+        mu_pred = fusion.imm_predict(self._mu, self.rho, self.rows.matmul)
+        loglik = np.broadcast_to(got["loglik"], (n, n_team))
         self._mu = fusion.imm_update(mu_pred, loglik, evidence)
         live = np.flatnonzero(self.initialised)
         w = np.where(valid, self._mu, 0.0)
@@ -312,7 +326,7 @@ class MultiModelEstimator:
                 keep = (last >= 0) & valid[rows, np.maximum(last, 0)]
                 winner[rows[keep]] = last[keep]
             else:
-                Ppos = np.broadcast_to(got["P"][:, :2, :2], (len(rows), self.n, 2, 2))
+                Ppos = np.broadcast_to(got["P"][:, :2, :2], (len(rows), len(self.team), 2, 2))
                 pick = fusion.select_least_trace if self.occlusion == "trace" else fusion.select_least_max_eigenvalue
                 winner[rows] = pick(Ppos, valid[rows])
         return winner
@@ -332,9 +346,9 @@ class MultiModelEstimator:
     def _mix(self, valid, X, P) -> None:
         """Standard IMM interaction: each UAV's filter restarts from the mix of the team's posteriors on the common
         states, the states its model adds carried by their conditional on them (:func:`fusion.extend_to_model`)."""
-        x0, P0, _ = fusion.imm_mix(self._mu, self.rho, X, P, valid)
-        diag = np.arange(self.n)
-        x0, P0 = x0[diag, diag], P0[diag, diag]  # UAV i mixes for its own filter only
+        x0, P0, _ = fusion.imm_mix(self._mu, self.rho, X, P, valid, matmul=self.rows.matmul)
+        rows = np.arange(self.n)
+        x0, P0 = x0[rows, self.rows.uavs], P0[rows, self.rows.uavs]  # UAV i mixes for its own filter only
         for bank in self._banks:
             rows = np.flatnonzero(self.initialised[bank.idx])
             if len(rows):

@@ -61,8 +61,11 @@ class Rows:
         return len(self.uavs)
 
     def widen(self, a: np.ndarray) -> np.ndarray:
-        """``a`` (R, ...) placed at its UAVs' rows of an (N, ...) array of zeros; a 2-D ``a`` whose rows are not
-        contiguous gives rows that are not either (numpy then multiplies it by its own loop, as the swarm's)."""
+        """``a`` (R, ...) placed at its UAVs' rows of an (N, ...) array of zeros (``a`` itself for the whole swarm); a
+        2-D ``a`` whose rows are not contiguous gives rows that are not either (numpy then multiplies it by its own
+        loop, as the swarm's)."""
+        if self.whole:
+            return a
         if a.ndim == 2 and a.strides[-1] != a.itemsize:
             out = np.zeros((self.n, 2 * a.shape[1]), dtype=a.dtype)[:, ::2]
         else:

@@ -17,13 +17,14 @@ W20_HIDDEN_START = {"cv": (0.0, 0.0), "ca": (0.0,) * 4, "ct": (0.0, 0.0, 1e-5)}
 
 
 def multimodel(spec: MultiModelSpec, ctx: Context) -> MultiModelEstimator:
-    """W20 Ch. 4: one model per UAV with Q = q I (ω: q_turn_rate), P0 = p0 I (ω: p0_turn_rate)."""
-    ctx.whole_swarm_only("multimodel", "its subset build is not written yet")
+    """W20 Ch. 4: one model per UAV with Q = q I (ω: q_turn_rate), P0 = p0 I (ω: p0_turn_rate); the filters of the
+    UAVs ``ctx.uavs``, beside the names of every UAV's model (the candidates they fuse)."""
     def diag(name: str, value: float, turn: float) -> list[float]:
         dim = make_model(name, ctx.dt_estimation).dim
         return [value] * 4 + ([turn] if name == "ct" else [value] * (dim - 4))
 
-    models = [make_model(m, ctx.dt_estimation, diag(m, spec.q, spec.q_turn_rate)) for m in spec.models]
+    models = [make_model(spec.models[i], ctx.dt_estimation, diag(spec.models[i], spec.q, spec.q_turn_rate))
+              for i in ctx.uavs]
     s = ctx.scenario.sensor
     measurement = CameraFrameMeasurement(spec.r) if isinstance(s, CameraSpec) else \
         RangeBearingMeasurement(s.sigma_range, s.sigma_bearing)
@@ -31,7 +32,8 @@ def multimodel(spec: MultiModelSpec, ctx: Context) -> MultiModelEstimator:
         models, measurement, label=ctx.label_of("targets", spec.target - 1), fusion_rule=spec.fusion,
         occlusion=spec.occlusion, window=spec.window, solo_steps=spec.solo_steps, markov=spec.markov,
         P0={m: np.diag(diag(m, spec.p0, spec.p0_turn_rate)) for m in set(spec.models)},
-        x0_hidden={m: np.asarray(W20_HIDDEN_START[m]) for m in set(spec.models)}, compiled=ctx.compiled)
+        x0_hidden={m: np.asarray(W20_HIDDEN_START[m]) for m in set(spec.models)}, compiled=ctx.compiled,
+        team=(list(spec.models), ctx.rows))
 
 
 def camera(s: CameraSpec, scenario: Scenario) -> CameraSensor:

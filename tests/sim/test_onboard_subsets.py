@@ -12,7 +12,6 @@ so a component that read another UAV's row would fail here.
 from __future__ import annotations
 
 import copy
-from dataclasses import dataclass, field
 
 import numpy as np
 import pytest
@@ -41,15 +40,8 @@ def _copy(x):
     return np.array(x, copy=True)
 
 
-@dataclass
-class Step:
-    """What the engine handed a component and what it returned, in call order: ``(method, inputs, output)``."""
-
-    calls: list = field(default_factory=list)
-
-
 class RecordingEstimator:
-    """The whole swarm's estimator, recording every call."""
+    """The whole swarm's estimator, logging every call of the engine in order as ``(method, inputs, output)``."""
 
     def __init__(self, inner, log: list):
         self.inner, self.log, self.probes = inner, log, inner.probes
@@ -85,6 +77,8 @@ class RecordingEstimator:
 
 
 class RecordingController:
+    """The whole swarm's controller, logging its beacons and commands (with the view and inbox it was handed)."""
+
     def __init__(self, inner, log: list):
         self.inner, self.log, self.probes = inner, log, inner.probes
 

@@ -5,6 +5,10 @@ beacon (an outbox), the channel delivers the beacons over the links in range (wi
 and :meth:`Controller.command` turns UAV i's own navigation solution, its estimator's view and its inbox into
 UAV i's acceleration command. Implementations: :mod:`swarmtrack.control.flocking`; registered for scenarios in
 :mod:`swarmtrack.sim.build`.
+
+A controller built for R of the swarm's N UAVs (``Context.uavs``: one UAV's own process) has R rows: its
+navigation, view, commands and beacons are theirs, its inbox holds their rows of the links (``Inbox.receivers``)
+and every sender's beacon; its rows are bit for bit the whole swarm's.
 """
 
 from __future__ import annotations
@@ -24,7 +28,7 @@ class Controller(Protocol):
         """Each UAV's beacon this control step."""
 
     def command(self, t: float, nav: np.ndarray, view: TargetView, inbox: Inbox, dt: float) -> np.ndarray:
-        """Acceleration commands (N, 2)."""
+        """Acceleration commands (R, 2), R = N for the whole swarm."""
 
     def sample(self) -> dict[str, np.ndarray]:
-        """The current value of every probe, (N, *shape) each."""
+        """The current value of every probe, (R, *shape) each."""

@@ -8,6 +8,11 @@ and combines what arrives. Controllers read :meth:`Estimator.view`; the recorder
 :attr:`Estimator.probes`. Implementations: :mod:`swarmtrack.estimation.information` (decentralized information
 filter and the centralized baseline), :mod:`swarmtrack.estimation.multimodel` (W20's multi-model distributed EKF);
 registered for scenarios in :mod:`swarmtrack.sim.build`.
+
+An estimator built for R of the swarm's N UAVs (``Context.uavs``: one UAV's own process in the live runtime) holds
+their R rows: its inputs are their navigation, their detections (:meth:`Detections.of_uavs`) and an inbox of their
+rows of the links with every sender's payloads (:meth:`Inbox.restrict`); its outboxes, samples and view are R rows,
+bit for bit the whole swarm's (``tests/sim/test_onboard_subsets.py``).
 """
 
 from __future__ import annotations

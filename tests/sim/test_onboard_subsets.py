@@ -255,7 +255,12 @@ CASES = {
 }
 
 
-@pytest.fixture(scope="module", params=sorted(CASES))
+#: The cases of the fast tier (``pytest -m "not slow"``); the others are marked slow.
+FAST = ("information-refilter-chi2", "imm-information", "flocking-sparse", "multimodel-imm-mixing")
+
+
+@pytest.fixture(scope="module", params=[pytest.param(name, marks=() if name in FAST else pytest.mark.slow)
+                                        for name in sorted(CASES)])
 def recorded(request):
     name, overrides = CASES[request.param]
     scenario = load_scenario(name, [o for o in overrides if o != "sparse"] + ["duration=6"], seed=3)

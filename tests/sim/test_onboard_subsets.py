@@ -256,7 +256,7 @@ CASES = {
 
 
 #: The cases of the fast tier (``pytest -m "not slow"``); the others are marked slow.
-FAST = ("information-refilter-chi2", "imm-information", "flocking-sparse", "multimodel-imm-mixing")
+FAST = ("information-cv-compiled", "imm-information", "flocking-sparse", "multimodel-imm-mixing")
 
 
 @pytest.fixture(scope="module", params=[pytest.param(name, marks=() if name in FAST else pytest.mark.slow)

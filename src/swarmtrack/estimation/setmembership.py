@@ -362,8 +362,12 @@ class SetMembershipEstimator:
     #: The raster grid of the sets (None: polygons; :mod:`swarmtrack.estimation.set_backends`).
     grid = None
 
-    def __init__(self, n_uavs: int, n_ids: int, area, *, speed: float, bound, period: float = 0.5):
+    def __init__(self, n_uavs: int, n_ids: int, area, *, speed: float, bound, period: float = 0.5,
+                 uavs: np.ndarray | None = None):
         self.n, self.area, self.speed, self.bound, self.period = n_uavs, area, speed, tuple(bound), period
+        #: The swarm's UAVs the rows are (:mod:`swarmtrack.network.rows`), None for the whole swarm: row r fuses its
+        #: own broadcast as the inbox's row ``uavs[r]`` of the payloads (eq. 31's ℓ = i).
+        self.uavs = None if uavs is None else np.asarray(uavs, dtype=np.int64)
         self.beliefs = self._start(n_uavs, n_ids, area)
         self._next_share = 0.0
         self._sharing = False
@@ -429,8 +433,9 @@ class SetMembershipEstimator:
         self._refresh()
 
     def _fuse_sets(self, recv: np.ndarray, send: np.ndarray, got: dict) -> None:
-        """Eqs. 31-37 over the links ``recv ← send`` with the broadcast sets ``got``."""
-        self._fuse_into(self.beliefs, recv, send, self._received(got))
+        """Eqs. 31-37 over the links ``recv ← send`` with the broadcast sets ``got``; each UAV's own sets are its row
+        of ``got`` (for a subset, row ``uavs[r]``: the very sets it broadcast)."""
+        self._fuse_into(self.beliefs, recv, send, self._received(got), self.uavs)
 
     def _fuse_into(self, b: Beliefs, recv: np.ndarray, send: np.ndarray, sent: Beliefs,
                    own: np.ndarray | None = None) -> None:
@@ -548,6 +553,7 @@ class ReplayingSetMembershipEstimator(SetMembershipEstimator):
         self._heard: dict[int, tuple[dict, list, list]] = {}  # sharing index -> (payload, receivers, senders)
         self._frames: dict[int, list[tuple]] = {}  # sharing index at or after it -> (t, rows, frames) of each update
         self._waiting: list[tuple] = []  # (payload, receivers, senders) delivered since the last sharing time
+        self._swarm = np.arange(self.n) if self.uavs is None else self.uavs  # row r is UAV _swarm[r]
         self._late = np.zeros(self.n)
         self._stale = np.zeros(self.n)
         self.probes = (*self.probes, Probe("late", ()), Probe("stale", ()))
@@ -587,7 +593,8 @@ class ReplayingSetMembershipEstimator(SetMembershipEstimator):
             if s < m - self.window:
                 np.add.at(self._stale, recv, 1.0)
                 continue
-            heard = self._heard.setdefault(s, (payloads, [], []))
+            heard = self._heard.setdefault(s, ([], [], []))
+            heard[0].append(payloads)
             heard[1].append(recv)
             heard[2].append(send)
             if s < m:
@@ -620,12 +627,15 @@ class ReplayingSetMembershipEstimator(SetMembershipEstimator):
                 _put(self._pre[s], w, old)  # their corrected sets at s, recomputed
                 _put(w, self._pre[s], rows[start == s])
             if s in self._heard:
-                payloads, recv, send = self._heard[s]
+                parts, recv, send = self._heard[s]
+                sent = self._received(parts[0] if self.uavs is None else _senders(parts, send))
                 recv, send = np.concatenate(recv), np.concatenate(send)
                 on = start[recv] <= s
-                sent = self._received(payloads)
-                own = np.where([_same_row(w, sent, i) for i in rows], rows, rows + self.n)
-                if (own >= self.n).any():
+                n_sent = len(sent.t)
+                mine = self._swarm  # row r's own broadcast: the payloads' row of its UAV
+                own = np.where([_same_row(w, sent, r, i) for r, i in zip(rows, mine, strict=True)], mine,
+                               rows + n_sent)
+                if (own >= n_sent).any():
                     sent = _stacked(sent, w)
                 self._fuse_into(w, recv[on], send[on], sent, own)
             else:  # nobody heard anybody at s: the fusion step with no links (what the sharing time did)
@@ -644,16 +654,30 @@ def _put(dst: Beliefs, src: Beliefs, rows: np.ndarray) -> None:
         counts[rows] = src.alarms[name][rows]
 
 
-def _same_row(a: Beliefs, b: Beliefs, i: int) -> bool:
-    """Whether UAV i's sets in ``a`` are the very objects of ``b`` (what it broadcast: nothing was recomputed)."""
+def _same_row(a: Beliefs, b: Beliefs, r: int, i: int) -> bool:
+    """Whether row r's sets in ``a`` are the very objects of row i of ``b`` (what UAV i broadcast: nothing was
+    recomputed)."""
     for name in a.ROWS:
         x, y = getattr(a, name), getattr(b, name)
         if name == "identified":
-            if not all(p is q for p, q in zip(x[i], y[i], strict=True)):
+            if not all(p is q for p, q in zip(x[r], y[i], strict=True)):
                 return False
-        elif name != "t" and x[i] is not y[i]:
+        elif name != "t" and x[r] is not y[i]:
             return False
     return True
+
+
+def _senders(parts: list[dict], send: list[np.ndarray]) -> dict:
+    """A subset's payloads of one sending time from the parts that delivered them: the first part's, with each later
+    part's delivered rows ``send`` taken from that part (a subset's inbox holds a sender's row only in the parts
+    whose links delivered it; the whole swarm's parts of one time share one outbox)."""
+    if len(parts) == 1 or all(p is parts[0] for p in parts):
+        return parts[0]
+    out = {name: np.array(value, copy=True) for name, value in parts[0].items()}
+    for part, senders in zip(parts[1:], send[1:], strict=True):
+        for name, value in part.items():
+            out[name][senders] = value[senders]
+    return out
 
 
 def _stacked(sent: Beliefs, own: Beliefs) -> Beliefs:

@@ -29,12 +29,22 @@ def set_backend(spec: SetMembershipSpec) -> SetBackend:
 
 def setmembership(spec: SetMembershipSpec, ctx: Context) -> SetMembershipEstimator:
     """IB21's estimator on the run's set backend; with network delays and ``delayed_data: refilter``, the one that
-    replays (Sec. 4.5)."""
-    ctx.whole_swarm_only("setmembership", "its subset build (sets per UAV, replay of late sets) is not written yet; "
-                         "it comes with the set-membership MPC's round protocol")
+    replays (Sec. 4.5). Raster sets build for any subset ``ctx.uavs`` (every raster operation is exact, so a fusion's
+    result does not depend on its operands' order); polygons only for the whole swarm."""
     sets = ctx.shared("sets", lambda: set_backend(spec))
-    return sets.estimator(ctx.n_uavs, ctx.scenario.targets.size(), window=spec.replayed_periods(ctx.scenario),
-                          speed=spec.speed_bound(ctx.scenario), bound=tuple(spec.noise_bound), period=spec.period)
+    if not ctx.rows.whole:
+        if sets.name == "polygons":
+            ctx.whole_swarm_only("setmembership", "on polygons, a fusion round's outer approximations (eqs. 34-37) "
+                                 "depend on the order of its operands, which is chosen over every UAV's neighbourhood "
+                                 "of the round (the intersection order of X̄, and the first UAV of a shared "
+                                 "neighbourhood computing for all), which one UAV does not know; use estimator.sets: "
+                                 "raster")
+        uavs = ctx.uavs
+    else:
+        uavs = None
+    return sets.estimator(len(ctx.uavs), ctx.scenario.targets.size(), window=spec.replayed_periods(ctx.scenario),
+                          speed=spec.speed_bound(ctx.scenario), bound=tuple(spec.noise_bound), period=spec.period,
+                          uavs=uavs)
 
 
 def sm_mpc(spec: SMMPCSpec, ctx: Context) -> SetMembershipMPC:

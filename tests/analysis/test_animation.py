@@ -34,6 +34,7 @@ def test_capturing_changes_nothing_in_the_run(captured):
                 assert np.array_equal(a.probes[name], b.probes[name]), name
 
 
+@pytest.mark.slow
 def test_a_frame_every_second_of_simulated_time(captured):
     _, capture, _ = captured
     assert [f.t for f in capture.frames] == pytest.approx([0.0, 1.0, 2.0, 3.0])

@@ -101,6 +101,7 @@ def test_the_drawn_minimum_separation_keeps_the_closest_pass(collision):
         assert drawn.min() == pytest.approx(closest, abs=1e-12)
 
 
+@pytest.mark.slow
 def test_the_input_is_the_setpoint_relative_to_the_position_before_the_plan(formation):
     s = mpc_figures._FormationSeries(formation, every=1)
     setpoint, solves = figure_style.whole_probe(formation, "setpoint"), figure_style.whole_probe(formation, "solves")

@@ -79,6 +79,7 @@ def test_fig8_bands_are_the_mean_and_std_of_the_runs_series(tmp_path, bands):
             assert mean == pytest.approx(np.mean([series_of(name, s)[part] for s in (1, 2, 3)], axis=0))
 
 
+@pytest.mark.slow
 def test_fig11_right_draws_the_solve_time_of_each_fleet(tmp_path, bands):
     ib21.draw_panel(ib21.FIGURES["11"][1], study(), tmp_path)
     assert len(bands) == 5

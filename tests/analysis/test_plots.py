@@ -64,6 +64,7 @@ def test_each_plot_writes_png(rec, tmp_path, func):
     assert_png(out)
 
 
+@pytest.mark.slow
 def test_trajectories_all_agents_and_bad_agent(rec, tmp_path):
     assert_png(plots.plot_trajectories(rec, tmp_path / "all.png", agent=None))
     assert_png(plots.plot_trajectories(rec, tmp_path / "a2.png", agent=2))

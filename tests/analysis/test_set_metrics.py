@@ -37,6 +37,7 @@ def _rechunked(rec: Recording, size: int) -> Recording:
     return Recording(rec.meta, chunks)
 
 
+@pytest.mark.slow
 def test_set_membership_section_equals_a_hand_computation_on_the_uav_table(recorded):
     sm = metrics.summary(recorded)["set_membership"]
     df = recorded.frame("uavs")

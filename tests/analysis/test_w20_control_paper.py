@@ -63,6 +63,7 @@ def test_each_claim_flips_with_its_numbers(change, broken):
     assert {k for k, v in got.items() if not v} == broken
 
 
+@pytest.mark.slow
 def test_the_collision_claim_needs_both_the_safe_and_the_unsafe_run(monkeypatch):
     monkeypatch.setitem(CLOSEST, "w20-mpc-collision", 0.9)
     assert not verdicts(by_scenario())["w20-mpc-collision-safe"]

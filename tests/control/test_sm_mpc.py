@@ -37,6 +37,7 @@ def test_candidates_are_ordered_zero_first_then_increasing_magnitude():
     assert c[:6].tolist() == [[0, 0], [0, 0.25], [0, -0.25], [0, 0.5], [0, -0.5], [0.25, 0]]
 
 
+@pytest.mark.slow
 def test_predicted_footprints_follow_the_fixed_wing_kinematics():
     state = uav(200, 200, 0.4, 0.1, 0.2)
     settings = sm.SMMPCSettings(inputs=(0.3,), horizon=2)

@@ -195,6 +195,7 @@ def test_the_kernel_equals_the_numpy_reference_at_other_horizons(horizon, inputs
     np.testing.assert_allclose(dist, ref_dist, rtol=0, atol=1e-9)
 
 
+@pytest.mark.slow
 def test_the_kernel_equals_the_reference_for_a_set_far_from_the_uav_and_off_its_stored_window():
     """A small blob far away: the distance comes from member cells outside R and outside the Field's stored window
     (the distance to its rectangle)."""

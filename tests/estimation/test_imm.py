@@ -127,6 +127,7 @@ def test_probabilities_stay_normalised_and_non_negative(default_bank_run):
     assert mus[-1, :, 1].mean() > 0.5  # on the turn the CT member carries the most weight
 
 
+@pytest.mark.slow
 def test_combined_covariance_is_spd(default_bank_run):
     imm, _, covs, _, target = default_bank_run
     np.testing.assert_array_equal(covs, np.swapaxes(covs, -1, -2))

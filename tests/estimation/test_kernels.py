@@ -111,6 +111,7 @@ def _start(kind, model, scenario):
     return Y, np.einsum("nab,nb->na", Y, x0)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("q", [None, (0.01, 0.02, 0.3, 0.05)])
 @pytest.mark.parametrize("start", ["near_zero", "moderate_prior"])
 def test_cycle_matches_reference_over_100_cycles(start, q):
@@ -173,6 +174,7 @@ def test_moderate_prior_information_vector_elementwise():
         x, P = recover(Y, y)
 
 
+@pytest.mark.slow
 def test_recover_matches_reference():
     model = make_model("cv", DT)
     sc = _Scenario(seed=5)
@@ -238,6 +240,7 @@ def test_information_cycle_wrapper():
         cv_information_cycle(Y, y, DT, qd, I[:-1], i)
 
 
+@pytest.mark.slow
 def test_divergence_flags():
     model = make_model("cv", DT)
     qd = np.ascontiguousarray(np.diag(model.Q))
@@ -283,6 +286,7 @@ def test_divergence_flags():
     assert np.flatnonzero(f3).tolist() == [2]
 
 
+@pytest.mark.slow
 def test_fs_cycle_matches_the_reference_over_60_cycles():
     """The compiled FS cycle (12 states, nonlinear f, fake vz = 0 measurement; covariance form) equals the
     information-form reference predict → add_position_information → the fake vz → recover, one cycle from the
@@ -387,6 +391,7 @@ def test_the_unrolled_fs_prediction_is_f_p_ft_plus_q_with_the_models_jacobian():
     assert np.array_equal(A, A.T)
 
 
+@pytest.mark.slow
 def test_the_scalar_3x3_solve_equals_numpy_on_every_pivot_order():
     from swarmtrack.estimation.kernels import _solve3
 

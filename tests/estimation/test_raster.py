@@ -77,6 +77,7 @@ def test_unions_intersections_and_meets_of_boxes_and_blobs_stay_below_the_exact_
     assert_lower_bound(GRID, both, blob.intersection(shapely.union_all(geoms[:2])))
 
 
+@pytest.mark.slow
 def test_a_box_is_exact_at_the_centres_and_its_outer_area_is_close():
     f = rs.box(GRID, (50.2, 60.7, 60.2, 70.7))
     g = shapely.box(50.2, 60.7, 60.2, 70.7)

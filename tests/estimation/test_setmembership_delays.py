@@ -290,6 +290,7 @@ def test_the_guarantee_holds_on_raster_sets_with_random_delays():
     assert max(rs.area(est.grid, f) for f in est.beliefs.unexplored) < 0.5 * AREA.area
 
 
+@pytest.mark.slow
 def test_a_late_message_gives_the_on_time_raster_sets_exactly():
     frames = world(3, 160)
     on_time, late, ignored = make(sets="raster"), make(window=2, sets="raster"), make(window=2, sets="raster")

@@ -8,6 +8,7 @@ from swarmtrack.scenarios.loader import ScenarioError
 from swarmtrack.sim.engine import simulate
 
 
+@pytest.mark.slow
 def test_same_seed_same_recording_and_other_seed_differs():
     a = simulate(load_scenario("l24-ct", ["duration=8"]))
     b = simulate(load_scenario("l24-ct", ["duration=8"]))
@@ -31,6 +32,7 @@ def test_decentralized_full_with_shared_measurements_equals_centralized_in_close
     np.testing.assert_allclose(dec.estimate, cen.estimate, rtol=0, atol=1e-9)
 
 
+@pytest.mark.slow
 def test_fusion_reduces_error_spread():
     none = simulate(load_scenario("l23-no-fusion", ["duration=30"]))
     full = simulate(load_scenario("l23-full-fusion", ["duration=30"]))

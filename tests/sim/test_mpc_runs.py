@@ -24,6 +24,7 @@ def test_the_separation_term_keeps_two_crossing_uavs_apart(collision):
     assert not [w for w in collision[6]["warnings"] if w["kind"] in ("collision", "solver_fallback")]
 
 
+@pytest.mark.slow
 def test_without_the_separation_term_they_collide_and_the_run_says_so(collision):
     assert collision[0]["inter_agent_distance"]["min"] < 0.5
     assert "collision" in [w["kind"] for w in collision[0]["warnings"]]

@@ -284,8 +284,7 @@ CASES = {
 
 
 #: The cases of the fast tier (``pytest -m "not slow"``); the others are marked slow.
-FAST = ("information-cv-compiled", "imm-information", "flocking-sparse", "multimodel-imm-mixing",
-        "setmembership-raster")
+FAST = ("information-cv-compiled", "flocking-sparse", "setmembership-raster")
 #: The cases whose controller refuses a subset (IB21's sm_mpc): only their estimator is replayed.
 ESTIMATOR_ONLY = ("setmembership-raster", "setmembership-raster-delays")
 

@@ -245,6 +245,7 @@ def _scenario_file(tmp_path):
     return path
 
 
+@pytest.mark.slow
 def test_outside_kinds_run_through_run_metrics_figures_sweep_and_summarize(outside_kinds, tmp_path):
     scenario = _scenario_file(tmp_path)
     cli = CliRunner()

@@ -12,6 +12,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import functools
 import json
 import math
@@ -257,21 +259,57 @@ def _filled_meanwhile(out: Path) -> OutputError:
                        "another --out, or add --overwrite to replace that run")
 
 
+def _place_exclusively(tmp: Path, out: Path, rels: list[str]) -> None:
+    """Put the staged files ``rels`` into the existing folder ``out`` without replacing anything: each is linked in
+    (copied when ``out`` is on another file system), and a file that is already there (another run's, arrived
+    meanwhile) stops the move: what this run placed, and only that, is removed again, and the run is refused."""
+    placed: list[Path] = []
+    made: list[Path] = []
+    try:
+        for rel in rels:
+            dst = out / rel
+            for folder in reversed(Path(rel).parents[:-1]):
+                try:
+                    (out / folder).mkdir()
+                    made.append(out / folder)
+                except FileExistsError:
+                    pass  # there already (made by this loop, or not ours: never removed)
+            try:
+                os.link(tmp / rel, dst)
+            except OSError as exc:
+                if exc.errno != errno.EXDEV:
+                    raise
+                with open(tmp / rel, "rb") as src, open(dst, "xb") as copy:
+                    shutil.copyfileobj(src, copy)
+            placed.append(dst)
+    except OSError as exc:
+        for path in placed:
+            path.unlink(missing_ok=True)
+        for folder in reversed(made):
+            with contextlib.suppress(OSError):
+                folder.rmdir()
+        if isinstance(exc, FileExistsError):
+            raise _filled_meanwhile(out) from None
+        raise OutputError(f"--out {out}: {exc.strerror or exc}") from None
+
+
 def _move_into_place(tmp: Path, out: Path, files: list[str], overwrite: bool = True) -> None:
-    """Move the staged run into ``out``: a rename when ``out`` is new or empty (the rename fails, and nothing is
-    replaced, if another run's files got there first); else, with ``overwrite``, the earlier run's files (and only
-    those, regular files, not links) are deleted and the new ones moved in. Without ``overwrite`` a destination
-    that filled since :func:`check_destination` is refused (:class:`OutputError`). A new file whose place is
-    taken by something the earlier run did not write is refused before anything changes."""
-    if not out.exists() or not any(out.iterdir()):
+    """Move the staged run into ``out``: a rename when ``out`` does not exist (it fails, and nothing is replaced,
+    if another run's folder got there first); into an existing empty ``out`` (the user's folder, left in place)
+    file by file without replacing anything (:func:`_place_exclusively`); else, with ``overwrite``, the earlier
+    run's files (and only those, regular files, not links) are deleted and the new ones moved in. Without
+    ``overwrite`` a destination that filled since :func:`check_destination` is refused (:class:`OutputError`). A new
+    file whose place is taken by something the earlier run did not write is refused before anything changes."""
+    if not out.exists():
         try:
-            if out.exists():
-                out.rmdir()  # empty: nothing to lose (fails if files arrived meanwhile)
-            tmp.rename(out)  # atomic; onto a folder another run filled meanwhile it fails (not empty)
+            tmp.rename(out)  # atomic; fails if another run's folder appeared meanwhile
         except OSError as exc:
             if out.is_dir() and any(out.iterdir()):
                 raise _filled_meanwhile(out) from None
             raise OutputError(f"--out {out}: {exc.strerror or exc}") from None
+        return
+    if not any(out.iterdir()):
+        _place_exclusively(tmp, out, [*files, MANIFEST])
         return
     if not overwrite:
         raise _filled_meanwhile(out)

@@ -65,6 +65,13 @@ def gain_vector(gains: FlockingGains) -> np.ndarray:
 
 
 @numba.njit(cache=True, fastmath=False)
+def _pair_constants(gains):
+    """What the pair terms read of :func:`gain_vector`: ``eps, h, σ(d), σ(r_comm)`` and the squared distance beyond
+    which a pair is skipped (r_comm² with :data:`_CUTOFF_MARGIN`)."""
+    return gains[7], gains[8], gains[9], gains[10], gains[11] * _CUTOFF_MARGIN
+
+
+@numba.njit(cache=True, fastmath=False)
 def _pair_weight(sq, eps, h, sig_d, sig_r):
     """``(a_ij, c_ij)`` of a pair at squared distance ``sq`` (L24 Sec. 2 bump, L24 eq. 1)."""
     sig = sq / (math.sqrt(1.0 + eps * sq) + 1.0)
@@ -88,11 +95,7 @@ def flocking_kernel(qp, qp_t, neighbours, e_int_integral, v_int_integral, active
     integrals at this step; ``active`` (N,) bool; ``gains`` from :func:`gain_vector`; ``variant`` one of
     :data:`STANDARD`, :data:`INTEGRAL`, :data:`TAILORED`; ``dt`` the forward-Euler step of the integrals.
     """
-    eps = gains[7]
-    h = gains[8]
-    sig_d = gains[9]
-    sig_r = gains[10]
-    cutoff = gains[11] * _CUTOFF_MARGIN
+    eps, h, sig_d, sig_r, cutoff = _pair_constants(gains)
     n = qp.shape[0]
     # Neighbour sums Σ_j a_ij, Σ_j c_ij, Σ_j c_ij q_j, Σ_j a_ij p_j (L24 eq. 1, velocity matching). a_ij and
     # c_ij depend on the distance only, so each unordered pair is evaluated once and added to both agents
@@ -151,11 +154,7 @@ def flocking_kernel_rows(qp, receivers, qp_t, neighbours, e_int_integral, v_int_
     Per receiver i, the pair terms of the senders below i are summed first, then those above, each in sender
     order, and the two sums added: the order in which :func:`flocking_kernel` adds them, so each row is bit for
     bit the whole swarm's. O(R N) time."""
-    eps = gains[7]
-    h = gains[8]
-    sig_d = gains[9]
-    sig_r = gains[10]
-    cutoff = gains[11] * _CUTOFF_MARGIN
+    eps, h, sig_d, sig_r, cutoff = _pair_constants(gains)
     n = qp.shape[0]
     rows = receivers.shape[0]
     sums = np.zeros((rows, 6))
@@ -193,11 +192,7 @@ def flocking_kernel_csr(qp, own, receivers, qp_t, indptr, indices, e_int_integra
     ``indices[indptr[r]:indptr[r + 1]]`` (a self-link is ignored); ``qp`` (N, ≥4) every sender's state, ``own``
     (R, ≥4) the receivers' (``qp[receivers]``), ``qp_t``, the integrals and ``active`` theirs. Same arguments
     otherwise; O(N + links) time and memory."""
-    eps = gains[7]
-    h = gains[8]
-    sig_d = gains[9]
-    sig_r = gains[10]
-    cutoff = gains[11] * _CUTOFF_MARGIN
+    eps, h, sig_d, sig_r, cutoff = _pair_constants(gains)
     n = receivers.shape[0]
     sums = np.zeros((n, 6))
     for i in range(n):

@@ -89,7 +89,7 @@ from swarmtrack.control.sm_mpc_problem import (
 )
 from swarmtrack.estimation import polygons as pg
 from swarmtrack.estimation.base import Probe, TargetView
-from swarmtrack.estimation.set_backends import RasterSets, SetBackend
+from swarmtrack.estimation.set_backends import SetBackend
 from swarmtrack.models import fixed_wing as fw
 from swarmtrack.network.links import edge_list
 
@@ -458,9 +458,8 @@ class SetMembershipMPC:
     def __init__(self, sets: SetBackend, settings: SMMPCSettings = DEFAULT_SETTINGS, *,
                  regions: Callable[[TargetView], np.ndarray] | None = None, start: float = 0.0, n_uavs: int = 0):
         self.area, self.s, self.start, self.n = sets.area, settings, start, n_uavs
-        self.grid = sets.grid if isinstance(sets, RasterSets) else None
-        grid = self.grid
-        if grid is not None:  # the raster planner's kernels, loaded before any plan is timed
+        self.grid = sets.grid
+        if self.grid is not None:  # the raster planner's kernels, loaded before any plan is timed
             from swarmtrack.control.sm_mpc_raster import warm
 
             warm()

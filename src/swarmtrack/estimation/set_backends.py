@@ -29,6 +29,7 @@ class PolygonSets:
 
     area: shapely.Geometry
     name: ClassVar[str] = "polygons"
+    grid: ClassVar[None] = None  # no grid: the sets are exact polygons
 
     def estimator(self, n_uavs: int, n_ids: int, *, window: int = 0, **kwargs) -> SetMembershipEstimator:
         """IB21's estimator on these sets; with a replay ``window`` (periods), the one that fuses late sets at their

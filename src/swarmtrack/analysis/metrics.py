@@ -357,8 +357,9 @@ def summary(rec: Recording) -> dict:
         accs["target_distance"] = TargetDistance(rec)
     accs[SERIES] = Series(rec, series_parts(rec, kinds))
     results = _scan(rec, [*accs.values(), *checks])
-    out = {"warnings": [w for ws in results[len(accs):] for w in ws]}
-    out.update(zip(accs, results, strict=False))
+    sections, checked = results[:len(accs)], results[len(accs):]
+    out = {"warnings": [w for ws in checked for w in ws]}
+    out.update(zip(accs, sections, strict=True))
     for acc in accs.values():
         if hasattr(acc, "warnings"):
             out["warnings"] += acc.warnings()

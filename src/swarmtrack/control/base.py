@@ -9,6 +9,11 @@ UAV i's acceleration command. Implementations: :mod:`swarmtrack.control.flocking
 A controller built for R of the swarm's N UAVs (``Context.uavs``: one UAV's own process) has R rows: its
 navigation, view, commands and beacons are theirs, its inbox holds their rows of the links (``Inbox.receivers``)
 and every sender's beacon; its rows are bit for bit the whole swarm's.
+
+A controller whose UAVs plan in sequence within one command (IB21's SM-MPC: UAV i uses the plans its lower-indexed
+neighbours made in the same call) is a :class:`SequentialPlanner`: the whole swarm's component plans them in index
+order itself; a subset's reads the others' plans of the call from its inbox's ``plan`` payload, the messages
+:meth:`SequentialPlanner.plans` gives, which the live runtime delivers before the UAV plans.
 """
 
 from __future__ import annotations
@@ -32,3 +37,9 @@ class Controller(Protocol):
 
     def sample(self) -> dict[str, np.ndarray]:
         """The current value of every probe, (R, *shape) each."""
+
+
+class SequentialPlanner(Controller, Protocol):
+    def plans(self) -> Outbox:
+        """This component's UAVs' plans of the last command, ``{"plan": (R, h)}``: the message its higher-indexed
+        neighbours in other processes read in the same call."""

@@ -38,6 +38,7 @@ import scipy.sparse as sp
 from swarmtrack.control.position import PositionGains, position_control
 from swarmtrack.estimation.base import Probe, TargetView
 from swarmtrack.models.kinematic import KINEMATIC, kinematic_motion
+from swarmtrack.network.rows import Rows
 
 #: The target models the reference can be propagated with (W20 eq. 5.23: CV, CA or CT).
 TARGET_MODELS = KINEMATIC
@@ -177,8 +178,10 @@ class MPCController:
     """
 
     def __init__(self, A: np.ndarray, B: np.ndarray, offsets: np.ndarray, settings: MPCSettings, *,
-                 target_model: str | None = None, start: float = 0.0, gains: PositionGains | None = None):
+                 target_model: str | None = None, start: float = 0.0, gains: PositionGains | None = None,
+                 rows: Rows | None = None):
         self.s, self.target_model, self.start = settings, target_model, start
+        self.rows = rows or Rows.all(len(offsets))
         self.gains = gains or PositionGains()
         self.offsets = np.asarray(offsets, dtype=float)
         n = len(self.offsets)
@@ -210,7 +213,7 @@ class MPCController:
         s, h = self.s, self.s.horizon
         self._hold_from(nav)
         ref = propagate_target(view, self.target_model, s.period, h) + self.offsets[:, None, :]  # (N, h, 2)
-        own_free = self.cond.free(nav)
+        own_free = self.rows.rowwise(self.cond.free, nav)
         w, r_bar = self._separation(nav, inbox, ref)
         ready = np.isfinite(r_bar).all(axis=(1, 2))  # no estimate yet: keep holding
         for i in np.flatnonzero(ready):
@@ -246,7 +249,7 @@ class MPCController:
         if not close.any():
             return np.full(n, s.Q), ref
         recv, send, delta = recv[close], send[close], delta[close]
-        steps = self.cond.free(beacons[send]).reshape(-1, s.horizon, 2) + side_step(delta, s.r_s)[:, None, :]
+        steps = self.cond.free(beacons)[send].reshape(-1, s.horizon, 2) + side_step(delta, s.r_s)[:, None, :]
         m = np.bincount(recv, minlength=n)
         pull = np.zeros_like(ref)
         np.add.at(pull, recv, steps)

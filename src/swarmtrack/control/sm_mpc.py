@@ -379,12 +379,18 @@ class FleetPlan:
 
 
 def plan_all(nav, regions, area, s: SMMPCSettings = DEFAULT_SETTINGS, links=None, beacons=None,
-             exact: bool | None = None, grid=None) -> FleetPlan:
+             exact: bool | None = None, grid=None, uavs=None, heard_plans=None) -> FleetPlan:
     """Sec. 5.3's sequential rounds in index order: UAV i plans from its own ``nav`` (N, 7) row and ``regions[i]``
-    (its X^A), with the plans of the lower-indexed neighbours ℓ computed before it in this call, read only where
+    (its X^A), with the plans of its lower-indexed neighbours ℓ < i made before it in this call, read only where
     ``links[i, ℓ]`` carried ℓ's beacon (``beacons`` (N, 7), the broadcast states; default ``nav``). ``grid``: the
     regions are raster fields on it (:mod:`swarmtrack.estimation.raster`), planned by
-    :func:`swarmtrack.control.sm_mpc_raster.plan_one_raster`."""
+    :func:`swarmtrack.control.sm_mpc_raster.plan_one_raster`.
+
+    For a subset of the swarm (one UAV's own process): ``uavs`` (R,) the swarm's UAVs the rows of ``nav``,
+    ``regions`` and ``links`` are (sorted; default every UAV), ``beacons`` every sender's, and ``heard_plans``
+    (N, h) the plans the other UAVs made in this call (their plan messages; a row is read only for a lower-indexed
+    neighbour outside ``uavs`` whose beacon was heard). Such a neighbour's predicted states are its beacon's rolled
+    out over its plan (:func:`predict`, elementwise: the numbers the fleet rollout gives that row)."""
     if grid is not None:
         from swarmtrack.control.sm_mpc_raster import plan_one_raster
 
@@ -395,6 +401,7 @@ def plan_all(nav, regions, area, s: SMMPCSettings = DEFAULT_SETTINGS, links=None
             return plan_one(region, own_states, nb_states, area, s, exact, shared=shared, corners=corners)
     nav = np.asarray(nav, dtype=float)[:, :fw.STATE_DIM]
     n = len(nav)
+    ids = np.arange(n) if uavs is None else np.asarray(uavs)
     beacons = nav if beacons is None else np.asarray(beacons, dtype=float)[:, :fw.STATE_DIM]
     cands = candidates(s.inputs, s.horizon)
     t0 = time.perf_counter()
@@ -409,24 +416,41 @@ def plan_all(nav, regions, area, s: SMMPCSettings = DEFAULT_SETTINGS, links=None
     out = FleetPlan(plans, np.zeros(n), np.full(n, shared), np.zeros(n), np.zeros(n), [])
     common: dict = {}  # what UAVs with the same X^A can share (plan_one)
     chosen = np.zeros(n, dtype=np.int64)
-    same = (beacons == nav).all(axis=1)  # the broadcast state is the one the fleet rollout used (once per plan)
-    for i in range(n):
+    row_of = np.full(len(beacons), -1)  # the row of each of the swarm's UAVs built here (−1: another process's)
+    row_of[ids] = np.arange(n)
+    same = np.zeros(len(beacons), dtype=bool)  # the broadcast state is the one the fleet rollout used
+    same[ids] = (beacons[ids] == nav).all(axis=1)
+    for r, i in enumerate(ids.tolist()):
         t0 = time.perf_counter()
-        lower = send[(recv == i) & (send < i)]
+        lower = send[(recv == r) & (send < i)]
         nb_corners = None
         if not len(lower):
             nb = np.zeros((0, s.horizon, fw.STATE_DIM))
-        elif same[lower].all():  # their broadcast states are those the fleet rollout used
-            nb, nb_corners = own[lower, chosen[lower]], corners[lower, chosen[lower]]
+        elif same[lower].all():  # planned here, from the states the fleet rollout used
+            rows = row_of[lower]
+            nb, nb_corners = own[rows, chosen[rows]], corners[rows, chosen[rows]]
         else:
-            nb = predict(beacons[lower], plans[lower], s)
-        choice = plan(regions[i], own[i], nb, common, (corners[i], nb_corners))
-        plans[i], chosen[i] = choice.plan, choice.index
-        out.solve_time[i] += time.perf_counter() - t0
-        out.cost[i] = choice.cost[choice.index]
-        out.neighbours[i] = len(lower)
-        out.ops[i] = choice.ops
+            nb = predict(beacons[lower], _plans_of(lower, row_of[lower], plans, heard_plans), s)
+        choice = plan(regions[r], own[r], nb, common, (corners[r], nb_corners))
+        plans[r], chosen[r] = choice.plan, choice.index
+        out.solve_time[r] += time.perf_counter() - t0
+        out.cost[r] = choice.cost[choice.index]
+        out.neighbours[r] = len(lower)
+        out.ops[r] = choice.ops
         out.choices.append(choice)
+    return out
+
+
+def _plans_of(senders: np.ndarray, rows: np.ndarray, plans: np.ndarray, heard_plans) -> np.ndarray:
+    """The plans (L, h) the ``senders`` made in this call: those planned here (``rows`` ≥ 0) from ``plans``, the
+    others' from their plan messages ``heard_plans``."""
+    out = plans[rows]
+    away = rows < 0
+    if away.any():
+        if heard_plans is None:
+            raise ValueError("a UAV whose lower-indexed neighbours plan in other processes needs their plans of "
+                             "this call: the inbox's `plan` payload")
+        out[away] = np.asarray(heard_plans, dtype=float)[senders[away]]
     return out
 
 
@@ -453,11 +477,18 @@ class SetMembershipMPC:
     what the set-membership estimator exposes).
     ``start``: s before which every UAV flies straight.
     Broadcasts each UAV's state (its beacon for eq. 48); reads a neighbour's plan only over the links that carried
-    its beacon."""
+    its beacon.
+
+    ``uavs``: the swarm's UAVs it is built for (default: every UAV of the first command; a subset is one UAV's own
+    process, whose lower-indexed neighbours in other processes send their plans of the call as the inbox's ``plan``
+    payload (N, h) before it plans); :meth:`plans` is this component's own plan message."""
 
     def __init__(self, sets: SetBackend, settings: SMMPCSettings = DEFAULT_SETTINGS, *,
-                 regions: Callable[[TargetView], np.ndarray] | None = None, start: float = 0.0, n_uavs: int = 0):
-        self.area, self.s, self.start, self.n = sets.area, settings, start, n_uavs
+                 regions: Callable[[TargetView], np.ndarray] | None = None, start: float = 0.0, n_uavs: int = 0,
+                 uavs: np.ndarray | None = None):
+        self.area, self.s, self.start = sets.area, settings, start
+        self.uavs = None if uavs is None else np.asarray(uavs)
+        self.n = n_uavs if uavs is None else len(self.uavs)
         self.grid = sets.grid
         if self.grid is not None:  # the raster planner's kernels, loaded before any plan is timed
             from swarmtrack.control.sm_mpc_raster import warm
@@ -483,7 +514,9 @@ class SetMembershipMPC:
         if t >= self._next - 1e-9:
             links = None if inbox is None else inbox.links
             beacons = None if inbox is None else inbox.payloads.get("state")
-            plan = plan_all(_own_state(nav), self.region_of(view), self.area, self.s, links, beacons, grid=self.grid)
+            heard = None if inbox is None else inbox.payloads.get("plan")
+            plan = plan_all(_own_state(nav), self.region_of(view), self.area, self.s, links, beacons, grid=self.grid,
+                            uavs=self.uavs, heard_plans=heard)
             self.u = plan.plans[:, 0].copy()
             self.last = plan
             self._values.update(solve_time=plan.solve_time, cost=plan.cost, neighbours=plan.neighbours,
@@ -491,6 +524,12 @@ class SetMembershipMPC:
             self._next = t + self.s.period
         self._values["yaw_accel"] = self.u.copy()
         return self.u[:, None].copy()
+
+    def plans(self) -> dict[str, np.ndarray]:
+        """The plan message of this component's UAVs (R, h): the input sequences of their last plan (NaN before the
+        first), which the higher-indexed neighbours of another process read in the same call (Sec. 5.3)."""
+        n = self.n if self.u is None else len(self.u)
+        return {"plan": np.full((n, self.s.horizon), np.nan) if self.last is None else self.last.plans.copy()}
 
     def sample(self) -> dict[str, np.ndarray]:
         n = self.n if self.u is None else len(self.u)

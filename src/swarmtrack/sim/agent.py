@@ -3,10 +3,9 @@
 Row i of every array in an onboard component belongs to UAV i's own computer. Its inputs are only: UAV i's own
 navigation solution, UAV i's own detections, and the messages the channel delivered to UAV i. The same components
 built for one UAV (``Context.uavs``) give its row alone, bit for bit: what the live runtime runs in each UAV's
-process. This module and
-the components it holds (``swarmtrack.estimation``, ``swarmtrack.control``, ``swarmtrack.models``,
-``swarmtrack.sensors.detections``) never import :mod:`swarmtrack.sim.world`; a test checks it in a fresh
-interpreter.
+process. This module and the components it holds (``swarmtrack.estimation``, ``swarmtrack.control``,
+``swarmtrack.models``, ``swarmtrack.sensors.detections``) never import :mod:`swarmtrack.sim.world`; a test checks it
+in a fresh interpreter.
 """
 
 from __future__ import annotations

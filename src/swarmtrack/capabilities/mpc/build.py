@@ -11,10 +11,10 @@ from swarmtrack.sim.build import Context
 
 
 def mpc(spec: MPCSpec, ctx: Context) -> MPCController:
-    ctx.whole_swarm_only("mpc", "its UAVs plan in sequential rounds within one control step (W20 Sec. 5.3), "
-                         "which needs a message protocol between the rounds (a later issue)")
+    pass
     _, A, B = spec.uav_model()
     settings = MPCSettings(spec.horizon, spec.period, spec.Q, spec.R, spec.Q_s, spec.r_s, spec.bound)
-    offsets = np.asarray(spec.offsets or [(0.0, 0.0)] * ctx.n_uavs, dtype=float)
+    offsets = np.asarray(spec.offsets or [(0.0, 0.0)] * ctx.n_uavs, dtype=float)[ctx.uavs]
     return MPCController(A, B, offsets, settings, target_model=None if spec.target_model == "estimate" else
-                         spec.target_model, start=spec.start, gains=PositionGains(**spec.gains.model_dump()))
+                         spec.target_model, start=spec.start, gains=PositionGains(**spec.gains.model_dump()),
+                         rows=ctx.rows)

@@ -48,8 +48,6 @@ def setmembership(spec: SetMembershipSpec, ctx: Context) -> SetMembershipEstimat
 
 
 def sm_mpc(spec: SMMPCSpec, ctx: Context) -> SetMembershipMPC:
-    ctx.whole_swarm_only("sm_mpc", "its UAVs plan in sequential rounds within one control step (IB21 Sec. 5), "
-                         "which needs a message protocol between the rounds (a later issue)")
     sc = ctx.scenario
     f, sensor = sc.swarm.fixed_wing, sc.sensor
     settings = SMMPCSettings(tuple(spec.inputs), spec.horizon, spec.period, ctx.dt_estimation, spec.alpha,
@@ -57,7 +55,7 @@ def sm_mpc(spec: SMMPCSpec, ctx: Context) -> SetMembershipMPC:
                              FixedWingParams(f.speed, f.altitude, f.yaw_rate_max),
                              footprint.tan_half(sensor.opening, sensor.convention), sensor.orientation, spec.baseline)
     sets = ctx.shared("sets", lambda: set_backend(sc.estimator))  # the estimator's: its X^A are what it plans on
-    return SetMembershipMPC(sets, settings, n_uavs=ctx.n_uavs)
+    return SetMembershipMPC(sets, settings, n_uavs=ctx.n_uavs, uavs=None if ctx.rows.whole else ctx.uavs)
 
 
 def footprint_sensor(s: FootprintSpec, scenario: Scenario) -> FootprintSensor:

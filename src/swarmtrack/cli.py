@@ -8,7 +8,6 @@ folder is staged and moved into place only when complete, and never replaces wha
 from __future__ import annotations
 
 import functools
-import math
 import sys
 import time
 from pathlib import Path
@@ -18,11 +17,9 @@ import yaml
 
 from swarmtrack import registry
 from swarmtrack.analysis.papers import PAPERS
+from swarmtrack.cli_support import UsageFailure, report_run, warn_run, write_run
+from swarmtrack.live import commands as live_commands
 from swarmtrack.scenarios.loader import ScenarioError, builtin_names, load_raw, load_scenario
-
-
-class UsageFailure(click.ClickException):
-    exit_code = 2
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -73,11 +70,9 @@ def run_cmd(scenario: str, out: Path | None, overwrite: bool, seed: int | None, 
     from rich.progress import Progress
 
     from swarmtrack.analysis.animation import AnimationError
-    from swarmtrack.analysis.metrics import summary
-    from swarmtrack.analysis.report import format_rmse_table
     from swarmtrack.analysis.reproduce import run_key
     from swarmtrack.estimation.information import FilterDivergence
-    from swarmtrack.outputs import OutputError, Terminated, dump_json, run_folder, version
+    from swarmtrack.outputs import OutputError, Terminated, run_folder
     from swarmtrack.sim.engine import simulate
 
     try:
@@ -96,16 +91,7 @@ def run_cmd(scenario: str, out: Path | None, overwrite: bool, seed: int | None, 
                     rec, capture = simulate_animated(scn, animate_every or 1.0, animate_uav,
                                                      progress=lambda done: bar.update(task, completed=done),
                                                      record_to=tmp / "recording")
-            metrics = {**summary(rec), "written_by": version()}
-            (tmp / "scenario.yaml").write_text(f"# resolved by {version()}\n"
-                                               + yaml.safe_dump(scn.model_dump(mode="json"), sort_keys=False))
-            (tmp / "metrics.json").write_text(dump_json(metrics))
-            if "csv" in formats:
-                rec.write_csv(tmp / "timeseries")
-            if not no_plots:
-                from swarmtrack.analysis.plots import save_run_figures
-
-                save_run_figures(rec, tmp)
+            metrics = write_run(rec, scn, tmp, formats, no_plots)
             if animate is not None:
                 from swarmtrack.analysis.animation import render
 
@@ -118,34 +104,10 @@ def run_cmd(scenario: str, out: Path | None, overwrite: bool, seed: int | None, 
     except (KeyboardInterrupt, Terminated):
         click.echo("interrupted; nothing was written", err=True)
         sys.exit(130)
-    if "rmse" in metrics:  # a Gaussian estimator following one target (capability 1)
-        click.echo(format_rmse_table(metrics["rmse"], f"{scn.name}: RMSE (mean over UAVs), cm and cm/s"))
-        phases = metrics["consistency"].items()
-        click.echo("NEES [x, y, vx, vy] per phase (95 % band of a consistent filter): " + ", ".join(
-            f"{ph} {c['nees']:.2f} [{c['band'][0]:.2f}, {c['band'][1]:.2f}]" for ph, c in phases))
-    facts = []
-    if metrics.get("mean_error", {}).get("all") is not None:  # W20 eq. 4.41
-        facts.append(f"mean error {100 * metrics['mean_error']['all']:.2f} cm")
-    if "model_use" in metrics:
-        facts.append(f"{metrics['model_use']['switches']:.0f} model switches per UAV")
-    if "formation" in metrics:  # W20 Ch. 5
-        facts.append("distance from each place " + ", ".join(f"{e:.2f}" for e in metrics["formation"]["tracking_error"])
-                     + " m")
-    if "set_membership" in metrics:  # IB21
-        sm = metrics["set_membership"]
-        facts.append(f"Φ̄ {sm['phi_bar_final']:.0f} m² at the end, "
-                     f"{sm['guarantee_violations']:.0f} guarantee violations")
-    offset = metrics["inter_agent_distance"]["offset"]
-    if offset is not None and math.isfinite(offset):
-        facts.append(f"spacing offset {offset:.3f} m")
-    click.echo(" | ".join([*facts, f"written to {out}"]))
+    report_run(metrics, scn, out)
     if animate is not None:
         click.echo(f"animation: {len(capture.frames)} frames written to {animate}")
-    for w in metrics["warnings"]:
-        click.echo(f"warning: {w['message']}", err=True)
-    if strict and metrics["warnings"]:
-        click.echo(f"--strict: {len(metrics['warnings'])} warning(s)", err=True)
-        sys.exit(3)
+    warn_run(metrics, strict)
 
 
 def _check_animation(scn, animate: Path | None, every: float | None, uav: int | None, overwrite: bool) -> None:
@@ -383,6 +345,11 @@ def identify_cmd(log: Path | None, simulator: bool, save_log: Path | None, out: 
     else:
         click.echo(text, nl=False)
 
+
+main.add_command(live_commands.live_cmd)
+main.add_command(live_commands.world_cmd)
+main.add_command(live_commands.agent_cmd)
+main.add_command(live_commands.keygen_cmd)
 
 if __name__ == "__main__":  # pragma: no cover
     main()

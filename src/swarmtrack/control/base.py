@@ -18,7 +18,7 @@ order itself; a subset's reads the others' plans of the call from its inbox's ``
 
 from __future__ import annotations
 
-from typing import Protocol
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 
@@ -39,6 +39,7 @@ class Controller(Protocol):
         """The current value of every probe, (R, *shape) each."""
 
 
+@runtime_checkable
 class SequentialPlanner(Controller, Protocol):
     def plans(self) -> Outbox:
         """This component's UAVs' plans of the last command, ``{"plan": (R, h)}``: the message its higher-indexed

@@ -1,0 +1,165 @@
+"""One UAV's own process: exactly the onboard stack the simulator runs for that UAV (its estimator and controller,
+built through the registry for the one UAV, ``Context.uavs = [i]``), fed by messages.
+
+In lockstep (:meth:`Agent.run`) the UAV follows the world's schedule, the simulator's step loop
+(:func:`swarmtrack.sim.engine.step_loop`) seen from one UAV: per estimation step, take its navigation, detections and
+radio; share; fuse what the radio delivered; (publish; combine); report its probes; then per control step: beacon,
+hear the beacons the radio delivered (and the plans of its lower-indexed neighbours, IB21 Sec. 5.3), command. Its
+inputs are its own navigation, its own detections and its inbox: nothing else reaches this process.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+
+import numpy as np
+
+from swarmtrack import registry
+from swarmtrack.control.base import SequentialPlanner
+from swarmtrack.live import wire
+from swarmtrack.live.node import Node
+from swarmtrack.network.messages import Inbox
+from swarmtrack.scenarios.schema import Scenario
+from swarmtrack.sensors.detections import Detections
+from swarmtrack.sim.build import Context
+from swarmtrack.sim.clock import Clock
+
+#: How long a process waits for a message its step needs before it gives up (s).
+PATIENCE = 60.0
+
+
+def scenario_hash(scenario: Scenario) -> str:
+    """What two processes compare to know they run the same resolved scenario."""
+    return hashlib.sha256(json.dumps(scenario.model_dump(mode="json"), sort_keys=True).encode()).hexdigest()[:16]
+
+
+def clock_of(scenario: Scenario) -> Clock:
+    r = scenario.rates
+    return Clock.from_rates(r.physics, r.estimation, r.control, scenario.run_duration())
+
+
+def build_onboard(scenario: Scenario, uav: int, labels: dict[str, list[int]]):
+    """UAV ``uav``'s estimator and controller, built for it alone; ``labels`` the sensor's label of each member of
+    each sensed group (the world's ``start`` message)."""
+    clock = clock_of(scenario)
+    ctx = Context(scenario, scenario.swarm.n_uavs, clock.dt_estimation, clock.dt_control, scenario.kernels != "numpy",
+                  lambda group, member: labels[group][member], 1 if scenario.swarm.vehicle == "fixed_wing" else 2,
+                  uavs=[uav])
+    build = {role: registry.get(role, getattr(scenario, role).kind).builder() for role in ("estimator", "controller")}
+    return build["estimator"](scenario.estimator, ctx), build["controller"](scenario.controller, ctx)
+
+
+class Agent:
+    """UAV ``uav`` of ``scenario`` on ``node`` (its transport and seal)."""
+
+    def __init__(self, scenario: Scenario, uav: int, node: Node):
+        self.scenario, self.i, self.node = scenario, uav, node
+        self.n = scenario.swarm.n_uavs
+        self.clock = clock_of(scenario)
+        self.estimator = self.controller = None
+        self._own: dict[int, dict] = {}  # own outboxes of recent steps (late parts hold the own row too)
+
+    def run(self) -> None:
+        node = self.node
+        node.listen(("world", str(self.i), "*"), ("world", "all", "*"), ("uav", "*", "share"),
+                    ("uav", "*", "publish"), ("uav", "*", "beacon"), ("uav", "*", "plan"))
+        node.send(wire.WORLD, wire.Hello(sender=self.i, pid=os.getpid(), scenario=scenario_hash(self.scenario)))
+        start = node.wait("start", [wire.WORLD], 0, timeout=PATIENCE)[wire.WORLD]
+        self.estimator, self.controller = build_onboard(self.scenario, self.i, start.labels)
+        self._report(-1)
+        for k in range(self.clock.steps):
+            self.step(k)
+
+    def step(self, k: int) -> None:
+        node, est, dt = self.node, self.estimator, self.clock.dt_estimation
+        t = k * dt
+        got = {ch: node.wait(ch, [wire.WORLD], k, timeout=PATIENCE)[wire.WORLD]
+               for ch in ("navigation", "detections", "radio")}
+        nav = wire.unpack(got["navigation"].nav)
+        detections = Detections(**{name: wire.unpack(v) for name, v in got["detections"].fields.items()})
+        radio = got["radio"]
+        with np.errstate(over="ignore", invalid="ignore"):  # a diverging filter is reported by its own checks
+            outbox = est.share(t, nav, detections)
+            self._own[k] = outbox
+            node.send(self.i, wire.Share(k=k, taken=t, payloads=_pack(outbox)))
+            est.fuse(t, detections, self._inbox(radio, outbox))
+            publish = getattr(est, "publish", None)  # the optional second round (Estimator.publish)
+            if publish is not None:
+                posteriors = publish(t)
+                node.send(self.i, wire.Publish(k=k, taken=t, payloads=_pack(posteriors)))
+                if posteriors:
+                    heard = node.wait("publish", radio.links, k, timeout=PATIENCE)
+                    est.combine(t, self._assemble(radio.links, heard, posteriors))
+        self._own.pop(k - self._window(), None)
+        node.forget(k - self._window())
+        view = self._report(k)
+        for c, (control_now, _) in enumerate(self.clock.control_segments(k)):
+            if control_now:
+                self.control(k, c, view)
+
+    def control(self, k: int, c: int, view) -> None:
+        node, ctl = self.node, self.controller
+        got = {ch: node.wait(ch, [wire.WORLD], k, c, timeout=PATIENCE)[wire.WORLD] for ch in ("navigation", "radio")}
+        nav, t = wire.unpack(got["navigation"].nav), got["navigation"].taken
+        senders = got["radio"].beacons
+        beacon = ctl.broadcast(t, nav)
+        node.send(self.i, wire.Beacon(k=k, c=c, taken=t, payloads=_pack(beacon)))
+        inbox = self._assemble(senders, node.wait("beacon", senders, k, c, timeout=PATIENCE), beacon, "beacon")
+        if isinstance(ctl, SequentialPlanner):  # the plans its lower-indexed neighbours made in this call
+            lower = [s for s in senders if s < self.i]
+            plans = node.wait("plan", lower, k, c, timeout=PATIENCE)
+            inbox.payloads.update(self._rows(lower, {s: m.payloads for s, m in plans.items()}, ctl.plans()))
+        u = ctl.command(t, nav, view, inbox, self.clock.dt_control)
+        node.send(wire.WORLD, wire.Command(k=k, c=c, taken=t, u=wire.pack(np.asarray(u))))
+        if isinstance(ctl, SequentialPlanner):
+            node.send(self.i, wire.Plan(k=k, c=c, taken=t, payloads=_pack(ctl.plans())))
+
+    def _report(self, k: int):
+        """Send the step's probes, and where a gimballed sensor should aim at the next frame (its latest
+        estimate); returns the estimator's view, which the controller follows until the next step."""
+        probes = {} if k < 0 else {**self.estimator.sample(), **self.controller.sample()}
+        view = self.estimator.view()
+        self.node.send(wire.WORLD, wire.Sample(k=k, probes=_pack(probes), aim=wire.pack(view.state[:, :2])))
+        return view
+
+    def _window(self) -> int:
+        """Estimation steps a late message can take (the channel's delay bound), plus one."""
+        net = self.scenario.network
+        return int(np.ceil(net.delay_bound() / self.clock.dt_estimation - 1e-9)) + 2
+
+    def _inbox(self, radio: wire.Radio, outbox: dict) -> Inbox:
+        """The estimation inbox the radio delivered: this step's part, then the late ones (Inbox.late)."""
+        parts = []
+        for send_step, senders in radio.parts:
+            heard = self.node.wait("share", senders, send_step, timeout=PATIENCE)
+            parts.append(self._assemble(senders, heard, self._own.get(send_step, outbox)))
+        if not parts:
+            parts = [self._assemble([], {}, outbox)]
+        return Inbox(parts[0].links, parts[0].payloads, tuple(parts[1:]), parts[0].receivers)
+
+    def _assemble(self, senders, heard: dict, own: dict, kind: str = "payloads") -> Inbox:
+        """An inbox of this UAV: its row of the links (the ``senders`` heard), every payload as the swarm's (N, ...)
+        arrays with its own row and the heard senders' rows filled (the others zero: never read)."""
+        links = np.zeros((1, self.n), dtype=bool)
+        links[0, list(senders)] = True
+        payloads = self._rows(list(senders), {s: m.payloads for s, m in heard.items()}, own)
+        return Inbox(links, payloads, (), np.array([self.i]))
+
+    def _rows(self, senders: list[int], heard: dict[int, dict], own: dict) -> dict:
+        out = {}
+        for name, value in own.items():
+            value = np.asarray(value)
+            full = np.empty((self.n, *value.shape[1:]), dtype=object) if value.dtype == object else \
+                np.zeros((self.n, *value.shape[1:]), dtype=value.dtype)
+            full[self.i] = value[0]
+            for s in senders:
+                full[s] = wire.unpack(heard[s][name])[0]
+            out[name] = full
+        return out
+
+
+def _pack(outbox: dict | None) -> dict:
+    return {name: wire.pack(np.asarray(v) if not isinstance(v, np.ndarray) else v)
+            for name, v in (outbox or {}).items()}

@@ -1,0 +1,222 @@
+"""``swarmtrack live | world | agent | keygen``: the live swarm's commands.
+
+``live`` is the world process (truth, physics, sensors, the simulated radio, the recorder) and starts one
+``swarmtrack agent --uav I`` process per UAV; ``world`` is the same without starting them (agents join from elsewhere);
+``agent`` is one UAV's onboard stack; ``keygen`` writes a swarm key. Every process of a swarm must be given the same
+scenario, seed and overrides (the world refuses a UAV whose resolved scenario differs) and the same key.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import click
+
+from swarmtrack.cli_support import UsageFailure, report_run, warn_run, write_run
+from swarmtrack.scenarios.loader import ScenarioError, load_scenario
+
+#: Seconds the processes a run started get to end after SIGTERM before they are killed.
+GRACE = 2.0
+
+
+def _scenario_options(f):
+    f = click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
+                     help="override a scenario key (repeatable); the same on every process of a swarm")(f)
+    f = click.option("--seed", type=int, default=None, help="override the scenario's seed")(f)
+    return click.argument("scenario", default="l24-ct")(f)
+
+
+def _security_options(f):
+    f = click.option("--insecure", is_flag=True, help="run without a swarm key: messages are not authenticated")(f)
+    f = click.option("--key", "key_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
+                     help="the swarm key (swarmtrack keygen FILE): messages are sealed and checked with it")(f)
+    return click.option("--swarm", default=None, help="the swarm's name in the key space (default: the scenario's)")(f)
+
+
+def read_key(key_file: Path | None, insecure: bool) -> bytes | None:
+    """The swarm key in ``key_file`` (hex), None with ``insecure``; refuses to run with neither."""
+    if key_file is None:
+        if not insecure:
+            raise UsageFailure("no swarm key: give --key FILE (make one with swarmtrack keygen FILE), or --insecure "
+                               "to run with unauthenticated messages")
+        return None
+    try:
+        key = bytes.fromhex(key_file.read_text().strip())
+    except OSError as exc:
+        raise UsageFailure(f"--key {key_file}: {exc.strerror or exc}") from None
+    except ValueError:
+        raise UsageFailure(f"--key {key_file}: not a key written by swarmtrack keygen (hex)") from None
+    if len(key) < 16:
+        raise UsageFailure(f"--key {key_file}: a key of {len(key)} bytes is too short (at least 16)")
+    return key
+
+
+def _load(scenario: str, overrides, seed):
+    from swarmtrack.live.world import LiveError, check_live
+
+    try:
+        scn = load_scenario(scenario, list(overrides), seed)
+        check_live(scn)
+    except (ScenarioError, LiveError) as exc:
+        raise UsageFailure(str(exc)) from None
+    return scn
+
+
+@click.command("keygen")
+@click.argument("file", type=click.Path(dir_okay=False, path_type=Path))
+def keygen_cmd(file: Path) -> None:
+    """Write a new swarm key to FILE (readable by its owner only); an existing FILE is never replaced."""
+    from swarmtrack.live.wire import keygen
+
+    try:
+        fd = os.open(file, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+    except FileExistsError:
+        raise UsageFailure(f"{file}: a file is already there (a key is never replaced)") from None
+    except OSError as exc:
+        raise UsageFailure(f"{file}: {exc.strerror or exc}") from None
+    with os.fdopen(fd, "w") as f:
+        f.write(keygen().hex() + "\n")
+    click.echo(f"swarm key written to {file}")
+
+
+@click.command("agent")
+@_scenario_options
+@click.option("--uav", type=int, required=True, help="which UAV this process is (1..N)")
+@click.option("--connect", multiple=True, metavar="ENDPOINT", help="a peer to join, e.g. tcp/127.0.0.1:7447")
+@click.option("--listen", multiple=True, metavar="ENDPOINT", help="listen there too (other peers may join)")
+@_security_options
+def agent_cmd(scenario: str, seed, overrides, uav: int, connect, listen, swarm, key_file, insecure) -> None:
+    """Run UAV --uav's onboard stack (estimator, controller) of SCENARIO, as on its companion computer: its
+    navigation, detections and radio from the world, its neighbours' messages over Zenoh."""
+    from swarmtrack.live.agent import Agent
+    from swarmtrack.live.node import Node, Stopped
+    from swarmtrack.live.transport import TransportError, ZenohTransport
+    from swarmtrack.live.wire import Seal
+
+    scn = _load(scenario, overrides, seed)
+    if not 1 <= uav <= scn.swarm.n_uavs:
+        raise UsageFailure(f"--uav {uav}: the swarm of {scn.name} has UAVs 1..{scn.swarm.n_uavs}")
+    key = read_key(key_file, insecure)
+    try:
+        transport = ZenohTransport(listen=list(listen), connect=list(connect))
+    except TransportError as exc:
+        raise UsageFailure(str(exc)) from None
+    node = Node(transport, Seal(key, scn.swarm.n_uavs), swarm or scn.name, uav - 1)
+    try:
+        Agent(scn, uav - 1, node).run()
+    except Stopped:
+        pass
+    except TimeoutError as exc:
+        click.echo(f"UAV {uav}: {exc}; stopping", err=True)
+        sys.exit(1)
+    finally:
+        transport.close()
+
+
+def _live_options(f):
+    f = click.option("--listen", multiple=True, metavar="ENDPOINT",
+                     help="where the world listens (default: a free port on 127.0.0.1)")(f)
+    f = click.option("--no-plots", is_flag=True, help="skip the PNG figures")(f)
+    f = click.option("--strict", is_flag=True, help="exit with code 3 when the run has warnings")(f)
+    f = click.option("--overwrite", is_flag=True, help="replace an earlier run in --out")(f)
+    return click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), default=None,
+                        help="output folder (default: runs/<name>-seed<seed>-<hash>-live)")(f)
+
+
+@click.command("live")
+@_scenario_options
+@_live_options
+@_security_options
+def live_cmd(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, swarm, key_file, insecure) -> None:
+    """Run SCENARIO with every UAV's onboard stack in its own process (swarmtrack agent --uav I), talking over
+    Eclipse Zenoh on loopback, in lockstep with this world process: the run folder of swarmtrack run, with the
+    same numbers."""
+    _serve(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, swarm, key_file, insecure, spawn=True)
+
+
+@click.command("world")
+@_scenario_options
+@_live_options
+@_security_options
+def world_cmd(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, swarm, key_file, insecure) -> None:
+    """Run the truth side of SCENARIO alone (world, sensors, simulated radio, recorder) and wait for its UAVs'
+    processes (swarmtrack agent --uav I --connect ENDPOINT) to join."""
+    _serve(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, swarm, key_file, insecure, spawn=False)
+
+
+def _serve(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, swarm, key_file, insecure,
+           spawn: bool) -> None:
+    from swarmtrack.analysis.runs import run_key
+    from swarmtrack.live.node import Node
+    from swarmtrack.live.transport import TransportError, ZenohTransport, free_port
+    from swarmtrack.live.wire import WORLD, Seal
+    from swarmtrack.live.world import LiveError, run_lockstep
+    from swarmtrack.outputs import OutputError, Terminated, check_destination, run_folder
+
+    scn = _load(scenario, overrides, seed)
+    key = read_key(key_file, insecure)
+    out = out or Path("runs") / f"{scn.name}-seed{scn.seed}-{run_key(scn)[:8]}-live"
+    try:
+        check_destination(out.absolute(), overwrite)
+    except OutputError as exc:
+        raise UsageFailure(str(exc)) from None
+    endpoints = list(listen) or [f"tcp/127.0.0.1:{free_port()}"]
+    try:
+        transport = ZenohTransport(listen=endpoints)
+    except TransportError as exc:
+        raise UsageFailure(str(exc)) from None
+    swarm = swarm or (f"{scn.name}-{os.getpid()}" if spawn else scn.name)
+    node = Node(transport, Seal(key, scn.swarm.n_uavs), swarm, WORLD)
+    procs: list[subprocess.Popen] = []
+    try:
+        with run_folder(out, overwrite) as tmp:
+            if spawn:
+                procs = start_agents(scn, scenario, seed, overrides, endpoints, swarm, key_file)
+            else:
+                click.echo(f"world of {scn.name} listening on {', '.join(endpoints)} (swarm {swarm}); waiting for "
+                           f"UAVs 1..{scn.swarm.n_uavs}", err=True)
+            rec = run_lockstep(scn, node, record_to=tmp / "recording")
+            metrics = write_run(rec, scn, tmp, no_plots=no_plots)
+    except (OutputError, LiveError) as exc:
+        raise UsageFailure(str(exc)) from None
+    except TimeoutError as exc:
+        raise UsageFailure(f"the live run stopped: {exc}") from None
+    except (KeyboardInterrupt, Terminated):
+        click.echo("interrupted; nothing was written", err=True)
+        sys.exit(130)
+    finally:
+        stop_agents(procs)
+        transport.close()
+    report_run(metrics, scn, out)
+    warn_run(metrics, strict)
+
+
+def start_agents(scn, scenario: str, seed, overrides, endpoints: list[str], swarm: str, key_file) -> list:
+    """One ``swarmtrack agent --uav I`` process per UAV, connecting to the world's first endpoint."""
+    connect = endpoints[0].replace("0.0.0.0", "127.0.0.1")
+    common = [scenario, "--connect", connect, "--swarm", swarm]
+    common += ["--seed", str(seed)] if seed is not None else []
+    for o in overrides:
+        common += ["--set", o]
+    common += ["--key", str(key_file)] if key_file is not None else ["--insecure"]
+    return [subprocess.Popen([sys.executable, "-m", "swarmtrack", "agent", "--uav", str(i + 1), *common])
+            for i in range(scn.swarm.n_uavs)]
+
+
+def stop_agents(procs: list) -> None:
+    """End the processes by their ids: SIGTERM, then SIGKILL after :data:`GRACE` s."""
+    for p in procs:
+        if p.poll() is None:
+            p.send_signal(signal.SIGTERM)
+    deadline = time.monotonic() + GRACE
+    for p in procs:
+        try:
+            p.wait(max(0.0, deadline - time.monotonic()))
+        except subprocess.TimeoutExpired:
+            p.kill()
+            p.wait()

@@ -1,0 +1,97 @@
+"""One process of the live swarm on the wire: its transport, its seal and the mailbox its subscriptions fill.
+
+Messages are opened as they arrive (on the middleware's threads): what the seal rejects is counted and dropped,
+what it accepts is kept in the mailbox by ``(channel, sender, k, c)`` until the process takes it
+(:meth:`Node.wait`). A message of a step already taken is dropped (late); the mailbox holds at most the steps
+still to come and the late parts a channel with delays can deliver (:meth:`Node.forget`).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections import Counter
+
+from swarmtrack.live.transport import Transport, key, parse
+from swarmtrack.live.wire import WORLD, Message, Rejected, Seal, channel_of
+
+
+class Stopped(Exception):
+    """The world said the run is over (or is gone)."""
+
+
+class Node:
+    """``me``: this process's UAV index, or :data:`~swarmtrack.live.wire.WORLD`."""
+
+    def __init__(self, transport: Transport, seal: Seal, swarm: str, me: int):
+        self.transport, self.seal, self.swarm, self.me = transport, seal, swarm, me
+        self._box: dict[tuple[str, int, int, int], Message] = {}
+        self._cond = threading.Condition()
+        self.stopped: str | None = None
+        self.counts: Counter = Counter()
+
+    def listen(self, *patterns: tuple[str, str, str]) -> None:
+        """Subscribe to ``(origin, to, channel)`` key patterns of the swarm's space (``*`` wildcards)."""
+        for origin, to, channel in patterns:
+            self.transport.subscribe(key(self.swarm, origin, to, channel), self._arrive)
+
+    def _arrive(self, key_expr: str, data: bytes) -> None:
+        parts = parse(self.swarm, key_expr)
+        if parts is None:
+            return
+        try:
+            msg = self.seal.open(key_expr, data)
+        except Rejected:
+            return
+        origin, to, channel = parts
+        sender = WORLD if origin == "world" else int(to) if to.isdigit() else None
+        if msg.sender != sender or channel_of(msg) != channel:  # a member speaking for another, or a wrong key
+            with self._cond:
+                self.seal.rejected["impersonated"] += 1
+            return
+        with self._cond:
+            if channel == "stop":
+                self.stopped = getattr(msg, "reason", "done")
+            else:
+                self._box[(channel, msg.sender, msg.k, msg.c)] = msg
+            self.counts[channel] += 1
+            self._cond.notify_all()
+
+    def send(self, to: int | str, msg: Message) -> None:
+        """Seal and put ``msg`` on this process's key for ``to`` (a UAV's own keys take their sender as ``to``)."""
+        msg.sender = self.me
+        origin, who = ("world", to) if self.me == WORLD else ("uav", self.me)
+        k = key(self.swarm, origin, who, channel_of(msg))
+        self.transport.put(k, self.seal.seal(k, msg))
+
+    def wait(self, channel: str, senders, k: int, c: int = -1, timeout: float | None = None,
+             missing_ok: bool = False) -> dict[int, Message]:
+        """The messages of ``channel`` for step ``(k, c)`` from every sender in ``senders``, taken out of the
+        mailbox; waits for them up to ``timeout`` s (None: forever). ``missing_ok``: return what came by the
+        timeout; otherwise a timeout raises ``TimeoutError`` naming the missing senders."""
+        senders = list(senders)
+        deadline = None if timeout is None else time.monotonic() + timeout
+        with self._cond:
+            while True:
+                missing = [s for s in senders if (channel, s, k, c) not in self._box]
+                if not missing:
+                    break
+                if self.stopped is not None and self.me != WORLD:
+                    raise Stopped(self.stopped)
+                left = None if deadline is None else deadline - time.monotonic()
+                if left is not None and left <= 0:
+                    if missing_ok:
+                        break
+                    raise TimeoutError(f"no {channel} of step {k} from {missing}")
+                self._cond.wait(left if left is not None else 1.0)
+            return {s: self._box.pop((channel, s, k, c)) for s in senders if (channel, s, k, c) in self._box}
+
+    def peek(self, channel: str, sender: int, k: int, c: int = -1) -> Message | None:
+        with self._cond:
+            return self._box.get((channel, sender, k, c))
+
+    def forget(self, before: int) -> None:
+        """Drop what is kept of estimation steps before ``before`` (a bounded mailbox)."""
+        with self._cond:
+            for key_ in [key_ for key_ in self._box if key_[2] < before]:
+                del self._box[key_]

@@ -1,0 +1,249 @@
+"""What travels between the live swarm's processes: one typed, versioned message per channel, sealed per swarm.
+
+**Messages** (``msgspec`` structs, MessagePack on the wire, :data:`VERSION` in every one). Every message carries its
+``sender`` (a UAV index, or :data:`WORLD`), a sequence number ``seq`` (per sender and channel, increasing) and the
+time ``taken`` (s, simulated) its data describe, and the estimation step ``k`` and control step ``c`` (−1: the
+estimation step itself) it belongs to:
+
+==============  ==========  ===================================================================================
+channel         from → to   content
+==============  ==========  ===================================================================================
+``hello``       UAV → world  the UAV is up: its process id, the hash of its resolved scenario, its first aim
+``start``       world → all  the sensor's label of every sensed object, by group (what a UAV's sensor reports)
+``navigation``  world → UAV  its own navigation solution (1, d)
+``detections``  world → UAV  its own detections (:class:`~swarmtrack.sensors.detections.Detections` fields)
+``radio``       world → UAV  the simulated radio: whose messages reach it this step (:class:`Radio`)
+``share``       UAV → UAVs   its estimator's broadcast (the outbox row: L24 eq. 6, W20's, IB21 eq. 30)
+``publish``     UAV → UAVs   its estimator's second broadcast of the step (W20's posteriors)
+``beacon``      UAV → UAVs   its controller's beacon (flocking, W20 eq. 5.24, IB21 eq. 48)
+``plan``        UAV → UAVs   its plans of this control step (IB21 Sec. 5.3's sequential rounds)
+``command``     UAV → world  its controller's command (1, w)
+``sample``      UAV → world  its probes of the step (what the recorder keeps) and its aim for the next frame
+``stop``        world → all  the run is over
+==============  ==========  ===================================================================================
+
+Payloads (outbox rows, probes, detections) are dictionaries of values in a small self-describing form
+(:func:`pack`): numeric arrays as dtype, shape and raw bytes (bit for bit), object arrays element by element,
+shapely geometries as WKB (coordinates bit for bit), raster fields (IB21) as their window and data.
+
+**Seal** (:class:`Seal`): ``HMAC-SHA256(key, key expression ‖ body)`` (standard library) prefixed to the body. A
+message whose tag does not verify (outside the swarm, tampered), whose sender is not one the swarm has, whose
+sequence number is not above the last accepted one of its sender and channel (a replay), or whose body does not
+decode is dropped and counted by cause, never raised.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import hmac
+import secrets
+import threading
+import time
+from collections import Counter
+from typing import Any
+
+import msgspec
+import numpy as np
+import shapely
+
+VERSION = 1
+#: The sender id of the world process.
+WORLD = -1
+TAG_BYTES = 32
+
+
+class Message(msgspec.Struct, tag_field="channel", kw_only=True):
+    version: int = VERSION
+    sender: int = WORLD
+    seq: int = 0
+    taken: float = 0.0
+    k: int = 0
+    c: int = -1
+
+
+class Hello(Message, tag="hello"):
+    pid: int
+    scenario: str
+    aim: Any = None
+
+
+class Start(Message, tag="start"):
+    labels: dict[str, list[int]]
+
+
+class Navigation(Message, tag="navigation"):
+    nav: Any
+
+
+class DetectionsMsg(Message, tag="detections"):
+    fields: dict[str, Any]
+
+
+class Radio(Message, tag="radio"):
+    """Whose messages reach the UAV now: ``parts`` ``[(send step, senders)]`` of estimation messages (this step's
+    first, then late ones), ``links`` the senders whose estimation message of this step it hears (the second
+    broadcast travels over them), ``beacons`` the senders whose beacon of this control step it hears."""
+
+    parts: list[tuple[int, list[int]]] = []
+    links: list[int] = []
+    beacons: list[int] = []
+
+
+class Share(Message, tag="share"):
+    payloads: dict[str, Any]
+
+
+class Publish(Message, tag="publish"):
+    payloads: dict[str, Any]
+
+
+class Beacon(Message, tag="beacon"):
+    payloads: dict[str, Any]
+
+
+class Plan(Message, tag="plan"):
+    payloads: dict[str, Any]
+
+
+class Command(Message, tag="command"):
+    u: Any
+
+
+class Sample(Message, tag="sample"):
+    probes: dict[str, Any]
+    aim: Any = None
+
+
+class Stop(Message, tag="stop"):
+    reason: str = "done"
+
+
+ANY = Hello | Start | Navigation | DetectionsMsg | Radio | Share | Publish | Beacon | Plan | Command | Sample | Stop
+CHANNELS = {cls.__struct_config__.tag: cls for cls in ANY.__args__}
+_encoder = msgspec.msgpack.Encoder()
+_decoder = msgspec.msgpack.Decoder(ANY)
+
+
+def pack(value) -> Any:
+    """``value`` in the wire's self-describing form (MessagePack-able): arrays, object arrays, geometries, raster
+    fields, dicts, lists, scalars and None."""
+    from swarmtrack.estimation.raster_field import Field
+
+    if value is None or isinstance(value, (bool, int, float, str, bytes)):
+        return value
+    if isinstance(value, dict):
+        return {"d": {str(k): pack(v) for k, v in value.items()}}
+    if isinstance(value, (list, tuple)):
+        return {"l": [pack(v) for v in value]}
+    if isinstance(value, np.generic):
+        value = np.asarray(value)
+    if isinstance(value, np.ndarray):
+        if value.dtype == object:
+            return {"o": list(value.shape), "items": [pack(v) for v in value.ravel()]}
+        a = np.ascontiguousarray(value)
+        return {"a": a.dtype.str, "shape": list(a.shape), "data": a.tobytes()}
+    if isinstance(value, shapely.Geometry):
+        return {"g": shapely.to_wkb(value, include_srid=False, flavor="iso")}
+    if isinstance(value, Field):
+        return {"f": [value.i0, value.j0, list(value.core)], "data": pack(value.data)}
+    raise TypeError(f"cannot send a {type(value).__name__}")
+
+
+def unpack(value) -> Any:
+    """The inverse of :func:`pack`."""
+    if not isinstance(value, dict):
+        return value
+    if "a" in value:
+        return np.frombuffer(value["data"], dtype=np.dtype(value["a"])).reshape(value["shape"]).copy()
+    if "o" in value:
+        out = np.empty(len(value["items"]), dtype=object)
+        out[:] = [unpack(v) for v in value["items"]]
+        return out.reshape(value["o"])
+    if "d" in value:
+        return {k: unpack(v) for k, v in value["d"].items()}
+    if "l" in value:
+        return [unpack(v) for v in value["l"]]
+    if "g" in value:
+        return shapely.from_wkb(value["g"])
+    if "f" in value:
+        from swarmtrack.estimation.raster_field import Field
+
+        i0, j0, core = value["f"]
+        return Field(i0, j0, unpack(value["data"]), tuple(core))
+    raise ValueError("an unknown value form")
+
+
+def keygen() -> bytes:
+    """A new swarm key: 32 random bytes (hex in the key file)."""
+    return secrets.token_bytes(32)
+
+
+class Rejected(Exception):
+    """A message dropped by :meth:`Seal.open`; ``cause`` is one of :data:`CAUSES`."""
+
+    def __init__(self, cause: str):
+        super().__init__(cause)
+        self.cause = cause
+
+
+CAUSES = ("forged", "replayed", "unknown_sender", "undecodable", "wrong_version")
+
+
+class Seal:
+    """Seals outgoing messages and opens incoming ones for one swarm: ``key`` (bytes; None: no tag, for
+    ``--insecure``), ``n_uavs`` the senders it accepts (0..n−1 and the world). Thread-safe; counts what it drops
+    (:attr:`rejected`, by cause)."""
+
+    def __init__(self, key: bytes | None, n_uavs: int):
+        self.key, self.n = key, n_uavs
+        # sequence numbers start at the process's start time in µs: a process restarted (--rejoin) continues above
+        # what its earlier life sent, so its receivers do not take its new messages for replays
+        self._start = time.time_ns() // 1000
+        self._seq: dict[str, int] = {}
+        self._last: dict[tuple[int, str], int] = {}
+        self.rejected: Counter = Counter()
+        self._lock = threading.Lock()
+
+    def seal(self, key_expr: str, msg: Message) -> bytes:
+        with self._lock:
+            msg.seq = self._seq[key_expr] = self._seq.get(key_expr, self._start) + 1
+        body = _encoder.encode(msg)
+        return self._tag(key_expr, body) + body
+
+    def _tag(self, key_expr: str, body: bytes) -> bytes:
+        if self.key is None:
+            return bytes(TAG_BYTES)
+        return hmac.new(self.key, key_expr.encode() + b"\0" + body, hashlib.sha256).digest()
+
+    def open(self, key_expr: str, data: bytes) -> Message:
+        """The message in ``data`` received on ``key_expr``, or :class:`Rejected` (counted)."""
+        try:
+            return self._open(key_expr, data)
+        except Rejected as exc:
+            with self._lock:
+                self.rejected[exc.cause] += 1
+            raise
+
+    def _open(self, key_expr: str, data: bytes) -> Message:
+        tag, body = data[:TAG_BYTES], data[TAG_BYTES:]
+        if len(tag) < TAG_BYTES or not hmac.compare_digest(tag, self._tag(key_expr, body)):
+            raise Rejected("forged")
+        try:
+            msg = _decoder.decode(body)
+        except (msgspec.DecodeError, msgspec.ValidationError):
+            raise Rejected("undecodable") from None
+        if msg.version != VERSION:
+            raise Rejected("wrong_version")
+        if msg.sender != WORLD and not 0 <= msg.sender < self.n:
+            raise Rejected("unknown_sender")
+        channel = type(msg).__struct_config__.tag
+        with self._lock:
+            last = self._last.get((msg.sender, channel), 0)
+            if msg.seq <= last:
+                raise Rejected("replayed")
+            self._last[(msg.sender, channel)] = msg.seq
+        return msg
+
+
+def channel_of(msg: Message) -> str:
+    return type(msg).__struct_config__.tag

@@ -216,24 +216,27 @@ def assert_outer_and_close(got, exact, margin=3 * pg.LOOSEN):
 
 
 def test_round_intersections_reuse_chains_and_equal_intersection_all_of_the_ordered_sets():
+    """Each chain in the canonical order (by area, smallest first: a function of the sets alone), every prefix kept
+    for the round."""
     from swarmtrack.estimation.setmembership import _Meets
 
     rng = np.random.default_rng(5)
     sets = [shapely.difference(AREA, shapely.union_all(shapely.buffer(shapely.points(rng.uniform(0, 200, (8, 2))),
                                                                        12.0))) for _ in range(5)]
     base = np.empty(5, dtype=object)
-    base[:] = sets
+    base[:] = sorted(sets, key=lambda s: s.area)  # row k: the k-th smallest
     groups = [np.array(g) for g in ([0, 1, 2], [1, 0, 2, 3], [2, 1, 0, 3, 4], [4, 3], [3])]
-    meets = _Meets(base, groups)
+    meets = _Meets()
     pg.OPS.clear()
-    for g in groups:
-        ordered = sorted({id(base[e]): base[e] for e in g.tolist()}.items(), key=lambda kv: meets.rank[kv[0]])
-        got = meets.meet(dict(ordered[::-1]))  # the argument's order does not matter
-        chain = [s if k == 0 else pg.loosen(s) for k, (_, s) in enumerate(ordered)]
+    results = [meets.meet(list(base[g[::-1]])) for g in groups]  # the argument's order does not matter
+    assert pg.OPS["intersection"] == 2 + 1 + 1 + 1  # {0,1,2} once; 3 and then 4 on top; {3,4} alone
+    for g, got in zip(groups, results, strict=True):
+        ordered = sorted(g.tolist())
+        chain = [base[e] if k == 0 else pg.loosen(base[e]) for k, e in enumerate(ordered)]
         want = shapely.intersection_all(chain)  # the same overlay chain
         assert shapely.equals_exact(got, want, tolerance=0.0)
         assert_outer_and_close(got, shapely.intersection_all(base[g]))
-    assert pg.OPS["intersection"] == 2 + 1 + 1 + 1  # {0,1,2} once; 3 and then 4 on top; {3,4} alone
+        assert shapely.equals_identical(_Meets().meet(list(base[g])), got)  # a UAV alone: the same bits
 
 
 def test_a_loosened_set_contains_the_set_with_its_edges_apart():

@@ -287,7 +287,9 @@ class RasterSetMembershipEstimator(SetMembershipEstimator):
             correct(b, i, corners, z, labels, self.bound)
 
     def _fuse_into(self, b: RasterBeliefs, recv: np.ndarray, send: np.ndarray, sent: RasterBeliefs,
-                   own: np.ndarray | None = None) -> None:
+                   own: np.ndarray | None = None, who: np.ndarray | None = None) -> None:
+        """Eqs. 31-37 and the redistancing; ``who`` is not needed: every raster operation is exact, so the order of
+        the operands does not matter."""
         fuse(b, recv, send, sent, own)
         redistance(b)
 

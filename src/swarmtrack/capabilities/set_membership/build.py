@@ -29,22 +29,14 @@ def set_backend(spec: SetMembershipSpec) -> SetBackend:
 
 def setmembership(spec: SetMembershipSpec, ctx: Context) -> SetMembershipEstimator:
     """IB21's estimator on the run's set backend; with network delays and ``delayed_data: refilter``, the one that
-    replays (Sec. 4.5). Raster sets build for any subset ``ctx.uavs`` (every raster operation is exact, so a fusion's
-    result does not depend on its operands' order); polygons only for the whole swarm."""
+    replays (Sec. 4.5). Builds for any subset ``ctx.uavs``: on raster sets every operation is exact, so a fusion's
+    result does not depend on its operands' order; on polygons each UAV fuses its own group in a canonical order (by
+    UAV) with sets told apart by value (:func:`swarmtrack.estimation.setmembership.fuse`), so its rows are the whole
+    swarm's bit for bit either way."""
     sets = ctx.shared("sets", lambda: set_backend(spec))
-    if not ctx.rows.whole:
-        if sets.name == "polygons":
-            ctx.whole_swarm_only("setmembership", "on polygons, a fusion round's outer approximations (eqs. 34-37) "
-                                 "depend on the order of its operands, which is chosen over every UAV's neighbourhood "
-                                 "of the round (the intersection order of X̄, and the first UAV of a shared "
-                                 "neighbourhood computing for all), which one UAV does not know; use estimator.sets: "
-                                 "raster")
-        uavs = ctx.uavs
-    else:
-        uavs = None
     return sets.estimator(len(ctx.uavs), ctx.scenario.targets.size(), window=spec.replayed_periods(ctx.scenario),
                           speed=spec.speed_bound(ctx.scenario), bound=tuple(spec.noise_bound), period=spec.period,
-                          uavs=uavs)
+                          uavs=None if ctx.rows.whole else ctx.uavs)
 
 
 def sm_mpc(spec: SMMPCSpec, ctx: Context) -> SetMembershipMPC:

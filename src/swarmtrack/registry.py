@@ -11,6 +11,10 @@ The built-in kinds live in :mod:`swarmtrack.capabilities` (a package per capabil
 time the registry is asked; a third-party package registers its own from the entry-point group
 ``swarmtrack.capabilities`` (a module to import), or a script calls :func:`register` itself.
 
+Vehicles are kinds too (role :data:`VEHICLE`): a :class:`~swarmtrack.vehicles.base.Vehicle` registered with
+:func:`register_vehicle` (the built-in four in :mod:`swarmtrack.capabilities.vehicles`), which the schema's vehicle
+choices and the world's stepping read.
+
 Builders, figures and accumulator factories may be given as ``"module:attribute"`` strings, imported when first
 used, so that validating a scenario does not import the simulator and a run without figures does not import
 matplotlib.
@@ -21,10 +25,16 @@ from __future__ import annotations
 import importlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from swarmtrack.vehicles.base import Vehicle
 
 #: The roles a kind can fill.
 ROLES = ("estimator", "controller", "sensor")
+#: The role of vehicle kinds (:class:`~swarmtrack.vehicles.base.Vehicle`, registered with :func:`register_vehicle`):
+#: named by ``swarm.vehicle`` and a group's ``vehicle`` (a name, not a ``kind``-tagged section), read by the world.
+VEHICLE = "vehicle"
 
 #: The built-in capabilities, imported (and so registered) the first time the registry is asked.
 BUILTIN = (
@@ -33,6 +43,7 @@ BUILTIN = (
     "swarmtrack.capabilities.multi_model",
     "swarmtrack.capabilities.mpc",
     "swarmtrack.capabilities.set_membership",
+    "swarmtrack.capabilities.vehicles",
 )
 #: Entry-point group of third-party capabilities (each entry point names a module that calls :func:`register`).
 ENTRY_POINTS = "swarmtrack.capabilities"
@@ -120,7 +131,7 @@ class UnknownKind(ValueError):
     kinds)."""
 
 
-_KINDS: dict[str, dict[str, Kind]] = {role: {} for role in ROLES}
+_KINDS: dict[str, dict[str, Any]] = {role: {} for role in (*ROLES, VEHICLE)}
 _BASES: dict[str, type] = {}
 _loaded = False
 
@@ -151,7 +162,8 @@ def register(role: str, settings: type, build: Ref, *, metrics=(), health=(), fi
     the component (estimator and controller: ``build(settings, context)``; sensor: ``build(settings, scenario)``).
     A name is registered once per role."""
     if role not in ROLES:
-        raise ValueError(f"unknown role {role!r}; roles: {', '.join(ROLES)}")
+        hint = "; a vehicle registers with register_vehicle" if role == VEHICLE else ""
+        raise ValueError(f"unknown role {role!r}; roles: {', '.join(ROLES)}{hint}")
     _load()
     base = _BASES.get(role, object)
     if not (isinstance(settings, type) and issubclass(settings, base)):
@@ -168,21 +180,34 @@ def register(role: str, settings: type, build: Ref, *, metrics=(), health=(), fi
     return kind
 
 
+def register_vehicle(vehicle: Vehicle) -> Vehicle:
+    """Register a vehicle kind (:class:`~swarmtrack.vehicles.base.Vehicle`: how the world steps it, its command
+    width, whether the swarm and the driven groups may use it); a name is registered once."""
+    _load()
+    name = vehicle.name
+    if not isinstance(name, str) or not name:
+        raise TypeError(f"a vehicle needs a name; got {name!r}")
+    if name in _KINDS[VEHICLE]:
+        raise ValueError(f"vehicle kind {name!r} is already registered")
+    _KINDS[VEHICLE][name] = vehicle
+    return vehicle
+
+
 def unregister(role: str, name: str) -> None:
     """Remove a registered kind (tests that register toy kinds clean up with it)."""
     _KINDS[role].pop(name, None)
 
 
-def kinds(role: str) -> dict[str, Kind]:
+def kinds(role: str) -> dict[str, Any]:
     """Every registered kind of ``role``, by name, in the names' order (whatever order the capabilities were
     imported in: the reference, the metrics and the figures list them the same way every time)."""
     _load()
     return dict(sorted(_KINDS[role].items()))
 
 
-def get(role: str, name: Any) -> Kind:
-    """The kind ``name`` of ``role``; anything that is not a registered name (of any type) is refused with
-    :class:`UnknownKind`."""
+def get(role: str, name: Any) -> Any:
+    """The kind ``name`` of ``role`` (a :class:`Kind`; for :data:`VEHICLE` a ``Vehicle``); anything that is not a
+    registered name (of any type) is refused with :class:`UnknownKind`."""
     table = kinds(role)
     if not isinstance(name, str) or name not in table:
         raise UnknownKind(f"unknown {role} kind {name!r}; known: {', '.join(sorted(table))}")

@@ -237,14 +237,54 @@ class MemberSpec(Strict):
                                            tuple(p.phi), accel=tuple(p.accel)) for p in self.phases))
 
 
+class VehicleChoice:
+    """A field naming a registered vehicle kind (:data:`swarmtrack.registry.VEHICLE`) that ``use`` — ``"uav"``
+    (the swarm) or ``"group"`` (targets, decoys) — may use: the choices come from the registry, so a registered
+    vehicle needs no change to this schema. It validates the field (one line naming the choices) and the scenario
+    reference lists :meth:`names` and :meth:`describe` (:mod:`swarmtrack.scenarios.reference`)."""
+
+    def __init__(self, use: str, who: str):
+        self.use, self.who = use, who
+
+    def names(self) -> list[str]:
+        return [name for name, kind in registry.kinds(registry.VEHICLE).items() if getattr(kind, self.use)]
+
+    def describe(self) -> str:
+        """Each choice with its kind's description."""
+        kinds = registry.kinds(registry.VEHICLE)
+        return "; ".join(f"{n}: {kinds[n].description}" if kinds[n].description else n for n in self.names())
+
+    def __call__(self, v: str) -> str:
+        if v not in self.names():
+            what = f"unknown vehicle {v!r}" if v not in registry.kinds(registry.VEHICLE) else \
+                f"vehicle {v!r} is not for {self.who}"
+            raise ValueError(f"{what}; {self.who} can use: {', '.join(self.names())}")
+        return v
+
+
+def _vehicle(use: str, who: str):
+    """A vehicle-kind field's type (:class:`VehicleChoice`)."""
+    choice = VehicleChoice(use, who)
+    return Annotated[str, AfterValidator(choice), choice]
+
+
+def _vehicle_keys(section: BaseModel, use: str) -> None:
+    """Refuse a key of ``section`` that only other vehicle kinds read (:attr:`Vehicle.keys`), unless at its
+    default."""
+    kinds = {n: k for n, k in registry.kinds(registry.VEHICLE).items() if getattr(k, use)}
+    used = kinds[section.vehicle].keys
+    for name in dict.fromkeys(key for k in kinds.values() for key in k.keys):
+        if name in type(section).model_fields and name not in used \
+                and not _is_default(type(section), name, getattr(section, name)):
+            readers = " or ".join(n for n, k in kinds.items() if name in k.keys)
+            raise ValueError(f"{name} is used only with vehicle: {readers}")
+
+
 class GroupSpec(Strict):
     """A named group of driven vehicles (``targets``, ``decoys``): one vehicle kind, any number of members, each
     flying its own velocity profile through the same autopilot (feed-forward + P velocity loop) and wind."""
 
-    vehicle: Literal["quadrotor", "double_integrator", "walker"] = Field(
-        "quadrotor", description=("quadrotor: Iris-like, attitude loop and tilt limits (L24); double_integrator; "
-                                  "walker: constant speed, random-walk yaw rate, reflected at the area's border "
-                                  "(IB21 Sec. 6)"))
+    vehicle: _vehicle("group", "a group") = Field("quadrotor", description="a registered vehicle kind")
     velocity_gain: Gain = Field(1.5, gt=0, description="autopilot velocity-loop gain, 1/s (chosen; at most 1e6)")
     wind_std: Acceleration = Field(0.05, ge=0, description=(
         "random acceleration disturbance std, m/s² (chosen; at most 1e3 m/s²: about 100 g)"))
@@ -258,11 +298,8 @@ class GroupSpec(Strict):
         "walker: [x0, y0, x1, y1], m, where the walkers start and stay (IB21: a 400 m square)"))
 
     @model_validator(mode="after")
-    def _walkers(self):
-        if self.vehicle != "walker":
-            for name in ("count", "speed", "yaw_accel_bound", "area"):
-                if not _is_default(type(self), name, getattr(self, name)):
-                    raise ValueError(f"{name} is used only with vehicle: walker")
+    def _vehicle_keys(self):
+        _vehicle_keys(self, "group")
         return self
 
     def size(self) -> int:
@@ -290,7 +327,7 @@ class FixedWingSpec(Strict):
 
 class SwarmSpec(Strict):
     n_uavs: int = Field(3, ge=1, le=100_000, description="number of UAVs")
-    vehicle: Literal["quadrotor", "double_integrator", "fixed_wing"] = "quadrotor"
+    vehicle: _vehicle("uav", "the swarm") = Field("quadrotor", description="a registered vehicle kind")
     fixed_wing: FixedWingSpec = Field(default_factory=FixedWingSpec, description="with vehicle: fixed_wing")
     initial_positions: list[Position] | None = Field(None, description=(
         "m (at most 1e6 m per axis); default: seeded random in the spawn box"))
@@ -313,6 +350,7 @@ class SwarmSpec(Strict):
 
     @model_validator(mode="after")
     def _positions_match(self):
+        _vehicle_keys(self, "uav")
         if self.initial_positions is not None and len(self.initial_positions) != self.n_uavs:
             raise ValueError(
                 f"swarm.initial_positions has {len(self.initial_positions)} entries for {self.n_uavs} UAVs")

@@ -22,12 +22,21 @@ from swarmtrack import registry
 from swarmtrack.network.channel import Channel, WorldsChannel
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sim.agent import OnboardStack
-from swarmtrack.sim.build import Context, Simulation, _group, build_component, profiles, run_meta, spawn_positions
+from swarmtrack.sim.build import (
+    Context,
+    Simulation,
+    _group,
+    build_component,
+    command_width,
+    profiles,
+    run_meta,
+    spawn_positions,
+)
 from swarmtrack.sim.clock import Clock
 from swarmtrack.sim.engine import step_loop
 from swarmtrack.sim.recorder import Chunk, Recorder, Recording
 from swarmtrack.sim.streams import stream
-from swarmtrack.sim.world import Group, World
+from swarmtrack.sim.world import Group, World, vehicle
 
 
 def batched_kinds(role: str) -> list[str]:
@@ -48,6 +57,11 @@ def unbatchable(scenarios: list[Scenario]) -> str | None:
             return f"{role}.kind {kind!r} is not batched (batched: {', '.join(batched_kinds(role))})"
     if first.controller.follows_truth():
         return "controller.follow: truth (the oracle is not batched)"
+    kinematic = [f"{section}.vehicle {v!r}" for section, v in
+                 (("swarm", first.swarm.vehicle), ("targets", first.targets.vehicle),
+                  ("decoys", first.decoys.vehicle)) if vehicle(v).is_kinematic]
+    if kinematic:
+        return f"{', '.join(kinematic)}: kinematic vehicles are not batched"
     if first.sensor.occluders or first.network.outages:
         return "occluders and outages name UAVs of one world"
     if first.network.delay_bound() or first.network.liar is not None:
@@ -92,7 +106,8 @@ def build_batch(scenarios: list[Scenario]) -> tuple[Simulation, list[dict]]:
         objects = world.slices[group].start + np.arange(worlds) * per[group] + member
         return np.repeat([world.label_of(o) for o in objects], n)
 
-    ctx = Context(first, n * worlds, clock.dt_estimation, clock.dt_control, first.kernels != "numpy", label_of)
+    ctx = Context(first, n * worlds, clock.dt_estimation, clock.dt_control, first.kernels != "numpy", label_of,
+                  command_width(first))
     estimator = build_component("estimator", first, ctx)
     controller = build_component("controller", first, ctx)
     net = first.network

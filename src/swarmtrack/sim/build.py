@@ -25,9 +25,7 @@ from swarmtrack.sim.clock import Clock
 from swarmtrack.sim.oracle import TruthOracle
 from swarmtrack.sim.sensors import Occluder, hidden_by
 from swarmtrack.sim.streams import stream
-from swarmtrack.sim.world import Group, ProfileDriver, World
-from swarmtrack.vehicles.fixed_wing import FixedWingParams
-from swarmtrack.vehicles.ground_walker import WalkerParams
+from swarmtrack.sim.world import Group, ProfileDriver, World, vehicle
 
 
 @dataclass(frozen=True)
@@ -48,7 +46,8 @@ class Context:
     label_of: Callable[[str, int], int]
     """``label_of(group, member)``: the label the sensor reports for ``group`` member ``member`` (0-based)."""
     command_width: int = 2
-    """What a UAV's controller commands per UAV: 2 (a planar acceleration) or 1 (a fixed wing's yaw acceleration)."""
+    """What a UAV's controller commands per UAV (the swarm's vehicle kind's ``command_width``): 2 (a planar
+    acceleration) or 1 (a fixed wing's yaw acceleration)."""
     uavs: np.ndarray | None = dataclasses.field(default=None, compare=False)
     resources: dict = dataclasses.field(default_factory=dict, compare=False)
 
@@ -118,9 +117,9 @@ def _too_close(pos: np.ndarray, min_sep: float) -> np.ndarray:
 
 def profiles(scenario: Scenario, group: str) -> tuple:
     """The velocity profile of each member of a driven group (random manoeuvres from the stream
-    ``manoeuvres/<group>/<member>``); walkers fly none."""
+    ``manoeuvres/<group>/<member>``); kinematic vehicles (walkers) fly none."""
     spec = getattr(scenario, group)
-    if spec.vehicle == "walker":
+    if vehicle(spec.vehicle).is_kinematic:
         return ()
     return tuple(m.velocity_profile(stream(scenario.seed, f"manoeuvres/{group}/{k}"))
                  for k, m in enumerate(spec.members))
@@ -128,26 +127,26 @@ def profiles(scenario: Scenario, group: str) -> tuple:
 
 def _group(name: str, spec: GroupSpec, flown: tuple, seed: int = 0) -> Group:
     starts = np.asarray([m.start for m in spec.members], dtype=float).reshape(-1, 2)
-    if spec.vehicle == "walker":  # the listed members, then `count` at uniform places and headings (IB21 Sec. 6)
+    kind = vehicle(spec.vehicle)
+    if kind.is_kinematic:  # the listed members, then `count` at uniform places and headings (IB21 Sec. 6)
         rng = stream(seed, f"spawn/{name}")
         x0, y0, x1, y1 = spec.area
         starts = np.concatenate([starts, rng.uniform((x0, y0), (x1, y1), size=(spec.count, 2))])
         heading = np.concatenate([[m.heading for m in spec.members], rng.uniform(-np.pi, np.pi, spec.count)])
-        return Group(name, "walker", starts, params=WalkerParams(spec.speed, spec.yaw_accel_bound, tuple(spec.area)),
-                     heading=heading)
+        return Group(name, spec.vehicle, starts, params=kind.make_params(spec), heading=heading)
     return Group(name, spec.vehicle, starts, ProfileDriver(flown, spec.velocity_gain, spec.wind_std))
 
 
 def _uavs(scenario: Scenario) -> Group:
-    """The swarm at its spawn positions; fixed wings also with seeded uniform headings (stream ``spawn/headings``)."""
+    """The swarm at its spawn positions; kinematic vehicles (fixed wings) also with their parameters and seeded
+    uniform headings (stream ``spawn/headings``)."""
     sw = scenario.swarm
     starts = spawn_positions(scenario, stream(scenario.seed, "spawn"))
-    if sw.vehicle != "fixed_wing":
+    kind = vehicle(sw.vehicle)
+    if not kind.is_kinematic:
         return Group("uavs", sw.vehicle, starts)
-    f = sw.fixed_wing
     heading = stream(scenario.seed, "spawn/headings").uniform(-np.pi, np.pi, sw.n_uavs)
-    return Group("uavs", "fixed_wing", starts, params=FixedWingParams(f.speed, f.altitude, f.yaw_rate_max),
-                 heading=heading)
+    return Group("uavs", sw.vehicle, starts, params=kind.make_params(sw), heading=heading)
 
 
 def _oracle(world: World, tracked: int, profile, n: int) -> TruthOracle:
@@ -194,7 +193,7 @@ def build(scenario: Scenario) -> Simulation:
                   streams=lambda purpose: stream(seed, purpose), compiled=compiled)
     ctx = Context(scenario, n, dt_est, clock.dt_control, compiled,
                   lambda group, member: world.label_of(world.slices[group].start + member),
-                  1 if scenario.swarm.vehicle == "fixed_wing" else 2)
+                  command_width(scenario))
     estimator = build_component("estimator", scenario, ctx)
     controller = build_component("controller", scenario, ctx)
     followed = scenario.estimator.followed_target()  # 1-based member of targets, checked by the schema
@@ -212,6 +211,11 @@ def build(scenario: Scenario) -> Simulation:
     meta = run_meta(scenario, world.slices, flown, dt_est)
     return Simulation(world, OnboardStack(estimator, controller, guide), channel, clock, meta,
                       monitors(scenario, world, {"estimator": estimator, "controller": controller}))
+
+
+def command_width(scenario: Scenario) -> int:
+    """What the swarm's controller commands per UAV: its vehicle kind's ``command_width``."""
+    return vehicle(scenario.swarm.vehicle).command_width
 
 
 def monitors(scenario: Scenario, world: World, components: dict) -> dict[str, Callable[[], np.ndarray]]:
@@ -235,10 +239,12 @@ def run_meta(scenario: Scenario, slices: dict[str, slice], flown: dict[str, tupl
         "r_comm": net.r_comm, "liar": None if net.liar is None else net.liar.uav - 1,
         "groups": {name: [sl.start, sl.stop] for name, sl in slices.items()},
         "tracked": None if followed is None else slices["targets"].start + followed - 1,
-        "phase_names": [] if followed is None else list(flown["targets"][followed - 1].phase_names),
-        "object_phases": [list(p.phase_names) for p in flown["targets"] + flown["decoys"]]
-        + [[]] * (scenario.swarm.n_uavs + sum(getattr(scenario, g).size() for g in ("targets", "decoys")
-                                              if getattr(scenario, g).vehicle == "walker")),
+        "phase_names": [] if followed is None or not flown["targets"]
+        else list(flown["targets"][followed - 1].phase_names),
+        # each object's phases, in the world's order (targets, decoys, UAVs); kinematic vehicles fly no profile
+        "object_phases": [names for g in ("targets", "decoys") for names in
+                          ([[]] * getattr(scenario, g).size() if vehicle(getattr(scenario, g).vehicle).is_kinematic
+                           else [list(p.phase_names) for p in flown[g]])] + [[]] * scenario.swarm.n_uavs,
         "d": float("nan"),  # the flocking's (capability 1's spacing metrics), from controller.recording_meta()
         # the metrics judge the run from here: when the chase starts, or when the estimator's warm-up ends
         "chase_start": max(scenario.controller.chase_start_steps(), scenario.estimator.warmup_steps()) * dt_estimation,

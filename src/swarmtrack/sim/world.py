@@ -1,9 +1,12 @@
 """The world: the only holder of truth, a set of named vehicle groups integrated at the physics rate.
 
-A group (``uavs``, ``targets``, ``decoys``, any number of members each) has one vehicle kind (quadrotor or
-double integrator) and, when nothing onboard commands it, a driver (:class:`ProfileDriver`: each member's
-autopilot flies its own velocity profile). The world hands each UAV what that UAV's own devices would give it
-(a noisy navigation solution, its sensor's detections) and keeps the origin of every detection to itself.
+A group (``uavs``, ``targets``, ``decoys``, any number of members each) has one vehicle kind, a registered
+:class:`~swarmtrack.vehicles.base.Vehicle` whose attributes say how it is stepped (the world never tests a kind's
+name): an acceleration-driven one (quadrotor, double integrator) has, when nothing onboard commands it, a driver
+(:class:`ProfileDriver`: each member's autopilot flies its own velocity profile); a kinematic one is stepped by its
+module, driven by its commands (the swarm) or its own draws (a group). The world hands each UAV what that UAV's own
+devices would give it (a noisy navigation solution, its sensor's detections) and keeps the origin of every detection
+to itself.
 Onboard code never imports this module, and this module never imports the scenarios (the builder,
 :mod:`swarmtrack.sim.build`, translates a scenario into a world).
 """
@@ -15,16 +18,19 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from swarmtrack import registry
 from swarmtrack.sim.sensors import Scene, Sensor
-from swarmtrack.vehicles import double_integrator, fixed_wing, ground_walker, quadrotor
+from swarmtrack.vehicles import double_integrator, fixed_wing, quadrotor
 from swarmtrack.vehicles import kernels as _kernels
+from swarmtrack.vehicles.base import Vehicle
 from swarmtrack.vehicles.profile import VelocityProfile
 
-VEHICLES = ("quadrotor", "double_integrator", "walker", "fixed_wing")
-#: Vehicles stepped by their own kinematics (IB21 Sec. 6) rather than the acceleration physics: the module that steps
-#: them and the input a commanded group takes per member.
-KINEMATIC = {"walker": ground_walker, "fixed_wing": fixed_wing}
 _PACK_WIDTH = _kernels.PACK_WIDTH
+
+
+def vehicle(name: str) -> Vehicle:
+    """The registered vehicle kind ``name`` (:mod:`swarmtrack.registry`)."""
+    return registry.get(registry.VEHICLE, name)
 
 
 @dataclass(frozen=True)
@@ -39,9 +45,10 @@ class ProfileDriver:
 
 @dataclass(frozen=True)
 class Group:
-    """``start`` (n, 2) initial positions; ``driver`` None: commanded onboard (the UAVs). A kinematic vehicle
-    (:data:`KINEMATIC`) also takes its ``params`` (``WalkerParams``, ``FixedWingParams``) and initial ``heading``
-    (n,); walkers draw their own yaw accelerations (stream ``walk/<group>/<member>``)."""
+    """``vehicle``: a registered vehicle kind's name; ``start`` (n, 2) initial positions; ``driver`` None: commanded
+    onboard (the UAVs). A kinematic vehicle also takes its ``params`` (e.g. ``WalkerParams``, ``FixedWingParams``)
+    and initial ``heading`` (n,); a kinematic group other than the UAVs draws its own inputs (stream
+    ``walk/<group>/<member>``)."""
 
     name: str
     vehicle: str
@@ -80,13 +87,14 @@ class _Uniforms:
 
 @dataclass
 class _Kinematic:
-    """A group of kinematic vehicles: their full ``state`` (n, d), the ``command`` a commanded group holds (n, 1:
-    a fixed wing's yaw acceleration), a walker group's yaw-acceleration draws per tick (ticks, n). The objects are
-    ``objects`` (a slice of the world's). ``compiled``: stepped by the module's ``step_compiled`` (the same numbers as
-    its ``step``). The cosine and sine of the members' headings, which the step, the truth and the footprint sensor
-    all read, are computed once per state (:meth:`trig`)."""
+    """A group of kinematic vehicles (``kind``): their full ``state`` (n, d), the ``command`` a commanded group holds
+    (n, 1: a fixed wing's yaw acceleration), a driven group's input draws per tick (ticks, n: a walker's yaw
+    accelerations). The objects are ``objects`` (a slice of the world's). ``compiled``: stepped by the module's
+    ``step_compiled`` (the same numbers as its ``step``). The cosine and sine of the members' headings, which the
+    step, the truth and the footprint sensor all read, are computed once per state (:meth:`trig`)."""
 
     name: str
+    kind: Vehicle
     module: object
     params: object
     objects: slice
@@ -99,19 +107,18 @@ class _Kinematic:
     @classmethod
     def of(cls, g: Group, objects: slice, world_streams: list, worlds: int, ticks: int,
            compiled: bool = False) -> _Kinematic:
-        module = KINEMATIC[g.vehicle]
+        kind = vehicle(g.vehicle)
+        module = kind.module()
         heading = np.zeros(g.size) if g.heading is None else np.asarray(g.heading, dtype=float)
-        if g.vehicle == "fixed_wing":
-            state = module.initial_state(g.start, heading, g.params)
-        else:
-            state = module.initial_state(g.start, heading)
+        state = module.initial_state(g.start, heading, g.params)
         draws = None
-        if g.vehicle == "walker":
+        if g.name != "uavs":  # a driven group draws its inputs; the swarm's come from onboard
             per = g.size // worlds
             draws = np.stack([module.draw_inputs(world_streams[k // per](f"walk/{g.name}/{k % per}"), ticks, 1,
                                                  g.params)[:, 0] for k in range(g.size)], axis=1) if g.size else \
                 np.zeros((ticks, 0))
-        return cls(g.name, module, g.params, objects, state, np.zeros((g.size, 1)), draws, compiled)
+        return cls(g.name, kind, module, g.params, objects, state, np.zeros((g.size, kind.command_width)), draws,
+                   compiled)
 
     def trig(self) -> tuple[np.ndarray, np.ndarray]:
         """``(cos, sin)`` (n,) of the members' headings in the current state (computed at the first call)."""
@@ -142,13 +149,13 @@ class _KinematicPack:
         sizes = [len(k.state) for k in kins]
         self.bounds = np.cumsum([0, *sizes])
         k_total = int(self.bounds[-1])
-        self.walker = np.array([k.module is ground_walker for k in kins for _ in range(len(k.state))], dtype=bool)
+        self.walker = np.array([k.kind.pack == "walker" for k in kins for _ in range(len(k.state))], dtype=bool)
         self.group = np.repeat(np.arange(len(kins)), sizes).astype(np.int64)
         self.speed = np.array([k.params.speed for k in kins for _ in range(len(k.state))], dtype=float)
         self.v_dt = np.array([dt * k.params.speed for k in kins for _ in range(len(k.state))], dtype=float)
-        self.rate_max = np.array([0.0 if k.module is ground_walker else k.params.yaw_rate_max
+        self.rate_max = np.array([0.0 if k.kind.pack == "walker" else k.params.yaw_rate_max
                                   for k in kins for _ in range(len(k.state))], dtype=float)
-        self.area = np.array([k.params.area if k.module is ground_walker else (0.0,) * 4
+        self.area = np.array([k.params.area if k.kind.pack == "walker" else (0.0,) * 4
                               for k in kins for _ in range(len(k.state))], dtype=float).reshape(k_total, 4)
         self.objects = np.concatenate([np.arange(k.objects.start, k.objects.stop) for k in kins]).astype(np.int64)
         ticks = max((len(k.draws) for k in kins if k.draws is not None), default=1)
@@ -270,8 +277,10 @@ class World:
         grid = np.arange(ticks) * dt
         lay, v_cmd, a_ff, gains, winds = _Layout(), [], [], [], []
         self._kinematic: list[_Kinematic] = []
+        kinds = {g.name: vehicle(g.vehicle) for g in groups}
         for g in groups:
-            if g.vehicle in KINEMATIC:
+            quad = kinds[g.name].physics == "quadrotor"  # else a double integrator (point mass) or kinematic
+            if kinds[g.name].is_kinematic:
                 self._kinematic.append(_Kinematic.of(g, self.slices[g.name], world_streams, self.worlds, ticks,
                                                      compiled))
                 continue
@@ -287,8 +296,8 @@ class World:
                     b, kl = divmod(k, g.size // self.worlds)
                     winds.append(world_streams[b](f"wind/{g.name}/{kl}").standard_normal((ticks, 2))
                                  * g.driver.wind_std)
-                (lay.quad_obj if g.vehicle == "quadrotor" else lay.point_obj).append(obj)
-                (lay.quad_driver if g.vehicle == "quadrotor" else lay.point_driver).append(d)
+                (lay.quad_obj if quad else lay.point_obj).append(obj)
+                (lay.quad_driver if quad else lay.point_driver).append(d)
         n_driven = len(gains)
         # profile phase of every driven object at every tick (the UAVs have none)
         self._driven = np.asarray([self.slices[g.name].start + k for g in groups if g.driver is not None
@@ -320,7 +329,11 @@ class World:
             self._row[kin.objects] = first + np.arange(kin.objects.stop - kin.objects.start)
             first += kin.objects.stop - kin.objects.start
         self._kinematic_of = {kin.name: kin for kin in self._kinematic}
-        self._pack = _KinematicPack(self._kinematic, dt) if compiled and self._kinematic else None
+        # a compiled world steps its built-in kinematic groups together (their kind's ``pack``), any other kinematic
+        # group by its own module
+        packed = [kin for kin in self._kinematic if compiled and kin.kind.pack is not None]
+        self._loose = [kin for kin in self._kinematic if not (compiled and kin.kind.pack is not None)]
+        self._pack = _KinematicPack(packed, dt) if packed else None
         self._physics = bool(len(self._quad_obj) or len(self._point_obj))  # any vehicle the kernel steps
         # ring buffer of past positions, for measurements that arrive `latency` late
         lag = int(round(sensor.latency / dt))
@@ -328,12 +341,13 @@ class World:
         # where each group's commands go: a group is one vehicle kind, laid out contiguously in that kind's rows
         self._cmd_rows = {}
         for g in groups:
-            if g.vehicle in KINEMATIC:
+            if kinds[g.name].is_kinematic:
                 continue
+            quad = kinds[g.name].physics == "quadrotor"
             rows = self._row[self.slices[g.name]]
-            if g.vehicle != "quadrotor":
+            if not quad:
                 rows = rows - len(self._quad_obj)
-            target = self._quad_cmd if g.vehicle == "quadrotor" else self._point_cmd
+            target = self._quad_cmd if quad else self._point_cmd
             self._cmd_rows[g.name] = (target, slice(rows[0], rows[-1] + 1) if len(rows) else slice(0, 0))
         self._truth_at = -1  # tick of the cached truth
         self._tick = 0
@@ -362,9 +376,8 @@ class World:
                 truth[self._point_obj] = self._points
             if self._pack is not None:
                 self._pack.truth(truth)
-            else:
-                for kin in self._kinematic:
-                    truth[kin.objects] = kin.truth4()
+            for kin in self._loose:
+                truth[kin.objects] = kin.truth4()
             self._truth = truth
             self._truth_at = self._tick
         return self._truth
@@ -484,9 +497,8 @@ class World:
         """One tick of every kinematic group (from tick ``tick``), and their positions into the latency buffer."""
         if self._pack is not None:
             self._pack.step(tick)
-        else:
-            for kin in self._kinematic:
-                kin.step(tick, self.dt)
+        for kin in self._loose:
+            kin.step(tick, self.dt)
         if len(self._history) > 1:
             for kin in self._kinematic:
                 self._history[(tick + 1) % len(self._history)][kin.objects] = kin.state[:, :2]

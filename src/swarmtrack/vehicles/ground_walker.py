@@ -56,9 +56,10 @@ class WalkerParams:
             raise ValueError(f"area {self.area} is not a box (x_min, y_min, x_max, y_max)")
 
 
-def initial_state(xy, heading) -> np.ndarray:
+def initial_state(xy, heading, params: WalkerParams | None = None) -> np.ndarray:
     """``(n, 5)`` states at ``xy`` (n, 2) with heading ``heading`` (n,), zero yaw rate and yaw acceleration (ours:
-    the paper gives no initial heading or rates)."""
+    the paper gives no initial heading or rates). ``params`` is not read (the signature every kinematic vehicle
+    shares, :class:`swarmtrack.vehicles.base.KinematicModel`)."""
     xy = np.atleast_2d(np.asarray(xy, dtype=float))
     state = np.zeros((len(xy), STATE_DIM))
     state[:, X:Y + 1] = xy

@@ -7,6 +7,7 @@
 ``multi_model``        W20 Ch. 4: gimballed camera, multi-model distributed EKF
 ``mpc``                W20 Ch. 5: distributed MPC formation with the UAVs' identified model
 ``set_membership``     IB21: footprint sensor, set-membership estimator and MPC
+``vehicles``           the vehicle kinds (L24 quadrotor, double integrator; IB21 walker, fixed wing), a module
 =====================  ==================================================================================
 
 Each package's ``__init__`` registers its kinds (:func:`swarmtrack.registry.register`) with its settings classes

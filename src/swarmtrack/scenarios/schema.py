@@ -349,8 +349,12 @@ class SwarmSpec(Strict):
         return v
 
     @model_validator(mode="after")
-    def _positions_match(self):
+    def _vehicle_keys(self):
         _vehicle_keys(self, "uav")
+        return self
+
+    @model_validator(mode="after")
+    def _positions_match(self):
         if self.initial_positions is not None and len(self.initial_positions) != self.n_uavs:
             raise ValueError(
                 f"swarm.initial_positions has {len(self.initial_positions)} entries for {self.n_uavs} UAVs")

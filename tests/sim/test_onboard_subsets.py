@@ -23,7 +23,7 @@ from swarmtrack.estimation.raster_field import Field
 from swarmtrack.network.links import edge_list
 from swarmtrack.network.messages import Inbox
 from swarmtrack.scenarios import load_scenario
-from swarmtrack.sim.build import Context, build
+from swarmtrack.sim.build import Context, build, command_width
 from swarmtrack.sim.engine import step_loop
 from swarmtrack.sim.recorder import Recorder
 
@@ -118,8 +118,7 @@ def record(scenario, sparse: bool = False):
     step_loop(sim, recorder)
     world, clock = sim.world, sim.clock
     ctx = Context(scenario, scenario.swarm.n_uavs, clock.dt_estimation, clock.dt_control, scenario.kernels != "numpy",
-                  lambda group, member: world.label_of(world.slices[group].start + member),
-                  1 if scenario.swarm.vehicle == "fixed_wing" else 2)
+                  lambda group, member: world.label_of(world.slices[group].start + member), command_width(scenario))
     return ctx, est_log, ctl_log
 
 
@@ -294,8 +293,9 @@ CASES = {
                                                         "sigma_bearing: 0.02}"]),
     "mpc-formation": ("w20-mpc-formation", ["controller.start=1"]),
     "mpc-collision": ("w20-mpc-collision", []),
-    # IB21's estimator (raster sets; on polygons it refuses a subset) and SM-MPC (its plans as messages)
+    # IB21's estimator (raster and polygon sets) and SM-MPC (its plans as messages)
     "setmembership-raster": ("ib21-fleet-6", ["estimator.sets=raster"]),
+    "setmembership-polygons": ("ib21-fleet-6", ["estimator.sets=polygons"]),
     "setmembership-raster-delays": ("ib21-fleet-6", ["estimator.sets=raster", "estimator.delayed_data=refilter",
                                                      "network.delay_max=1.2", "network.loss_probability=0.2"]),
 }
@@ -337,7 +337,6 @@ def test_each_uav_commands_exactly_as_the_whole_swarm(recorded):
 
 @pytest.mark.parametrize("role, name, overrides, why", [
     ("estimator", "l24-cv", ["estimator={kind: centralized, model: cv}"], "fusion centre"),
-    ("estimator", "ib21-fleet-6", ["estimator.sets=polygons"], "order of its operands"),
 ])
 def test_the_kinds_without_a_subset_build_refuse_one_by_name(role, name, overrides, why):
     scenario = load_scenario(name, overrides, seed=3)

@@ -23,7 +23,7 @@ from swarmtrack.live.node import Node
 from swarmtrack.network.messages import Inbox
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sensors.detections import Detections
-from swarmtrack.sim.build import Context
+from swarmtrack.sim.build import Context, command_width
 from swarmtrack.sim.clock import Clock
 
 #: How long a process waits for a message its step needs before it gives up (s).
@@ -45,8 +45,7 @@ def build_onboard(scenario: Scenario, uav: int, labels: dict[str, list[int]]):
     each sensed group (the world's ``start`` message)."""
     clock = clock_of(scenario)
     ctx = Context(scenario, scenario.swarm.n_uavs, clock.dt_estimation, clock.dt_control, scenario.kernels != "numpy",
-                  lambda group, member: labels[group][member], 1 if scenario.swarm.vehicle == "fixed_wing" else 2,
-                  uavs=[uav])
+                  lambda group, member: labels[group][member], command_width(scenario), uavs=[uav])
     build = {role: registry.get(role, getattr(scenario, role).kind).builder() for role in ("estimator", "controller")}
     return build["estimator"](scenario.estimator, ctx), build["controller"](scenario.controller, ctx)
 

@@ -74,6 +74,7 @@ class ZenohTransport:
             self.session = zenoh.open(conf)
         except zenoh.ZError as exc:
             raise TransportError(_cause(str(exc), listen, connect)) from None
+        self._zenoh = zenoh
         self._publishers: dict[str, object] = {}
         self._subscribers: list = []
         self._closed = False
@@ -81,7 +82,8 @@ class ZenohTransport:
     def put(self, key: str, data: bytes) -> None:
         pub = self._publishers.get(key)
         if pub is None:
-            pub = self._publishers[key] = self.session.declare_publisher(key)
+            pub = self._publishers[key] = self.session.declare_publisher(
+                key, express=True, congestion_control=self._zenoh.CongestionControl.BLOCK)
         pub.put(data)
 
     def subscribe(self, key_expr: str, callback: Callable[[str, bytes], None]) -> object:

@@ -1,0 +1,107 @@
+"""``swarmtrack live``: every UAV's onboard stack in its own process over Zenoh on loopback, in lockstep with the
+world process, records what ``swarmtrack run`` records, bit for bit; what cannot run live is refused with exit 2.
+
+Live runs start real processes: each is bounded in time, and the test checks none of the UAV processes it started
+(found by the swarm's name on their command line) is left behind.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import uuid
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import swarmtrack
+from swarmtrack.cli import main
+from swarmtrack.live.transport import free_port
+
+
+def _processes_of(swarm: str) -> list[str]:
+    out = subprocess.run(["ps", "-eo", "pid,args"], capture_output=True, text=True).stdout
+    return [line for line in out.splitlines() if f"--swarm {swarm}" in line and "agent" in line]
+
+
+def live(tmp_path, scenario: str, overrides: list[str], *extra: str, timeout: float = 240):
+    swarm = f"test-{uuid.uuid4().hex[:8]}"
+    args = [sys.executable, "-m", "swarmtrack", "live", scenario, "--out", str(tmp_path / "live"), "--no-plots",
+            "--insecure", "--swarm", swarm, *extra]
+    for o in overrides:
+        args += ["--set", o]
+    res = subprocess.run(args, capture_output=True, text=True, timeout=timeout, env={**os.environ, "COLUMNS": "200"})
+    assert not _processes_of(swarm), "UAV processes left behind"
+    return res
+
+
+def _columns(rec) -> dict[str, np.ndarray]:
+    chunks = list(rec.chunks())
+    out = {name: np.concatenate([getattr(c, name) for c in chunks]) for name in ("t", "truth", "phase")}
+    out.update({p: np.concatenate([c.probes[p] for c in chunks]) for p in rec.meta["probes"] if p != "solve_time"})
+    return out
+
+
+def assert_same_recording(a, b) -> None:
+    """Every truth column and every probe (measured wall times aside) equal bit for bit."""
+    ca, cb = _columns(a), _columns(b)
+    assert set(ca) == set(cb)
+    for name, x in ca.items():
+        assert np.array_equal(x, cb[name], equal_nan=x.dtype.kind == "f"), name
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("scenario, overrides", [
+    ("l24-ct", ["duration=3"]),
+    ("w20-switching", ["duration=3", "estimator.solo_steps=20"]),  # the second exchange round (publish, combine)
+    ("w20-mpc-formation-estimated", ["duration=3", "controller.start=1"]),
+])
+def test_a_live_run_records_what_run_records(tmp_path, scenario, overrides):
+    res = live(tmp_path, scenario, overrides)
+    assert res.returncode == 0, res.stderr[-3000:]
+    assert "written to" in res.stdout
+    ran = swarmtrack.simulate(swarmtrack.load_scenario(scenario, overrides))
+    assert_same_recording(swarmtrack.load_run(tmp_path / "live"), ran)
+
+
+@pytest.mark.parametrize("args, cause", [
+    (["live", "l24-ct"], "no swarm key"),
+    (["agent", "l24-ct", "--uav", "4", "--insecure"], "--uav 4"),
+    (["live", "l24-ct", "--insecure", "--set", "controller.follow=truth"], "truth"),
+    (["live", "l24-cv", "--insecure", "--set", "estimator={kind: centralized, model: cv}"], "cannot run live"),
+])
+def test_what_cannot_run_live_is_refused_naming_the_cause(tmp_path, args, cause):
+    res = CliRunner().invoke(main, [*args, *(["--out", str(tmp_path / "x")] if args[0] == "live" else [])])
+    assert res.exit_code == 2 and cause in res.output, res.output
+    assert not (tmp_path / "x").exists()
+
+
+def test_a_key_is_written_once_and_a_wrong_one_refused(tmp_path):
+    key = tmp_path / "swarm.key"
+    assert CliRunner().invoke(main, ["keygen", str(key)]).exit_code == 0
+    assert (key.stat().st_mode & 0o777) == 0o600 and len(bytes.fromhex(key.read_text())) == 32
+    again = CliRunner().invoke(main, ["keygen", str(key)])
+    assert again.exit_code == 2 and "never replaced" in again.output
+    bad = tmp_path / "bad.key"
+    bad.write_text("not hex")
+    res = CliRunner().invoke(main, ["live", "l24-ct", "--key", str(bad), "--out", str(tmp_path / "x")])
+    assert res.exit_code == 2 and "not a key" in res.output
+
+
+@pytest.mark.slow  # the unreachable peer is given up after Zenoh's connect timeout (5 s)
+def test_an_endpoint_in_use_or_unreachable_is_refused(tmp_path):
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        s.listen()
+        port = s.getsockname()[1]
+        res = CliRunner().invoke(main, ["live", "l24-ct", "--insecure", "--listen", f"tcp/127.0.0.1:{port}",
+                                        "--out", str(tmp_path / "x")])
+    assert res.exit_code == 2 and "in use" in res.output, res.output
+    assert not (tmp_path / "x").exists()
+    res = CliRunner().invoke(main, ["agent", "l24-ct", "--uav", "1", "--insecure", "--connect",
+                                    f"tcp/127.0.0.1:{free_port()}"])
+    assert res.exit_code == 2 and "cannot reach" in res.output, res.output

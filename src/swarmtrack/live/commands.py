@@ -89,8 +89,11 @@ def keygen_cmd(file: Path) -> None:
 @click.option("--uav", type=int, required=True, help="which UAV this process is (1..N)")
 @click.option("--connect", multiple=True, metavar="ENDPOINT", help="a peer to join, e.g. tcp/127.0.0.1:7447")
 @click.option("--listen", multiple=True, metavar="ENDPOINT", help="listen there too (other peers may join)")
+@click.option("--connect-timeout", type=click.FloatRange(min=0, min_open=True), default=5.0, show_default=True,
+              metavar="SECONDS", help="give up on a --connect peer that does not answer within this time")
 @_security_options
-def agent_cmd(scenario: str, seed, overrides, uav: int, connect, listen, swarm, key_file, insecure) -> None:
+def agent_cmd(scenario: str, seed, overrides, uav: int, connect, listen, connect_timeout, swarm, key_file,
+              insecure) -> None:
     """Run UAV --uav's onboard stack (estimator, controller) of SCENARIO, as on its companion computer: its
     navigation, detections and radio from the world, its neighbours' messages over Zenoh."""
     from swarmtrack.live.agent import Agent
@@ -103,7 +106,7 @@ def agent_cmd(scenario: str, seed, overrides, uav: int, connect, listen, swarm, 
         raise UsageFailure(f"--uav {uav}: the swarm of {scn.name} has UAVs 1..{scn.swarm.n_uavs}")
     key = read_key(key_file, insecure)
     try:
-        transport = ZenohTransport(listen=list(listen), connect=list(connect))
+        transport = ZenohTransport(listen=list(listen), connect=list(connect), timeout=connect_timeout)
     except TransportError as exc:
         raise UsageFailure(str(exc)) from None
     node = Node(transport, Seal(key, scn.swarm.n_uavs), swarm or scn.name, uav - 1)

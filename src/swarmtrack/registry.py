@@ -25,7 +25,7 @@ from __future__ import annotations
 import importlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 if TYPE_CHECKING:
     from swarmtrack.vehicles.base import Vehicle
@@ -98,6 +98,15 @@ class Figure:
     applies: Callable = _always
 
 
+class Telemetry(NamedTuple):
+    """``report(component) → {name: (R, ...) array}``: what a UAV's own process sends with its probes for the
+    truth-side monitors; ``mirror(component, reports)`` puts the swarm's reports ``{name: (N, ...)}`` into the truth
+    side's copy of the component (never run itself) before its monitors read it."""
+
+    report: Callable
+    mirror: Callable
+
+
 @dataclass(frozen=True)
 class Kind:
     """One registered kind: its ``role`` and ``name``, its ``settings`` class and its builder ``build``, and what the
@@ -120,6 +129,9 @@ class Kind:
     monitors: Ref | None = None
     """Truth-side checks recorded beside the probes (never onboard): ``monitors(world, component)`` gives
     ``name → f`` with ``f()`` an (N,) array per estimation step."""
+    telemetry: Ref | None = None
+    """What the monitors read of the component when it runs in the UAVs' own processes (the live swarm): a
+    :class:`Telemetry`."""
     module: str = field(default="", compare=False)
 
     def builder(self) -> Callable:
@@ -156,7 +168,7 @@ def _load() -> None:
 
 
 def register(role: str, settings: type, build: Ref, *, metrics=(), health=(), figures=(), animated: bool = False,
-             batched: bool = False, monitors: Ref | None = None) -> Kind:
+             batched: bool = False, monitors: Ref | None = None, telemetry: Ref | None = None) -> Kind:
     """Register a kind for ``role``: its name is the default of ``settings.kind`` (a string literal), ``settings``
     subclasses the role's base settings class (declared by the schema, :func:`declare_role`), and ``build`` makes
     the component (estimator and controller: ``build(settings, context)``; sensor: ``build(settings, scenario)``).
@@ -175,7 +187,7 @@ def register(role: str, settings: type, build: Ref, *, metrics=(), health=(), fi
     if name in _KINDS[role]:
         raise ValueError(f"{role} kind {name!r} is already registered (by {_KINDS[role][name].module})")
     kind = Kind(role, name, settings, build, metrics=tuple(metrics), health=tuple(health), figures=tuple(figures),
-                animated=animated, batched=batched, monitors=monitors, module=settings.__module__)
+                animated=animated, batched=batched, monitors=monitors, telemetry=telemetry, module=settings.__module__)
     _KINDS[role][name] = kind
     return kind
 

@@ -56,7 +56,9 @@ def assert_same_recording(a, b) -> None:
 @pytest.mark.parametrize("scenario, overrides", [
     ("l24-ct", ["duration=3"]),
     ("w20-switching", ["duration=3", "estimator.solo_steps=20"]),  # the second exchange round (publish, combine)
-    ("w20-mpc-formation-estimated", ["duration=3", "controller.start=1"]),
+    ("w20-mpc-formation", ["duration=3", "controller.start=1"]),  # following the target's tracked pose (guide)
+    # the SM-MPC's plan messages (the UAVs within each other's range) and the guarantee monitor's telemetry
+    ("ib21-fleet-2", ["duration=3", "network.r_comm=1000"]),
 ])
 def test_a_live_run_records_what_run_records(tmp_path, scenario, overrides):
     res = live(tmp_path, scenario, overrides)
@@ -69,7 +71,7 @@ def test_a_live_run_records_what_run_records(tmp_path, scenario, overrides):
 @pytest.mark.parametrize("args, cause", [
     (["live", "l24-ct"], "no swarm key"),
     (["agent", "l24-ct", "--uav", "4", "--insecure"], "--uav 4"),
-    (["live", "l24-ct", "--insecure", "--set", "controller.follow=truth"], "truth"),
+    (["live", "robust-5", "--insecure", "--set", "network.liar={uav: 2}"], "liar"),
     (["live", "l24-cv", "--insecure", "--set", "estimator={kind: centralized, model: cv}"], "cannot run live"),
 ])
 def test_what_cannot_run_live_is_refused_naming_the_cause(tmp_path, args, cause):

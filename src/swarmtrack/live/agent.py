@@ -18,6 +18,7 @@ import numpy as np
 
 from swarmtrack import registry
 from swarmtrack.control.base import SequentialPlanner
+from swarmtrack.estimation.base import TargetView
 from swarmtrack.live import wire
 from swarmtrack.live.node import Node
 from swarmtrack.network.messages import Inbox
@@ -50,6 +51,17 @@ def build_onboard(scenario: Scenario, uav: int, labels: dict[str, list[int]]):
     return build["estimator"](scenario.estimator, ctx), build["controller"](scenario.controller, ctx)
 
 
+def telemetry_of(scenario: Scenario) -> dict[str, registry.Telemetry]:
+    """The telemetry of the scenario's estimator and controller kinds that register one (what their truth-side
+    monitors read of them), by role."""
+    out = {}
+    for role in ("estimator", "controller"):
+        kind = registry.get(role, getattr(scenario, role).kind)
+        if kind.telemetry is not None:
+            out[role] = registry.resolve(kind.telemetry)
+    return out
+
+
 class Agent:
     """UAV ``uav`` of ``scenario`` on ``node`` (its transport and seal)."""
 
@@ -59,6 +71,7 @@ class Agent:
         self.clock = clock_of(scenario)
         self.estimator = self.controller = None
         self._own: dict[int, dict] = {}  # own outboxes of recent steps (late parts hold the own row too)
+        self._telemetry = telemetry_of(scenario)
 
     def run(self) -> None:
         node = self.node
@@ -94,6 +107,9 @@ class Agent:
         self._own.pop(k - self._window(), None)
         node.forget(k - self._window())
         view = self._report(k)
+        if self.scenario.controller.follows_truth():  # the controller follows an external tracker's view
+            guide = node.wait("guide", [wire.WORLD], k, timeout=PATIENCE)[wire.WORLD].view
+            view = TargetView(**{name: wire.unpack(v) for name, v in guide.items()})
         for c, (control_now, _) in enumerate(self.clock.control_segments(k)):
             if control_now:
                 self.control(k, c, view)
@@ -120,7 +136,11 @@ class Agent:
         estimate); returns the estimator's view, which the controller follows until the next step."""
         probes = {} if k < 0 else {**self.estimator.sample(), **self.controller.sample()}
         view = self.estimator.view()
-        self.node.send(wire.WORLD, wire.Sample(k=k, probes=_pack(probes), aim=wire.pack(view.state[:, :2])))
+        reports = {} if k < 0 else {role: self._telemetry[role].report(component) for role, component in
+                                    (("estimator", self.estimator), ("controller", self.controller))
+                                    if role in self._telemetry}
+        self.node.send(wire.WORLD, wire.Sample(k=k, probes=_pack(probes), aim=wire.pack(view.state[:, :2]),
+                                               telemetry={role: _pack(r) for role, r in reports.items()}))
         return view
 
     def _window(self) -> int:

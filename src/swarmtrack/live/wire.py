@@ -18,7 +18,10 @@ channel         from → to   content
 ``beacon``      UAV → UAVs   its controller's beacon (flocking, W20 eq. 5.24, IB21 eq. 48)
 ``plan``        UAV → UAVs   its plans of this control step (IB21 Sec. 5.3's sequential rounds)
 ``command``     UAV → world  its controller's command (1, w)
-``sample``      UAV → world  its probes of the step (what the recorder keeps) and its aim for the next frame
+``sample``      UAV → world  its probes of the step (what the recorder keeps), its aim for the next frame and
+                            what the truth-side monitors read of its components (their telemetry)
+``guide``       world → UAV  the followed target from an external tracker (``controller.follow: truth``, W20's
+                            motion capture), the view its controller follows
 ``stop``        world → all  the run is over
 ==============  ==========  ===================================================================================
 
@@ -112,13 +115,23 @@ class Command(Message, tag="command"):
 class Sample(Message, tag="sample"):
     probes: dict[str, Any]
     aim: Any = None
+    telemetry: dict[str, dict[str, Any]] = {}
+
+
+class Guide(Message, tag="guide"):
+    """The followed target as an external tracker gives it (``controller.follow: truth``: W20 Sec. 5.4 streamed the
+    target's Optitrack pose to the UAVs): the UAV's row of the view its controller follows, ``state`` (1, 4) and,
+    where known, ``model`` (1,) and ``motion`` (1, 3)."""
+
+    view: dict[str, Any]
 
 
 class Stop(Message, tag="stop"):
     reason: str = "done"
 
 
-ANY = Hello | Start | Navigation | DetectionsMsg | Radio | Share | Publish | Beacon | Plan | Command | Sample | Stop
+ANY = (Hello | Start | Navigation | DetectionsMsg | Radio | Share | Publish | Beacon | Plan | Command | Sample | Guide
+       | Stop)
 CHANNELS = {cls.__struct_config__.tag: cls for cls in ANY.__args__}
 _encoder = msgspec.msgpack.Encoder()
 _decoder = msgspec.msgpack.Decoder(ANY)

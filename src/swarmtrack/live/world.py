@@ -16,7 +16,7 @@ from collections.abc import Callable
 import numpy as np
 
 from swarmtrack.live import wire
-from swarmtrack.live.agent import PATIENCE, scenario_hash
+from swarmtrack.live.agent import PATIENCE, scenario_hash, telemetry_of
 from swarmtrack.live.node import Node
 from swarmtrack.network.links import edge_list, rows_of
 from swarmtrack.scenarios.schema import Scenario
@@ -33,16 +33,14 @@ def check_live(scenario: Scenario) -> None:
     from swarmtrack import registry
     from swarmtrack.live.agent import build_onboard
 
-    if scenario.controller.follows_truth():
-        raise LiveError("controller.follow: truth steers by the truth, which no UAV process may see; live runs "
-                        "follow each UAV's own estimate")
     if scenario.network.liar is not None:
         raise LiveError("network.liar corrupts messages inside the simulated channel; in a live run a liar is a "
                         "UAV process of its own (not available yet)")
     for role in ("estimator", "controller"):
-        if registry.get(role, getattr(scenario, role).kind).monitors is not None:
-            raise LiveError(f"{role} {getattr(scenario, role).kind}: its truth-side checks read the onboard "
-                            "estimator, which runs in the UAVs' processes (not available live yet)")
+        kind = registry.get(role, getattr(scenario, role).kind)
+        if kind.monitors is not None and kind.telemetry is None:
+            raise LiveError(f"{role} {kind.name}: its truth-side checks read the onboard component, which runs in "
+                            "the UAVs' processes, and it registers no telemetry for them")
     labels = {g: list(range(getattr(scenario, g).size())) for g in ("targets", "decoys")}
     try:
         build_onboard(scenario, 0, labels)
@@ -72,7 +70,11 @@ def run_lockstep(scenario: Scenario, node: Node, record_to=None, progress: Calla
         raise LiveError(f"UAV processes {[i + 1 for i in wrong]} run another scenario (or seed, or overrides)")
     node.send("all", wire.Start(labels=labels_of(world)))
     aims = _aims(node.wait("sample", uavs, -1, timeout=patience))
-    recorder = Recorder(sim.meta, world.n_objects, n, sim.stack.probes, record_to)
+    probes = {**sim.stack.probes, **dict.fromkeys(sim.monitors, ())}
+    recorder = Recorder(sim.meta, world.n_objects, n, probes, record_to)
+    telemetries = telemetry_of(scenario)
+    components = {"estimator": sim.stack.estimator, "controller": sim.stack.controller}
+    guided = sim.stack.guide is not sim.stack.estimator
     u = np.zeros((n, 2))
     report_every = max(1, clock.steps // 100)
     for k in range(clock.steps):
@@ -93,7 +95,13 @@ def run_lockstep(scenario: Scenario, node: Node, record_to=None, progress: Calla
         aims = _aims(samples)
         probes = {name: np.concatenate([wire.unpack(samples[i].probes[name]) for i in uavs])
                   for name in sim.stack.probes}
-        recorder.record(t, truth, world.phase_index(), probes)
+        for role, telemetry in telemetries.items():  # the truth side's copy of the UAVs' components, for the monitors
+            telemetry.mirror(components[role], _stacked([samples[i].telemetry[role] for i in uavs]))
+        recorder.record(t, truth, world.phase_index(), {**probes, **{k: f() for k, f in sim.monitors.items()}})
+        if guided:  # an external tracker's view of the target (W20's motion capture), the UAV's row
+            view = sim.stack.guide.view()
+            for i in uavs:
+                node.send(i, wire.Guide(k=k, taken=t, view=_row_of_view(view, i)))
         offset = 0
         for c, (control_now, ticks) in enumerate(clock.control_segments(k)):
             if control_now:
@@ -120,6 +128,17 @@ FIELDS = ("owner", "z", "sensor_pos", "label", "n_uavs", "grid", "frame", "footp
 def _heard(links, i: int) -> list[int]:
     """The senders UAV i's row of ``links`` holds."""
     return edge_list(rows_of(links, np.array([i])))[1].tolist()
+
+
+def _row_of_view(view, i: int) -> dict:
+    """UAV i's row of a :class:`~swarmtrack.estimation.base.TargetView` (its state, model and motion), packed."""
+    return {name: wire.pack(getattr(view, name)[i:i + 1]) for name in ("state", "model", "motion")
+            if getattr(view, name) is not None}
+
+
+def _stacked(rows: list[dict]) -> dict[str, np.ndarray]:
+    """The UAVs' reports (each ``{name: packed (1, ...)}``) as the swarm's ``{name: (N, ...)}``."""
+    return {name: np.concatenate([wire.unpack(r[name]) for r in rows]) for name in rows[0]}
 
 
 def _aims(samples: dict[int, wire.Sample]) -> np.ndarray:

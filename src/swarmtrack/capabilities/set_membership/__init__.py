@@ -9,5 +9,5 @@ _BUILD = "swarmtrack.capabilities.set_membership.build:"
 registry.register("sensor", settings.FootprintSpec, _BUILD + "footprint_sensor")
 registry.register("estimator", settings.SetMembershipSpec, _BUILD + "setmembership",
                   monitors=_BUILD + "guarantee_monitor", metrics=metrics.METRICS, figures=metrics.FIGURES,
-                  animated=True)
+                  animated=True, telemetry="swarmtrack.capabilities.set_membership.telemetry:TELEMETRY")
 registry.register("controller", settings.SMMPCSpec, _BUILD + "sm_mpc")

@@ -17,14 +17,16 @@ class UsageFailure(click.ClickException):
     exit_code = 2
 
 
-def write_run(rec, scn, folder: Path, formats=("parquet",), no_plots: bool = False) -> dict:
+def write_run(rec, scn, folder: Path, formats=("parquet",), no_plots: bool = False, extra: dict | None = None,
+              warnings: list | None = None) -> dict:
     """A finished run's files besides its recording, into ``folder`` (staged): ``scenario.yaml`` (resolved),
-    ``metrics.json``, ``timeseries/*.csv`` when ``formats`` has csv, the figures unless ``no_plots``. Returns the
-    metrics."""
+    ``metrics.json`` (with the ``extra`` sections and ``warnings``), ``timeseries/*.csv`` when ``formats`` has csv,
+    the figures unless ``no_plots``. Returns the metrics."""
     from swarmtrack.analysis.metrics import summary
     from swarmtrack.outputs import dump_json, version
 
-    metrics = {**summary(rec), "written_by": version()}
+    metrics = {**summary(rec), **(extra or {}), "written_by": version()}
+    metrics["warnings"] = [*metrics["warnings"], *(warnings or [])]
     (folder / "scenario.yaml").write_text(f"# resolved by {version()}\n"
                                           + yaml.safe_dump(scn.model_dump(mode="json"), sort_keys=False))
     (folder / "metrics.json").write_text(dump_json(metrics))

@@ -7,9 +7,11 @@ Live runs start real processes: each is bounded in time, and the test checks non
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
+import time
 import uuid
 
 import numpy as np
@@ -18,7 +20,8 @@ from click.testing import CliRunner
 
 import swarmtrack
 from swarmtrack.cli import main
-from swarmtrack.live.transport import free_port
+from swarmtrack.live import wire
+from swarmtrack.live.transport import ZenohTransport, free_port, key
 
 
 def _processes_of(swarm: str) -> list[str]:
@@ -106,3 +109,48 @@ def test_an_endpoint_in_use_or_unreachable_is_refused(tmp_path):
     res = CliRunner().invoke(main, ["agent", "l24-ct", "--uav", "1", "--insecure", "--connect-timeout", "0.5",
                                     "--connect", f"tcp/127.0.0.1:{free_port()}"])
     assert res.exit_code == 2 and "cannot reach" in res.output, res.output
+
+
+@pytest.mark.slow
+def test_forged_replayed_and_undecodable_messages_are_dropped_counted_and_change_nothing(tmp_path):
+    key_file = tmp_path / "swarm.key"
+    assert CliRunner().invoke(main, ["keygen", str(key_file)]).exit_code == 0
+    secret = bytes.fromhex(key_file.read_text())
+    port, swarm = free_port(), f"test-{uuid.uuid4().hex[:8]}"
+    overrides = ["duration=6"]
+    args = [sys.executable, "-m", "swarmtrack", "live", "l24-ct", "--out", str(tmp_path / "live"), "--no-plots",
+            "--key", str(key_file), "--swarm", swarm, "--listen", f"tcp/127.0.0.1:{port}", "--set", *overrides]
+    proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    captured, sent = [], {"forged": 0, "replayed": 0, "undecodable": 0}
+    try:
+        for _ in range(100):  # the world listens once its scenario is built
+            try:
+                intruder = ZenohTransport(connect=[f"tcp/127.0.0.1:{port}"], timeout=1.0)
+                break
+            except Exception:
+                time.sleep(0.2)
+        share = key(swarm, "uav", 1, "share")
+        intruder.subscribe(share, lambda k, data: captured.append(data))
+        outsider, insider = wire.Seal(wire.keygen(), 3), wire.Seal(secret, 3)
+        deadline = time.monotonic() + 60
+        while not captured and time.monotonic() < deadline:
+            time.sleep(0.05)
+        while proc.poll() is None and time.monotonic() < deadline:
+            intruder.put(share, outsider.seal(share, wire.Share(sender=1, k=0, payloads={})))
+            intruder.put(share, captured[0])  # a real message of UAV 2, again
+            intruder.put(share, insider._tag(share, b"\x81\xa1x\x01") + b"\x81\xa1x\x01")
+            for cause in sent:
+                sent[cause] += 1
+            time.sleep(0.05)
+        intruder.close()
+        out, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 0, err[-3000:]
+    assert all(n > 0 for n in sent.values())
+    rejected = json.loads((tmp_path / "live" / "metrics.json").read_text())["live"]["rejected"]
+    assert all(rejected.get(cause, 0) > 0 for cause in sent), rejected  # every kind of intrusion counted
+    assert "messages dropped" in out
+    ran = swarmtrack.simulate(swarmtrack.load_scenario("l24-ct", overrides))
+    assert_same_recording(swarmtrack.load_run(tmp_path / "live"), ran)  # and nothing it computed changed

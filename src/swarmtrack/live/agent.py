@@ -140,7 +140,8 @@ class Agent:
                                     (("estimator", self.estimator), ("controller", self.controller))
                                     if role in self._telemetry}
         self.node.send(wire.WORLD, wire.Sample(k=k, probes=_pack(probes), aim=wire.pack(view.state[:, :2]),
-                                               telemetry={role: _pack(r) for role, r in reports.items()}))
+                                               telemetry={role: _pack(r) for role, r in reports.items()},
+                                               rejected=dict(self.node.seal.rejected)))
         return view
 
     def _window(self) -> int:

@@ -8,6 +8,7 @@ scenario, seed and overrides (the world refuses a UAV whose resolved scenario di
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import signal
 import subprocess
@@ -183,8 +184,9 @@ def _serve(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, 
             else:
                 click.echo(f"world of {scn.name} listening on {', '.join(endpoints)} (swarm {swarm}); waiting for "
                            f"UAVs 1..{scn.swarm.n_uavs}", err=True)
-            rec = run_lockstep(scn, node, record_to=tmp / "recording")
-            metrics = write_run(rec, scn, tmp, no_plots=no_plots)
+            rec, live = run_lockstep(scn, node, record_to=tmp / "recording")
+            metrics = write_run(rec, scn, tmp, no_plots=no_plots, extra={"live": dataclasses.asdict(live)},
+                                warnings=live.warnings())
     except (OutputError, LiveError) as exc:
         raise UsageFailure(str(exc)) from None
     except TimeoutError as exc:
@@ -196,6 +198,10 @@ def _serve(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, 
         stop_agents(procs)
         transport.close()
     report_run(metrics, scn, out)
+    rejected = metrics["live"]["rejected"]
+    click.echo(f"live ({len(procs) or 'joined'} UAV processes, lockstep): " + (
+        "messages dropped: " + ", ".join(f"{n} {cause}" for cause, n in sorted(rejected.items()))
+        if rejected else "no message dropped"))
     warn_run(metrics, strict)
 
 

@@ -116,6 +116,7 @@ class Sample(Message, tag="sample"):
     probes: dict[str, Any]
     aim: Any = None
     telemetry: dict[str, dict[str, Any]] = {}
+    rejected: dict[str, int] = {}  # what this UAV's process dropped so far, by cause
 
 
 class Guide(Message, tag="guide"):
@@ -199,7 +200,7 @@ class Rejected(Exception):
         self.cause = cause
 
 
-CAUSES = ("forged", "replayed", "unknown_sender", "undecodable", "wrong_version")
+CAUSES = ("forged", "replayed", "unknown_sender", "impersonated", "undecodable", "wrong_version")
 
 
 class Seal:

@@ -11,7 +11,9 @@ records what ``swarmtrack run`` records, bit for bit.
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Callable
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -20,7 +22,7 @@ from swarmtrack.live.agent import PATIENCE, scenario_hash, telemetry_of
 from swarmtrack.live.node import Node
 from swarmtrack.network.links import edge_list, rows_of
 from swarmtrack.scenarios.schema import Scenario
-from swarmtrack.sim.build import build
+from swarmtrack.sim.build import build, command_width
 from swarmtrack.sim.recorder import Recorder, Recording
 
 
@@ -55,52 +57,108 @@ def labels_of(world) -> dict[str, list[int]]:
             if g != "uavs"}
 
 
-def run_lockstep(scenario: Scenario, node: Node, record_to=None, progress: Callable[[float], None] | None = None,
-                 patience: float = PATIENCE) -> Recording:
-    """Run ``scenario`` with its UAVs' stacks in their own processes (already started, reachable through
-    ``node``); returns the recording (streamed to ``record_to`` when given)."""
-    sim = build(scenario)
-    world, channel, clock = sim.world, sim.channel, sim.clock
-    n = scenario.swarm.n_uavs
-    uavs = range(n)
-    node.listen(("uav", "*", "hello"), ("uav", "*", "sample"), ("uav", "*", "command"))
-    hello = node.wait("hello", uavs, 0, timeout=patience)
-    wrong = [i for i, m in hello.items() if m.scenario != scenario_hash(scenario)]
-    if wrong:
-        raise LiveError(f"UAV processes {[i + 1 for i in wrong]} run another scenario (or seed, or overrides)")
-    node.send("all", wire.Start(labels=labels_of(world)))
-    aims = _aims(node.wait("sample", uavs, -1, timeout=patience))
-    probes = {**sim.stack.probes, **dict.fromkeys(sim.monitors, ())}
-    recorder = Recorder(sim.meta, world.n_objects, n, probes, record_to)
-    telemetries = telemetry_of(scenario)
-    components = {"estimator": sim.stack.estimator, "controller": sim.stack.controller}
-    guided = sim.stack.guide is not sim.stack.estimator
-    u = np.zeros((n, 2))
-    report_every = max(1, clock.steps // 100)
-    for k in range(clock.steps):
+@dataclass
+class LiveReport:
+    """What a live run adds to ``metrics.json`` (under ``live``): the UAVs lost and rejoined (1-based, simulated
+    time), and the messages dropped by every process's seal, by cause."""
+
+    mode: str = "lockstep"
+    lost: list[dict] = field(default_factory=list)
+    rejoined: list[dict] = field(default_factory=list)
+    rejected: dict[str, int] = field(default_factory=dict)
+
+    def warnings(self) -> list[dict]:
+        return [{"check": "live", "message": f"UAV {e['uav']} stopped answering at t = {e['t']:.2f} s; the world "
+                 f"flew it with the safe command from then{self._back(e['uav'])}"} for e in self.lost]
+
+    def _back(self, uav: int) -> str:
+        back = [e["t"] for e in self.rejoined if e["uav"] == uav]
+        return f" (it rejoined at t = {back[0]:.2f} s)" if back else ""
+
+
+def safe_command(nav: np.ndarray, width: int) -> np.ndarray:
+    """What the world flies a UAV whose process stopped answering with, (1, width): a planar command brakes to a
+    hover, ``u = −v`` (1/s, as PX4's offboard-loss failsafe holds position); a fixed wing's yaw acceleration is 0
+    (it flies straight, it cannot hover)."""
+    if width == 2:
+        return -nav[:, 2:4]
+    return np.zeros((len(nav), width))
+
+
+class LockstepWorld:
+    """The truth side of a live run in lockstep: :meth:`run` is the simulator's step loop by messages.
+
+    A UAV that does not answer within ``patience`` s is lost: its neighbours stop hearing it (the radio leaves it out
+    as sender and receiver), the world flies it with :func:`safe_command`, its probes are recorded as NaN, and the
+    report names it. A process started again for it (``swarmtrack agent --uav I --rejoin``) says hello, gets the
+    step to start from, and rejoins the radio there."""
+
+    def __init__(self, scenario: Scenario, node: Node, record_to=None, patience: float = PATIENCE,
+                 progress: Callable[[float], None] | None = None):
+        self.scenario, self.node, self.patience, self.progress = scenario, node, patience, progress
+        self.sim = sim = build(scenario)
+        self.n = scenario.swarm.n_uavs
+        self.alive = set(range(self.n))
+        self.report = LiveReport()
+        probes = {**sim.stack.probes, **dict.fromkeys(sim.monitors, ())}
+        self.recorder = Recorder(sim.meta, sim.world.n_objects, self.n, probes, record_to)
+        self.telemetries = telemetry_of(scenario)
+        self.components = {"estimator": sim.stack.estimator, "controller": sim.stack.controller}
+        self.last: dict[int, wire.Sample] = {}  # each UAV's latest sample (its aim and telemetry when lost)
+        self.u = np.zeros((self.n, command_width(scenario)))
+        self._rejected: dict[str, dict] = {}
+
+    def run(self) -> tuple[Recording, LiveReport]:
+        node, clock = self.node, self.sim.clock
+        node.listen(("uav", "*", "hello"), ("uav", "*", "sample"), ("uav", "*", "command"))
+        hello = node.wait("hello", range(self.n), 0, timeout=self.patience)
+        self._check(hello)
+        node.send("all", wire.Start(labels=labels_of(self.sim.world)))
+        self.last = node.wait("sample", range(self.n), -1, timeout=self.patience)
+        report_every = max(1, clock.steps // 100)
+        for k in range(clock.steps):
+            self._rejoin(k)
+            self.estimation_step(k)
+            if self.progress is not None and (k % report_every == 0 or k == clock.steps - 1):
+                self.progress((k + 1) / clock.steps)
+        node.send("all", wire.Stop())
+        self.report.rejected = dict(sum((Counter(c) for c in [dict(node.seal.rejected),
+                                                              *self._rejected.values()]), Counter()))
+        return self.recorder.close(), self.report
+
+    def _check(self, hello: dict) -> None:
+        wrong = [i + 1 for i, m in hello.items() if m.scenario != scenario_hash(self.scenario)]
+        if wrong:
+            raise LiveError(f"UAV processes {wrong} run another scenario (or seed, or overrides)")
+
+    def estimation_step(self, k: int) -> None:
+        sim, node = self.sim, self.node
+        world, channel, clock = sim.world, sim.channel, sim.clock
         t = k * clock.dt_estimation
         truth = world.truth()
         positions = truth[world.slices["uavs"], :2]
         nav = world.navigation()
-        detections, _sources = world.sense(aim=aims if world.aims else None)
+        detections, _sources = world.sense(aim=self._aims() if world.aims else None)
         links = channel.links(positions, t)
-        delivered = channel.deliver(links, {"k": np.full(n, k)}, t)
-        for i in uavs:
+        delivered = channel.deliver(links, {"k": np.full(self.n, k)}, t)
+        for i in sorted(self.alive):
             node.send(i, wire.Navigation(k=k, taken=t, nav=wire.pack(nav[i:i + 1])))
             mine = detections.of_uavs([i])
             node.send(i, wire.DetectionsMsg(k=k, taken=t, fields={f: wire.pack(getattr(mine, f)) for f in FIELDS}))
-            node.send(i, wire.Radio(k=k, taken=t, links=_heard(links, i), parts=[
-                (int(part.payloads["k"][0]), _heard(part.links, i)) for part in delivered.parts()]))
-        samples = node.wait("sample", uavs, k, timeout=patience)
-        aims = _aims(samples)
-        probes = {name: np.concatenate([wire.unpack(samples[i].probes[name]) for i in uavs])
-                  for name in sim.stack.probes}
-        for role, telemetry in telemetries.items():  # the truth side's copy of the UAVs' components, for the monitors
-            telemetry.mirror(components[role], _stacked([samples[i].telemetry[role] for i in uavs]))
-        recorder.record(t, truth, world.phase_index(), {**probes, **{k: f() for k, f in sim.monitors.items()}})
-        if guided:  # an external tracker's view of the target (W20's motion capture), the UAV's row
+            node.send(i, wire.Radio(k=k, taken=t, links=self._heard(links, i), parts=[
+                (int(part.payloads["k"][0]), self._heard(part.links, i)) for part in delivered.parts()]))
+        samples = self._gather("sample", k, -1, t)
+        self.last.update(samples)
+        probes = {name: np.concatenate([self._probe(i, name, shape, samples) for i in range(self.n)])
+                  for name, shape in sim.stack.probes.items()}
+        for role, telemetry in self.telemetries.items():  # the truth side's copy of the UAVs' components
+            telemetry.mirror(self.components[role], _stacked([self.last[i].telemetry[role] for i in range(self.n)]))
+        self.recorder.record(t, truth, world.phase_index(), {**probes, **{m: f() for m, f in sim.monitors.items()}})
+        for i, sample in samples.items():
+            self._rejected[i] = sample.rejected
+        if sim.stack.guide is not sim.stack.estimator:  # an external tracker's view of the target (W20's mocap)
             view = sim.stack.guide.view()
-            for i in uavs:
+            for i in sorted(self.alive):
                 node.send(i, wire.Guide(k=k, taken=t, view=_row_of_view(view, i)))
         offset = 0
         for c, (control_now, ticks) in enumerate(clock.control_segments(k)):
@@ -108,26 +166,64 @@ def run_lockstep(scenario: Scenario, node: Node, record_to=None, progress: Calla
                 if offset:  # a control step between estimation steps: fresh navigation
                     nav = world.navigation()
                     positions = world.truth("uavs")[:, :2]
-                beacons = channel.beacon_links(positions, world.t)
-                for i in uavs:
-                    node.send(i, wire.Navigation(k=k, c=c, taken=world.t, nav=wire.pack(nav[i:i + 1])))
-                    node.send(i, wire.Radio(k=k, c=c, taken=world.t, beacons=_heard(beacons, i)))
-                commands = node.wait("command", uavs, k, c, timeout=patience)
-                u = np.concatenate([wire.unpack(commands[i].u) for i in uavs])
-            world.advance({"uavs": u}, ticks)
+                self.control_step(k, c, nav, channel.beacon_links(positions, world.t))
+            world.advance({"uavs": self.u}, ticks)
             offset += ticks
-        if progress is not None and (k % report_every == 0 or k == clock.steps - 1):
-            progress((k + 1) / clock.steps)
-    node.send("all", wire.Stop())
-    return recorder.close()
+
+    def control_step(self, k: int, c: int, nav: np.ndarray, beacons) -> None:
+        node, t = self.node, self.sim.world.t
+        for i in sorted(self.alive):
+            node.send(i, wire.Navigation(k=k, c=c, taken=t, nav=wire.pack(nav[i:i + 1])))
+            node.send(i, wire.Radio(k=k, c=c, taken=t, beacons=self._heard(beacons, i)))
+        commands = self._gather("command", k, c, t)
+        for i in range(self.n):
+            self.u[i] = wire.unpack(commands[i].u)[0] if i in commands else safe_command(nav[i:i + 1],
+                                                                                          self.u.shape[1])[0]
+
+    def _gather(self, channel: str, k: int, c: int, t: float) -> dict:
+        """Every living UAV's message of ``channel`` for step ``(k, c)``; who does not answer in time is lost."""
+        got = self.node.wait(channel, sorted(self.alive), k, c, timeout=self.patience, missing_ok=True)
+        for i in sorted(self.alive - set(got)):
+            self.alive.discard(i)
+            self.report.lost.append({"uav": i + 1, "t": round(t, 9)})
+        return got
+
+    def _rejoin(self, k: int) -> None:
+        """A lost UAV whose process said hello again starts at step ``k``."""
+        for i in sorted(set(range(self.n)) - self.alive):
+            hello = self.node.peek("hello", i, 0)  # the first hellos were taken at start: this is a new process
+            if hello is None:
+                continue
+            self._check({i: hello})
+            self.node.send(i, wire.Start(k=k, labels=labels_of(self.sim.world)))
+            got = self.node.wait("sample", [i], k - 1, timeout=self.patience, missing_ok=True)
+            if got:
+                self.last.update(got)
+                self.alive.add(i)
+                self.report.rejoined.append({"uav": i + 1, "t": round(k * self.sim.clock.dt_estimation, 9)})
+            self.node.wait("hello", [i], 0, timeout=0, missing_ok=True)  # taken: a later hello is a new process
+
+    def _heard(self, links, i: int) -> list[int]:
+        """The living senders UAV i's row of ``links`` holds."""
+        return [s for s in edge_list(rows_of(links, np.array([i])))[1].tolist() if s in self.alive]
+
+    def _probe(self, i: int, name: str, shape: tuple, samples: dict) -> np.ndarray:
+        if i in samples:
+            return wire.unpack(samples[i].probes[name])
+        return np.full((1, *shape), np.nan)
+
+    def _aims(self) -> np.ndarray:
+        return np.concatenate([wire.unpack(self.last[i].aim) for i in range(self.n)])
+
+
+def run_lockstep(scenario: Scenario, node: Node, record_to=None, progress: Callable[[float], None] | None = None,
+                 patience: float = PATIENCE) -> tuple[Recording, LiveReport]:
+    """Run ``scenario`` with its UAVs' stacks in their own processes (already started, reachable through
+    ``node``); returns the recording (streamed to ``record_to`` when given) and the live report."""
+    return LockstepWorld(scenario, node, record_to, patience, progress).run()
 
 
 FIELDS = ("owner", "z", "sensor_pos", "label", "n_uavs", "grid", "frame", "footprint", "taken")
-
-
-def _heard(links, i: int) -> list[int]:
-    """The senders UAV i's row of ``links`` holds."""
-    return edge_list(rows_of(links, np.array([i])))[1].tolist()
 
 
 def _row_of_view(view, i: int) -> dict:
@@ -141,5 +237,3 @@ def _stacked(rows: list[dict]) -> dict[str, np.ndarray]:
     return {name: np.concatenate([wire.unpack(r[name]) for r in rows]) for name in rows[0]}
 
 
-def _aims(samples: dict[int, wire.Sample]) -> np.ndarray:
-    return np.concatenate([wire.unpack(samples[i].aim) for i in sorted(samples)])

@@ -25,7 +25,7 @@ from swarmtrack.live.transport import ZenohTransport, free_port, key
 
 
 def _processes_of(swarm: str) -> list[str]:
-    out = subprocess.run(["ps", "-eo", "pid,args"], capture_output=True, text=True).stdout
+    out = subprocess.run(["ps", "-ww", "-eo", "pid,args"], capture_output=True, text=True).stdout
     return [line for line in out.splitlines() if f"--swarm {swarm}" in line and "agent" in line]
 
 
@@ -47,6 +47,18 @@ def _columns(rec) -> dict[str, np.ndarray]:
     return out
 
 
+def _join(port: int) -> ZenohTransport:
+    """A Zenoh peer joined to the world listening on ``port`` (once its scenario is built, within 60 s)."""
+    deadline = time.monotonic() + 60
+    while True:
+        try:
+            return ZenohTransport(connect=[f"tcp/127.0.0.1:{port}"], timeout=1.0)
+        except Exception:
+            if time.monotonic() > deadline:
+                raise
+            time.sleep(0.2)
+
+
 def assert_same_recording(a, b) -> None:
     """Every truth column and every probe (measured wall times aside) equal bit for bit."""
     ca, cb = _columns(a), _columns(b)
@@ -56,8 +68,7 @@ def assert_same_recording(a, b) -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("scenario, overrides", [
-    ("l24-ct", ["duration=3"]),
+@pytest.mark.parametrize("scenario, overrides", [  # l24-ct: with a key, under attack, in the test below
     ("w20-switching", ["duration=3", "estimator.solo_steps=20"]),  # the second exchange round (publish, combine)
     ("w20-mpc-formation", ["duration=3", "controller.start=1"]),  # following the target's tracked pose (guide)
     # the SM-MPC's plan messages (the UAVs within each other's range) and the guarantee monitor's telemetry
@@ -113,6 +124,8 @@ def test_an_endpoint_in_use_or_unreachable_is_refused(tmp_path):
 
 @pytest.mark.slow
 def test_forged_replayed_and_undecodable_messages_are_dropped_counted_and_change_nothing(tmp_path):
+    """l24-ct with a swarm key while an outsider publishes forged messages, replays a real one and an insider sends
+    bodies that do not decode, on a UAV's share key: all dropped and counted, the recording equal to simulate's."""
     key_file = tmp_path / "swarm.key"
     assert CliRunner().invoke(main, ["keygen", str(key_file)]).exit_code == 0
     secret = bytes.fromhex(key_file.read_text())
@@ -123,12 +136,7 @@ def test_forged_replayed_and_undecodable_messages_are_dropped_counted_and_change
     proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     captured, sent = [], {"forged": 0, "replayed": 0, "undecodable": 0}
     try:
-        for _ in range(100):  # the world listens once its scenario is built
-            try:
-                intruder = ZenohTransport(connect=[f"tcp/127.0.0.1:{port}"], timeout=1.0)
-                break
-            except Exception:
-                time.sleep(0.2)
+        intruder = _join(port)
         share = key(swarm, "uav", 1, "share")
         intruder.subscribe(share, lambda k, data: captured.append(data))
         outsider, insider = wire.Seal(wire.keygen(), 3), wire.Seal(secret, 3)
@@ -154,3 +162,49 @@ def test_forged_replayed_and_undecodable_messages_are_dropped_counted_and_change
     assert "messages dropped" in out
     ran = swarmtrack.simulate(swarmtrack.load_scenario("l24-ct", overrides))
     assert_same_recording(swarmtrack.load_run(tmp_path / "live"), ran)  # and nothing it computed changed
+
+
+@pytest.mark.slow
+def test_a_killed_uav_is_flown_safely_named_and_rejoins_tracking(tmp_path):
+    """SIGKILL on UAV 2's process mid-run: the run finishes (exit 0), metrics.json names the UAV and the time it was
+    lost; ``swarmtrack agent --uav 2 --rejoin`` brings it back, and within 10 s its error is under twice the swarm's
+    median."""
+    port, swarm = free_port(), f"test-{uuid.uuid4().hex[:8]}"
+    base, overrides = [sys.executable, "-m", "swarmtrack"], ["--set", "duration=20"]
+    world = subprocess.Popen(base + ["live", "l24-ct", "--insecure", "--no-plots", "--out", str(tmp_path / "live"),
+                                     "--swarm", swarm, "--listen", f"tcp/127.0.0.1:{port}", *overrides],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    rejoined = None
+    try:
+        listener = _join(port)
+        steps = []
+        listener.subscribe(key(swarm, "uav", 1, "share"), lambda k, data: steps.append(data))
+        deadline = time.monotonic() + 120
+        while len(steps) < 60 and time.monotonic() < deadline:  # UAV 2 has shared 60 steps (3 s)
+            time.sleep(0.05)
+        listener.close()
+        victim = [line.split()[0] for line in _processes_of(swarm) if "--uav 2 " in line]
+        assert len(victim) == 1, (len(steps), _processes_of(swarm))
+        os.kill(int(victim[0]), 9)
+        time.sleep(0.5)
+        rejoined = subprocess.Popen(base + ["agent", "l24-ct", "--uav", "2", "--rejoin", "--insecure", "--swarm",
+                                            swarm, "--connect", f"tcp/127.0.0.1:{port}", *overrides])
+        out, err = world.communicate(timeout=240)
+        assert rejoined.wait(timeout=30) == 0
+    finally:
+        for p in (world, rejoined):
+            if p is not None and p.poll() is None:
+                p.kill()
+    assert world.returncode == 0, err[-3000:]
+    live_report = json.loads((tmp_path / "live" / "metrics.json").read_text())["live"]
+    (lost,), (back,) = live_report["lost"], live_report["rejoined"]
+    assert lost["uav"] == back["uav"] == 2 and lost["t"] < back["t"]
+    assert "UAV 2 stopped answering" in err
+    rec = swarmtrack.load_run(tmp_path / "live")
+    chunks = list(rec.chunks())
+    t = np.concatenate([c.t for c in chunks])
+    target = np.concatenate([c.truth for c in chunks])[:, rec.meta["tracked"], :2]
+    error = np.linalg.norm(np.concatenate([c.probes["estimate"] for c in chunks])[:, :, :2] - target[:, None], axis=2)
+    assert np.isnan(error[(t > lost["t"] + 0.5) & (t < back["t"] - 0.5), 1]).all()  # nothing recorded while lost
+    after = (t >= back["t"] + 5) & (t < back["t"] + 10)
+    assert after.any() and np.mean(error[after, 1]) < 2 * np.median(error[after])

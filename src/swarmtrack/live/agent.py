@@ -73,15 +73,20 @@ class Agent:
         self._own: dict[int, dict] = {}  # own outboxes of recent steps (late parts hold the own row too)
         self._telemetry = telemetry_of(scenario)
 
-    def run(self) -> None:
+    def run(self, rejoin: bool = False) -> None:
+        """Say hello, build the stack when the world says start, and follow its steps to the end. ``rejoin``: the
+        UAV's earlier process was lost; this one starts afresh at the step the world gives it."""
         node = self.node
         node.listen(("world", str(self.i), "*"), ("world", "all", "*"), ("uav", "*", "share"),
                     ("uav", "*", "publish"), ("uav", "*", "beacon"), ("uav", "*", "plan"))
+        node.heartbeat()
         node.send(wire.WORLD, wire.Hello(sender=self.i, pid=os.getpid(), scenario=scenario_hash(self.scenario)))
-        start = node.wait("start", [wire.WORLD], 0, timeout=PATIENCE)[wire.WORLD]
+        start = node.first("start", wire.WORLD, timeout=PATIENCE)
+        if not rejoin and start.k:
+            raise RuntimeError(f"the swarm is at step {start.k} already: start this UAV with --rejoin")
         self.estimator, self.controller = build_onboard(self.scenario, self.i, start.labels)
-        self._report(-1)
-        for k in range(self.clock.steps):
+        self._report(start.k - 1)
+        for k in range(start.k, self.clock.steps):
             self.step(k)
 
     def step(self, k: int) -> None:
@@ -163,11 +168,12 @@ class Agent:
         """An inbox of this UAV: its row of the links (the ``senders`` heard), every payload as the swarm's (N, ...)
         arrays with its own row and the heard senders' rows filled (the others zero: never read)."""
         links = np.zeros((1, self.n), dtype=bool)
-        links[0, list(senders)] = True
+        links[0, [s for s in senders if s in heard]] = True
         payloads = self._rows(list(senders), {s: m.payloads for s, m in heard.items()}, own)
         return Inbox(links, payloads, (), np.array([self.i]))
 
     def _rows(self, senders: list[int], heard: dict[int, dict], own: dict) -> dict:
+        senders = [s for s in senders if s in heard]  # a sender lost meanwhile is not heard
         out = {}
         for name, value in own.items():
             value = np.asarray(value)

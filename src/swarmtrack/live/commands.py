@@ -92,8 +92,9 @@ def keygen_cmd(file: Path) -> None:
 @click.option("--listen", multiple=True, metavar="ENDPOINT", help="listen there too (other peers may join)")
 @click.option("--connect-timeout", type=click.FloatRange(min=0, min_open=True), default=5.0, show_default=True,
               metavar="SECONDS", help="give up on a --connect peer that does not answer within this time")
+@click.option("--rejoin", is_flag=True, help="this UAV's earlier process was lost: start afresh where the swarm is")
 @_security_options
-def agent_cmd(scenario: str, seed, overrides, uav: int, connect, listen, connect_timeout, swarm, key_file,
+def agent_cmd(scenario: str, seed, overrides, uav: int, connect, listen, connect_timeout, rejoin, swarm, key_file,
               insecure) -> None:
     """Run UAV --uav's onboard stack (estimator, controller) of SCENARIO, as on its companion computer: its
     navigation, detections and radio from the world, its neighbours' messages over Zenoh."""
@@ -112,7 +113,7 @@ def agent_cmd(scenario: str, seed, overrides, uav: int, connect, listen, connect
         raise UsageFailure(str(exc)) from None
     node = Node(transport, Seal(key, scn.swarm.n_uavs), swarm or scn.name, uav - 1)
     try:
-        Agent(scn, uav - 1, node).run()
+        Agent(scn, uav - 1, node).run(rejoin)
     except Stopped:
         pass
     except TimeoutError as exc:

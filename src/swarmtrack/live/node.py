@@ -13,7 +13,10 @@ import time
 from collections import Counter
 
 from swarmtrack.live.transport import Transport, key, parse
-from swarmtrack.live.wire import WORLD, Message, Rejected, Seal, channel_of
+from swarmtrack.live.wire import WORLD, Alive, Message, Rejected, Seal, channel_of
+
+#: Seconds between a process's heartbeats, and without a message after which the world takes a UAV for lost.
+HEARTBEAT, LOST_AFTER = 0.2, 3.0
 
 
 class Stopped(Exception):
@@ -29,6 +32,9 @@ class Node:
         self._cond = threading.Condition()
         self.stopped: str | None = None
         self.counts: Counter = Counter()
+        self.absent: set[int] = set()  # UAVs the world said are lost: nobody waits for their messages
+        self.seen: dict[int, float] = {}  # when each sender was last heard (monotonic s)
+        self._beat: threading.Thread | None = None
 
     def listen(self, *patterns: tuple[str, str, str]) -> None:
         """Subscribe to ``(origin, to, channel)`` key patterns of the swarm's space (``*`` wildcards)."""
@@ -50,9 +56,12 @@ class Node:
                 self.seal.rejected["impersonated"] += 1
             return
         with self._cond:
+            self.seen[msg.sender] = time.monotonic()
             if channel == "stop":
                 self.stopped = getattr(msg, "reason", "done")
-            else:
+            elif channel == "roster":
+                self.absent = set(range(self.seal.n)) - set(msg.alive)
+            elif channel != "alive":
                 self._box[(channel, msg.sender, msg.k, msg.c)] = msg
             self.counts[channel] += 1
             self._cond.notify_all()
@@ -73,7 +82,7 @@ class Node:
         deadline = None if timeout is None else time.monotonic() + timeout
         with self._cond:
             while True:
-                missing = [s for s in senders if (channel, s, k, c) not in self._box]
+                missing = [s for s in senders if (channel, s, k, c) not in self._box and s not in self.absent]
                 if not missing:
                     break
                 if self.stopped is not None and self.me != WORLD:
@@ -85,6 +94,34 @@ class Node:
                     raise TimeoutError(f"no {channel} of step {k} from {missing}")
                 self._cond.wait(left if left is not None else 1.0)
             return {s: self._box.pop((channel, s, k, c)) for s in senders if (channel, s, k, c) in self._box}
+
+    def first(self, channel: str, sender: int, timeout: float) -> Message:
+        """The earliest message of ``channel`` from ``sender`` whatever its step, taken out of the mailbox (waits up
+        to ``timeout`` s, then ``TimeoutError``)."""
+        deadline = time.monotonic() + timeout
+        with self._cond:
+            while True:
+                keys = sorted(key_ for key_ in self._box if key_[0] == channel and key_[1] == sender)
+                if keys:
+                    return self._box.pop(keys[0])
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    raise TimeoutError(f"no {channel} from {sender}")
+                self._cond.wait(left)
+
+    def heartbeat(self) -> None:
+        """Send :class:`~swarmtrack.live.wire.Alive` every :data:`HEARTBEAT` s from a daemon thread, until the
+        transport closes."""
+        def beat() -> None:
+            while self.stopped is None:
+                try:
+                    self.send(WORLD, Alive())
+                except Exception:  # the transport closed: the process is ending
+                    return
+                time.sleep(HEARTBEAT)
+
+        self._beat = threading.Thread(target=beat, name="heartbeat", daemon=True)
+        self._beat.start()
 
     def peek(self, channel: str, sender: int, k: int, c: int = -1) -> Message | None:
         with self._cond:

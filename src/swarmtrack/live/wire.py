@@ -22,6 +22,8 @@ channel         from → to   content
                             what the truth-side monitors read of its components (their telemetry)
 ``guide``       world → UAV  the followed target from an external tracker (``controller.follow: truth``, W20's
                             motion capture), the view its controller follows
+``alive``       UAV → world  a heartbeat, every 0.2 s
+``roster``      world → all  the UAVs it hears now (the others are lost: nobody waits for them)
 ``stop``        world → all  the run is over
 ==============  ==========  ===================================================================================
 
@@ -71,6 +73,9 @@ class Hello(Message, tag="hello"):
 
 
 class Start(Message, tag="start"):
+    """``labels`` the sensor's label of each sensed object, by group; ``k`` the step a UAV starts at (0, or the
+    step a rejoining UAV joins at)."""
+
     labels: dict[str, list[int]]
 
 
@@ -127,12 +132,22 @@ class Guide(Message, tag="guide"):
     view: dict[str, Any]
 
 
+class Alive(Message, tag="alive"):
+    """A process's heartbeat (every :data:`~swarmtrack.live.node.HEARTBEAT` s, from a thread of its own)."""
+
+
+class Roster(Message, tag="roster"):
+    """The UAVs the world hears now (0-based): the others are lost, nobody waits for their messages."""
+
+    alive: list[int]
+
+
 class Stop(Message, tag="stop"):
     reason: str = "done"
 
 
 ANY = (Hello | Start | Navigation | DetectionsMsg | Radio | Share | Publish | Beacon | Plan | Command | Sample | Guide
-       | Stop)
+       | Alive | Roster | Stop)
 CHANNELS = {cls.__struct_config__.tag: cls for cls in ANY.__args__}
 _encoder = msgspec.msgpack.Encoder()
 _decoder = msgspec.msgpack.Decoder(ANY)

@@ -11,6 +11,7 @@ records what ``swarmtrack run`` records, bit for bit.
 
 from __future__ import annotations
 
+import time
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -19,7 +20,7 @@ import numpy as np
 
 from swarmtrack.live import wire
 from swarmtrack.live.agent import PATIENCE, scenario_hash, telemetry_of
-from swarmtrack.live.node import Node
+from swarmtrack.live.node import LOST_AFTER, Node
 from swarmtrack.network.links import edge_list, rows_of
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sim.build import build, command_width
@@ -110,7 +111,7 @@ class LockstepWorld:
 
     def run(self) -> tuple[Recording, LiveReport]:
         node, clock = self.node, self.sim.clock
-        node.listen(("uav", "*", "hello"), ("uav", "*", "sample"), ("uav", "*", "command"))
+        node.listen(("uav", "*", "hello"), ("uav", "*", "sample"), ("uav", "*", "command"), ("uav", "*", "alive"))
         hello = node.wait("hello", range(self.n), 0, timeout=self.patience)
         self._check(hello)
         node.send("all", wire.Start(labels=labels_of(self.sim.world)))
@@ -181,12 +182,27 @@ class LockstepWorld:
                                                                                           self.u.shape[1])[0]
 
     def _gather(self, channel: str, k: int, c: int, t: float) -> dict:
-        """Every living UAV's message of ``channel`` for step ``(k, c)``; who does not answer in time is lost."""
-        got = self.node.wait(channel, sorted(self.alive), k, c, timeout=self.patience, missing_ok=True)
-        for i in sorted(self.alive - set(got)):
-            self.alive.discard(i)
-            self.report.lost.append({"uav": i + 1, "t": round(t, 9)})
-        return got
+        """Every living UAV's message of ``channel`` for step ``(k, c)``. A UAV whose process has not been heard for
+        :data:`~swarmtrack.live.node.LOST_AFTER` s (no heartbeat: it died), or for which a new process said hello, is
+        lost; the others are waited for up to ``patience`` s (a process that is alive but stuck ends the run with an
+        error)."""
+        got: dict = {}
+        deadline = time.monotonic() + self.patience
+        while True:
+            got.update(self.node.wait(channel, sorted(self.alive - set(got)), k, c, timeout=0.1, missing_ok=True))
+            missing = self.alive - set(got)
+            if not missing:
+                return got
+            now = time.monotonic()
+            silent = {i for i in missing if now - self.node.seen.get(i, 0.0) > LOST_AFTER
+                      or self.node.peek("hello", i, 0) is not None}  # not heard, or a new process says hello
+            if silent:
+                self.alive -= silent
+                self.report.lost += [{"uav": i + 1, "t": round(t, 9)} for i in sorted(silent)]
+                self.node.send("all", wire.Roster(alive=sorted(self.alive)))
+            elif now > deadline:
+                raise TimeoutError(f"no {channel} of step {k} from UAVs {[i + 1 for i in sorted(missing)]}, whose "
+                                   f"processes are alive")
 
     def _rejoin(self, k: int) -> None:
         """A lost UAV whose process said hello again starts at step ``k``."""
@@ -194,6 +210,7 @@ class LockstepWorld:
             hello = self.node.peek("hello", i, 0)  # the first hellos were taken at start: this is a new process
             if hello is None:
                 continue
+            self.node.wait("hello", [i], 0, timeout=0, missing_ok=True)  # taken: a later hello is a new process
             self._check({i: hello})
             self.node.send(i, wire.Start(k=k, labels=labels_of(self.sim.world)))
             got = self.node.wait("sample", [i], k - 1, timeout=self.patience, missing_ok=True)
@@ -201,7 +218,7 @@ class LockstepWorld:
                 self.last.update(got)
                 self.alive.add(i)
                 self.report.rejoined.append({"uav": i + 1, "t": round(k * self.sim.clock.dt_estimation, 9)})
-            self.node.wait("hello", [i], 0, timeout=0, missing_ok=True)  # taken: a later hello is a new process
+                self.node.send("all", wire.Roster(alive=sorted(self.alive)))
 
     def _heard(self, links, i: int) -> list[int]:
         """The living senders UAV i's row of ``links`` holds."""

@@ -208,3 +208,34 @@ def test_a_killed_uav_is_flown_safely_named_and_rejoins_tracking(tmp_path):
     assert np.isnan(error[(t > lost["t"] + 0.5) & (t < back["t"] - 0.5), 1]).all()  # nothing recorded while lost
     after = (t >= back["t"] + 5) & (t < back["t"] + 10)
     assert after.any() and np.mean(error[after, 1]) < 2 * np.median(error[after])
+
+
+@pytest.mark.slow
+def test_ctrl_c_stops_every_process_within_2_s_and_keeps_the_steps_completed(tmp_path):
+    port, swarm = free_port(), f"test-{uuid.uuid4().hex[:8]}"
+    world = subprocess.Popen([sys.executable, "-m", "swarmtrack", "live", "l24-ct", "--insecure", "--no-plots",
+                              "--out", str(tmp_path / "live"), "--swarm", swarm, "--listen", f"tcp/127.0.0.1:{port}",
+                              "--set", "duration=60"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        listener = _join(port)
+        steps = []
+        listener.subscribe(key(swarm, "uav", 0, "share"), lambda k, data: steps.append(data))
+        deadline = time.monotonic() + 120
+        while len(steps) < 40 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        listener.close()
+        world.send_signal(2)  # SIGINT, as Ctrl-C
+        stopped = time.monotonic()
+        while _processes_of(swarm) and time.monotonic() < stopped + 10:
+            time.sleep(0.05)
+        assert time.monotonic() - stopped < 2.5 and not _processes_of(swarm)  # the UAVs' processes, by their ids
+        out, err = world.communicate(timeout=60)
+    finally:
+        if world.poll() is None:
+            world.kill()
+    assert world.returncode == 130 and "interrupted at t =" in err, err[-2000:]
+    metrics = json.loads((tmp_path / "live" / "metrics.json").read_text())
+    t_stop = metrics["live"]["interrupted"]
+    assert 2.0 <= t_stop < 60 and any("interrupted" in w["message"] for w in metrics["warnings"])
+    t = np.concatenate([c.t for c in swarmtrack.load_run(tmp_path / "live").chunks()])
+    assert len(t) == round(t_stop / 0.05) and t[-1] < t_stop  # the steps completed, written whole

@@ -116,6 +116,8 @@ def agent_cmd(scenario: str, seed, overrides, uav: int, connect, listen, connect
         Agent(scn, uav - 1, node).run(rejoin)
     except Stopped:
         pass
+    except KeyboardInterrupt:  # Ctrl-C reaches the whole process group: the world writes what was completed
+        sys.exit(130)
     except TimeoutError as exc:
         click.echo(f"UAV {uav}: {exc}; stopping", err=True)
         sys.exit(1)
@@ -186,6 +188,7 @@ def _serve(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, 
                 click.echo(f"world of {scn.name} listening on {', '.join(endpoints)} (swarm {swarm}); waiting for "
                            f"UAVs 1..{scn.swarm.n_uavs}", err=True)
             rec, live = run_lockstep(scn, node, record_to=tmp / "recording")
+            stop_agents(procs)  # within GRACE s of the end (or of Ctrl-C), before the files are written
             metrics = write_run(rec, scn, tmp, no_plots=no_plots, extra={"live": dataclasses.asdict(live)},
                                 warnings=live.warnings())
     except (OutputError, LiveError) as exc:
@@ -199,6 +202,9 @@ def _serve(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, 
         stop_agents(procs)
         transport.close()
     report_run(metrics, scn, out)
+    if live.interrupted is not None:
+        click.echo(f"interrupted at t = {live.interrupted:.2f} s; the steps completed were written to {out}", err=True)
+        sys.exit(130)
     rejected = metrics["live"]["rejected"]
     click.echo(f"live ({len(procs) or 'joined'} UAV processes, lockstep): " + (
         "messages dropped: " + ", ".join(f"{n} {cause}" for cause, n in sorted(rejected.items()))

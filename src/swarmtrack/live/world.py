@@ -11,9 +11,11 @@ records what ``swarmtrack run`` records, bit for bit.
 
 from __future__ import annotations
 
+import signal
 import time
 from collections import Counter
 from collections.abc import Callable
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -67,10 +69,16 @@ class LiveReport:
     lost: list[dict] = field(default_factory=list)
     rejoined: list[dict] = field(default_factory=list)
     rejected: dict[str, int] = field(default_factory=dict)
+    interrupted: float | None = None
+    """The simulated time at which Ctrl-C or SIGTERM stopped the run (the recording holds the steps before it)."""
 
     def warnings(self) -> list[dict]:
-        return [{"check": "live", "message": f"UAV {e['uav']} stopped answering at t = {e['t']:.2f} s; the world "
-                 f"flew it with the safe command from then{self._back(e['uav'])}"} for e in self.lost]
+        out = [{"check": "live", "message": f"UAV {e['uav']} stopped answering at t = {e['t']:.2f} s; the world "
+                f"flew it with the safe command from then{self._back(e['uav'])}"} for e in self.lost]
+        if self.interrupted is not None:
+            out.append({"check": "live", "message": f"interrupted at t = {self.interrupted:.2f} s: the recording "
+                        "holds the steps completed before"})
+        return out
 
     def _back(self, uav: int) -> str:
         back = [e["t"] for e in self.rejoined if e["uav"] == uav]
@@ -84,6 +92,10 @@ def safe_command(nav: np.ndarray, width: int) -> np.ndarray:
     if width == 2:
         return -nav[:, 2:4]
     return np.zeros((len(nav), width))
+
+
+class _Interrupted(Exception):
+    """Ctrl-C or SIGTERM arrived while the world waited for its UAVs."""
 
 
 class LockstepWorld:
@@ -108,6 +120,7 @@ class LockstepWorld:
         self.last: dict[int, wire.Sample] = {}  # each UAV's latest sample (its aim and telemetry when lost)
         self.u = np.zeros((self.n, command_width(scenario)))
         self._rejected: dict[str, dict] = {}
+        self._stop = False
 
     def run(self) -> tuple[Recording, LiveReport]:
         node, clock = self.node, self.sim.clock
@@ -117,15 +130,40 @@ class LockstepWorld:
         node.send("all", wire.Start(labels=labels_of(self.sim.world)))
         self.last = node.wait("sample", range(self.n), -1, timeout=self.patience)
         report_every = max(1, clock.steps // 100)
-        for k in range(clock.steps):
-            self._rejoin(k)
-            self.estimation_step(k)
-            if self.progress is not None and (k % report_every == 0 or k == clock.steps - 1):
-                self.progress((k + 1) / clock.steps)
+        with self._interruptible():
+            for k in range(clock.steps):
+                try:
+                    self._rejoin(k)
+                    self.estimation_step(k)
+                except _Interrupted:
+                    self.report.interrupted = round(k * clock.dt_estimation, 9)
+                    break
+                if self.progress is not None and (k % report_every == 0 or k == clock.steps - 1):
+                    self.progress((k + 1) / clock.steps)
         node.send("all", wire.Stop())
         self.report.rejected = dict(sum((Counter(c) for c in [dict(node.seal.rejected),
                                                               *self._rejected.values()]), Counter()))
         return self.recorder.close(), self.report
+
+    @contextmanager
+    def _interruptible(self):
+        """Ctrl-C and SIGTERM end the run at the next wait for the UAVs (main thread only): the steps completed are
+        kept, and the caller writes them whole."""
+        self._stop = False
+
+        def handler(signum, frame) -> None:
+            self._stop = True
+
+        try:
+            previous = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
+        except ValueError:  # not the main thread
+            yield
+            return
+        try:
+            yield
+        finally:
+            for sig, old in previous.items():
+                signal.signal(sig, old)
 
     def _check(self, hello: dict) -> None:
         wrong = [i + 1 for i, m in hello.items() if m.scenario != scenario_hash(self.scenario)]
@@ -189,6 +227,8 @@ class LockstepWorld:
         got: dict = {}
         deadline = time.monotonic() + self.patience
         while True:
+            if self._stop:
+                raise _Interrupted()
             got.update(self.node.wait(channel, sorted(self.alive - set(got)), k, c, timeout=0.1, missing_ok=True))
             missing = self.alive - set(got)
             if not missing:

@@ -1,0 +1,166 @@
+"""The live swarm's speed (issue 23), each figure beside a reference measured in the same run.
+
+* **One hop**: a message from one process to a callback in another, through swarmtrack's stack (msgspec encoding,
+  HMAC seal, the mailbox a process waits on), as half a ping-pong round trip; the reference is the raw Zenoh
+  ping-pong (bytes out, bytes back) between the same two processes. Goal: median ≤ 2× the raw one.
+* **Lockstep ``l24-ct`` with 5 UAV processes**: simulated time over wall time of the step loop (start-up apart,
+  printed too), against the simulator's own speed on the same scenario in this process. Goal: ≥ 5× real time.
+* **CPU per UAV process per estimation step**: the UAV processes' CPU time (user + system, from the kernel's
+  accounting of this process's children), over UAVs and steps: what a companion computer must afford.
+
+Usage: ``python benchmarks/bench_live.py [--uavs 5] [--duration 30] [--hops 2000] [--json]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+
+from swarmtrack.live import wire
+from swarmtrack.live.node import Node
+from swarmtrack.live.transport import ZenohTransport, free_port, key
+
+SWARM = "bench"
+
+
+def _echo(port: int, raw: bool) -> None:
+    """The far side of the ping-pong (a process of its own): echo raw bytes, or answer each sealed ping."""
+    transport = ZenohTransport(connect=[f"tcp/127.0.0.1:{port}"])
+    if raw:
+        transport.subscribe("bench/ping", lambda k, data: transport.put("bench/pong", data))
+    else:
+        node = Node(transport, wire.Seal(KEY, 2), SWARM, 1)
+
+        def answer(msg_key: str, data: bytes) -> None:
+            msg = node.seal.open(msg_key, data)
+            node.send(1, wire.Share(k=msg.k, payloads=msg.payloads))
+
+        transport.subscribe(key(SWARM, "uav", 0, "share"), answer)
+    time.sleep(3600)
+
+
+KEY = bytes(range(32))
+
+
+def ping_pong(hops: int) -> dict:
+    """Median and 99th percentile of one hop (µs), raw Zenoh and through swarmtrack's stack."""
+    out = {}
+    for raw in (True, False):
+        port = free_port()
+        transport = ZenohTransport(listen=[f"tcp/127.0.0.1:{port}"])
+        far = subprocess.Popen([sys.executable, __file__, "--echo", str(port), "--raw" if raw else "--sealed"])
+        try:
+            rtt = _rounds(transport, raw, hops)
+        finally:
+            far.kill()
+            far.wait()
+            transport.close()
+        half = np.asarray(rtt) / 2 * 1e6
+        out["raw_zenoh" if raw else "swarmtrack"] = {"median_us": float(np.median(half)),
+                                                     "p99_us": float(np.percentile(half, 99))}
+    return out
+
+
+def _rounds(transport, raw: bool, hops: int) -> list[float]:
+    got = threading.Event()
+    payload = {"info_vector": wire.pack(np.ones((1, 4))), "info_matrix": wire.pack(np.eye(4)[None])}
+    if raw:
+        transport.subscribe("bench/pong", lambda k, data: got.set())
+
+        def ping(i: int, timeout: float) -> bool:
+            got.clear()
+            transport.put("bench/ping", b"x" * 200)
+            return got.wait(timeout)
+    else:
+        node = Node(transport, wire.Seal(KEY, 2), SWARM, 0)
+        node.listen(("uav", "1", "share"))
+
+        def ping(i: int, timeout: float) -> bool:
+            node.send(0, wire.Share(k=i, payloads=payload))
+            return bool(node.wait("share", [1], i, timeout=timeout, missing_ok=True))
+    i, deadline = 0, time.monotonic() + 30
+    while not ping(i, 0.2):  # until the far side's subscription has reached this side
+        i += 1
+        if time.monotonic() > deadline:
+            raise TimeoutError("the echo process did not answer")
+    rtt = []
+    for j in range(i + 1, i + 1 + hops + 200):  # the first 200 warm up
+        t0 = time.perf_counter()
+        if not ping(j, 5.0):
+            raise TimeoutError("the echo process stopped answering")
+        if j > i + 200:
+            rtt.append(time.perf_counter() - t0)
+    return rtt
+
+
+def lockstep(uavs: int, duration: float) -> dict:
+    """A lockstep live run of ``l24-ct`` with ``uavs`` UAV processes, and the simulator on the same scenario."""
+    from swarmtrack import load_scenario, simulate
+    from swarmtrack.live.commands import start_agents, stop_agents
+    from swarmtrack.live.world import run_lockstep
+
+    overrides = [f"duration={duration}", f"swarm.n_uavs={uavs}"]
+    scenario = load_scenario("l24-ct", overrides)
+    t0 = time.perf_counter()
+    simulate(scenario)
+    simulator_s = time.perf_counter() - t0
+    port = free_port()
+    endpoints = [f"tcp/127.0.0.1:{port}"]
+    transport = ZenohTransport(listen=endpoints)
+    node = Node(transport, wire.Seal(None, uavs), SWARM, wire.WORLD)
+    marks = []
+    t0 = time.perf_counter()
+    procs = start_agents(scenario, "l24-ct", None, overrides, endpoints, SWARM, None)
+    try:
+        run_lockstep(scenario, node, progress=lambda done: marks.append((time.perf_counter(), done)))
+        end = time.perf_counter()
+    finally:
+        stop_agents(procs)
+        transport.close()
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    steps = round(duration * scenario.rates.estimation)
+    (t_first, done_first) = marks[0]
+    loop_s = (end - t_first) / (1 - done_first)  # the steps after the first, scaled to the whole run
+    return {"uavs": uavs, "duration_s": duration, "startup_s": t_first - t0, "loop_s": loop_s,
+            "real_time_factor": duration / loop_s, "simulator_real_time_factor": duration / simulator_s,
+            "cpu_per_uav_step_ms": 1e3 * (children.ru_utime + children.ru_stime) / (uavs * steps)}
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--uavs", type=int, default=5)
+    ap.add_argument("--duration", type=float, default=30.0, help="simulated s of the lockstep run")
+    ap.add_argument("--hops", type=int, default=2000)
+    ap.add_argument("--json", action="store_true")
+    ap.add_argument("--echo", type=int, help=argparse.SUPPRESS)
+    ap.add_argument("--raw", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--sealed", action="store_true", help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    if args.echo:
+        _echo(args.echo, args.raw)
+        return 0
+    hop = ping_pong(args.hops)
+    run = lockstep(args.uavs, args.duration)
+    if args.json:
+        print(json.dumps({"hop": hop, "lockstep": run}, indent=1))
+        return 0
+    raw, ours = hop["raw_zenoh"], hop["swarmtrack"]
+    print(f"one hop, median / p99: swarmtrack {ours['median_us']:.0f} / {ours['p99_us']:.0f} µs; raw Zenoh "
+          f"{raw['median_us']:.0f} / {raw['p99_us']:.0f} µs (ratio {ours['median_us'] / raw['median_us']:.2f}, "
+          "goal ≤ 2)")
+    print(f"lockstep l24-ct, {run['uavs']} UAV processes, {run['duration_s']:g} s: {run['real_time_factor']:.1f}× "
+          f"real time (goal ≥ 5), start-up {run['startup_s']:.1f} s; the simulator on it in this process: "
+          f"{run['simulator_real_time_factor']:.0f}× real time")
+    print(f"CPU per UAV process per estimation step: {run['cpu_per_uav_step_ms']:.2f} ms (mean, start-up included)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

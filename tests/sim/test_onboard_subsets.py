@@ -314,18 +314,25 @@ def recorded(request):
 
 
 def _subsets(n: int) -> list[list[int]]:
-    return [[i] for i in range(n)] + [[0, n - 1]]
+    """Each single UAV of a swarm of up to 4 (the first, one in the middle and the last of a larger one) and the pair
+    of the first and the last."""
+    singles = range(n) if n <= 4 else (0, n // 2, n - 1)
+    return [[i] for i in singles] + [[0, n - 1]]
 
 
 def test_each_uav_estimates_exactly_as_the_whole_swarm(recorded):
     ctx, est_log, _, _ = recorded
-    per_uav = [replay_estimator(ctx, est_log, uavs) for uavs in _subsets(ctx.n_uavs)][:ctx.n_uavs]
-    # the χ²-gate's per-sender tallies: each UAV's process counts what its own receiver did; the swarm's are the sums
     samples = [out[0] for method, _, out in est_log if method == "sample"]
-    for k, sample in enumerate(samples):
-        for name in TALLIES:
-            if name in sample:
-                assert np.array_equal(sum(tallies[k][name] for tallies in per_uav), sample[name]), (name, k)
+    gated = any(name in samples[0] for name in TALLIES)
+    for uavs in _subsets(ctx.n_uavs):
+        if not (gated and len(uavs) == 1):
+            replay_estimator(ctx, est_log, uavs)
+    if gated:  # the χ²-gate's per-sender tallies: each UAV's process counts what its own receiver did, the swarm's
+        per_uav = [replay_estimator(ctx, est_log, [i]) for i in range(ctx.n_uavs)]  # are the sums over every UAV
+        for k, sample in enumerate(samples):
+            for name in TALLIES:
+                if name in sample:
+                    assert np.array_equal(sum(tallies[k][name] for tallies in per_uav), sample[name]), (name, k)
 
 
 def test_each_uav_commands_exactly_as_the_whole_swarm(recorded):

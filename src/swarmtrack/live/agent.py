@@ -2,10 +2,11 @@
 built through the registry for the one UAV, ``Context.uavs = [i]``), fed by messages.
 
 In lockstep (:meth:`Agent.run`) the UAV follows the world's schedule, the simulator's step loop
-(:func:`swarmtrack.sim.engine.step_loop`) seen from one UAV: per estimation step, take its navigation, detections and
-radio; share; fuse what the radio delivered; (publish; combine); report its probes; then per control step: beacon,
-hear the beacons the radio delivered (and the plans of its lower-indexed neighbours, IB21 Sec. 5.3), command. Its
-inputs are its own navigation, its own detections and its inbox: nothing else reaches this process.
+(:func:`swarmtrack.sim.engine.step_loop`) seen from one UAV: per estimation step, take its navigation (with the
+simulated radio's word) and detections; share; fuse what the radio delivered; (publish; combine); report its probes;
+then per control step: beacon, hear the beacons the radio delivered (and the plans of its lower-indexed neighbours,
+IB21 Sec. 5.3), command. Its inputs are its own navigation, its own detections and its inbox: nothing else reaches
+this process.
 """
 
 from __future__ import annotations
@@ -72,6 +73,7 @@ class Agent:
         self.estimator = self.controller = None
         self._own: dict[int, dict] = {}  # own outboxes of recent steps (late parts hold the own row too)
         self._telemetry = telemetry_of(scenario)
+        self._sequential = False  # whether its controller plans in sequence (IB21 Sec. 5.3): known once built
 
     def run(self, rejoin: bool = False) -> None:
         """Say hello, build the stack when the world says start, and follow its steps to the end. ``rejoin``: the
@@ -85,6 +87,7 @@ class Agent:
         if not rejoin and start.k:
             raise RuntimeError(f"the swarm is at step {start.k} already: start this UAV with --rejoin")
         self.estimator, self.controller = build_onboard(self.scenario, self.i, start.labels)
+        self._sequential = isinstance(self.controller, SequentialPlanner)
         self._report(start.k - 1)
         for k in range(start.k, self.clock.steps):
             self.step(k)
@@ -92,11 +95,9 @@ class Agent:
     def step(self, k: int) -> None:
         node, est, dt = self.node, self.estimator, self.clock.dt_estimation
         t = k * dt
-        got = {ch: node.wait(ch, [wire.WORLD], k, timeout=PATIENCE)[wire.WORLD]
-               for ch in ("navigation", "detections", "radio")}
-        nav = wire.unpack(got["navigation"].nav)
+        got = {ch: node.wait(ch, [wire.WORLD], k, timeout=PATIENCE)[wire.WORLD] for ch in ("navigation", "detections")}
+        nav, radio = wire.unpack(got["navigation"].nav), got["navigation"].radio
         detections = Detections(**{name: wire.unpack(v) for name, v in got["detections"].fields.items()})
-        radio = got["radio"]
         with np.errstate(over="ignore", invalid="ignore"):  # a diverging filter is reported by its own checks
             outbox = est.share(t, nav, detections)
             self._own[k] = outbox
@@ -121,19 +122,18 @@ class Agent:
 
     def control(self, k: int, c: int, view) -> None:
         node, ctl = self.node, self.controller
-        got = {ch: node.wait(ch, [wire.WORLD], k, c, timeout=PATIENCE)[wire.WORLD] for ch in ("navigation", "radio")}
-        nav, t = wire.unpack(got["navigation"].nav), got["navigation"].taken
-        senders = got["radio"].beacons
+        got = node.wait("navigation", [wire.WORLD], k, c, timeout=PATIENCE)[wire.WORLD]
+        nav, t, senders = wire.unpack(got.nav), got.taken, got.radio.beacons
         beacon = ctl.broadcast(t, nav)
         node.send(self.i, wire.Beacon(k=k, c=c, taken=t, payloads=_pack(beacon)))
         inbox = self._assemble(senders, node.wait("beacon", senders, k, c, timeout=PATIENCE), beacon, "beacon")
-        if isinstance(ctl, SequentialPlanner):  # the plans its lower-indexed neighbours made in this call
+        if self._sequential:  # the plans its lower-indexed neighbours made in this call
             lower = [s for s in senders if s < self.i]
             plans = node.wait("plan", lower, k, c, timeout=PATIENCE)
             inbox.payloads.update(self._rows(lower, {s: m.payloads for s, m in plans.items()}, ctl.plans()))
         u = ctl.command(t, nav, view, inbox, self.clock.dt_control)
         node.send(wire.WORLD, wire.Command(k=k, c=c, taken=t, u=wire.pack(np.asarray(u))))
-        if isinstance(ctl, SequentialPlanner):
+        if self._sequential:
             node.send(self.i, wire.Plan(k=k, c=c, taken=t, payloads=_pack(ctl.plans())))
 
     def _report(self, k: int):

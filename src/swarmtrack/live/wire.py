@@ -10,9 +10,9 @@ channel         from → to   content
 ==============  ==========  ===================================================================================
 ``hello``       UAV → world  the UAV is up: its process id, the hash of its resolved scenario, its first aim
 ``start``       world → all  the sensor's label of every sensed object, by group (what a UAV's sensor reports)
-``navigation``  world → UAV  its own navigation solution (1, d)
+``navigation``  world → UAV  its own navigation solution (1, d), and the simulated radio's word on whose messages
+                            reach it now (:class:`Radio`)
 ``detections``  world → UAV  its own detections (:class:`~swarmtrack.sensors.detections.Detections` fields)
-``radio``       world → UAV  the simulated radio: whose messages reach it this step (:class:`Radio`)
 ``share``       UAV → UAVs   its estimator's broadcast (the outbox row: L24 eq. 6, W20's, IB21 eq. 30)
 ``publish``     UAV → UAVs   its estimator's second broadcast of the step (W20's posteriors)
 ``beacon``      UAV → UAVs   its controller's beacon (flocking, W20 eq. 5.24, IB21 eq. 48)
@@ -81,16 +81,18 @@ class Start(Message, tag="start"):
 
 class Navigation(Message, tag="navigation"):
     nav: Any
+    radio: Radio | None = None
 
 
 class DetectionsMsg(Message, tag="detections"):
     fields: dict[str, Any]
 
 
-class Radio(Message, tag="radio"):
-    """Whose messages reach the UAV now: ``parts`` ``[(send step, senders)]`` of estimation messages (this step's
-    first, then late ones), ``links`` the senders whose estimation message of this step it hears (the second
-    broadcast travels over them), ``beacons`` the senders whose beacon of this control step it hears."""
+class Radio(msgspec.Struct):
+    """The simulated radio's word on whose messages reach the UAV now (carried by :class:`Navigation`; absent on
+    real radios): ``parts`` ``[(send step, senders)]`` of estimation messages (this step's first, then late ones),
+    ``links`` the senders whose estimation message of this step it hears (the second broadcast travels over them),
+    ``beacons`` the senders whose beacon of this control step it hears."""
 
     parts: list[tuple[int, list[int]]] = []
     links: list[int] = []
@@ -146,8 +148,8 @@ class Stop(Message, tag="stop"):
     reason: str = "done"
 
 
-ANY = (Hello | Start | Navigation | DetectionsMsg | Radio | Share | Publish | Beacon | Plan | Command | Sample | Guide
-       | Alive | Roster | Stop)
+ANY = (Hello | Start | Navigation | DetectionsMsg | Share | Publish | Beacon | Plan | Command | Sample | Guide | Alive
+       | Roster | Stop)
 CHANNELS = {cls.__struct_config__.tag: cls for cls in ANY.__args__}
 _encoder = msgspec.msgpack.Encoder()
 _decoder = msgspec.msgpack.Decoder(ANY)

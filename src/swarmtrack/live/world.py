@@ -121,6 +121,7 @@ class LockstepWorld:
         self.u = np.zeros((self.n, command_width(scenario)))
         self._rejected: dict[str, dict] = {}
         self._stop = False
+        self.recorded = 0  # estimation steps recorded
 
     def run(self) -> tuple[Recording, LiveReport]:
         node, clock = self.node, self.sim.clock
@@ -135,8 +136,8 @@ class LockstepWorld:
                 try:
                     self._rejoin(k)
                     self.estimation_step(k)
-                except _Interrupted:
-                    self.report.interrupted = round(k * clock.dt_estimation, 9)
+                except _Interrupted:  # the steps recorded so far are kept: the run stopped at the next one's time
+                    self.report.interrupted = round(self.recorded * clock.dt_estimation, 9)
                     break
                 if self.progress is not None and (k % report_every == 0 or k == clock.steps - 1):
                     self.progress((k + 1) / clock.steps)
@@ -181,11 +182,11 @@ class LockstepWorld:
         links = channel.links(positions, t)
         delivered = channel.deliver(links, {"k": np.full(self.n, k)}, t)
         for i in sorted(self.alive):
-            node.send(i, wire.Navigation(k=k, taken=t, nav=wire.pack(nav[i:i + 1])))
             mine = detections.of_uavs([i])
             node.send(i, wire.DetectionsMsg(k=k, taken=t, fields={f: wire.pack(getattr(mine, f)) for f in FIELDS}))
-            node.send(i, wire.Radio(k=k, taken=t, links=self._heard(links, i), parts=[
-                (int(part.payloads["k"][0]), self._heard(part.links, i)) for part in delivered.parts()]))
+            radio = wire.Radio(links=self._heard(links, i), parts=[
+                (int(part.payloads["k"][0]), self._heard(part.links, i)) for part in delivered.parts()])
+            node.send(i, wire.Navigation(k=k, taken=t, nav=wire.pack(nav[i:i + 1]), radio=radio))
         samples = self._gather("sample", k, -1, t)
         self.last.update(samples)
         probes = {name: np.concatenate([self._probe(i, name, shape, samples) for i in range(self.n)])
@@ -193,6 +194,7 @@ class LockstepWorld:
         for role, telemetry in self.telemetries.items():  # the truth side's copy of the UAVs' components
             telemetry.mirror(self.components[role], _stacked([self.last[i].telemetry[role] for i in range(self.n)]))
         self.recorder.record(t, truth, world.phase_index(), {**probes, **{m: f() for m, f in sim.monitors.items()}})
+        self.recorded = k + 1
         for i, sample in samples.items():
             self._rejected[i] = sample.rejected
         if sim.stack.guide is not sim.stack.estimator:  # an external tracker's view of the target (W20's mocap)
@@ -212,8 +214,8 @@ class LockstepWorld:
     def control_step(self, k: int, c: int, nav: np.ndarray, beacons) -> None:
         node, t = self.node, self.sim.world.t
         for i in sorted(self.alive):
-            node.send(i, wire.Navigation(k=k, c=c, taken=t, nav=wire.pack(nav[i:i + 1])))
-            node.send(i, wire.Radio(k=k, c=c, taken=t, beacons=self._heard(beacons, i)))
+            node.send(i, wire.Navigation(k=k, c=c, taken=t, nav=wire.pack(nav[i:i + 1]),
+                                         radio=wire.Radio(beacons=self._heard(beacons, i))))
         commands = self._gather("command", k, c, t)
         for i in range(self.n):
             self.u[i] = wire.unpack(commands[i].u)[0] if i in commands else safe_command(nav[i:i + 1],

@@ -263,7 +263,7 @@ def _place_exclusively(tmp: Path, out: Path, rels: list[str]) -> None:
     """Put the staged files ``rels`` into the existing folder ``out`` without replacing anything: each is linked in
     (copied when ``out`` is on another file system), and a file that is already there (another run's, arrived
     meanwhile) stops the move: what this run placed, and only that, is removed again, and the run is refused."""
-    placed: list[Path] = []
+    placed: list[tuple[Path, int]] = []  # each file this run created, with its inode
     made: list[Path] = []
     try:
         for rel in rels:
@@ -276,15 +276,18 @@ def _place_exclusively(tmp: Path, out: Path, rels: list[str]) -> None:
                     pass  # there already (made by this loop, or not ours: never removed)
             try:
                 os.link(tmp / rel, dst)
+                placed.append((dst, os.stat(dst).st_ino))
             except OSError as exc:
                 if exc.errno != errno.EXDEV:
                     raise
                 with open(tmp / rel, "rb") as src, open(dst, "xb") as copy:
+                    placed.append((dst, os.fstat(copy.fileno()).st_ino))  # ours from its creation, even half-copied
                     shutil.copyfileobj(src, copy)
-            placed.append(dst)
     except OSError as exc:
-        for path in placed:
-            path.unlink(missing_ok=True)
+        for path, inode in placed:  # only the files this run created, still the same files
+            with contextlib.suppress(OSError):
+                if os.stat(path).st_ino == inode:
+                    path.unlink()
         for folder in reversed(made):
             with contextlib.suppress(OSError):
                 folder.rmdir()

@@ -18,6 +18,7 @@ import pytest
 import shapely
 
 from swarmtrack import registry
+from swarmtrack.control.base import SequentialPlanner
 from swarmtrack.estimation.base import Regions, TargetView
 from swarmtrack.estimation.raster_field import Field
 from swarmtrack.network.links import edge_list
@@ -92,7 +93,7 @@ class RecordingController:
     def command(self, t, nav, view, inbox, dt):
         logged = _copy_inbox(inbox)
         u = self.inner.command(t, nav, view, inbox, dt)
-        if hasattr(self.inner, "plans"):  # sequential planning rounds: the plans made in this call are messages too
+        if isinstance(self.inner, SequentialPlanner):  # the plans made in this call are messages too
             logged.payloads.update(_copy(self.inner.plans()))
         self.log.append(("command", (t, nav.copy(), copy.deepcopy(view), logged, dt), _copy(u)))
         return u

@@ -74,6 +74,9 @@ class Agent:
         self._own: dict[int, dict] = {}  # own outboxes of recent steps (late parts hold the own row too)
         self._telemetry = telemetry_of(scenario)
         self._sequential = False  # whether its controller plans in sequence (IB21 Sec. 5.3): known once built
+        self._guided = scenario.controller.follows_truth()  # its controller follows an external tracker's view
+        net = scenario.network  # estimation steps a late message can take (the channel's delay bound), plus one
+        self._window = int(np.ceil(net.delay_bound() / self.clock.dt_estimation - 1e-9)) + 2
 
     def run(self, rejoin: bool = False) -> None:
         """Say hello, build the stack when the world says start, and follow its steps to the end. ``rejoin``: the
@@ -110,10 +113,10 @@ class Agent:
                 if posteriors:
                     heard = node.wait("publish", radio.links, k, timeout=PATIENCE)
                     est.combine(t, self._assemble(radio.links, heard, posteriors))
-        self._own.pop(k - self._window(), None)
-        node.forget(k - self._window())
+        self._own.pop(k - self._window, None)
+        node.forget(k - self._window)
         view = self._report(k)
-        if self.scenario.controller.follows_truth():  # the controller follows an external tracker's view
+        if self._guided:
             guide = node.wait("guide", [wire.WORLD], k, timeout=PATIENCE)[wire.WORLD].view
             view = TargetView(**{name: wire.unpack(v) for name, v in guide.items()})
         for c, (control_now, _) in enumerate(self.clock.control_segments(k)):
@@ -126,7 +129,7 @@ class Agent:
         nav, t, senders = wire.unpack(got.nav), got.taken, got.radio.beacons
         beacon = ctl.broadcast(t, nav)
         node.send(self.i, wire.Beacon(k=k, c=c, taken=t, payloads=_pack(beacon)))
-        inbox = self._assemble(senders, node.wait("beacon", senders, k, c, timeout=PATIENCE), beacon, "beacon")
+        inbox = self._assemble(senders, node.wait("beacon", senders, k, c, timeout=PATIENCE), beacon)
         if self._sequential:  # the plans its lower-indexed neighbours made in this call
             lower = [s for s in senders if s < self.i]
             plans = node.wait("plan", lower, k, c, timeout=PATIENCE)
@@ -149,22 +152,15 @@ class Agent:
                                                rejected=dict(self.node.seal.rejected)))
         return view
 
-    def _window(self) -> int:
-        """Estimation steps a late message can take (the channel's delay bound), plus one."""
-        net = self.scenario.network
-        return int(np.ceil(net.delay_bound() / self.clock.dt_estimation - 1e-9)) + 2
-
     def _inbox(self, radio: wire.Radio, outbox: dict) -> Inbox:
         """The estimation inbox the radio delivered: this step's part, then the late ones (Inbox.late)."""
         parts = []
-        for send_step, senders in radio.parts:
+        for send_step, senders in radio.parts:  # this step's part is always there, first
             heard = self.node.wait("share", senders, send_step, timeout=PATIENCE)
             parts.append(self._assemble(senders, heard, self._own.get(send_step, outbox)))
-        if not parts:
-            parts = [self._assemble([], {}, outbox)]
         return Inbox(parts[0].links, parts[0].payloads, tuple(parts[1:]), parts[0].receivers)
 
-    def _assemble(self, senders, heard: dict, own: dict, kind: str = "payloads") -> Inbox:
+    def _assemble(self, senders, heard: dict, own: dict) -> Inbox:
         """An inbox of this UAV: its row of the links (the ``senders`` heard), every payload as the swarm's (N, ...)
         arrays with its own row and the heard senders' rows filled (the others zero: never read)."""
         links = np.zeros((1, self.n), dtype=bool)
@@ -187,5 +183,4 @@ class Agent:
 
 
 def _pack(outbox: dict | None) -> dict:
-    return {name: wire.pack(np.asarray(v) if not isinstance(v, np.ndarray) else v)
-            for name, v in (outbox or {}).items()}
+    return {name: wire.pack(np.asarray(v)) for name, v in (outbox or {}).items()}

@@ -202,13 +202,14 @@ def _serve(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, 
         stop_agents(procs)
         transport.close()
     report_run(metrics, scn, out)
-    if live.interrupted is not None:
-        click.echo(f"interrupted at t = {live.interrupted:.2f} s; the steps completed were written to {out}", err=True)
-        sys.exit(130)
     rejected = metrics["live"]["rejected"]
-    click.echo(f"live ({len(procs) or 'joined'} UAV processes, lockstep): " + (
+    click.echo(f"live ({scn.swarm.n_uavs} UAV processes, lockstep): " + (
         "messages dropped: " + ", ".join(f"{n} {cause}" for cause, n in sorted(rejected.items()))
         if rejected else "no message dropped"))
+    if live.interrupted is not None:
+        warn_run(metrics, strict=False)
+        click.echo(f"interrupted at t = {live.interrupted:.2f} s; the steps completed were written to {out}", err=True)
+        sys.exit(130)
     warn_run(metrics, strict)
 
 

@@ -2,15 +2,14 @@
 
 Messages are opened as they arrive (on the middleware's threads): what the seal rejects is counted and dropped,
 what it accepts is kept in the mailbox by ``(channel, sender, k, c)`` until the process takes it
-(:meth:`Node.wait`). A message of a step already taken is dropped (late); the mailbox holds at most the steps
-still to come and the late parts a channel with delays can deliver (:meth:`Node.forget`).
+(:meth:`Node.wait`); a UAV's process drops what is older than the late parts a channel with delays can still
+deliver (:meth:`Node.forget`), so its mailbox stays bounded.
 """
 
 from __future__ import annotations
 
 import threading
 import time
-from collections import Counter
 
 from swarmtrack.live.transport import Transport, key, parse
 from swarmtrack.live.wire import WORLD, Alive, Message, Rejected, Seal, channel_of
@@ -31,10 +30,8 @@ class Node:
         self._box: dict[tuple[str, int, int, int], Message] = {}
         self._cond = threading.Condition()
         self.stopped: str | None = None
-        self.counts: Counter = Counter()
         self.absent: set[int] = set()  # UAVs the world said are lost: nobody waits for their messages
         self.seen: dict[int, float] = {}  # when each sender was last heard (monotonic s)
-        self._beat: threading.Thread | None = None
 
     def listen(self, *patterns: tuple[str, str, str]) -> None:
         """Subscribe to ``(origin, to, channel)`` key patterns of the swarm's space (``*`` wildcards)."""
@@ -63,7 +60,6 @@ class Node:
                 self.absent = set(range(self.seal.n)) - set(msg.alive)
             elif channel != "alive":
                 self._box[(channel, msg.sender, msg.k, msg.c)] = msg
-            self.counts[channel] += 1
             self._cond.notify_all()
 
     def send(self, to: int | str, msg: Message) -> None:
@@ -120,8 +116,7 @@ class Node:
                     return
                 time.sleep(HEARTBEAT)
 
-        self._beat = threading.Thread(target=beat, name="heartbeat", daemon=True)
-        self._beat.start()
+        threading.Thread(target=beat, name="heartbeat", daemon=True).start()
 
     def peek(self, channel: str, sender: int, k: int, c: int = -1) -> Message | None:
         with self._cond:

@@ -8,7 +8,7 @@ estimation step itself) it belongs to:
 ==============  ==========  ===================================================================================
 channel         from → to   content
 ==============  ==========  ===================================================================================
-``hello``       UAV → world  the UAV is up: its process id, the hash of its resolved scenario, its first aim
+``hello``       UAV → world  the UAV is up: its process id, the hash of its resolved scenario
 ``start``       world → all  the sensor's label of every sensed object, by group (what a UAV's sensor reports)
 ``navigation``  world → UAV  its own navigation solution (1, d), and the simulated radio's word on whose messages
                             reach it now (:class:`Radio`)
@@ -69,7 +69,6 @@ class Message(msgspec.Struct, tag_field="channel", kw_only=True):
 class Hello(Message, tag="hello"):
     pid: int
     scenario: str
-    aim: Any = None
 
 
 class Start(Message, tag="start"):
@@ -150,7 +149,6 @@ class Stop(Message, tag="stop"):
 
 ANY = (Hello | Start | Navigation | DetectionsMsg | Share | Publish | Beacon | Plan | Command | Sample | Guide | Alive
        | Roster | Stop)
-CHANNELS = {cls.__struct_config__.tag: cls for cls in ANY.__args__}
 _encoder = msgspec.msgpack.Encoder()
 _decoder = msgspec.msgpack.Decoder(ANY)
 

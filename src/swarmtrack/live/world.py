@@ -101,10 +101,11 @@ class _Interrupted(Exception):
 class LockstepWorld:
     """The truth side of a live run in lockstep: :meth:`run` is the simulator's step loop by messages.
 
-    A UAV that does not answer within ``patience`` s is lost: its neighbours stop hearing it (the radio leaves it out
-    as sender and receiver), the world flies it with :func:`safe_command`, its probes are recorded as NaN, and the
-    report names it. A process started again for it (``swarmtrack agent --uav I --rejoin``) says hello, gets the
-    step to start from, and rejoins the radio there."""
+    A UAV whose process is not heard for :data:`~swarmtrack.live.node.LOST_AFTER` s (no heartbeat) is lost: its
+    neighbours stop hearing it (the radio leaves it out as sender and receiver, a roster says nobody waits for it),
+    the world flies it with :func:`safe_command`, its probes are recorded as NaN, and the report names it. A process
+    started again for it (``swarmtrack agent --uav I --rejoin``) says hello, gets the step to start from, and rejoins
+    the radio there."""
 
     def __init__(self, scenario: Scenario, node: Node, record_to=None, patience: float = PATIENCE,
                  progress: Callable[[float], None] | None = None):
@@ -119,8 +120,8 @@ class LockstepWorld:
         self.components = {"estimator": sim.stack.estimator, "controller": sim.stack.controller}
         self.last: dict[int, wire.Sample] = {}  # each UAV's latest sample (its aim and telemetry when lost)
         self.u = np.zeros((self.n, command_width(scenario)))
-        self._rejected: dict[str, dict] = {}
-        self._stop = False
+        self._rejected: dict[int, dict] = {}  # each UAV's process's latest counts of the messages it dropped
+        self._stop = False  # Ctrl-C or SIGTERM arrived (:meth:`_interruptible`)
         self.recorded = 0  # estimation steps recorded
 
     def run(self) -> tuple[Recording, LiveReport]:
@@ -142,16 +143,16 @@ class LockstepWorld:
                 if self.progress is not None and (k % report_every == 0 or k == clock.steps - 1):
                     self.progress((k + 1) / clock.steps)
         node.send("all", wire.Stop())
-        self.report.rejected = dict(sum((Counter(c) for c in [dict(node.seal.rejected),
-                                                              *self._rejected.values()]), Counter()))
+        total = Counter(node.seal.rejected)
+        for counts in self._rejected.values():
+            total.update(counts)
+        self.report.rejected = dict(total)
         return self.recorder.close(), self.report
 
     @contextmanager
     def _interruptible(self):
         """Ctrl-C and SIGTERM end the run at the next wait for the UAVs (main thread only): the steps completed are
         kept, and the caller writes them whole."""
-        self._stop = False
-
         def handler(signum, frame) -> None:
             self._stop = True
 
@@ -217,9 +218,9 @@ class LockstepWorld:
             node.send(i, wire.Navigation(k=k, c=c, taken=t, nav=wire.pack(nav[i:i + 1]),
                                          radio=wire.Radio(beacons=self._heard(beacons, i))))
         commands = self._gather("command", k, c, t)
-        for i in range(self.n):
-            self.u[i] = wire.unpack(commands[i].u)[0] if i in commands else safe_command(nav[i:i + 1],
-                                                                                          self.u.shape[1])[0]
+        self.u[:] = safe_command(nav, self.u.shape[1])  # for the UAVs that are lost
+        for i, msg in commands.items():
+            self.u[i] = wire.unpack(msg.u)[0]
 
     def _gather(self, channel: str, k: int, c: int, t: float) -> dict:
         """Every living UAV's message of ``channel`` for step ``(k, c)``. A UAV whose process has not been heard for

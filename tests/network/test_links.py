@@ -239,3 +239,16 @@ def test_a_subsets_detections_are_its_own_renumbered():
     z, pos, seen = sub.of_label(4)
     z_all, pos_all, seen_all = det.of_label(4)
     assert np.array_equal(z, z_all[[1, 3]], equal_nan=True) and np.array_equal(seen, seen_all[[1, 3]])
+
+
+def test_each_uavs_detections_in_one_pass_are_its_own_subset():
+    from swarmtrack.sensors.detections import Detections
+
+    owner = np.array([3, 0, 1, 3, 0, 3])  # unsorted owners: each UAV's rows keep their order
+    det = Detections(owner, np.arange(12.0).reshape(6, 2), np.arange(12.0).reshape(6, 2) + 100, np.arange(6), 5,
+                     frame=np.arange(6) * 10, footprint=np.arange(10.0).reshape(5, 2), taken=0.5)
+    for i, one in enumerate(det.of_each_uav()):
+        alone = det.of_uavs([i])
+        for name in ("owner", "z", "sensor_pos", "label", "frame", "footprint"):
+            assert np.array_equal(getattr(one, name), getattr(alone, name)), (i, name)
+        assert (one.n_uavs, one.grid, one.taken) == (alone.n_uavs, alone.grid, alone.taken)

@@ -14,6 +14,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import time
 
 import numpy as np
 
@@ -30,6 +31,8 @@ from swarmtrack.sim.clock import Clock
 
 #: How long a process waits for a message its step needs before it gives up (s).
 PATIENCE = 60.0
+#: Seconds between a starting UAV's hellos.
+HELLO_EVERY = 0.5
 
 
 def scenario_hash(scenario: Scenario) -> str:
@@ -74,7 +77,6 @@ class Agent:
         self._own: dict[int, dict] = {}  # own outboxes of recent steps (late parts hold the own row too)
         self._telemetry = telemetry_of(scenario)
         self._sequential = False  # whether its controller plans in sequence (IB21 Sec. 5.3): known once built
-        self._guided = scenario.controller.follows_truth()  # its controller follows an external tracker's view
         net = scenario.network  # estimation steps a late message can take (the channel's delay bound), plus one
         self._window = int(np.ceil(net.delay_bound() / self.clock.dt_estimation - 1e-9)) + 2
 
@@ -85,26 +87,37 @@ class Agent:
         node.listen(("world", str(self.i), "*"), ("world", "all", "*"), ("uav", "*", "share"),
                     ("uav", "*", "publish"), ("uav", "*", "beacon"), ("uav", "*", "plan"))
         node.heartbeat()
-        node.send(wire.WORLD, wire.Hello(sender=self.i, pid=os.getpid(), scenario=scenario_hash(self.scenario)))
-        start = node.first("start", wire.WORLD, timeout=PATIENCE)
+        hello = wire.Hello(pid=os.getpid(), started=node.seal.started, scenario=scenario_hash(self.scenario))
+        start, deadline = None, time.monotonic() + PATIENCE
+        while start is None:  # said again until the world answers: it may not listen yet
+            node.send(wire.WORLD, hello)
+            try:
+                start = node.first("start", wire.WORLD, timeout=min(HELLO_EVERY, deadline - time.monotonic()))
+            except TimeoutError:
+                if time.monotonic() >= deadline:
+                    raise TimeoutError(f"no start from the world within {PATIENCE:g} s") from None
         if not rejoin and start.k:
             raise RuntimeError(f"the swarm is at step {start.k} already: start this UAV with --rejoin")
         self.estimator, self.controller = build_onboard(self.scenario, self.i, start.labels)
         self._sequential = isinstance(self.controller, SequentialPlanner)
-        self._report(start.k - 1)
+        node.send(wire.WORLD, self._sample(start.k - 1)[0])
         for k in range(start.k, self.clock.steps):
             self.step(k)
 
     def step(self, k: int) -> None:
         node, est, dt = self.node, self.estimator, self.clock.dt_estimation
         t = k * dt
-        got = {ch: node.wait(ch, [wire.WORLD], k, timeout=PATIENCE)[wire.WORLD] for ch in ("navigation", "detections")}
-        nav, radio = wire.unpack(got["navigation"].nav), got["navigation"].radio
-        detections = Detections(**{name: wire.unpack(v) for name, v in got["detections"].fields.items()})
+        got = node.wait("navigation", [wire.WORLD], k, timeout=PATIENCE)[wire.WORLD]
+        nav, radio = wire.unpack(got.nav), got.radio
+        detections = Detections(**{name: wire.unpack(v) for name, v in got.detections.items()})
         with np.errstate(over="ignore", invalid="ignore"):  # a diverging filter is reported by its own checks
             outbox = est.share(t, nav, detections)
             self._own[k] = outbox
-            node.send(self.i, wire.Share(k=k, taken=t, payloads=_pack(outbox)))
+            # the control step starting now: its beacon travels with the share (it reads only navigation and the
+            # controller's own state, which the estimation step does not touch)
+            beacon = None if got.control is None else self.controller.broadcast(got.control, nav)
+            node.send(self.i, wire.Share(k=k, taken=t, payloads=_pack(outbox),
+                                         beacon=None if beacon is None else _pack(beacon)))
             est.fuse(t, detections, self._inbox(radio, outbox))
             publish = getattr(est, "publish", None)  # the optional second round (Estimator.publish)
             if publish is not None:
@@ -112,60 +125,76 @@ class Agent:
                 node.send(self.i, wire.Publish(k=k, taken=t, payloads=_pack(posteriors)))
                 if posteriors:
                     heard = node.wait("publish", radio.links, k, timeout=PATIENCE)
-                    est.combine(t, self._assemble(radio.links, heard, posteriors))
+                    est.combine(t, self._assemble(radio.links, {s: m.payloads for s, m in heard.items()},
+                                                  posteriors))
         self._own.pop(k - self._window, None)
         node.forget(k - self._window)
-        view = self._report(k)
-        if self._guided:
-            guide = node.wait("guide", [wire.WORLD], k, timeout=PATIENCE)[wire.WORLD].view
-            view = TargetView(**{name: wire.unpack(v) for name, v in guide.items()})
+        sample, view = self._sample(k)
+        if got.guide is not None:  # an external tracker's view of the target (controller.follow: truth)
+            view = TargetView(**{name: wire.unpack(v) for name, v in got.guide.items()})
+        if got.control is not None:
+            heard = node.wait("share", radio.beacons, k, timeout=PATIENCE, take=False)
+            sample.u = wire.pack(self._command(k, 0, got.control, nav, view, radio.beacons,
+                                               {s: m.beacon for s, m in heard.items()}, beacon))
+        node.send(wire.WORLD, sample)
         for c, (control_now, _) in enumerate(self.clock.control_segments(k)):
-            if control_now:
+            if control_now and c:
                 self.control(k, c, view)
 
     def control(self, k: int, c: int, view) -> None:
-        node, ctl = self.node, self.controller
+        """A control step between estimation steps: its navigation and beacon radio from the world, its command
+        back."""
+        node = self.node
         got = node.wait("navigation", [wire.WORLD], k, c, timeout=PATIENCE)[wire.WORLD]
         nav, t, senders = wire.unpack(got.nav), got.taken, got.radio.beacons
-        beacon = ctl.broadcast(t, nav)
+        beacon = self.controller.broadcast(t, nav)
         node.send(self.i, wire.Beacon(k=k, c=c, taken=t, payloads=_pack(beacon)))
-        inbox = self._assemble(senders, node.wait("beacon", senders, k, c, timeout=PATIENCE), beacon)
+        heard = {s: m.payloads for s, m in node.wait("beacon", senders, k, c, timeout=PATIENCE).items()}
+        u = self._command(k, c, t, nav, view, senders, heard, beacon)
+        node.send(wire.WORLD, wire.Command(k=k, c=c, taken=t, u=wire.pack(u)))
+
+    def _command(self, k: int, c: int, t: float, nav: np.ndarray, view, senders: list[int], heard: dict,
+                 beacon: dict) -> np.ndarray:
+        """The controller's command, from the beacons ``heard`` (packed, by sender)."""
+        node, ctl = self.node, self.controller
+        inbox = self._assemble(senders, heard, beacon)
         if self._sequential:  # the plans its lower-indexed neighbours made in this call
             lower = [s for s in senders if s < self.i]
             plans = node.wait("plan", lower, k, c, timeout=PATIENCE)
             inbox.payloads.update(self._rows(lower, {s: m.payloads for s, m in plans.items()}, ctl.plans()))
-        u = ctl.command(t, nav, view, inbox, self.clock.dt_control)
-        node.send(wire.WORLD, wire.Command(k=k, c=c, taken=t, u=wire.pack(np.asarray(u))))
+        u = np.asarray(ctl.command(t, nav, view, inbox, self.clock.dt_control))
         if self._sequential:
             node.send(self.i, wire.Plan(k=k, c=c, taken=t, payloads=_pack(ctl.plans())))
+        return u
 
-    def _report(self, k: int):
-        """Send the step's probes, and where a gimballed sensor should aim at the next frame (its latest
-        estimate); returns the estimator's view, which the controller follows until the next step."""
+    def _sample(self, k: int) -> tuple[wire.Sample, TargetView]:
+        """The step's probes, and where a gimballed sensor should aim at the next frame (its latest estimate); and
+        the estimator's view, which the controller follows until the next step."""
         probes = {} if k < 0 else {**self.estimator.sample(), **self.controller.sample()}
         view = self.estimator.view()
         reports = {} if k < 0 else {role: self._telemetry[role].report(component) for role, component in
                                     (("estimator", self.estimator), ("controller", self.controller))
                                     if role in self._telemetry}
-        self.node.send(wire.WORLD, wire.Sample(k=k, probes=_pack(probes), aim=wire.pack(view.state[:, :2]),
-                                               telemetry={role: _pack(r) for role, r in reports.items()},
-                                               rejected=dict(self.node.seal.rejected)))
-        return view
+        return wire.Sample(k=k, probes=_pack(probes), aim=wire.pack(view.state[:, :2]),
+                           telemetry={role: _pack(r) for role, r in reports.items()},
+                           rejected=dict(self.node.seal.rejected)), view
 
     def _inbox(self, radio: wire.Radio, outbox: dict) -> Inbox:
         """The estimation inbox the radio delivered: this step's part, then the late ones (Inbox.late)."""
         parts = []
         for send_step, senders in radio.parts:  # this step's part is always there, first
-            heard = self.node.wait("share", senders, send_step, timeout=PATIENCE)
-            parts.append(self._assemble(senders, heard, self._own.get(send_step, outbox)))
+            heard = self.node.wait("share", senders, send_step, timeout=PATIENCE, take=False)
+            parts.append(self._assemble(senders, {s: m.payloads for s, m in heard.items()},
+                                        self._own.get(send_step, outbox)))
         return Inbox(parts[0].links, parts[0].payloads, tuple(parts[1:]), parts[0].receivers)
 
     def _assemble(self, senders, heard: dict, own: dict) -> Inbox:
-        """An inbox of this UAV: its row of the links (the ``senders`` heard), every payload as the swarm's (N, ...)
-        arrays with its own row and the heard senders' rows filled (the others zero: never read)."""
+        """An inbox of this UAV: its row of the links (the ``senders`` heard: ``heard`` their packed payloads), every
+        payload as the swarm's (N, ...) arrays with its own row and the heard senders' rows filled (the others zero:
+        never read)."""
         links = np.zeros((1, self.n), dtype=bool)
         links[0, [s for s in senders if s in heard]] = True
-        payloads = self._rows(list(senders), {s: m.payloads for s, m in heard.items()}, own)
+        payloads = self._rows(list(senders), heard, own)
         return Inbox(links, payloads, (), np.array([self.i]))
 
     def _rows(self, senders: list[int], heard: dict[int, dict], own: dict) -> dict:

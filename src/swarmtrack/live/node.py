@@ -70,10 +70,11 @@ class Node:
         self.transport.put(k, self.seal.seal(k, msg))
 
     def wait(self, channel: str, senders, k: int, c: int = -1, timeout: float | None = None,
-             missing_ok: bool = False) -> dict[int, Message]:
+             missing_ok: bool = False, take: bool = True) -> dict[int, Message]:
         """The messages of ``channel`` for step ``(k, c)`` from every sender in ``senders``, taken out of the
-        mailbox; waits for them up to ``timeout`` s (None: forever). ``missing_ok``: return what came by the
-        timeout; otherwise a timeout raises ``TimeoutError`` naming the missing senders."""
+        mailbox (``take=False``: left there, until :meth:`forget`); waits for them up to ``timeout`` s (None:
+        forever). ``missing_ok``: return what came by the timeout; otherwise a timeout raises ``TimeoutError`` naming
+        the missing senders."""
         senders = list(senders)
         deadline = None if timeout is None else time.monotonic() + timeout
         with self._cond:
@@ -89,7 +90,8 @@ class Node:
                         break
                     raise TimeoutError(f"no {channel} of step {k} from {missing}")
                 self._cond.wait(left if left is not None else 1.0)
-            return {s: self._box.pop((channel, s, k, c)) for s in senders if (channel, s, k, c) in self._box}
+            get = self._box.pop if take else self._box.get
+            return {s: get((channel, s, k, c)) for s in senders if (channel, s, k, c) in self._box}
 
     def first(self, channel: str, sender: int, timeout: float) -> Message:
         """The earliest message of ``channel`` from ``sender`` whatever its step, taken out of the mailbox (waits up

@@ -8,20 +8,21 @@ estimation step itself) it belongs to:
 ==============  ==========  ===================================================================================
 channel         from → to   content
 ==============  ==========  ===================================================================================
-``hello``       UAV → world  the UAV is up: its process id, the hash of its resolved scenario
+``hello``       UAV → world  the UAV is up (said until ``start``): its process, the hash of its resolved scenario
 ``start``       world → all  the sensor's label of every sensed object, by group (what a UAV's sensor reports)
 ``navigation``  world → UAV  its own navigation solution (1, d), and the simulated radio's word on whose messages
-                            reach it now (:class:`Radio`)
-``detections``  world → UAV  its own detections (:class:`~swarmtrack.sensors.detections.Detections` fields)
-``share``       UAV → UAVs   its estimator's broadcast (the outbox row: L24 eq. 6, W20's, IB21 eq. 30)
+                            reach it now (:class:`Radio`); at an estimation step also its own detections, the
+                            time of the control step starting with it, and an external tracker's target (guide)
+``share``       UAV → UAVs   its estimator's broadcast (the outbox row: L24 eq. 6, W20's, IB21 eq. 30), and its
+                            beacon of the control step that starts with the estimation step
 ``publish``     UAV → UAVs   its estimator's second broadcast of the step (W20's posteriors)
-``beacon``      UAV → UAVs   its controller's beacon (flocking, W20 eq. 5.24, IB21 eq. 48)
+``beacon``      UAV → UAVs   its controller's beacon (flocking, W20 eq. 5.24, IB21 eq. 48) at a control step
+                            between estimation steps
 ``plan``        UAV → UAVs   its plans of this control step (IB21 Sec. 5.3's sequential rounds)
-``command``     UAV → world  its controller's command (1, w)
-``sample``      UAV → world  its probes of the step (what the recorder keeps), its aim for the next frame and
-                            what the truth-side monitors read of its components (their telemetry)
-``guide``       world → UAV  the followed target from an external tracker (``controller.follow: truth``, W20's
-                            motion capture), the view its controller follows
+``command``     UAV → world  its controller's command (1, w) at a control step between estimation steps
+``sample``      UAV → world  its probes of the step (what the recorder keeps), its aim for the next frame, what the
+                            truth-side monitors read of its components (their telemetry), and the command of the
+                            control step that started with the estimation step
 ``alive``       UAV → world  a heartbeat, every 0.2 s
 ``roster``      world → all  the UAVs it hears now (the others are lost: nobody waits for them)
 ``stop``        world → all  the run is over
@@ -67,7 +68,12 @@ class Message(msgspec.Struct, tag_field="channel", kw_only=True):
 
 
 class Hello(Message, tag="hello"):
+    """Said until the world answers with ``start`` (a process that joins before the world listens is heard at the next
+    one): its process id and start time (µs; the two tell a restarted process from a repeated hello), and the hash
+    of its resolved scenario."""
+
     pid: int
+    started: int
     scenario: str
 
 
@@ -76,15 +82,6 @@ class Start(Message, tag="start"):
     step a rejoining UAV joins at)."""
 
     labels: dict[str, list[int]]
-
-
-class Navigation(Message, tag="navigation"):
-    nav: Any
-    radio: Radio | None = None
-
-
-class DetectionsMsg(Message, tag="detections"):
-    fields: dict[str, Any]
 
 
 class Radio(msgspec.Struct):
@@ -98,8 +95,28 @@ class Radio(msgspec.Struct):
     beacons: list[int] = []
 
 
+class Navigation(Message, tag="navigation"):
+    """The UAV's own navigation solution ``nav`` (1, d) at ``taken``, and the simulated radio's word (absent on real
+    radios). At an estimation step (``c = −1``) also its ``detections``
+    (:class:`~swarmtrack.sensors.detections.Detections` fields), the followed target from an external tracker where
+    the scenario asks for one (``guide``: ``controller.follow: truth``, W20's motion capture: the UAV's row of the
+    view its controller follows, ``state`` (1, 4) and where known ``model`` (1,) and ``motion`` (1, 3)), and
+    ``control``: the time of the control step that starts with this estimation step (its beacons in
+    ``radio.beacons``; None: none starts now)."""
+
+    nav: Any
+    radio: Radio | None = None
+    detections: dict[str, Any] | None = None
+    guide: dict[str, Any] | None = None
+    control: float | None = None
+
+
 class Share(Message, tag="share"):
+    """The estimator's broadcast of step ``k``, and the controller's beacon of the control step that starts with it
+    (None: none starts now): one message where the simulator has two."""
+
     payloads: dict[str, Any]
+    beacon: dict[str, Any] | None = None
 
 
 class Publish(Message, tag="publish"):
@@ -115,22 +132,22 @@ class Plan(Message, tag="plan"):
 
 
 class Command(Message, tag="command"):
+    """The controller's command (1, w) of a control step between estimation steps (the one that starts with an
+    estimation step travels in its :class:`Sample`)."""
+
     u: Any
 
 
 class Sample(Message, tag="sample"):
+    """The step's probes (taken before its control step, as the simulator records them), where the sensor should aim
+    at the next frame, the telemetry of the truth-side checks, and ``u``: the command of the control step that started
+    with the estimation step (None: none did)."""
+
     probes: dict[str, Any]
     aim: Any = None
+    u: Any = None
     telemetry: dict[str, dict[str, Any]] = {}
     rejected: dict[str, int] = {}  # what this UAV's process dropped so far, by cause
-
-
-class Guide(Message, tag="guide"):
-    """The followed target as an external tracker gives it (``controller.follow: truth``: W20 Sec. 5.4 streamed the
-    target's Optitrack pose to the UAVs): the UAV's row of the view its controller follows, ``state`` (1, 4) and,
-    where known, ``model`` (1,) and ``motion`` (1, 3)."""
-
-    view: dict[str, Any]
 
 
 class Alive(Message, tag="alive"):
@@ -147,8 +164,7 @@ class Stop(Message, tag="stop"):
     reason: str = "done"
 
 
-ANY = (Hello | Start | Navigation | DetectionsMsg | Share | Publish | Beacon | Plan | Command | Sample | Guide | Alive
-       | Roster | Stop)
+ANY = Hello | Start | Navigation | Share | Publish | Beacon | Plan | Command | Sample | Alive | Roster | Stop
 _encoder = msgspec.msgpack.Encoder()
 _decoder = msgspec.msgpack.Decoder(ANY)
 
@@ -227,7 +243,7 @@ class Seal:
         self.key, self.n = key, n_uavs
         # sequence numbers start at the process's start time in µs: a process restarted (--rejoin) continues above
         # what its earlier life sent, so its receivers do not take its new messages for replays
-        self._start = time.time_ns() // 1000
+        self.started = time.time_ns() // 1000
         self._seq: dict[str, int] = {}
         self._last: dict[tuple[int, str], int] = {}
         self.rejected: Counter = Counter()
@@ -235,7 +251,7 @@ class Seal:
 
     def seal(self, key_expr: str, msg: Message) -> bytes:
         with self._lock:
-            msg.seq = self._seq[key_expr] = self._seq.get(key_expr, self._start) + 1
+            msg.seq = self._seq[key_expr] = self._seq.get(key_expr, self.started) + 1
         body = _encoder.encode(msg)
         return self._tag(key_expr, body) + body
 

@@ -23,7 +23,7 @@ import numpy as np
 from swarmtrack.live import wire
 from swarmtrack.live.agent import PATIENCE, scenario_hash, telemetry_of
 from swarmtrack.live.node import LOST_AFTER, Node
-from swarmtrack.network.links import edge_list, rows_of
+from swarmtrack.network.links import neighbour_lists
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sim.build import build, command_width
 from swarmtrack.sim.recorder import Recorder, Recording
@@ -123,12 +123,14 @@ class LockstepWorld:
         self._rejected: dict[int, dict] = {}  # each UAV's process's latest counts of the messages it dropped
         self._stop = False  # Ctrl-C or SIGTERM arrived (:meth:`_interruptible`)
         self.recorded = 0  # estimation steps recorded
+        self.processes: dict[int, tuple[int, int]] = {}  # each UAV's process the world knows: (pid, start time)
 
     def run(self) -> tuple[Recording, LiveReport]:
         node, clock = self.node, self.sim.clock
         node.listen(("uav", "*", "hello"), ("uav", "*", "sample"), ("uav", "*", "command"), ("uav", "*", "alive"))
         hello = node.wait("hello", range(self.n), 0, timeout=self.patience)
         self._check(hello)
+        self.processes = {i: (m.pid, m.started) for i, m in hello.items()}
         node.send("all", wire.Start(labels=labels_of(self.sim.world)))
         self.last = node.wait("sample", range(self.n), -1, timeout=self.patience)
         report_every = max(1, clock.steps // 100)
@@ -173,6 +175,10 @@ class LockstepWorld:
             raise LiveError(f"UAV processes {wrong} run another scenario (or seed, or overrides)")
 
     def estimation_step(self, k: int) -> None:
+        """Step ``k`` of :func:`~swarmtrack.sim.engine.step_loop` by messages. Each UAV gets one message (its
+        navigation, detections and radio, and the time of the control step that starts now with its beacon radio)
+        and answers with one (its probes, and the command of that control step); the radio's draws (links, late
+        parts, beacon links) and the guide's view come in the simulator's order."""
         sim, node = self.sim, self.node
         world, channel, clock = sim.world, sim.channel, sim.clock
         t = k * clock.dt_estimation
@@ -182,12 +188,20 @@ class LockstepWorld:
         detections, _sources = world.sense(aim=self._aims() if world.aims else None)
         links = channel.links(positions, t)
         delivered = channel.deliver(links, {"k": np.full(self.n, k)}, t)
+        segments = list(clock.control_segments(k))
+        beacons = channel.beacon_links(positions, world.t) if segments[0][0] else None
+        view = sim.stack.guide.view() if sim.stack.guide is not sim.stack.estimator else None
+        heard, mine = self._heard(links), detections.of_each_uav()
+        parts = [(int(part.payloads["k"][0]), self._heard(part.links)) for part in delivered.parts()]
+        beacons = None if beacons is None else self._heard(beacons)
         for i in sorted(self.alive):
-            mine = detections.of_uavs([i])
-            node.send(i, wire.DetectionsMsg(k=k, taken=t, fields={f: wire.pack(getattr(mine, f)) for f in FIELDS}))
-            radio = wire.Radio(links=self._heard(links, i), parts=[
-                (int(part.payloads["k"][0]), self._heard(part.links, i)) for part in delivered.parts()])
-            node.send(i, wire.Navigation(k=k, taken=t, nav=wire.pack(nav[i:i + 1]), radio=radio))
+            radio = wire.Radio(links=heard[i], parts=[(s, senders[i]) for s, senders in parts],
+                               beacons=[] if beacons is None else beacons[i])
+            node.send(i, wire.Navigation(
+                k=k, taken=t, nav=wire.pack(nav[i:i + 1]), radio=radio,
+                detections={f: wire.pack(getattr(mine[i], f)) for f in FIELDS},
+                guide=None if view is None else _row_of_view(view, i),
+                control=None if beacons is None else world.t))
         samples = self._gather("sample", k, -1, t)
         self.last.update(samples)
         probes = {name: np.concatenate([self._probe(i, name, shape, samples) for i in range(self.n)])
@@ -198,29 +212,30 @@ class LockstepWorld:
         self.recorded = k + 1
         for i, sample in samples.items():
             self._rejected[i] = sample.rejected
-        if sim.stack.guide is not sim.stack.estimator:  # an external tracker's view of the target (W20's mocap)
-            view = sim.stack.guide.view()
-            for i in sorted(self.alive):
-                node.send(i, wire.Guide(k=k, taken=t, view=_row_of_view(view, i)))
         offset = 0
-        for c, (control_now, ticks) in enumerate(clock.control_segments(k)):
+        for c, (control_now, ticks) in enumerate(segments):
             if control_now:
                 if offset:  # a control step between estimation steps: fresh navigation
                     nav = world.navigation()
                     positions = world.truth("uavs")[:, :2]
-                self.control_step(k, c, nav, channel.beacon_links(positions, world.t))
+                    self.control_step(k, c, nav, channel.beacon_links(positions, world.t))
+                else:  # its commands came with the samples
+                    self._command(nav, {i: s.u for i, s in samples.items()})
             world.advance({"uavs": self.u}, ticks)
             offset += ticks
 
     def control_step(self, k: int, c: int, nav: np.ndarray, beacons) -> None:
-        node, t = self.node, self.sim.world.t
+        node, t, heard = self.node, self.sim.world.t, self._heard(beacons)
         for i in sorted(self.alive):
             node.send(i, wire.Navigation(k=k, c=c, taken=t, nav=wire.pack(nav[i:i + 1]),
-                                         radio=wire.Radio(beacons=self._heard(beacons, i))))
-        commands = self._gather("command", k, c, t)
-        self.u[:] = safe_command(nav, self.u.shape[1])  # for the UAVs that are lost
-        for i, msg in commands.items():
-            self.u[i] = wire.unpack(msg.u)[0]
+                                         radio=wire.Radio(beacons=heard[i])))
+        self._command(nav, {i: m.u for i, m in self._gather("command", k, c, t).items()})
+
+    def _command(self, nav: np.ndarray, commands: dict) -> None:
+        """The UAVs' ``commands`` (packed, by UAV) into the world's; the lost UAVs fly :func:`safe_command`."""
+        self.u[:] = safe_command(nav, self.u.shape[1])
+        for i, u in commands.items():
+            self.u[i] = wire.unpack(u)[0]
 
     def _gather(self, channel: str, k: int, c: int, t: float) -> dict:
         """Every living UAV's message of ``channel`` for step ``(k, c)``. A UAV whose process has not been heard for
@@ -238,7 +253,7 @@ class LockstepWorld:
                 return got
             now = time.monotonic()
             silent = {i for i in missing if now - self.node.seen.get(i, 0.0) > LOST_AFTER
-                      or self.node.peek("hello", i, 0) is not None}  # not heard, or a new process says hello
+                      or self._newcomer(i) is not None}  # not heard, or a new process says hello
             if silent:
                 self.alive -= silent
                 self.report.lost += [{"uav": i + 1, "t": round(t, 9)} for i in sorted(silent)]
@@ -250,11 +265,11 @@ class LockstepWorld:
     def _rejoin(self, k: int) -> None:
         """A lost UAV whose process said hello again starts at step ``k``."""
         for i in sorted(set(range(self.n)) - self.alive):
-            hello = self.node.peek("hello", i, 0)  # the first hellos were taken at start: this is a new process
+            hello = self._newcomer(i)
             if hello is None:
                 continue
-            self.node.wait("hello", [i], 0, timeout=0, missing_ok=True)  # taken: a later hello is a new process
             self._check({i: hello})
+            self.processes[i] = (hello.pid, hello.started)
             self.node.send(i, wire.Start(k=k, labels=labels_of(self.sim.world)))
             got = self.node.wait("sample", [i], k - 1, timeout=self.patience, missing_ok=True)
             if got:
@@ -263,9 +278,20 @@ class LockstepWorld:
                 self.report.rejoined.append({"uav": i + 1, "t": round(k * self.sim.clock.dt_estimation, 9)})
                 self.node.send("all", wire.Roster(alive=sorted(self.alive)))
 
-    def _heard(self, links, i: int) -> list[int]:
-        """The living senders UAV i's row of ``links`` holds."""
-        return [s for s in edge_list(rows_of(links, np.array([i])))[1].tolist() if s in self.alive]
+    def _newcomer(self, i: int) -> wire.Hello | None:
+        """The hello of a process of UAV ``i`` other than the one the world knows (a restarted one), or None; what
+        the known process says again (it says hello until it hears ``start``) is discarded."""
+        hello = self.node.peek("hello", i, 0)
+        if hello is not None and (hello.pid, hello.started) == self.processes.get(i):
+            self.node.wait("hello", [i], 0, timeout=0, missing_ok=True)
+            return None
+        return hello
+
+    def _heard(self, links) -> list[list[int]]:
+        """Each UAV's living senders in ``links`` (itself left out)."""
+        indptr, senders = neighbour_lists(links)
+        return [[s for s in senders[indptr[i]:indptr[i + 1]].tolist() if s in self.alive and s != i]
+                for i in range(self.n)]
 
     def _probe(self, i: int, name: str, shape: tuple, samples: dict) -> np.ndarray:
         if i in samples:

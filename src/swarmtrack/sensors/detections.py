@@ -54,6 +54,18 @@ class Detections:
                           self.label[pick], len(uavs), self.grid, None if self.frame is None else self.frame[pick],
                           None if self.footprint is None else self.footprint[uavs], self.taken)
 
+    def of_each_uav(self) -> list[Detections]:
+        """:meth:`of_uavs` of every UAV alone (``[i]``), in one pass over the owners."""
+        order = np.argsort(self.owner, kind="stable")  # each UAV's detections in their order here, as of_uavs keeps
+        bounds = np.searchsorted(self.owner[order], np.arange(self.n_uavs + 1))
+        out = []
+        for i in range(self.n_uavs):
+            pick = order[bounds[i]:bounds[i + 1]]
+            out.append(Detections(np.zeros(len(pick), dtype=np.int64), self.z[pick], self.sensor_pos[pick],
+                                  self.label[pick], 1, self.grid, None if self.frame is None else self.frame[pick],
+                                  None if self.footprint is None else self.footprint[i:i + 1], self.taken))
+        return out
+
     def of_label(self, label) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Per-UAV arrays of the detection labelled ``label`` (one label, or one per UAV (N,): UAVs of a batch of
         worlds follow their own world's target): ``z`` (N, m), ``sensor_pos`` (N, 2) and ``seen`` (N,); rows of UAVs

@@ -19,7 +19,7 @@ run: $(STAMP)
 	$(VENV)/bin/swarmtrack run l24-ct --out runs/l24-ct --overwrite
 
 test: $(STAMP)
-	$(VENV)/bin/python -m pytest
+	$(VENV)/bin/python -m pytest -n auto --dist loadgroup
 
 # bench: the default speed figures (about 5 min); bench-large adds 10,000 UAVs and the peak-memory runs
 # (tens of minutes, see benchmarks/bench_sim.py). All scripts take --json and --quick.

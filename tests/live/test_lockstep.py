@@ -24,6 +24,8 @@ from swarmtrack.live import wire
 from swarmtrack.live.node import LOST_AFTER
 from swarmtrack.live.transport import ZenohTransport, free_port, key
 
+pytestmark = pytest.mark.xdist_group("live")  # one worker runs these (each starts several processes) in turn
+
 
 def _processes_of(swarm: str) -> list[str]:
     out = subprocess.run(["ps", "-ww", "-eo", "pid,args"], capture_output=True, text=True).stdout

@@ -104,7 +104,7 @@ def lockstep(uavs: int, duration: float) -> dict:
     """A lockstep live run of ``l24-ct`` with ``uavs`` UAV processes, and the simulator on the same scenario."""
     from swarmtrack import load_scenario, simulate
     from swarmtrack.live.commands import start_agents, stop_agents
-    from swarmtrack.live.world import run_lockstep
+    from swarmtrack.live.session import run_live
 
     overrides = [f"duration={duration}", f"swarm.n_uavs={uavs}"]
     scenario = load_scenario("l24-ct", overrides)
@@ -119,7 +119,7 @@ def lockstep(uavs: int, duration: float) -> dict:
     t0 = time.perf_counter()
     procs = start_agents(scenario, "l24-ct", None, overrides, endpoints, SWARM, None)
     try:
-        run_lockstep(scenario, node, progress=lambda done: marks.append((time.perf_counter(), done)))
+        run_live(scenario, node, progress=lambda done: marks.append((time.perf_counter(), done)))
         end = time.perf_counter()
     finally:
         stop_agents(procs)

@@ -15,6 +15,7 @@ import hashlib
 import json
 import os
 import time
+from collections import Counter
 
 import numpy as np
 
@@ -28,11 +29,16 @@ from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sensors.detections import Detections
 from swarmtrack.sim.build import Context, command_width
 from swarmtrack.sim.clock import Clock
+from swarmtrack.sim.engine import simulate
 
 #: How long a process waits for a message its step needs before it gives up (s).
 PATIENCE = 60.0
 #: Seconds between a starting UAV's hellos.
 HELLO_EVERY = 0.5
+#: In real time, when a UAV stops waiting for its neighbours' messages of a step, as fractions of the step's period
+#: after the wall-clock time the step is due: their estimation broadcasts (then it fuses what came; what comes later
+#: is fused at its time stamp within the scenario's delay bound), their second broadcasts, their plans (IB21 Sec. 5.3).
+FUSE_BY, PUBLISH_BY, PLAN_BY = 0.3, 0.5, 0.6
 
 
 def scenario_hash(scenario: Scenario) -> str:
@@ -66,6 +72,18 @@ def telemetry_of(scenario: Scenario) -> dict[str, registry.Telemetry]:
     return out
 
 
+#: Simulated seconds of the throwaway run :func:`warm` makes.
+WARM_UP_S = 1.0
+
+
+def warm(scenario: Scenario) -> None:
+    """Load the compiled kernels the stack calls before the first step is due (in a fresh process numba's cache
+    takes about 1 s to load at the first call, which would make a real-time run's first steps late): a throwaway
+    simulation of the scenario's first :data:`WARM_UP_S` s with another seed, of which nothing is kept."""
+    short = WARM_UP_S if scenario.duration is None else min(scenario.duration, WARM_UP_S)
+    simulate(scenario.model_copy(update={"duration": short, "seed": scenario.seed + 1}))
+
+
 class Agent:
     """UAV ``uav`` of ``scenario`` on ``node`` (its transport and seal)."""
 
@@ -77,8 +95,12 @@ class Agent:
         self._own: dict[int, dict] = {}  # own outboxes of recent steps (late parts hold the own row too)
         self._telemetry = telemetry_of(scenario)
         self._sequential = False  # whether its controller plans in sequence (IB21 Sec. 5.3): known once built
-        net = scenario.network  # estimation steps a late message can take (the channel's delay bound), plus one
-        self._window = int(np.ceil(net.delay_bound() / self.clock.dt_estimation - 1e-9)) + 2
+        # estimation steps a late message can take (the channel's delay bound); the mailbox keeps two more
+        self._late_steps = int(np.ceil(scenario.network.delay_bound() / self.clock.dt_estimation - 1e-9))
+        self._window = self._late_steps + 2
+        self._pending: dict[int, list[int]] = {}  # real time: per recent step, linked senders not heard by FUSE_BY
+        self.late: Counter = Counter()  # real time: neighbours' messages that missed their deadline, by channel
+        self._cpu = time.process_time()
 
     def run(self, rejoin: bool = False) -> None:
         """Say hello, build the stack when the world says start, and follow its steps to the end. ``rejoin``: the
@@ -98,6 +120,9 @@ class Agent:
                     raise TimeoutError(f"no start from the world within {PATIENCE:g} s") from None
         if not rejoin and start.k:
             raise RuntimeError(f"the swarm is at step {start.k} already: start this UAV with --rejoin")
+        if start.realtime:
+            warm(self.scenario)
+            node.heard = []  # every message's latency is logged and reported
         self.estimator, self.controller = build_onboard(self.scenario, self.i, start.labels)
         self._sequential = isinstance(self.controller, SequentialPlanner)
         node.send(wire.WORLD, self._sample(start.k - 1)[0])
@@ -108,7 +133,7 @@ class Agent:
         node, est, dt = self.node, self.estimator, self.clock.dt_estimation
         t = k * dt
         got = node.wait("navigation", [wire.WORLD], k, timeout=PATIENCE)[wire.WORLD]
-        nav, radio = wire.unpack(got.nav), got.radio
+        nav, radio, due = wire.unpack(got.nav), got.radio, got.due
         detections = Detections(**{name: wire.unpack(v) for name, v in got.detections.items()})
         with np.errstate(over="ignore", invalid="ignore"):  # a diverging filter is reported by its own checks
             outbox = est.share(t, nav, detections)
@@ -118,13 +143,13 @@ class Agent:
             beacon = None if got.control is None else self.controller.broadcast(got.control, nav)
             node.send(self.i, wire.Share(k=k, taken=t, payloads=_pack(outbox),
                                          beacon=None if beacon is None else _pack(beacon)))
-            est.fuse(t, detections, self._inbox(radio, outbox))
+            est.fuse(t, detections, self._inbox(k, radio, outbox, due))
             publish = getattr(est, "publish", None)  # the optional second round (Estimator.publish)
             if publish is not None:
                 posteriors = publish(t)
                 node.send(self.i, wire.Publish(k=k, taken=t, payloads=_pack(posteriors)))
                 if posteriors:
-                    heard = node.wait("publish", radio.links, k, timeout=PATIENCE)
+                    heard = self._wait("publish", radio.links, k, -1, due, PUBLISH_BY, dt)
                     est.combine(t, self._assemble(radio.links, {s: m.payloads for s, m in heard.items()},
                                                   posteriors))
         self._own.pop(k - self._window, None)
@@ -132,10 +157,10 @@ class Agent:
         sample, view = self._sample(k)
         if got.guide is not None:  # an external tracker's view of the target (controller.follow: truth)
             view = TargetView(**{name: wire.unpack(v) for name, v in got.guide.items()})
-        if got.control is not None:
-            heard = node.wait("share", radio.beacons, k, timeout=PATIENCE, take=False)
+        if got.control is not None:  # the beacons came with the shares
+            heard = self._wait("share", radio.beacons, k, -1, due, FUSE_BY, dt, take=False, count=False)
             sample.u = wire.pack(self._command(k, 0, got.control, nav, view, radio.beacons,
-                                               {s: m.beacon for s, m in heard.items()}, beacon))
+                                               {s: m.beacon for s, m in heard.items()}, beacon, due, dt))
         node.send(wire.WORLD, sample)
         for c, (control_now, _) in enumerate(self.clock.control_segments(k)):
             if control_now and c:
@@ -144,27 +169,29 @@ class Agent:
     def control(self, k: int, c: int, view) -> None:
         """A control step between estimation steps: its navigation and beacon radio from the world, its command
         back."""
-        node = self.node
+        node, dt = self.node, self.clock.dt_control
         got = node.wait("navigation", [wire.WORLD], k, c, timeout=PATIENCE)[wire.WORLD]
         nav, t, senders = wire.unpack(got.nav), got.taken, got.radio.beacons
         beacon = self.controller.broadcast(t, nav)
         node.send(self.i, wire.Beacon(k=k, c=c, taken=t, payloads=_pack(beacon)))
-        heard = {s: m.payloads for s, m in node.wait("beacon", senders, k, c, timeout=PATIENCE).items()}
-        u = self._command(k, c, t, nav, view, senders, heard, beacon)
+        heard = {s: m.payloads for s, m in self._wait("beacon", senders, k, c, got.due, FUSE_BY, dt).items()}
+        u = self._command(k, c, t, nav, view, senders, heard, beacon, got.due, dt)
         node.send(wire.WORLD, wire.Command(k=k, c=c, taken=t, u=wire.pack(u)))
 
     def _command(self, k: int, c: int, t: float, nav: np.ndarray, view, senders: list[int], heard: dict,
-                 beacon: dict) -> np.ndarray:
+                 beacon: dict, due: float | None, period: float) -> np.ndarray:
         """The controller's command, from the beacons ``heard`` (packed, by sender)."""
-        node, ctl = self.node, self.controller
+        ctl = self.controller
+        if self._sequential:  # the plans its lower-indexed neighbours made in this call; in real time, one whose
+            lower = [s for s in senders if s < self.i and s in heard]  # plan did not come in time is not heard
+            plans = self._wait("plan", lower, k, c, due, PLAN_BY, period)
+            heard = {s: b for s, b in heard.items() if s > self.i or s in plans}
         inbox = self._assemble(senders, heard, beacon)
-        if self._sequential:  # the plans its lower-indexed neighbours made in this call
-            lower = [s for s in senders if s < self.i]
-            plans = node.wait("plan", lower, k, c, timeout=PATIENCE)
+        if self._sequential:
             inbox.payloads.update(self._rows(lower, {s: m.payloads for s, m in plans.items()}, ctl.plans()))
         u = np.asarray(ctl.command(t, nav, view, inbox, self.clock.dt_control))
         if self._sequential:
-            node.send(self.i, wire.Plan(k=k, c=c, taken=t, payloads=_pack(ctl.plans())))
+            self.node.send(self.i, wire.Plan(k=k, c=c, taken=t, payloads=_pack(ctl.plans())))
         return u
 
     def _sample(self, k: int) -> tuple[wire.Sample, TargetView]:
@@ -172,21 +199,61 @@ class Agent:
         the estimator's view, which the controller follows until the next step."""
         probes = {} if k < 0 else {**self.estimator.sample(), **self.controller.sample()}
         view = self.estimator.view()
-        reports = {} if k < 0 else {role: self._telemetry[role].report(component) for role, component in
-                                    (("estimator", self.estimator), ("controller", self.controller))
-                                    if role in self._telemetry}
+        reports = {role: self._telemetry[role].report(component) for role, component in
+                   (("estimator", self.estimator), ("controller", self.controller)) if role in self._telemetry}
+        cpu, self._cpu = time.process_time() - self._cpu, time.process_time()
         return wire.Sample(k=k, probes=_pack(probes), aim=wire.pack(view.state[:, :2]),
                            telemetry={role: _pack(r) for role, r in reports.items()},
-                           rejected=dict(self.node.seal.rejected)), view
+                           rejected=dict(self.node.seal.rejected), cpu=cpu, heard=self.node.log(),
+                           late=dict(self.late)), view
 
-    def _inbox(self, radio: wire.Radio, outbox: dict) -> Inbox:
-        """The estimation inbox the radio delivered: this step's part, then the late ones (Inbox.late)."""
+    def _wait(self, channel: str, senders, k: int, c: int, due: float | None, by: float, period: float,
+              take: bool = True, count: bool = True) -> dict:
+        """The messages of ``channel`` for step ``(k, c)`` from ``senders``: in lockstep (``due`` None) every one
+        (waiting up to PATIENCE); in real time, those come by ``due + by · period`` (wall clock; with ``count``,
+        the others are counted in :attr:`late`)."""
+        if due is None:
+            return self.node.wait(channel, senders, k, c, timeout=PATIENCE, take=take)
+        got = self.node.wait(channel, senders, k, c, timeout=max(0.0, due + by * period - time.time()),
+                             missing_ok=True, take=take)
+        if count:
+            self.late[channel] += len([s for s in senders if s not in got and s not in self.node.absent])
+        return got
+
+    def _inbox(self, k: int, radio: wire.Radio, outbox: dict, due: float | None) -> Inbox:
+        """The estimation inbox: this step's part, then the late ones (Inbox.late, oldest first). In lockstep the
+        simulated radio names them; in real time this step's part is what came by FUSE_BY, and a late part is what
+        came since of an earlier step's, fused at its time stamp within the scenario's delay bound (later: dropped
+        and counted)."""
+        dt = self.clock.dt_estimation
         parts = []
-        for send_step, senders in radio.parts:  # this step's part is always there, first
-            heard = self.node.wait("share", senders, send_step, timeout=PATIENCE, take=False)
+        for send_step, senders in [*radio.parts, *self._late_parts(k, due)]:  # this step's part is always first
+            heard = self._wait("share", senders, send_step, -1, due, FUSE_BY, dt, take=False, count=False)
+            if due is not None and send_step == k:
+                missed = [s for s in senders if s not in heard and s not in self.node.absent]
+                self.late["share"] += len(missed)
+                if missed and self._late_steps:
+                    self._pending[k] = missed
             parts.append(self._assemble(senders, {s: m.payloads for s, m in heard.items()},
                                         self._own.get(send_step, outbox)))
         return Inbox(parts[0].links, parts[0].payloads, tuple(parts[1:]), parts[0].receivers)
+
+    def _late_parts(self, k: int, due: float | None) -> list[tuple[int, list[int]]]:
+        """Real time: ``[(send step, senders)]`` of the shares that missed their step's deadline and came since,
+        within the delay bound; what is older is forgotten (it was counted late when it missed its deadline)."""
+        if due is None:
+            return []
+        parts = []
+        for j in sorted(self._pending):
+            if j < k - self._late_steps:
+                del self._pending[j]
+                continue
+            came = [s for s in self._pending[j] if self.node.peek("share", s, j) is not None]
+            if came:
+                parts.append((j, came))
+                self.late["share_fused_late"] += len(came)
+                self._pending[j] = [s for s in self._pending[j] if s not in came]
+        return parts
 
     def _assemble(self, senders, heard: dict, own: dict) -> Inbox:
         """An inbox of this UAV: its row of the links (the ``senders`` heard: ``heard`` their packed payloads), every

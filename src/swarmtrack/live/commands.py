@@ -126,6 +126,9 @@ def agent_cmd(scenario: str, seed, overrides, uav: int, connect, listen, connect
 
 
 def _live_options(f):
+    f = click.option("--realtime", is_flag=True, help=(
+        "run at wall-clock rate: messages arrive when they arrive, late ones are fused at their time stamps within "
+        "network.delay_max (default: lockstep, the numbers of swarmtrack run)"))(f)
     f = click.option("--listen", multiple=True, metavar="ENDPOINT",
                      help="where the world listens (default: a free port on 127.0.0.1)")(f)
     f = click.option("--no-plots", is_flag=True, help="skip the PNG figures")(f)
@@ -139,30 +142,35 @@ def _live_options(f):
 @_scenario_options
 @_live_options
 @_security_options
-def live_cmd(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, swarm, key_file, insecure) -> None:
+def live_cmd(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, realtime, swarm, key_file,
+             insecure) -> None:
     """Run SCENARIO with every UAV's onboard stack in its own process (swarmtrack agent --uav I), talking over
-    Eclipse Zenoh on loopback, in lockstep with this world process: the run folder of swarmtrack run, with the
-    same numbers."""
-    _serve(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, swarm, key_file, insecure, spawn=True)
+    Eclipse Zenoh on loopback with this world process: in lockstep (the run folder of swarmtrack run, with the same
+    numbers) or at wall-clock rate (--realtime)."""
+    _serve(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, realtime, swarm, key_file, insecure,
+           spawn=True)
 
 
 @click.command("world")
 @_scenario_options
 @_live_options
 @_security_options
-def world_cmd(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, swarm, key_file, insecure) -> None:
+def world_cmd(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, realtime, swarm, key_file,
+              insecure) -> None:
     """Run the truth side of SCENARIO alone (world, sensors, simulated radio, recorder) and wait for its UAVs'
     processes (swarmtrack agent --uav I --connect ENDPOINT) to join."""
-    _serve(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, swarm, key_file, insecure, spawn=False)
+    _serve(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, realtime, swarm, key_file, insecure,
+           spawn=False)
 
 
-def _serve(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, swarm, key_file, insecure,
+def _serve(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, realtime, swarm, key_file, insecure,
            spawn: bool) -> None:
     from swarmtrack.analysis.runs import run_key
     from swarmtrack.live.node import Node
+    from swarmtrack.live.session import run_live
     from swarmtrack.live.transport import TransportError, ZenohTransport, free_port
     from swarmtrack.live.wire import WORLD, Seal
-    from swarmtrack.live.world import LiveError, run_lockstep
+    from swarmtrack.live.world import LiveError
     from swarmtrack.outputs import OutputError, Terminated, check_destination, run_folder
 
     scn = _load(scenario, overrides, seed)
@@ -187,8 +195,12 @@ def _serve(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, 
             else:
                 click.echo(f"world of {scn.name} listening on {', '.join(endpoints)} (swarm {swarm}); waiting for "
                            f"UAVs 1..{scn.swarm.n_uavs}", err=True)
-            rec, live = run_lockstep(scn, node, record_to=tmp / "recording")
+            rec, live, tables = run_live(scn, node, record_to=tmp / "recording", realtime=realtime)
             stop_agents(procs)  # within GRACE s of the end (or of Ctrl-C), before the files are written
+            if tables:
+                (tmp / "live").mkdir()
+                for name, table in tables.items():
+                    table.to_parquet(tmp / "live" / f"{name}.parquet", index=False)
             metrics = write_run(rec, scn, tmp, no_plots=no_plots, extra={"live": dataclasses.asdict(live)},
                                 warnings=live.warnings())
     except (OutputError, LiveError) as exc:
@@ -203,7 +215,7 @@ def _serve(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, 
         transport.close()
     report_run(metrics, scn, out)
     rejected = metrics["live"]["rejected"]
-    click.echo(f"live ({scn.swarm.n_uavs} UAV processes, lockstep): " + (
+    click.echo(f"live ({scn.swarm.n_uavs} UAV processes, {live.mode}): " + _facts(live) + (
         "messages dropped: " + ", ".join(f"{n} {cause}" for cause, n in sorted(rejected.items()))
         if rejected else "no message dropped"))
     if live.interrupted is not None:
@@ -211,6 +223,22 @@ def _serve(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, 
         click.echo(f"interrupted at t = {live.interrupted:.2f} s; the steps completed were written to {out}", err=True)
         sys.exit(130)
     warn_run(metrics, strict)
+
+
+def _facts(live) -> str:
+    """The live run's figures in a few words: CPU per step, in real time latency and lateness."""
+    out = []
+    if live.cpu_per_step_ms is not None:
+        out.append(f"CPU per UAV step {live.cpu_per_step_ms['median']:.2f} ms (median)")
+    if live.step_lateness is not None:
+        share = live.latency_ms.get("share")
+        if share is not None:
+            out.append(f"share latency {share['median']:.2f} ms (p99 {share['p99']:.2f})")
+        out.append(f"steps done {live.step_lateness['p99']:.2f} periods late at the 99th percentile")
+        missed = {ch: n for ch, n in live.late.items() if n and ch != "share_fused_late"}
+        if missed:
+            out.append("missed deadlines: " + ", ".join(f"{n} {ch}" for ch, n in sorted(missed.items())))
+    return "; ".join(out) + "; " if out else ""
 
 
 def start_agents(scn, scenario: str, seed, overrides, endpoints: list[str], swarm: str, key_file) -> list:

@@ -32,6 +32,7 @@ class Node:
         self.stopped: str | None = None
         self.absent: set[int] = set()  # UAVs the world said are lost: nobody waits for their messages
         self.seen: dict[int, float] = {}  # when each sender was last heard (monotonic s)
+        self.heard: list[tuple] | None = None  # with a list, every step's message is logged with its latency
 
     def listen(self, *patterns: tuple[str, str, str]) -> None:
         """Subscribe to ``(origin, to, channel)`` key patterns of the swarm's space (``*`` wildcards)."""
@@ -40,7 +41,7 @@ class Node:
 
     def _arrive(self, key_expr: str, data: bytes) -> None:
         parts = parse(self.swarm, key_expr)
-        if parts is None:
+        if parts is None or (parts[0] == "uav" and parts[1] == str(self.me)):  # not the swarm's, or its own
             return
         try:
             msg = self.seal.open(key_expr, data)
@@ -54,6 +55,8 @@ class Node:
             return
         with self._cond:
             self.seen[msg.sender] = time.monotonic()
+            if self.heard is not None and msg.sender != self.me and channel not in ("alive", "roster", "stop"):
+                self.heard.append((channel, msg.sender, msg.k, msg.c, msg.sent, time.time() - msg.sent))
             if channel == "stop":
                 self.stopped = getattr(msg, "reason", "done")
             elif channel == "roster":
@@ -119,6 +122,20 @@ class Node:
                 time.sleep(HEARTBEAT)
 
         threading.Thread(target=beat, name="heartbeat", daemon=True).start()
+
+    def log(self) -> list[tuple]:
+        """The messages received since the last call, ``(channel, sender, k, c, sent, latency)`` (wall-clock s;
+        logged once :attr:`heard` is a list), and a fresh log."""
+        with self._cond:
+            out, self.heard = self.heard or [], []
+        return out
+
+    def older(self, channel: str, k: int, c: int = -1) -> list[Message]:
+        """Every message of ``channel`` from any sender for a step before ``(k, c)``, taken out of the mailbox in
+        step order (in real time, what came after its deadline)."""
+        with self._cond:
+            keys = [key_ for key_ in self._box if key_[0] == channel and (key_[2], key_[3]) < (k, c)]
+            return [self._box.pop(key_) for key_ in sorted(keys, key=lambda key_: (key_[2], key_[3], key_[1]))]
 
     def peek(self, channel: str, sender: int, k: int, c: int = -1) -> Message | None:
         with self._cond:

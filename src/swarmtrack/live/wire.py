@@ -1,9 +1,10 @@
 """What travels between the live swarm's processes: one typed, versioned message per channel, sealed per swarm.
 
 **Messages** (``msgspec`` structs, MessagePack on the wire, :data:`VERSION` in every one). Every message carries its
-``sender`` (a UAV index, or :data:`WORLD`), a sequence number ``seq`` (per sender and channel, increasing) and the
-time ``taken`` (s, simulated) its data describe, and the estimation step ``k`` and control step ``c`` (−1: the
-estimation step itself) it belongs to:
+``sender`` (a UAV index, or :data:`WORLD`), a sequence number ``seq`` (per sender and channel, increasing), the
+wall-clock time ``sent`` (s since the Unix epoch: a receiver measures its latency) and the time ``taken`` (s,
+simulated) its data describe, and the estimation step ``k`` and control step ``c`` (−1: the estimation step itself)
+it belongs to:
 
 ==============  ==========  ===================================================================================
 channel         from → to   content
@@ -62,6 +63,7 @@ class Message(msgspec.Struct, tag_field="channel", kw_only=True):
     version: int = VERSION
     sender: int = WORLD
     seq: int = 0
+    sent: float = 0.0
     taken: float = 0.0
     k: int = 0
     c: int = -1
@@ -79,9 +81,11 @@ class Hello(Message, tag="hello"):
 
 class Start(Message, tag="start"):
     """``labels`` the sensor's label of each sensed object, by group; ``k`` the step a UAV starts at (0, or the
-    step a rejoining UAV joins at)."""
+    step a rejoining UAV joins at); ``realtime``: the world runs at wall-clock rate (the UAVs wait for their
+    neighbours until deadlines, and log every message's latency)."""
 
     labels: dict[str, list[int]]
+    realtime: bool = False
 
 
 class Radio(msgspec.Struct):
@@ -109,6 +113,9 @@ class Navigation(Message, tag="navigation"):
     detections: dict[str, Any] | None = None
     guide: dict[str, Any] | None = None
     control: float | None = None
+    due: float | None = None
+    """In real time, the wall-clock time (s since the Unix epoch) the step is at, from which the UAV's deadlines
+    run; None in lockstep."""
 
 
 class Share(Message, tag="share"):
@@ -148,6 +155,14 @@ class Sample(Message, tag="sample"):
     u: Any = None
     telemetry: dict[str, dict[str, Any]] = {}
     rejected: dict[str, int] = {}  # what this UAV's process dropped so far, by cause
+    cpu: float = 0.0
+    """The CPU time (s) the UAV's process spent since its previous sample."""
+    heard: list[tuple[str, int, int, int, float, float]] = []
+    """Real time: the messages the UAV received since its previous sample, ``(channel, sender, k, c, sent,
+    latency)`` (wall-clock s)."""
+    late: dict[str, int] = {}
+    """Real time: its neighbours' messages that came after its deadline, or after the scenario's delay bound (never
+    fused), so far, by channel."""
 
 
 class Alive(Message, tag="alive"):
@@ -252,6 +267,7 @@ class Seal:
     def seal(self, key_expr: str, msg: Message) -> bytes:
         with self._lock:
             msg.seq = self._seq[key_expr] = self._seq.get(key_expr, self.started) + 1
+        msg.sent = time.time()
         body = _encoder.encode(msg)
         return self._tag(key_expr, body) + body
 

@@ -1,7 +1,7 @@
 """The truth side of the live swarm: the world (truth, physics, sensors), the simulated radio and the recorder, in
 one process that talks to the UAVs' processes only by messages.
 
-In lockstep (:func:`run_lockstep`) it runs the simulator's step loop (:func:`swarmtrack.sim.engine.step_loop`) with
+In lockstep (:class:`LockstepWorld`) it runs the simulator's step loop (:func:`swarmtrack.sim.engine.step_loop`) with
 every call to the onboard stack replaced by messages: per estimation step it sends each UAV its navigation, its
 detections and its radio (which of the other UAVs' messages reach it now: the scenario's channel, with its losses,
 outages and delays, drawn from the same streams in the same order), and waits for every UAV's probes; per control
@@ -17,6 +17,7 @@ from collections import Counter
 from collections.abc import Callable
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -27,6 +28,9 @@ from swarmtrack.network.links import neighbour_lists
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sim.build import build, command_width
 from swarmtrack.sim.recorder import Recorder, Recording
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 
 class LiveError(Exception):
@@ -63,7 +67,9 @@ def labels_of(world) -> dict[str, list[int]]:
 @dataclass
 class LiveReport:
     """What a live run adds to ``metrics.json`` (under ``live``): the UAVs lost and rejoined (1-based, simulated
-    time), and the messages dropped by every process's seal, by cause."""
+    time), the messages dropped by every process's seal (by cause), the CPU time of a UAV's process per estimation
+    step; in real time also the latencies, how late the steps were done and the messages that missed their
+    deadlines. Percentiles are ``{median, p90, p99, max, count}``."""
 
     mode: str = "lockstep"
     lost: list[dict] = field(default_factory=list)
@@ -71,10 +77,25 @@ class LiveReport:
     rejected: dict[str, int] = field(default_factory=dict)
     interrupted: float | None = None
     """The simulated time at which Ctrl-C or SIGTERM stopped the run (the recording holds the steps before it)."""
+    cpu_per_step_ms: dict | None = None
+    """A UAV's process's CPU time per estimation step (ms, over UAVs and steps; its start-up left out)."""
+    latency_ms: dict[str, dict] = field(default_factory=dict)
+    """Real time: each channel's latency (ms, from the sender's wall clock to the receiver's callback)."""
+    step_lateness: dict | None = None
+    """Real time: how late after its time each UAV's step was done (its sample sent), in estimation periods."""
+    world_lateness: dict | None = None
+    """Real time: how late after its time the world began each step, in estimation periods."""
+    late: dict[str, int] = field(default_factory=dict)
+    """Real time: the messages that missed their deadline, by channel (``share_fused_late``: of the shares, those
+    fused afterwards at their time stamps, within the scenario's delay bound)."""
 
     def warnings(self) -> list[dict]:
         out = [{"check": "live", "message": f"UAV {e['uav']} stopped answering at t = {e['t']:.2f} s; the world "
                 f"flew it with the safe command from then{self._back(e['uav'])}"} for e in self.lost]
+        if self.step_lateness is not None and self.step_lateness["p99"] > 1:
+            out.append({"check": "live", "message": f"real time not kept: 1 % of the UAVs' steps were done more than "
+                        f"{self.step_lateness['p99']:.1f} estimation periods late (the machine is too slow for "
+                        "this swarm, or too busy)"})
         if self.interrupted is not None:
             out.append({"check": "live", "message": f"interrupted at t = {self.interrupted:.2f} s: the recording "
                         "holds the steps completed before"})
@@ -99,6 +120,8 @@ class _Interrupted(Exception):
 
 
 class LockstepWorld:
+    realtime = False
+
     """The truth side of a live run in lockstep: :meth:`run` is the simulator's step loop by messages.
 
     A UAV whose process is not heard for :data:`~swarmtrack.live.node.LOST_AFTER` s (no heartbeat) is lost: its
@@ -124,6 +147,7 @@ class LockstepWorld:
         self._stop = False  # Ctrl-C or SIGTERM arrived (:meth:`_interruptible`)
         self.recorded = 0  # estimation steps recorded
         self.processes: dict[int, tuple[int, int]] = {}  # each UAV's process the world knows: (pid, start time)
+        self.cpu: list[float] = []  # the CPU time (s) of a UAV's process per estimation step, over UAVs and steps
 
     def run(self) -> tuple[Recording, LiveReport]:
         node, clock = self.node, self.sim.clock
@@ -131,8 +155,9 @@ class LockstepWorld:
         hello = node.wait("hello", range(self.n), 0, timeout=self.patience)
         self._check(hello)
         self.processes = {i: (m.pid, m.started) for i, m in hello.items()}
-        node.send("all", wire.Start(labels=labels_of(self.sim.world)))
+        node.send("all", wire.Start(labels=labels_of(self.sim.world), realtime=self.realtime))
         self.last = node.wait("sample", range(self.n), -1, timeout=self.patience)
+        self._begin()
         report_every = max(1, clock.steps // 100)
         with self._interruptible():
             for k in range(clock.steps):
@@ -149,7 +174,19 @@ class LockstepWorld:
         for counts in self._rejected.values():
             total.update(counts)
         self.report.rejected = dict(total)
+        self.report.cpu_per_step_ms = _percentiles(1e3 * np.asarray(self.cpu))
+        self._finish()
         return self.recorder.close(), self.report
+
+    def _begin(self) -> None:
+        """Every UAV's stack is built: the first step comes next."""
+
+    def _finish(self) -> None:
+        """The run is over: complete the report."""
+
+    def tables(self) -> dict[str, pd.DataFrame]:
+        """Tables the run folder keeps beside the recording (``live/<name>.parquet``)."""
+        return {}
 
     @contextmanager
     def _interruptible(self):
@@ -179,39 +216,32 @@ class LockstepWorld:
         navigation, detections and radio, and the time of the control step that starts now with its beacon radio)
         and answers with one (its probes, and the command of that control step); the radio's draws (links, late
         parts, beacon links) and the guide's view come in the simulator's order."""
-        sim, node = self.sim, self.node
+        sim = self.sim
         world, channel, clock = sim.world, sim.channel, sim.clock
         t = k * clock.dt_estimation
+        due = self._due(t)
         truth = world.truth()
         positions = truth[world.slices["uavs"], :2]
         nav = world.navigation()
         detections, _sources = world.sense(aim=self._aims() if world.aims else None)
         links = channel.links(positions, t)
-        delivered = channel.deliver(links, {"k": np.full(self.n, k)}, t)
+        parts = self._parts(k, t, links)
         segments = list(clock.control_segments(k))
         beacons = channel.beacon_links(positions, world.t) if segments[0][0] else None
         view = sim.stack.guide.view() if sim.stack.guide is not sim.stack.estimator else None
         heard, mine = self._heard(links), detections.of_each_uav()
-        parts = [(int(part.payloads["k"][0]), self._heard(part.links)) for part in delivered.parts()]
+        parts = [(step, self._heard(part)) for step, part in parts]
         beacons = None if beacons is None else self._heard(beacons)
-        for i in sorted(self.alive):
-            radio = wire.Radio(links=heard[i], parts=[(s, senders[i]) for s, senders in parts],
+        for i in self._listeners():
+            radio = wire.Radio(links=heard[i], parts=[(step, senders[i]) for step, senders in parts],
                                beacons=[] if beacons is None else beacons[i])
-            node.send(i, wire.Navigation(
+            self.node.send(i, wire.Navigation(
                 k=k, taken=t, nav=wire.pack(nav[i:i + 1]), radio=radio,
                 detections={f: wire.pack(getattr(mine[i], f)) for f in FIELDS},
                 guide=None if view is None else _row_of_view(view, i),
-                control=None if beacons is None else world.t))
-        samples = self._gather("sample", k, -1, t)
-        self.last.update(samples)
-        probes = {name: np.concatenate([self._probe(i, name, shape, samples) for i in range(self.n)])
-                  for name, shape in sim.stack.probes.items()}
-        for role, telemetry in self.telemetries.items():  # the truth side's copy of the UAVs' components
-            telemetry.mirror(self.components[role], _stacked([self.last[i].telemetry[role] for i in range(self.n)]))
-        self.recorder.record(t, truth, world.phase_index(), {**probes, **{m: f() for m, f in sim.monitors.items()}})
-        self.recorded = k + 1
-        for i, sample in samples.items():
-            self._rejected[i] = sample.rejected
+                control=None if beacons is None else world.t, due=due))
+        samples = self._gather("sample", k, -1, t, self._until(due, clock.dt_estimation))
+        self._record(k, t, truth, samples)
         offset = 0
         for c, (control_now, ticks) in enumerate(segments):
             if control_now:
@@ -225,11 +255,34 @@ class LockstepWorld:
             offset += ticks
 
     def control_step(self, k: int, c: int, nav: np.ndarray, beacons) -> None:
-        node, t, heard = self.node, self.sim.world.t, self._heard(beacons)
-        for i in sorted(self.alive):
-            node.send(i, wire.Navigation(k=k, c=c, taken=t, nav=wire.pack(nav[i:i + 1]),
-                                         radio=wire.Radio(beacons=heard[i])))
-        self._command(nav, {i: m.u for i, m in self._gather("command", k, c, t).items()})
+        t = self.sim.world.t
+        due, heard = self._due(t), self._heard(beacons)
+        for i in self._listeners():
+            self.node.send(i, wire.Navigation(k=k, c=c, taken=t, nav=wire.pack(nav[i:i + 1]),
+                                              radio=wire.Radio(beacons=heard[i]), due=due))
+        commands = self._gather("command", k, c, t, self._until(due, self.sim.clock.dt_control))
+        self._command(nav, {i: m.u for i, m in commands.items()})
+
+    def _record(self, k: int, t: float, truth: np.ndarray, samples: dict) -> None:
+        """Record step ``k``: the truth, the UAVs' probes (NaN for the UAVs without a sample) and the truth-side
+        monitors on the UAVs' telemetry."""
+        sim = self.sim
+        self.last.update(samples)
+        probes = {name: np.concatenate([self._probe(i, name, shape, samples) for i in range(self.n)])
+                  for name, shape in sim.stack.probes.items()}
+        for role, telemetry in self.telemetries.items():  # the truth side's copy of the UAVs' components
+            telemetry.mirror(self.components[role], _stacked([self.last[i].telemetry[role] for i in range(self.n)]))
+        self.recorder.record(t, truth, sim.world.phase_index(),
+                             {**probes, **{m: f() for m, f in sim.monitors.items()}})
+        self.recorded = k + 1
+        self._account(samples.values())
+
+    def _account(self, samples) -> None:
+        """What the samples say of their processes: the messages they dropped, their CPU per step."""
+        for sample in samples:
+            self._rejected[sample.sender] = sample.rejected
+            if sample.k >= 0:  # the first sample's CPU is the process's start-up
+                self.cpu.append(sample.cpu)
 
     def _command(self, nav: np.ndarray, commands: dict) -> None:
         """The UAVs' ``commands`` (packed, by UAV) into the world's; the lost UAVs fly :func:`safe_command`."""
@@ -237,20 +290,39 @@ class LockstepWorld:
         for i, u in commands.items():
             self.u[i] = wire.unpack(u)[0]
 
-    def _gather(self, channel: str, k: int, c: int, t: float) -> dict:
+    # the clock: in lockstep the world waits for every UAV; RealtimeWorld (realtime.py) keeps the wall clock
+
+    def _due(self, t: float) -> float | None:
+        """The wall-clock time simulated time ``t`` is due at (None: lockstep)."""
+        return None
+
+    def _until(self, due: float | None, period: float) -> float | None:
+        """The monotonic time until which the world waits for the UAVs' answers (None: until they come)."""
+        return None
+
+    def _parts(self, k: int, t: float, links) -> list[tuple[int, object]]:
+        """``[(send step, links)]`` of the estimation messages that reach their receivers now: this step's, then the
+        late ones the simulated channel delivers now (its delays, drawn as the simulator draws them)."""
+        delivered = self.sim.channel.deliver(links, {"k": np.full(self.n, k)}, t)
+        return [(int(part.payloads["k"][0]), part.links) for part in delivered.parts()]
+
+    def _listeners(self) -> list[int]:
+        """The UAVs the world sends their steps to."""
+        return sorted(self.alive)
+
+    def _gather(self, channel: str, k: int, c: int, t: float, until: float | None = None) -> dict:
         """Every living UAV's message of ``channel`` for step ``(k, c)``. A UAV whose process has not been heard for
         :data:`~swarmtrack.live.node.LOST_AFTER` s (no heartbeat: it died), or for which a new process said hello, is
-        lost; the others are waited for up to ``patience`` s (a process that is alive but stuck ends the run with an
-        error)."""
+        lost; the others are waited for until the monotonic time ``until`` (then what came is returned), or without
+        it up to ``patience`` s (a process that is alive but stuck ends the run with an error)."""
         got: dict = {}
         deadline = time.monotonic() + self.patience
         while True:
             if self._stop:
                 raise _Interrupted()
-            got.update(self.node.wait(channel, sorted(self.alive - set(got)), k, c, timeout=0.1, missing_ok=True))
+            wait = 0.1 if until is None else min(0.1, max(0.0, until - time.monotonic()))
+            got.update(self.node.wait(channel, sorted(self.alive - set(got)), k, c, timeout=wait, missing_ok=True))
             missing = self.alive - set(got)
-            if not missing:
-                return got
             now = time.monotonic()
             silent = {i for i in missing if now - self.node.seen.get(i, 0.0) > LOST_AFTER
                       or self._newcomer(i) is not None}  # not heard, or a new process says hello
@@ -258,7 +330,9 @@ class LockstepWorld:
                 self.alive -= silent
                 self.report.lost += [{"uav": i + 1, "t": round(t, 9)} for i in sorted(silent)]
                 self.node.send("all", wire.Roster(alive=sorted(self.alive)))
-            elif now > deadline:
+            if not missing - silent or (until is not None and now >= until):
+                return got
+            if until is None and now > deadline:
                 raise TimeoutError(f"no {channel} of step {k} from UAVs {[i + 1 for i in sorted(missing)]}, whose "
                                    f"processes are alive")
 
@@ -302,13 +376,6 @@ class LockstepWorld:
         return np.concatenate([wire.unpack(self.last[i].aim) for i in range(self.n)])
 
 
-def run_lockstep(scenario: Scenario, node: Node, record_to=None, progress: Callable[[float], None] | None = None,
-                 patience: float = PATIENCE) -> tuple[Recording, LiveReport]:
-    """Run ``scenario`` with its UAVs' stacks in their own processes (already started, reachable through
-    ``node``); returns the recording (streamed to ``record_to`` when given) and the live report."""
-    return LockstepWorld(scenario, node, record_to, patience, progress).run()
-
-
 FIELDS = ("owner", "z", "sensor_pos", "label", "n_uavs", "grid", "frame", "footprint", "taken")
 
 
@@ -316,6 +383,14 @@ def _row_of_view(view, i: int) -> dict:
     """UAV i's row of a :class:`~swarmtrack.estimation.base.TargetView` (its state, model and motion), packed."""
     return {name: wire.pack(getattr(view, name)[i:i + 1]) for name in ("state", "model", "motion")
             if getattr(view, name) is not None}
+
+
+def _percentiles(x: np.ndarray) -> dict[str, float] | None:
+    """Median, 90th and 99th percentiles and maximum of ``x`` (None: empty)."""
+    if not len(x):
+        return None
+    p50, p90, p99 = np.percentile(x, [50, 90, 99])
+    return {"median": float(p50), "p90": float(p90), "p99": float(p99), "max": float(np.max(x)), "count": len(x)}
 
 
 def _stacked(rows: list[dict]) -> dict[str, np.ndarray]:

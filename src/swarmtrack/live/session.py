@@ -1,0 +1,26 @@
+"""One live run's truth side, in lockstep or at wall-clock rate."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import pandas as pd
+
+from swarmtrack.live.agent import PATIENCE
+from swarmtrack.live.node import Node
+from swarmtrack.live.realtime import RealtimeWorld
+from swarmtrack.live.world import LiveReport, LockstepWorld
+from swarmtrack.scenarios.schema import Scenario
+from swarmtrack.sim.recorder import Recording
+
+
+def run_live(scenario: Scenario, node: Node, record_to=None, progress: Callable[[float], None] | None = None,
+             patience: float = PATIENCE,
+             realtime: bool = False) -> tuple[Recording, LiveReport, dict[str, pd.DataFrame]]:
+    """Run ``scenario`` with its UAVs' stacks in their own processes (already started, reachable through ``node``),
+    in lockstep (:class:`~swarmtrack.live.world.LockstepWorld`) or ``realtime``
+    (:class:`~swarmtrack.live.realtime.RealtimeWorld`); returns the recording (streamed to ``record_to`` when
+    given), the live report and the tables the run folder keeps beside the recording."""
+    world = (RealtimeWorld if realtime else LockstepWorld)(scenario, node, record_to, patience, progress)
+    recording, report = world.run()
+    return recording, report, world.tables()

@@ -5,17 +5,19 @@
   ping-pong (bytes out, bytes back) between the same two processes. Goal: median ≤ 2× the raw one.
 * **Lockstep ``l24-ct`` with 5 UAV processes**: simulated time over wall time of the step loop (start-up apart,
   printed too), against the simulator's own speed on the same scenario in this process. Goal: ≥ 5× real time.
-* **CPU per UAV process per estimation step**: the UAV processes' CPU time (user + system, from the kernel's
-  accounting of this process's children), over UAVs and steps: what a companion computer must afford.
+* **Real time ``l24-ct`` with 10 UAV processes for 60 s**: how late after its time each UAV's step was done (goal: not
+  more than one period at the 99th percentile), the world's own lateness, the share latency beside the one-hop
+  figure, the messages that missed their deadlines, and the CPU time of a UAV's process per estimation step (median,
+  from each process's own accounting; start-up apart): what a companion computer must afford.
 
-Usage: ``python benchmarks/bench_live.py [--uavs 5] [--duration 30] [--hops 2000] [--json]``.
+Usage: ``python benchmarks/bench_live.py [--uavs 5] [--duration 30] [--realtime-uavs 10] [--realtime-duration 60]
+[--hops 2000] [--quick] [--json]``.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import resource
 import subprocess
 import sys
 import threading
@@ -100,44 +102,63 @@ def _rounds(transport, raw: bool, hops: int) -> list[float]:
     return rtt
 
 
-def lockstep(uavs: int, duration: float) -> dict:
-    """A lockstep live run of ``l24-ct`` with ``uavs`` UAV processes, and the simulator on the same scenario."""
-    from swarmtrack import load_scenario, simulate
+def _live(uavs: int, duration: float, realtime: bool, progress=None):
+    """A live run of ``l24-ct`` with ``uavs`` UAV processes: (report, seconds from start to the first step)."""
+    from swarmtrack import load_scenario
     from swarmtrack.live.commands import start_agents, stop_agents
     from swarmtrack.live.session import run_live
 
     overrides = [f"duration={duration}", f"swarm.n_uavs={uavs}"]
     scenario = load_scenario("l24-ct", overrides)
-    t0 = time.perf_counter()
-    simulate(scenario)
-    simulator_s = time.perf_counter() - t0
     port = free_port()
     endpoints = [f"tcp/127.0.0.1:{port}"]
     transport = ZenohTransport(listen=endpoints)
-    node = Node(transport, wire.Seal(None, uavs), SWARM, wire.WORLD)
-    marks = []
-    t0 = time.perf_counter()
-    procs = start_agents(scenario, "l24-ct", None, overrides, endpoints, SWARM, None)
+    node = Node(transport, wire.Seal(None, uavs), f"{SWARM}-{port}", wire.WORLD)
+    procs = start_agents(scenario, "l24-ct", None, overrides, endpoints, f"{SWARM}-{port}", None)
     try:
-        run_live(scenario, node, progress=lambda done: marks.append((time.perf_counter(), done)))
-        end = time.perf_counter()
+        _rec, report, _tables = run_live(scenario, node, progress=progress, realtime=realtime)
     finally:
         stop_agents(procs)
         transport.close()
-    children = resource.getrusage(resource.RUSAGE_CHILDREN)
-    steps = round(duration * scenario.rates.estimation)
+    return scenario, report
+
+
+def lockstep(uavs: int, duration: float) -> dict:
+    """A lockstep live run of ``l24-ct`` with ``uavs`` UAV processes, and the simulator on the same scenario."""
+    from swarmtrack import load_scenario, simulate
+
+    t0 = time.perf_counter()
+    simulate(load_scenario("l24-ct", [f"duration={duration}", f"swarm.n_uavs={uavs}"]))
+    simulator_s = time.perf_counter() - t0
+    marks = []
+    t0 = time.perf_counter()
+    _scenario, report = _live(uavs, duration, False, lambda done: marks.append((time.perf_counter(), done)))
+    end = time.perf_counter()
     (t_first, done_first) = marks[0]
     loop_s = (end - t_first) / (1 - done_first)  # the steps after the first, scaled to the whole run
     return {"uavs": uavs, "duration_s": duration, "startup_s": t_first - t0, "loop_s": loop_s,
             "real_time_factor": duration / loop_s, "simulator_real_time_factor": duration / simulator_s,
-            "cpu_per_uav_step_ms": 1e3 * (children.ru_utime + children.ru_stime) / (uavs * steps)}
+            "cpu_per_uav_step_ms": report.cpu_per_step_ms["median"]}
+
+
+def realtime(uavs: int, duration: float) -> dict:
+    """A real-time live run of ``l24-ct`` with ``uavs`` UAV processes."""
+    scenario, report = _live(uavs, duration, True)
+    share = report.latency_ms.get("share", {})
+    return {"uavs": uavs, "duration_s": duration, "period_ms": 1e3 / scenario.rates.estimation,
+            "step_lateness_periods": report.step_lateness, "world_lateness_periods": report.world_lateness,
+            "share_latency_ms": share, "cpu_per_uav_step_ms": report.cpu_per_step_ms, "late": report.late,
+            "lost": report.lost}
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--uavs", type=int, default=5)
     ap.add_argument("--duration", type=float, default=30.0, help="simulated s of the lockstep run")
+    ap.add_argument("--realtime-uavs", type=int, default=10)
+    ap.add_argument("--realtime-duration", type=float, default=60.0, help="s of the real-time run")
     ap.add_argument("--hops", type=int, default=2000)
+    ap.add_argument("--quick", action="store_true", help="short runs (10 s each, 500 hops)")
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--echo", type=int, help=argparse.SUPPRESS)
     ap.add_argument("--raw", action="store_true", help=argparse.SUPPRESS)
@@ -146,10 +167,13 @@ def main() -> int:
     if args.echo:
         _echo(args.echo, args.raw)
         return 0
+    if args.quick:
+        args.duration, args.realtime_duration, args.hops = 10.0, 10.0, 500
     hop = ping_pong(args.hops)
     run = lockstep(args.uavs, args.duration)
+    live = realtime(args.realtime_uavs, args.realtime_duration)
     if args.json:
-        print(json.dumps({"hop": hop, "lockstep": run}, indent=1))
+        print(json.dumps({"hop": hop, "lockstep": run, "realtime": live}, indent=1))
         return 0
     raw, ours = hop["raw_zenoh"], hop["swarmtrack"]
     print(f"one hop, median / p99: swarmtrack {ours['median_us']:.0f} / {ours['p99_us']:.0f} µs; raw Zenoh "
@@ -157,8 +181,17 @@ def main() -> int:
           "goal ≤ 2)")
     print(f"lockstep l24-ct, {run['uavs']} UAV processes, {run['duration_s']:g} s: {run['real_time_factor']:.1f}× "
           f"real time (goal ≥ 5), start-up {run['startup_s']:.1f} s; the simulator on it in this process: "
-          f"{run['simulator_real_time_factor']:.0f}× real time")
-    print(f"CPU per UAV process per estimation step: {run['cpu_per_uav_step_ms']:.2f} ms (mean, start-up included)")
+          f"{run['simulator_real_time_factor']:.0f}× real time; CPU per UAV process per step "
+          f"{run['cpu_per_uav_step_ms']:.2f} ms (median)")
+    late, world, share, cpu = (live["step_lateness_periods"], live["world_lateness_periods"],
+                               live["share_latency_ms"], live["cpu_per_uav_step_ms"])
+    print(f"real time l24-ct, {live['uavs']} UAV processes, {live['duration_s']:g} s (period "
+          f"{live['period_ms']:.0f} ms): UAV steps done {late['median']:.2f} / {late['p99']:.2f} / {late['max']:.2f} "
+          f"periods late (median / p99 / max; goal p99 ≤ 1); the world began its steps {world['p99']:.2f} periods "
+          f"late at p99; share latency {share['median']:.2f} / {share['p99']:.2f} ms (median / p99) beside the "
+          f"one hop above; missed deadlines {live['late'] or 'none'}")
+    print(f"CPU per UAV process per estimation step in real time: {cpu['median']:.2f} ms median, "
+          f"{cpu['p99']:.2f} ms p99 (start-up apart)")
     return 0
 
 

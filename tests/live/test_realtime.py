@@ -1,0 +1,142 @@
+"""The live swarm at wall-clock rate (``--realtime``): late messages, the logs of latency and lateness, a run.
+
+The deadline logic is checked in one process, deterministically: a UAV's agent is handed its messages by the test
+(an in-memory transport; every deadline already passed), so which share comes "late" is the test's choice, and the
+agent's estimates are compared with the simulator's, whose channel delays the same messages by the same steps.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import swarmtrack
+from swarmtrack.live import wire
+from swarmtrack.live.agent import Agent, build_onboard
+from swarmtrack.live.node import Node
+from swarmtrack.scenarios import load_scenario
+from swarmtrack.sim.build import build
+from swarmtrack.sim.engine import step_loop
+from swarmtrack.sim.recorder import Recorder
+
+pytestmark = pytest.mark.xdist_group("live")
+
+
+class Held:
+    """A transport that keeps what is put; the test hands it over (``Node._arrive``) when it chooses."""
+
+    def __init__(self):
+        self.sent: list[tuple[str, bytes]] = []
+
+    def put(self, key: str, data: bytes) -> None:
+        self.sent.append((key, data))
+
+    def subscribe(self, key_expr, callback):
+        return None
+
+    def close(self) -> None:
+        pass
+
+
+def _simulated(scenario):
+    """The simulator's run of ``scenario``: its recording, and per step UAV 1's navigation and detections and the
+    swarm's outbox."""
+    sim = build(scenario)
+    inputs, share = [], sim.stack.estimator.share
+
+    def logged(t, nav, own):
+        out = share(t, nav, own)
+        inputs.append((t, nav.copy(), own.of_uavs([0]), {k: np.array(v) for k, v in out.items()}))
+        return out
+
+    sim.stack.estimator.share = logged
+    recorder = Recorder(sim.meta, sim.world.n_objects, scenario.swarm.n_uavs, sim.stack.probes)
+    return step_loop(sim, recorder), inputs
+
+
+def _agent_run(scenario, inputs, lag: int | None) -> tuple[np.ndarray, dict]:
+    """UAV 1's agent in real time, fed ``inputs``; UAV 2's share of step k is handed to it before its step
+    ``k + lag`` (never with None). Returns its estimates per step and its counts of late messages."""
+    n = scenario.swarm.n_uavs
+    agent_wire, world, neighbour = Held(), Node(Held(), wire.Seal(None, n), "t", wire.WORLD), \
+        Node(Held(), wire.Seal(None, n), "t", 1)
+    agent = Agent(scenario, 0, Node(agent_wire, wire.Seal(None, n), "t", 0))
+    agent.estimator, agent.controller = build_onboard(scenario, 0, {"targets": [0], "decoys": []})
+    agent.node.heard = []
+    estimates = []
+    for k, (t, nav, own, _outbox) in enumerate(inputs):
+        if lag is not None and k >= lag:  # the neighbour's share of step k - lag comes now
+            neighbour.send(1, wire.Share(k=k - lag, taken=inputs[k - lag][0],
+                                         payloads={name: wire.pack(v[1:2]) for name, v in inputs[k - lag][3].items()}))
+        world.send(0, wire.Navigation(k=k, taken=t, nav=wire.pack(nav[0:1]), radio=wire.Radio(
+            links=[1], parts=[(k, [1])]), detections={f: wire.pack(getattr(own, f)) for f in
+                                                      ("owner", "z", "sensor_pos", "label", "n_uavs", "grid", "frame",
+                                                       "footprint", "taken")},
+            due=time.time() - 60.0))  # every deadline of the step has passed
+        for node in (world, neighbour):
+            for key_expr, data in node.transport.sent:
+                agent.node._arrive(key_expr, data)
+            node.transport.sent.clear()
+        agent.step(k)
+        samples = [wire.Seal(None, n).open(key_expr, data) for key_expr, data in agent_wire.sent
+                   if key_expr.endswith("/sample")]
+        estimates.append(wire.unpack(samples[-1].probes["estimate"])[0])
+        agent_wire.sent.clear()
+    return np.array(estimates), dict(agent.late)
+
+
+@pytest.fixture(scope="module")
+def delayed():
+    scenario = load_scenario("l24-ct", ["swarm.n_uavs=2", "duration=3", "network.delay=0.05",
+                                        "estimator.delayed_data=refilter"])
+    return scenario, *_simulated(scenario)
+
+
+def test_a_share_that_misses_its_deadline_is_fused_at_its_time_stamp_as_a_delay_of_the_simulated_channel(delayed):
+    scenario, recording, inputs = delayed
+    estimates, late = _agent_run(scenario, inputs, lag=1)
+    # the simulator's channel delays every message one step (network.delay = one period): the same fusion
+    assert np.array_equal(estimates[:, :4], recording.estimate[:, 0])
+    steps = len(inputs)
+    assert late == {"share": steps, "share_fused_late": steps - 1}  # the last one never came
+
+
+def test_a_share_later_than_the_delay_bound_is_dropped_and_counted(delayed):
+    scenario, recording, inputs = delayed
+    too_late, late = _agent_run(scenario, inputs, lag=2)  # two steps late; the bound is one
+    never, _ = _agent_run(scenario, inputs, lag=None)
+    assert np.array_equal(too_late, never)  # none of them was fused
+    assert late == {"share": len(inputs)}
+    assert not np.array_equal(never[:, :4], recording.estimate[:, 0])  # the neighbour's shares matter
+
+
+@pytest.mark.slow
+def test_a_realtime_run_logs_every_message_and_step_and_tracks(tmp_path):
+    out = tmp_path / "live"
+    proc = subprocess.run([sys.executable, "-m", "swarmtrack", "live", "l24-ct", "--realtime", "--insecure",
+                           "--no-plots", "--out", str(out), "--set", "duration=4"],
+                          capture_output=True, text=True, timeout=180)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    live = json.loads((out / "metrics.json").read_text())["live"]
+    assert live["mode"] == "realtime" and live["lost"] == []
+    steps_n, uavs = 80, 3
+    steps = pd.read_parquet(out / "live" / "steps.parquet")
+    # each UAV's step logged at most once, nearly all of them (the last steps' samples may come after the end)
+    assert not steps.duplicated(["uav", "k"]).any() and len(steps) >= 0.95 * steps_n * uavs
+    assert (steps["cpu"] > 0).all() and live["cpu_per_step_ms"]["count"] == len(steps)
+    latency = pd.read_parquet(out / "live" / "latency.parquet")
+    navigation = latency[latency["channel"] == "navigation"]
+    assert sorted(navigation["receiver"].unique()) == [0, 1, 2] and len(navigation) == steps_n * uavs
+    assert (latency["latency"] >= 0).all() and (latency["sender"] != latency["receiver"]).all()
+    assert live["latency_ms"]["share"]["count"] == (latency["channel"] == "share").sum() > 0
+    rec = swarmtrack.load_run(out)
+    chunks = list(rec.chunks())
+    truth = np.concatenate([c.truth for c in chunks])[:, rec.meta["tracked"], :2]
+    error = np.linalg.norm(np.concatenate([c.probes["estimate"] for c in chunks])[:, :, :2] - truth[:, None], axis=2)
+    assert np.nanmedian(error[40:]) < 0.5  # it tracks (m), late samples recorded as NaN aside

@@ -140,6 +140,33 @@ def test_an_endpoint_in_use_or_unreachable_is_refused(tmp_path):
 
 
 @pytest.mark.slow
+def test_a_uav_with_another_swarm_key_is_refused_by_both_sides_naming_the_key(tmp_path):
+    keys = [tmp_path / "a.key", tmp_path / "b.key"]
+    for k in keys:
+        assert CliRunner().invoke(main, ["keygen", str(k)]).exit_code == 0
+    port, swarm = free_port(), f"test-{uuid.uuid4().hex[:8]}"
+    base = [sys.executable, "-m", "swarmtrack"]
+    world = subprocess.Popen(base + ["world", "l24-ct", "--key", str(keys[0]), "--swarm", swarm, "--listen",
+                                     f"tcp/127.0.0.1:{port}", "--out", str(tmp_path / "x")],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    agent = None
+    try:
+        _join(port).close()  # the world listens
+        agent = subprocess.Popen(base + ["agent", "l24-ct", "--uav", "1", "--key", str(keys[1]), "--swarm", swarm,
+                                         "--connect", f"tcp/127.0.0.1:{port}"],
+                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        _, world_err = world.communicate(timeout=30)
+        _, agent_err = agent.communicate(timeout=30)
+    finally:
+        for p in (world, agent):
+            if p is not None and p.poll() is None:
+                p.kill()
+    assert world.returncode == 2 and "UAVs [1] fail the swarm key" in world_err, world_err[-2000:]
+    assert agent.returncode == 2 and "fail this UAV's swarm key" in agent_err, agent_err[-2000:]
+    assert "Traceback" not in world_err + agent_err and not (tmp_path / "x").exists()
+
+
+@pytest.mark.slow
 def test_forged_replayed_and_undecodable_messages_are_dropped_counted_and_change_nothing(tmp_path):
     """l24-ct with a swarm key while an outsider publishes forged messages, replays a real one and an insider sends
     bodies that do not decode, on a UAV's share key: all dropped and counted, the recording equal to simulate's."""

@@ -23,7 +23,7 @@ from swarmtrack import registry
 from swarmtrack.control.base import SequentialPlanner
 from swarmtrack.estimation.base import TargetView
 from swarmtrack.live import wire
-from swarmtrack.live.node import Node
+from swarmtrack.live.node import Node, WrongKey
 from swarmtrack.network.messages import Inbox
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sensors.detections import Detections
@@ -116,6 +116,9 @@ class Agent:
             try:
                 start = node.first("start", wire.WORLD, timeout=min(HELLO_EVERY, deadline - time.monotonic()))
             except TimeoutError:
+                if any(origin == "world" for origin, _, _ in node.forged):
+                    raise WrongKey("the world's messages fail this UAV's swarm key: the world runs with another "
+                                   "--key (or without one)") from None
                 if time.monotonic() >= deadline:
                     raise TimeoutError(f"no start from the world within {PATIENCE:g} s") from None
         if not rejoin and start.k:

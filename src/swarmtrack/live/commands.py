@@ -15,6 +15,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 import click
 
@@ -99,7 +100,7 @@ def agent_cmd(scenario: str, seed, overrides, uav: int, connect, listen, connect
     """Run UAV --uav's onboard stack (estimator, controller) of SCENARIO, as on its companion computer: its
     navigation, detections and radio from the world, its neighbours' messages over Zenoh."""
     from swarmtrack.live.agent import Agent
-    from swarmtrack.live.node import Node, Stopped
+    from swarmtrack.live.node import Node, Stopped, WrongKey
     from swarmtrack.live.transport import TransportError, ZenohTransport
     from swarmtrack.live.wire import Seal
 
@@ -114,8 +115,12 @@ def agent_cmd(scenario: str, seed, overrides, uav: int, connect, listen, connect
     node = Node(transport, Seal(key, scn.swarm.n_uavs), swarm or scn.name, uav - 1)
     try:
         Agent(scn, uav - 1, node).run(rejoin)
-    except Stopped:
-        pass
+    except Stopped as exc:
+        if str(exc) != "done":
+            click.echo(f"UAV {uav}: {exc}; stopping", err=True)
+            sys.exit(1)
+    except WrongKey as exc:
+        raise UsageFailure(f"UAV {uav}: {exc}") from None
     except KeyboardInterrupt:  # Ctrl-C reaches the whole process group: the world writes what was completed
         sys.exit(130)
     except TimeoutError as exc:
@@ -142,29 +147,25 @@ def _live_options(f):
 @_scenario_options
 @_live_options
 @_security_options
-def live_cmd(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, realtime, swarm, key_file,
-             insecure) -> None:
+def live_cmd(**options) -> None:
     """Run SCENARIO with every UAV's onboard stack in its own process (swarmtrack agent --uav I), talking over
     Eclipse Zenoh on loopback with this world process: in lockstep (the run folder of swarmtrack run, with the same
     numbers) or at wall-clock rate (--realtime)."""
-    _serve(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, realtime, swarm, key_file, insecure,
-           spawn=True)
+    _serve(SimpleNamespace(**options), spawn=True)
 
 
 @click.command("world")
 @_scenario_options
 @_live_options
 @_security_options
-def world_cmd(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, realtime, swarm, key_file,
-              insecure) -> None:
+def world_cmd(**options) -> None:
     """Run the truth side of SCENARIO alone (world, sensors, simulated radio, recorder) and wait for its UAVs'
     processes (swarmtrack agent --uav I --connect ENDPOINT) to join."""
-    _serve(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, realtime, swarm, key_file, insecure,
-           spawn=False)
+    _serve(SimpleNamespace(**options), spawn=False)
 
 
-def _serve(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, realtime, swarm, key_file, insecure,
-           spawn: bool) -> None:
+def _serve(o: SimpleNamespace, spawn: bool) -> None:
+    """The world process of a live run: ``o`` the command's options; ``spawn``: start the UAVs' processes."""
     from swarmtrack.analysis.runs import run_key
     from swarmtrack.live.node import Node
     from swarmtrack.live.session import run_live
@@ -173,35 +174,35 @@ def _serve(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, 
     from swarmtrack.live.world import LiveError
     from swarmtrack.outputs import OutputError, Terminated, check_destination, run_folder
 
-    scn = _load(scenario, overrides, seed)
-    key = read_key(key_file, insecure)
-    out = out or Path("runs") / f"{scn.name}-seed{scn.seed}-{run_key(scn)[:8]}-live"
+    scn = _load(o.scenario, o.overrides, o.seed)
+    key = read_key(o.key_file, o.insecure)
+    out = o.out or Path("runs") / f"{scn.name}-seed{scn.seed}-{run_key(scn)[:8]}-live"
     try:
-        check_destination(out.absolute(), overwrite)
+        check_destination(out.absolute(), o.overwrite)
     except OutputError as exc:
         raise UsageFailure(str(exc)) from None
-    endpoints = list(listen) or [f"tcp/127.0.0.1:{free_port()}"]
+    endpoints = list(o.listen) or [f"tcp/127.0.0.1:{free_port()}"]
     try:
         transport = ZenohTransport(listen=endpoints)
     except TransportError as exc:
         raise UsageFailure(str(exc)) from None
-    swarm = swarm or (f"{scn.name}-{os.getpid()}" if spawn else scn.name)
+    swarm = o.swarm or (f"{scn.name}-{os.getpid()}" if spawn else scn.name)
     node = Node(transport, Seal(key, scn.swarm.n_uavs), swarm, WORLD)
     procs: list[subprocess.Popen] = []
     try:
-        with run_folder(out, overwrite) as tmp:
+        with run_folder(out, o.overwrite) as tmp:
             if spawn:
-                procs = start_agents(scn, scenario, seed, overrides, endpoints, swarm, key_file)
+                procs = start_agents(scn, o.scenario, o.seed, o.overrides, endpoints, swarm, o.key_file)
             else:
                 click.echo(f"world of {scn.name} listening on {', '.join(endpoints)} (swarm {swarm}); waiting for "
                            f"UAVs 1..{scn.swarm.n_uavs}", err=True)
-            rec, live, tables = run_live(scn, node, record_to=tmp / "recording", realtime=realtime)
+            rec, live, tables = run_live(scn, node, record_to=tmp / "recording", realtime=o.realtime)
             stop_agents(procs)  # within GRACE s of the end (or of Ctrl-C), before the files are written
             if tables:
                 (tmp / "live").mkdir()
                 for name, table in tables.items():
                     table.to_parquet(tmp / "live" / f"{name}.parquet", index=False)
-            metrics = write_run(rec, scn, tmp, no_plots=no_plots, extra={"live": dataclasses.asdict(live)},
+            metrics = write_run(rec, scn, tmp, no_plots=o.no_plots, extra={"live": dataclasses.asdict(live)},
                                 warnings=live.warnings())
     except (OutputError, LiveError) as exc:
         raise UsageFailure(str(exc)) from None
@@ -222,7 +223,7 @@ def _serve(scenario, seed, overrides, out, overwrite, strict, no_plots, listen, 
         warn_run(metrics, strict=False)
         click.echo(f"interrupted at t = {live.interrupted:.2f} s; the steps completed were written to {out}", err=True)
         sys.exit(130)
-    warn_run(metrics, strict)
+    warn_run(metrics, o.strict)
 
 
 def _facts(live) -> str:

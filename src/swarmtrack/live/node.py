@@ -19,7 +19,11 @@ HEARTBEAT, LOST_AFTER = 0.2, 3.0
 
 
 class Stopped(Exception):
-    """The world said the run is over (or is gone)."""
+    """The world said the run is over (reason ``done``), or is gone (not heard for :data:`LOST_AFTER` s)."""
+
+
+class WrongKey(Exception):
+    """The other side's messages fail this process's swarm key: the two run with different keys."""
 
 
 class Node:
@@ -32,6 +36,7 @@ class Node:
         self.stopped: str | None = None
         self.absent: set[int] = set()  # UAVs the world said are lost: nobody waits for their messages
         self.seen: dict[int, float] = {}  # when each sender was last heard (monotonic s)
+        self.forged: set[tuple[str, str, str]] = set()  # (origin, to, channel) of the keys forged messages came on
         self.heard: list[tuple] | None = None  # with a list, every step's message is logged with its latency
 
     def listen(self, *patterns: tuple[str, str, str]) -> None:
@@ -45,7 +50,10 @@ class Node:
             return
         try:
             msg = self.seal.open(key_expr, data)
-        except Rejected:
+        except Rejected as exc:
+            if exc.cause == "forged":
+                with self._cond:
+                    self.forged.add(parts)
             return
         origin, to, channel = parts
         sender = WORLD if origin == "world" else int(to) if to.isdigit() else None
@@ -85,14 +93,17 @@ class Node:
                 missing = [s for s in senders if (channel, s, k, c) not in self._box and s not in self.absent]
                 if not missing:
                     break
-                if self.stopped is not None and self.me != WORLD:
-                    raise Stopped(self.stopped)
+                if self.me != WORLD:
+                    if self.stopped is None and time.monotonic() - self.seen.get(WORLD, time.monotonic()) > LOST_AFTER:
+                        self.stopped = f"the world stopped answering (not heard for {LOST_AFTER:g} s)"
+                    if self.stopped is not None:
+                        raise Stopped(self.stopped)
                 left = None if deadline is None else deadline - time.monotonic()
                 if left is not None and left <= 0:
                     if missing_ok:
                         break
                     raise TimeoutError(f"no {channel} of step {k} from {missing}")
-                self._cond.wait(left if left is not None else 1.0)
+                self._cond.wait(1.0 if left is None else min(left, 1.0))  # at least every second: is the world there
             get = self._box.pop if take else self._box.get
             return {s: get((channel, s, k, c)) for s in senders if (channel, s, k, c) in self._box}
 
@@ -111,12 +122,14 @@ class Node:
                 self._cond.wait(left)
 
     def heartbeat(self) -> None:
-        """Send :class:`~swarmtrack.live.wire.Alive` every :data:`HEARTBEAT` s from a daemon thread, until the
-        transport closes."""
+        """Send :class:`~swarmtrack.live.wire.Alive` (a UAV to the world, the world to every UAV) every
+        :data:`HEARTBEAT` s from a daemon thread, until the transport closes."""
+        to = "all" if self.me == WORLD else WORLD
+
         def beat() -> None:
             while self.stopped is None:
                 try:
-                    self.send(WORLD, Alive())
+                    self.send(to, Alive())
                 except Exception:  # the transport closed: the process is ending
                     return
                 time.sleep(HEARTBEAT)

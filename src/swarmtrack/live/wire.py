@@ -24,7 +24,7 @@ channel         from → to   content
 ``sample``      UAV → world  its probes of the step (what the recorder keeps), its aim for the next frame, what the
                             truth-side monitors read of its components (their telemetry), and the command of the
                             control step that started with the estimation step
-``alive``       UAV → world  a heartbeat, every 0.2 s
+``alive``       UAV → world  a heartbeat, every 0.2 s (the world's to every UAV)
 ``roster``      world → all  the UAVs it hears now (the others are lost: nobody waits for them)
 ``stop``        world → all  the run is over
 ==============  ==========  ===================================================================================

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from swarmtrack.live import wire
-from swarmtrack.live.agent import PATIENCE, scenario_hash, telemetry_of
+from swarmtrack.live.agent import HELLO_EVERY, PATIENCE, scenario_hash, telemetry_of
 from swarmtrack.live.node import LOST_AFTER, Node
 from swarmtrack.network.links import neighbour_lists
 from swarmtrack.scenarios.schema import Scenario
@@ -152,7 +152,8 @@ class LockstepWorld:
     def run(self) -> tuple[Recording, LiveReport]:
         node, clock = self.node, self.sim.clock
         node.listen(("uav", "*", "hello"), ("uav", "*", "sample"), ("uav", "*", "command"), ("uav", "*", "alive"))
-        hello = node.wait("hello", range(self.n), 0, timeout=self.patience)
+        node.heartbeat()
+        hello = self._hellos()
         self._check(hello)
         self.processes = {i: (m.pid, m.started) for i, m in hello.items()}
         node.send("all", wire.Start(labels=labels_of(self.sim.world), realtime=self.realtime))
@@ -205,6 +206,22 @@ class LockstepWorld:
         finally:
             for sig, old in previous.items():
                 signal.signal(sig, old)
+
+    def _hellos(self) -> dict[int, wire.Hello]:
+        """Every UAV's hello, waited for up to ``patience`` s; a UAV whose hellos fail the swarm key is refused as
+        soon as they come (:class:`LiveError` naming it)."""
+        got: dict = {}
+        deadline = time.monotonic() + self.patience
+        while len(got) < self.n:
+            missing = [i for i in range(self.n) if i not in got]
+            got.update(self.node.wait("hello", missing, 0, timeout=HELLO_EVERY, missing_ok=True))
+            wrong = [i + 1 for i in missing if i not in got and ("uav", str(i), "hello") in self.node.forged]
+            if wrong:
+                raise LiveError(f"the hellos of UAVs {wrong} fail the swarm key: their processes run with another "
+                                "--key (or without one)")
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"no hello from UAVs {[i + 1 for i in range(self.n) if i not in got]}")
+        return got
 
     def _check(self, hello: dict) -> None:
         wrong = [i + 1 for i, m in hello.items() if m.scenario != scenario_hash(self.scenario)]

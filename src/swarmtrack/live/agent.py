@@ -128,7 +128,7 @@ class Agent:
             node.heard = []  # every message's latency is logged and reported
         self.estimator, self.controller = build_onboard(self.scenario, self.i, start.labels)
         self._sequential = isinstance(self.controller, SequentialPlanner)
-        node.send(wire.WORLD, self._sample(start.k - 1)[0])
+        node.send(wire.WORLD, self._sample(-1)[0])  # ready: its stack is built
         for k in range(start.k, self.clock.steps):
             self.step(k)
 

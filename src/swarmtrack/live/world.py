@@ -120,8 +120,6 @@ class _Interrupted(Exception):
 
 
 class LockstepWorld:
-    realtime = False
-
     """The truth side of a live run in lockstep: :meth:`run` is the simulator's step loop by messages.
 
     A UAV whose process is not heard for :data:`~swarmtrack.live.node.LOST_AFTER` s (no heartbeat) is lost: its
@@ -129,6 +127,8 @@ class LockstepWorld:
     the world flies it with :func:`safe_command`, its probes are recorded as NaN, and the report names it. A process
     started again for it (``swarmtrack agent --uav I --rejoin``) says hello, gets the step to start from, and rejoins
     the radio there."""
+
+    realtime = False  # the clock: lockstep (RealtimeWorld, realtime.py: the wall clock)
 
     def __init__(self, scenario: Scenario, node: Node, record_to=None, patience: float = PATIENCE,
                  progress: Callable[[float], None] | None = None):
@@ -362,7 +362,7 @@ class LockstepWorld:
             self._check({i: hello})
             self.processes[i] = (hello.pid, hello.started)
             self.node.send(i, wire.Start(k=k, labels=labels_of(self.sim.world)))
-            got = self.node.wait("sample", [i], k - 1, timeout=self.patience, missing_ok=True)
+            got = self.node.wait("sample", [i], -1, timeout=self.patience, missing_ok=True)  # its stack is built
             if got:
                 self.last.update(got)
                 self.alive.add(i)

@@ -15,6 +15,7 @@ def _linear(name, *extra):
     return c["nees"], c["band"][1], float(np.hypot(s["rmse"]["linear"]["x"], s["rmse"]["linear"]["y"]))
 
 
+@pytest.mark.slow  # three 40 s runs; tests/estimation/test_refilter.py is the fast tier's
 def test_a_sensor_latency_fused_at_its_time_stamp_is_no_longer_overconfident():
     naive, upper, naive_rmse = _linear("l24-cv")
     stamped, _, stamped_rmse = _linear("l24-cv", "estimator.delayed_data=refilter")

@@ -20,10 +20,12 @@ from collections import Counter
 import numpy as np
 
 from swarmtrack import registry
+from swarmtrack.autopilot import px4
+from swarmtrack.autopilot.link import AutopilotLink
 from swarmtrack.control.base import SequentialPlanner
 from swarmtrack.estimation.base import TargetView
 from swarmtrack.live import wire
-from swarmtrack.live.node import Node, WrongKey
+from swarmtrack.live.node import Mismatch, Node
 from swarmtrack.network.messages import Inbox
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sensors.detections import Detections
@@ -85,10 +87,12 @@ def warm(scenario: Scenario) -> None:
 
 
 class Agent:
-    """UAV ``uav`` of ``scenario`` on ``node`` (its transport and seal)."""
+    """UAV ``uav`` of ``scenario`` on ``node`` (its transport and seal); ``autopilot``: the URL of its autopilot's
+    MAVLink link (:mod:`swarmtrack.autopilot.link`), which then gives its navigation and takes its commands."""
 
-    def __init__(self, scenario: Scenario, uav: int, node: Node):
-        self.scenario, self.i, self.node = scenario, uav, node
+    def __init__(self, scenario: Scenario, uav: int, node: Node, autopilot: str | None = None):
+        self.scenario, self.i, self.node, self.autopilot = scenario, uav, node, autopilot
+        self.link: AutopilotLink | None = None
         self.n = scenario.swarm.n_uavs
         self.clock = clock_of(scenario)
         self.estimator = self.controller = None
@@ -101,6 +105,7 @@ class Agent:
         self._pending: dict[int, list[int]] = {}  # real time: per recent step, linked senders not heard by FUSE_BY
         self.late: Counter = Counter()  # real time: neighbours' messages that missed their deadline, by channel
         self._cpu = time.process_time()
+        self._engaged = -np.inf  # when it last switched its autopilot to offboard mode (monotonic s)
 
     def run(self, rejoin: bool = False) -> None:
         """Say hello, build the stack when the world says start, and follow its steps to the end. ``rejoin``: the
@@ -109,6 +114,9 @@ class Agent:
         node.listen(("world", str(self.i), "*"), ("world", "all", "*"), ("uav", "*", "share"),
                     ("uav", "*", "publish"), ("uav", "*", "beacon"), ("uav", "*", "plan"))
         node.heartbeat()
+        if self.autopilot is not None:  # its autopilot first, as a companion computer does: armed, in offboard mode
+            self.link = AutopilotLink(self.autopilot, self.i)
+            self.link.engage()
         hello = wire.Hello(pid=os.getpid(), started=node.seal.started, scenario=scenario_hash(self.scenario))
         start, deadline = None, time.monotonic() + PATIENCE
         while start is None:  # said again until the world answers: it may not listen yet
@@ -117,12 +125,16 @@ class Agent:
                 start = node.first("start", wire.WORLD, timeout=min(HELLO_EVERY, deadline - time.monotonic()))
             except TimeoutError:
                 if any(origin == "world" for origin, _, _ in node.forged):
-                    raise WrongKey("the world's messages fail this UAV's swarm key: the world runs with another "
+                    raise Mismatch("the world's messages fail this UAV's swarm key: the world runs with another "
                                    "--key (or without one)") from None
                 if time.monotonic() >= deadline:
                     raise TimeoutError(f"no start from the world within {PATIENCE:g} s") from None
         if not rejoin and start.k:
             raise RuntimeError(f"the swarm is at step {start.k} already: start this UAV with --rejoin")
+        if start.mavlink != (self.autopilot is not None):
+            raise Mismatch("the world flies its UAVs through MAVLink autopilots (--mavlink): give --autopilot URL"
+                           if start.mavlink else "--autopilot: the world does not fly its UAVs through MAVLink "
+                           "(start it with --mavlink)")
         if start.realtime:
             warm(self.scenario)
             node.heard = []  # every message's latency is logged and reported
@@ -136,7 +148,7 @@ class Agent:
         node, est, dt = self.node, self.estimator, self.clock.dt_estimation
         t = k * dt
         got = node.wait("navigation", [wire.WORLD], k, timeout=PATIENCE)[wire.WORLD]
-        nav, radio, due = wire.unpack(got.nav), got.radio, got.due
+        nav, radio, due = self._navigation(got), got.radio, got.due
         detections = Detections(**{name: wire.unpack(v) for name, v in got.detections.items()})
         with np.errstate(over="ignore", invalid="ignore"):  # a diverging filter is reported by its own checks
             outbox = est.share(t, nav, detections)
@@ -174,7 +186,7 @@ class Agent:
         back."""
         node, dt = self.node, self.clock.dt_control
         got = node.wait("navigation", [wire.WORLD], k, c, timeout=PATIENCE)[wire.WORLD]
-        nav, t, senders = wire.unpack(got.nav), got.taken, got.radio.beacons
+        nav, t, senders = self._navigation(got), got.taken, got.radio.beacons
         beacon = self.controller.broadcast(t, nav)
         node.send(self.i, wire.Beacon(k=k, c=c, taken=t, payloads=_pack(beacon)))
         heard = {s: m.payloads for s, m in self._wait("beacon", senders, k, c, got.due, FUSE_BY, dt).items()}
@@ -195,7 +207,27 @@ class Agent:
         u = np.asarray(ctl.command(t, nav, view, inbox, self.clock.dt_control))
         if self._sequential:
             self.node.send(self.i, wire.Plan(k=k, c=c, taken=t, payloads=_pack(ctl.plans())))
+        if self.link is not None:
+            self._fly(u[0], t, due)
         return u
+
+    def _navigation(self, got: wire.Navigation) -> np.ndarray:
+        """Its navigation solution (1, d): the world's word, or its autopilot's (``LOCAL_POSITION_NED``): in lockstep
+        the one of the step's time, in real time the latest."""
+        if self.link is None:
+            return wire.unpack(got.nav)
+        after = -1 if got.due is not None else int(round(got.taken * 1000)) - 1
+        return self.link.navigation(after, timeout=PATIENCE)[None]
+
+    def _fly(self, u: np.ndarray, t: float, due: float | None) -> None:
+        """Send the command ``u`` of time ``t`` to its autopilot as a setpoint; in real time, first switch it back to
+        offboard mode if its failsafe left it (a link that dropped and came back)."""
+        if due is not None:
+            self.link.pump()
+            if self.link.mode != px4.OFFBOARD and time.monotonic() - self._engaged > 1.0:
+                self._engaged = time.monotonic()
+                self.link.offboard()
+        self.link.send_acceleration(u, t)
 
     def _sample(self, k: int) -> tuple[wire.Sample, TargetView]:
         """The step's probes, and where a gimballed sensor should aim at the next frame (its latest estimate); and

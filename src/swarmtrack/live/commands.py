@@ -94,13 +94,18 @@ def keygen_cmd(file: Path) -> None:
 @click.option("--connect-timeout", type=click.FloatRange(min=0, min_open=True), default=5.0, show_default=True,
               metavar="SECONDS", help="give up on a --connect peer that does not answer within this time")
 @click.option("--rejoin", is_flag=True, help="this UAV's earlier process was lost: start afresh where the swarm is")
+@click.option("--autopilot", metavar="URL", default=None, help=(
+    "fly through this UAV's autopilot over MAVLink: udp://[HOST]:PORT (listen there, as PX4 SITL's 14540 + i) or "
+    "serial://DEVICE[:BAUD]; its navigation comes from it and its commands go to it as setpoints"))
 @_security_options
-def agent_cmd(scenario: str, seed, overrides, uav: int, connect, listen, connect_timeout, rejoin, swarm, key_file,
-              insecure) -> None:
+def agent_cmd(scenario: str, seed, overrides, uav: int, connect, listen, connect_timeout, rejoin, autopilot, swarm,
+              key_file, insecure) -> None:
     """Run UAV --uav's onboard stack (estimator, controller) of SCENARIO, as on its companion computer: its
-    navigation, detections and radio from the world, its neighbours' messages over Zenoh."""
+    navigation, detections and radio from the world (or its navigation from its autopilot, --autopilot), its
+    neighbours' messages over Zenoh."""
+    from swarmtrack.autopilot.link import AutopilotError, AutopilotRefused
     from swarmtrack.live.agent import Agent
-    from swarmtrack.live.node import Node, Stopped, WrongKey
+    from swarmtrack.live.node import Mismatch, Node, Stopped
     from swarmtrack.live.transport import TransportError, ZenohTransport
     from swarmtrack.live.wire import Seal
 
@@ -113,24 +118,34 @@ def agent_cmd(scenario: str, seed, overrides, uav: int, connect, listen, connect
     except TransportError as exc:
         raise UsageFailure(str(exc)) from None
     node = Node(transport, Seal(key, scn.swarm.n_uavs), swarm or scn.name, uav - 1)
+    agent = Agent(scn, uav - 1, node, autopilot)
     try:
-        Agent(scn, uav - 1, node).run(rejoin)
+        agent.run(rejoin)
     except Stopped as exc:
         if str(exc) != "done":
             click.echo(f"UAV {uav}: {exc}; stopping", err=True)
             sys.exit(1)
-    except WrongKey as exc:
-        raise UsageFailure(f"UAV {uav}: {exc}") from None
+    except (Mismatch, AutopilotError) as exc:
+        raise UsageFailure(str(exc) if str(exc).startswith("UAV") else f"UAV {uav}: {exc}") from None
+    except AutopilotRefused as exc:  # nothing was flown: the vehicle stays as it was
+        click.echo(f"{exc}; no setpoint was flown", err=True)
+        sys.exit(3)
     except KeyboardInterrupt:  # Ctrl-C reaches the whole process group: the world writes what was completed
         sys.exit(130)
     except TimeoutError as exc:
         click.echo(f"UAV {uav}: {exc}; stopping", err=True)
         sys.exit(1)
     finally:
+        if agent.link is not None:
+            agent.link.close()
         transport.close()
 
 
 def _live_options(f):
+    f = click.option("--mavlink-port", type=click.IntRange(1, 65535 - 1024), default=14540, show_default=True,
+                     metavar="PORT", help="with --mavlink, UAV i's autopilot sends to 127.0.0.1:PORT + i - 1")(f)
+    f = click.option("--mavlink", is_flag=True, help=(
+        "fly every UAV through a simulated PX4-like autopilot it talks MAVLink to (swarmtrack agent --autopilot)"))(f)
     f = click.option("--realtime", is_flag=True, help=(
         "run at wall-clock rate: messages arrive when they arrive, late ones are fused at their time stamps within "
         "network.delay_max (default: lockstep, the numbers of swarmtrack run)"))(f)
@@ -173,8 +188,12 @@ def _serve(o: SimpleNamespace, spawn: bool) -> None:
     from swarmtrack.live.wire import WORLD, Seal
     from swarmtrack.live.world import LiveError
     from swarmtrack.outputs import OutputError, Terminated, check_destination, run_folder
+    from swarmtrack.sim.build import command_width
 
     scn = _load(o.scenario, o.overrides, o.seed)
+    if o.mavlink and command_width(scn) != 2:
+        raise UsageFailure(f"--mavlink flies planar acceleration setpoints: swarm.vehicle {scn.swarm.vehicle} is "
+                           "commanded otherwise")
     key = read_key(o.key_file, o.insecure)
     out = o.out or Path("runs") / f"{scn.name}-seed{scn.seed}-{run_key(scn)[:8]}-live"
     try:
@@ -192,11 +211,13 @@ def _serve(o: SimpleNamespace, spawn: bool) -> None:
     try:
         with run_folder(out, o.overwrite) as tmp:
             if spawn:
-                procs = start_agents(scn, o.scenario, o.seed, o.overrides, endpoints, swarm, o.key_file)
+                procs = start_agents(scn, o.scenario, o.seed, o.overrides, endpoints, swarm, o.key_file,
+                                     o.mavlink_port if o.mavlink else None)
             else:
                 click.echo(f"world of {scn.name} listening on {', '.join(endpoints)} (swarm {swarm}); waiting for "
                            f"UAVs 1..{scn.swarm.n_uavs}", err=True)
-            rec, live, tables = run_live(scn, node, record_to=tmp / "recording", realtime=o.realtime)
+            rec, live, tables = run_live(scn, node, record_to=tmp / "recording", realtime=o.realtime,
+                                         mavlink=(o.mavlink_port, "127.0.0.1") if o.mavlink else None)
             stop_agents(procs)  # within GRACE s of the end (or of Ctrl-C), before the files are written
             if tables:
                 (tmp / "live").mkdir()
@@ -242,16 +263,20 @@ def _facts(live) -> str:
     return "; ".join(out) + "; " if out else ""
 
 
-def start_agents(scn, scenario: str, seed, overrides, endpoints: list[str], swarm: str, key_file) -> list:
-    """One ``swarmtrack agent --uav I`` process per UAV, connecting to the world's first endpoint."""
+def start_agents(scn, scenario: str, seed, overrides, endpoints: list[str], swarm: str, key_file,
+                 mavlink_port: int | None = None) -> list:
+    """One ``swarmtrack agent --uav I`` process per UAV, connecting to the world's first endpoint (and with
+    ``mavlink_port``, to its autopilot at ``udp://127.0.0.1:mavlink_port + I - 1``)."""
     connect = endpoints[0].replace("0.0.0.0", "127.0.0.1")
     common = [scenario, "--connect", connect, "--swarm", swarm]
     common += ["--seed", str(seed)] if seed is not None else []
     for o in overrides:
         common += ["--set", o]
     common += ["--key", str(key_file)] if key_file is not None else ["--insecure"]
-    return [subprocess.Popen([sys.executable, "-m", "swarmtrack", "agent", "--uav", str(i + 1), *common])
-            for i in range(scn.swarm.n_uavs)]
+    autopilot = [] if mavlink_port is None else [["--autopilot", f"udp://127.0.0.1:{mavlink_port + i}"]
+                                                 for i in range(scn.swarm.n_uavs)]
+    return [subprocess.Popen([sys.executable, "-m", "swarmtrack", "agent", "--uav", str(i + 1), *common,
+                              *(autopilot[i] if autopilot else [])]) for i in range(scn.swarm.n_uavs)]
 
 
 def stop_agents(procs: list) -> None:

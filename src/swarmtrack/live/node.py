@@ -22,8 +22,9 @@ class Stopped(Exception):
     """The world said the run is over (reason ``done``), or is gone (not heard for :data:`LOST_AFTER` s)."""
 
 
-class WrongKey(Exception):
-    """The other side's messages fail this process's swarm key: the two run with different keys."""
+class Mismatch(Exception):
+    """The world and this UAV's process are set up otherwise (another swarm key; a flight through MAVLink on one
+    side only): the message says how."""
 
 
 class Node:

@@ -41,12 +41,12 @@ class RealtimeWorld(LockstepWorld):
     """The truth side of a live run at wall-clock rate (module docstring)."""
 
     realtime = True
+    epoch = 0.0  # the wall-clock time (s since the Unix epoch) of t = 0, set when every UAV is ready
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
         warm(self.scenario)  # the world's first steps call its kernels too
         self.report.mode = "realtime"
-        self.epoch = 0.0  # the wall-clock time (s since the Unix epoch) of t = 0
         self.joining: set[int] = set()  # UAVs whose new process was sent its start, not back yet
         self.steps: list[tuple[int, int, float, float]] = []  # (UAV, k, done after its time (s), CPU (s))
         self.messages: list[tuple] = []  # (channel, sender, receiver, k, c, sent after the epoch (s), latency (s))
@@ -64,6 +64,9 @@ class RealtimeWorld(LockstepWorld):
             time.sleep(left)
         self.world_late.append(max(0.0, time.time() - due))
         return due
+
+    def _now(self) -> float:
+        return time.time() - self.epoch
 
     def _until(self, due: float, period: float) -> float:
         return time.monotonic() + (due + RECORD_BY * period - time.time())
@@ -124,7 +127,8 @@ class RealtimeWorld(LockstepWorld):
                 continue
             self._check({i: hello})
             self.processes[i] = (hello.pid, hello.started)
-            self.node.send(i, wire.Start(k=k, labels=labels_of(self.sim.world), realtime=True))
+            self.node.send(i, wire.Start(k=k, labels=labels_of(self.sim.world), realtime=True,
+                                         mavlink=self.fleet is not None))
             self.joining.add(i)
 
     def _finish(self) -> None:

@@ -82,10 +82,12 @@ class Hello(Message, tag="hello"):
 class Start(Message, tag="start"):
     """``labels`` the sensor's label of each sensed object, by group; ``k`` the step a UAV starts at (0, or the
     step a rejoining UAV joins at); ``realtime``: the world runs at wall-clock rate (the UAVs wait for their
-    neighbours until deadlines, and log every message's latency)."""
+    neighbours until deadlines, and log every message's latency); ``mavlink``: each UAV flies through its autopilot
+    (its navigation comes from it, not in ``navigation``; its command goes to it as a setpoint)."""
 
     labels: dict[str, list[int]]
     realtime: bool = False
+    mavlink: bool = False
 
 
 class Radio(msgspec.Struct):

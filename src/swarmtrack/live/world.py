@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from swarmtrack.autopilot.fleet import Fleet
 from swarmtrack.live import wire
 from swarmtrack.live.agent import HELLO_EVERY, PATIENCE, scenario_hash, telemetry_of
 from swarmtrack.live.node import LOST_AFTER, Node
@@ -131,7 +132,7 @@ class LockstepWorld:
     realtime = False  # the clock: lockstep (RealtimeWorld, realtime.py: the wall clock)
 
     def __init__(self, scenario: Scenario, node: Node, record_to=None, patience: float = PATIENCE,
-                 progress: Callable[[float], None] | None = None):
+                 progress: Callable[[float], None] | None = None, mavlink: tuple[int, str] | None = None):
         self.scenario, self.node, self.patience, self.progress = scenario, node, patience, progress
         self.sim = sim = build(scenario)
         self.n = scenario.swarm.n_uavs
@@ -148,6 +149,8 @@ class LockstepWorld:
         self.recorded = 0  # estimation steps recorded
         self.processes: dict[int, tuple[int, int]] = {}  # each UAV's process the world knows: (pid, start time)
         self.cpu: list[float] = []  # the CPU time (s) of a UAV's process per estimation step, over UAVs and steps
+        # --mavlink (base port, host): each UAV flies through a simulated autopilot its process talks MAVLink to
+        self.fleet = None if mavlink is None else Fleet(self.n, self._now, *mavlink)
 
     def run(self) -> tuple[Recording, LiveReport]:
         node, clock = self.node, self.sim.clock
@@ -156,7 +159,8 @@ class LockstepWorld:
         hello = self._hellos()
         self._check(hello)
         self.processes = {i: (m.pid, m.started) for i, m in hello.items()}
-        node.send("all", wire.Start(labels=labels_of(self.sim.world), realtime=self.realtime))
+        node.send("all", wire.Start(labels=labels_of(self.sim.world), realtime=self.realtime,
+                                    mavlink=self.fleet is not None))
         self.last = node.wait("sample", range(self.n), -1, timeout=self.patience)
         self._begin()
         report_every = max(1, clock.steps // 100)
@@ -253,11 +257,14 @@ class LockstepWorld:
             radio = wire.Radio(links=heard[i], parts=[(step, senders[i]) for step, senders in parts],
                                beacons=[] if beacons is None else beacons[i])
             self.node.send(i, wire.Navigation(
-                k=k, taken=t, nav=wire.pack(nav[i:i + 1]), radio=radio,
+                k=k, taken=t, nav=self._own_nav(nav, i), radio=radio,
                 detections={f: wire.pack(getattr(mine[i], f)) for f in FIELDS},
                 guide=None if view is None else _row_of_view(view, i),
                 control=None if beacons is None else world.t, due=due))
-        samples = self._gather("sample", k, -1, t, self._until(due, clock.dt_estimation))
+        if self.fleet is not None:
+            self.fleet.publish(t, nav, self._listeners())
+        until = self._until(due, clock.dt_estimation)
+        samples = self._gather("sample", k, -1, t, until)
         self._record(k, t, truth, samples)
         offset = 0
         for c, (control_now, ticks) in enumerate(segments):
@@ -267,7 +274,7 @@ class LockstepWorld:
                     positions = world.truth("uavs")[:, :2]
                     self.control_step(k, c, nav, channel.beacon_links(positions, world.t))
                 else:  # its commands came with the samples
-                    self._command(nav, {i: s.u for i, s in samples.items()})
+                    self._fly(world.t, nav, {i: s.u for i, s in samples.items()}, until)
             world.advance({"uavs": self.u}, ticks)
             offset += ticks
 
@@ -275,10 +282,13 @@ class LockstepWorld:
         t = self.sim.world.t
         due, heard = self._due(t), self._heard(beacons)
         for i in self._listeners():
-            self.node.send(i, wire.Navigation(k=k, c=c, taken=t, nav=wire.pack(nav[i:i + 1]),
+            self.node.send(i, wire.Navigation(k=k, c=c, taken=t, nav=self._own_nav(nav, i),
                                               radio=wire.Radio(beacons=heard[i]), due=due))
-        commands = self._gather("command", k, c, t, self._until(due, self.sim.clock.dt_control))
-        self._command(nav, {i: m.u for i, m in commands.items()})
+        if self.fleet is not None:
+            self.fleet.publish(t, nav, self._listeners())
+        until = self._until(due, self.sim.clock.dt_control)
+        commands = self._gather("command", k, c, t, until)
+        self._fly(t, nav, {i: m.u for i, m in commands.items()}, until)
 
     def _record(self, k: int, t: float, truth: np.ndarray, samples: dict) -> None:
         """Record step ``k``: the truth, the UAVs' probes (NaN for the UAVs without a sample) and the truth-side
@@ -300,6 +310,25 @@ class LockstepWorld:
             self._rejected[sample.sender] = sample.rejected
             if sample.k >= 0:  # the first sample's CPU is the process's start-up
                 self.cpu.append(sample.cpu)
+
+    def _own_nav(self, nav: np.ndarray, i: int):
+        """UAV i's navigation for its message: packed, or None when its autopilot gives it (``--mavlink``)."""
+        return None if self.fleet is not None else wire.pack(nav[i:i + 1])
+
+    def _fly(self, t: float, nav: np.ndarray, commands: dict, until: float | None) -> None:
+        """Fly the UAVs' ``commands`` of the control step at ``t`` (packed, by UAV), or with ``--mavlink`` what
+        their autopilots fly: each the setpoint its UAV sent it for ``t`` (waited for as the commands were), or its
+        failsafe."""
+        if self.fleet is None:
+            self._command(nav, commands)
+            return
+        deadline = time.monotonic() + self.patience if until is None else until
+        self.fleet.setpoints(t, sorted(commands), deadline, lambda: self._stop)
+        self.u[:] = self.fleet.commands(nav, self._now())
+
+    def _now(self) -> float:
+        """The world's clock (s): simulated time in lockstep."""
+        return self.sim.world.t
 
     def _command(self, nav: np.ndarray, commands: dict) -> None:
         """The UAVs' ``commands`` (packed, by UAV) into the world's; the lost UAVs fly :func:`safe_command`."""
@@ -361,7 +390,7 @@ class LockstepWorld:
                 continue
             self._check({i: hello})
             self.processes[i] = (hello.pid, hello.started)
-            self.node.send(i, wire.Start(k=k, labels=labels_of(self.sim.world)))
+            self.node.send(i, wire.Start(k=k, labels=labels_of(self.sim.world), mavlink=self.fleet is not None))
             got = self.node.wait("sample", [i], -1, timeout=self.patience, missing_ok=True)  # its stack is built
             if got:
                 self.last.update(got)

@@ -1,0 +1,161 @@
+"""The live swarm flying through MAVLink autopilots (``swarmtrack live --mavlink``, ``agent --autopilot``): the
+numbers of ``swarmtrack run`` to float32's precision, the vehicles' failsafe, refusals and bad links."""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+import subprocess
+import sys
+import threading
+import time
+import uuid
+
+import numpy as np
+import pytest
+from pymavlink.dialects.v20 import common as mavlink
+
+import swarmtrack
+from swarmtrack.analysis.metrics import summary
+from swarmtrack.autopilot.vehicle import MavlinkVehicle
+from swarmtrack.live.transport import ZenohTransport, free_port, key
+
+pytestmark = pytest.mark.xdist_group("live")
+
+
+def _udp_ports(n: int) -> int:
+    """The first of ``n`` consecutive UDP ports nothing is bound to now."""
+    while True:
+        base = 20000 + np.random.default_rng().integers(0, 20000)
+        socks = []
+        try:
+            for i in range(n):
+                s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+                socks.append(s)
+                s.bind(("127.0.0.1", int(base) + i))
+            return int(base)
+        except OSError:
+            continue
+        finally:
+            for s in socks:
+                s.close()
+
+
+def _live(tmp_path, *extra, duration=8):
+    """``swarmtrack live l24-ct --mavlink`` started: the process, its swarm's name and its Zenoh port."""
+    port, zenoh_port, swarm = _udp_ports(3), free_port(), f"test-{uuid.uuid4().hex[:8]}"
+    proc = subprocess.Popen([sys.executable, "-m", "swarmtrack", "live", "l24-ct", "--mavlink", "--mavlink-port",
+                             str(port), "--insecure", "--no-plots", "--out", str(tmp_path / "live"), "--swarm", swarm,
+                             "--listen", f"tcp/127.0.0.1:{zenoh_port}", "--set", f"duration={duration}", *extra],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    return proc, swarm, zenoh_port
+
+
+@pytest.mark.slow
+def test_a_mavlink_live_run_equals_run_to_float32(tmp_path):
+    """Navigation and setpoints travel as MAVLink's float32: the UAVs fly what ``swarmtrack run`` flies to within
+    micrometres, and the RMSE agrees to 1e-6 relative (60 s: 2.7 µm and 1e-9 measured)."""
+    proc, _, _ = _live(tmp_path, duration=10)
+    out, err = proc.communicate(timeout=240)
+    assert proc.returncode == 0, err[-3000:]
+    live = swarmtrack.load_run(tmp_path / "live")
+    ran = swarmtrack.simulate(swarmtrack.load_scenario("l24-ct", ["duration=10"]))
+    assert np.max(np.abs(live.uav - ran.uav)) < 1e-4 and np.max(np.abs(live.estimate - ran.estimate)) < 1e-4
+    assert not np.array_equal(live.uav, ran.uav)  # it did go through float32
+    rmse = json.loads((tmp_path / "live" / "metrics.json").read_text())["rmse"]["total"]
+    ran_rmse = summary(ran)["rmse"]["total"]
+    assert all(abs(rmse[k] - ran_rmse[k]) <= 1e-6 * ran_rmse[k] for k in rmse)
+
+
+@pytest.mark.slow
+def test_a_mavlink_run_in_real_time_tracks_as_run_does(tmp_path):
+    """At wall-clock rate the RMSE stays near the simulator's (20 s measured here: within 2-7 % per component; the
+    test allows 25 %, the machine may be busy)."""
+    proc, _, _ = _live(tmp_path, "--realtime", duration=10)
+    out, err = proc.communicate(timeout=240)
+    assert proc.returncode == 0, err[-3000:]
+    metrics = json.loads((tmp_path / "live" / "metrics.json").read_text())
+    ran_rmse = summary(swarmtrack.simulate(swarmtrack.load_scenario("l24-ct", ["duration=10"])))["rmse"]["total"]
+    assert metrics["live"]["mode"] == "realtime" and metrics["live"]["lost"] == []
+    assert all(abs(metrics["rmse"]["total"][k] / ran_rmse[k] - 1) < 0.25 for k in ran_rmse), metrics["rmse"]
+
+
+@pytest.mark.slow
+def test_a_killed_agent_is_held_by_its_vehicles_failsafe(tmp_path):
+    proc, swarm, zenoh_port = _live(tmp_path, duration=20)
+    try:
+        listener = _join(zenoh_port)
+        shares = []
+        listener.subscribe(key(swarm, "uav", 1, "share"), lambda k, data: shares.append(data))
+        deadline = time.monotonic() + 120
+        while len(shares) < 100 and time.monotonic() < deadline:  # 5 s flown
+            time.sleep(0.05)
+        listener.close()
+        lines = subprocess.run(["ps", "-eo", "pid,args", "-ww"], capture_output=True, text=True).stdout.splitlines()
+        victim = [ln.split()[0] for ln in lines if "agent --uav 2 " in ln and f"--swarm {swarm}" in ln]
+        assert len(victim) == 1, lines
+        os.kill(int(victim[0]), 9)
+        out, err = proc.communicate(timeout=240)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 0, err[-3000:]
+    lost = json.loads((tmp_path / "live" / "metrics.json").read_text())["live"]["lost"]
+    assert [e["uav"] for e in lost] == [2] and "UAV 2 stopped answering" in err
+    rec = swarmtrack.load_run(tmp_path / "live")
+    held = rec.t > lost[0]["t"] + 6.0  # its vehicle's failsafe has held it for a few seconds
+    speed = np.linalg.norm(rec.uav[:, 1, 2:4], axis=1)
+    assert held.any() and speed[held][-1] < 0.05 < speed[~held].max()
+
+
+def _join(port: int) -> ZenohTransport:
+    deadline = time.monotonic() + 60
+    while True:
+        try:
+            return ZenohTransport(connect=[f"tcp/127.0.0.1:{port}"], timeout=1.0)
+        except Exception:
+            if time.monotonic() > deadline:
+                raise
+            time.sleep(0.2)
+
+
+class _Refusing:
+    def __init__(self, port: int):
+        self.vehicle = MavlinkVehicle(0, port, refuse={"arm": mavlink.MAV_RESULT_DENIED})
+        self._stop = False
+        self.thread = threading.Thread(target=self._run, daemon=True)
+        self.thread.start()
+
+    def _run(self) -> None:
+        while not self._stop:
+            self.vehicle.poll(0.0)
+            time.sleep(0.01)
+
+    def close(self) -> None:
+        self._stop = True
+        self.thread.join()
+        self.vehicle.close()
+
+
+@pytest.mark.slow
+def test_an_agent_whose_autopilot_refuses_to_arm_exits_3_naming_it_and_one_without_an_autopilot_exits_2():
+    zenoh_port = free_port()
+    peer = ZenohTransport(listen=[f"tcp/127.0.0.1:{zenoh_port}"])
+    port = _udp_ports(1)
+    refusing = _Refusing(port)
+    base = [sys.executable, "-m", "swarmtrack", "agent", "l24-ct", "--uav", "1", "--insecure", "--connect",
+            f"tcp/127.0.0.1:{zenoh_port}", "--swarm", f"test-{uuid.uuid4().hex[:8]}"]
+    try:
+        refused = subprocess.run(base + ["--autopilot", f"udp://127.0.0.1:{port}"], capture_output=True, text=True,
+                                 timeout=60)
+        silent = subprocess.run(base + ["--autopilot", f"udp://127.0.0.1:{_udp_ports(1)}"], capture_output=True,
+                                text=True, timeout=60)
+    finally:
+        refusing.close()
+        peer.close()
+    assert refused.returncode == 3, refused.stderr[-2000:]
+    assert "UAV 1's autopilot refused to arm: MAV_RESULT_DENIED; no setpoint was flown" in refused.stderr
+    assert not refusing.vehicle.armed and refusing.vehicle.setpoint is None
+    assert silent.returncode == 2 and "UAV 1: no heartbeat from the autopilot" in silent.stderr, silent.stderr
+    assert "Traceback" not in refused.stderr + silent.stderr

@@ -129,6 +129,25 @@ def test_the_failsafe_hold_brings_a_moving_uav_to_rest_at_its_anchor():
     assert np.linalg.norm(nav[2:]) < 1e-3 and np.linalg.norm(nav[:2] - anchor) < 5e-3
 
 
+@pytest.mark.parametrize("fault, cause", [("nan", "holds NaN or infinity"), ("back", "went back in time")])
+def test_a_broken_navigation_stream_is_an_error_naming_the_uav_and_the_cause(flying, fault, cause):
+    vehicle, url = flying
+    link = AutopilotLink(url, 2)
+    try:
+        link.navigation()
+        if fault == "nan":
+            vehicle.nav = np.array([np.nan, 0.0, 0.0, 0.0])
+        else:
+            while link.nav_ms < 200:
+                link.navigation(link.nav_ms)
+            vehicle.vehicle.publish(0.1, vehicle.nav)  # a navigation stamped back in time
+        with pytest.raises(AutopilotError, match=f"UAV 3: the autopilot at {url}: its navigation {cause}"):
+            for _ in range(100):
+                link.navigation(link.nav_ms, timeout=1.0)
+    finally:
+        link.close()
+
+
 def test_no_heartbeat_and_bad_urls_are_errors_naming_the_uav():
     port = _port()
     t0 = time.monotonic()

@@ -7,9 +7,10 @@ companion computer usually listens on the port the autopilot's MAVLink instance 
 - waits for the autopilot's ``HEARTBEAT`` (:data:`HEARTBEAT_TIMEOUT` s, else :class:`AutopilotError`), then sends its
   own every second, as ``MAV_TYPE_ONBOARD_CONTROLLER`` of the vehicle's system, component
   ``MAV_COMP_ID_ONBOARD_COMPUTER``;
-- engages (:meth:`AutopilotLink.engage`): arms (``MAV_CMD_COMPONENT_ARM_DISARM``), streams a few zero setpoints (PX4
-  enters offboard mode only while setpoints come), and switches to offboard mode (``MAV_CMD_DO_SET_MODE``, PX4 main
-  mode 6); a refusal stops it with :class:`AutopilotRefused`, naming the vehicle and the acknowledgement's result;
+- engages (:meth:`AutopilotLink.engage`): arms (``MAV_CMD_COMPONENT_ARM_DISARM``; PX4 enters offboard mode only
+  armed), streams zero setpoints for 1.2 s (PX4 enters it only after setpoints have come for over a second), and
+  switches to offboard mode (``MAV_CMD_DO_SET_MODE``, PX4 main mode 6); a refusal stops it with
+  :class:`AutopilotRefused`, naming the vehicle and the acknowledgement's result;
 - reads the navigation solution from ``LOCAL_POSITION_NED`` (NED, converted to the project's ENU:
   :mod:`~swarmtrack.autopilot.frames`), keeping the latest (:meth:`AutopilotLink.navigation`);
 - sends the controller's planar acceleration as ``SET_POSITION_TARGET_LOCAL_NED`` with the acceleration type mask
@@ -32,8 +33,9 @@ from swarmtrack.autopilot.frames import enu_to_ned, ned_to_enu
 
 #: Seconds to wait for the autopilot's first heartbeat, and for a command's acknowledgement.
 HEARTBEAT_TIMEOUT, ACK_TIMEOUT = 5.0, 3.0
-#: Zero setpoints sent before asking for offboard mode, and their rate (Hz).
-PRIME, PRIME_RATE = 10, 20.0
+#: Zero setpoints sent before asking for offboard mode, and their rate (Hz): PX4 (v1.14) enters offboard mode only
+#: after the setpoints have come for over a second at more than 2 Hz.
+PRIME, PRIME_RATE = 24, 20.0
 
 
 class AutopilotError(Exception):
@@ -78,6 +80,7 @@ class AutopilotLink:
         self.nav_ms = -1  # its time_boot_ms
         self.mode, self.armed = None, False  # from the autopilot's heartbeats
         self._acks: dict[int, int] = {}
+        self.fault: str | None = None  # what is wrong with the autopilot's navigation stream
         heartbeat = self.conn.wait_heartbeat(timeout=timeout)
         if heartbeat is None:
             self.conn.close()
@@ -101,8 +104,14 @@ class AutopilotLink:
             self.mode = px4.main_mode(msg.custom_mode)
             self.armed = bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
         elif kind == "LOCAL_POSITION_NED":
-            self.nav = np.concatenate([ned_to_enu([msg.x, msg.y, msg.z])[:2], ned_to_enu([msg.vx, msg.vy, msg.vz])[:2]])
-            self.nav_ms = msg.time_boot_ms
+            if not np.isfinite([msg.x, msg.y, msg.z, msg.vx, msg.vy, msg.vz]).all():
+                self.fault = "its navigation holds NaN or infinity"
+            elif msg.time_boot_ms < self.nav_ms:
+                self.fault = (f"its navigation went back in time ({self.nav_ms} ms, then {msg.time_boot_ms} ms: "
+                              "did it reboot?)")
+            else:
+                p, v = ned_to_enu([msg.x, msg.y, msg.z]), ned_to_enu([msg.vx, msg.vy, msg.vz])
+                self.nav, self.nav_ms = np.concatenate([p[:2], v[:2]]), msg.time_boot_ms
         elif kind == "COMMAND_ACK":
             self._acks[msg.command] = msg.result
 
@@ -146,10 +155,13 @@ class AutopilotLink:
 
     def navigation(self, after_ms: int = -1, timeout: float = HEARTBEAT_TIMEOUT) -> np.ndarray:
         """The latest navigation solution ``[x, y, vx, vy]`` (ENU), waiting up to ``timeout`` s for one newer than
-        ``after_ms`` (``time_boot_ms``); :class:`AutopilotError` if none comes."""
-        if not self.pump(timeout, lambda: self.nav_ms > after_ms):
+        ``after_ms`` (``time_boot_ms``); :class:`AutopilotError` if none comes, or if the stream held a NaN or went
+        back in time (the UAV's process then stops, and its autopilot's failsafe holds it)."""
+        if not self.pump(timeout, lambda: self.nav_ms > after_ms or self.fault is not None):
             raise AutopilotError(f"UAV {self.uav + 1}: no navigation from the autopilot at {self.url} within "
                                  f"{timeout:g} s")
+        if self.fault is not None:
+            raise AutopilotError(f"UAV {self.uav + 1}: the autopilot at {self.url}: {self.fault}")
         return self.nav.copy()
 
     def send_acceleration(self, accel: np.ndarray, t: float) -> None:

@@ -159,3 +159,81 @@ def test_an_agent_whose_autopilot_refuses_to_arm_exits_3_naming_it_and_one_witho
     assert not refusing.vehicle.armed and refusing.vehicle.setpoint is None
     assert silent.returncode == 2 and "UAV 1: no heartbeat from the autopilot" in silent.stderr, silent.stderr
     assert "Traceback" not in refused.stderr + silent.stderr
+
+
+class _Cable:
+    """A UDP link between a vehicle (sending to ``vehicle_port``) and an agent listening on ``agent_port``, that can
+    be cut (:attr:`cut`: everything dropped both ways)."""
+
+    def __init__(self, vehicle_port: int, agent_port: int):
+        self.vehicle_side = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.vehicle_side.bind(("127.0.0.1", vehicle_port))
+        self.agent_side = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.agent_side.bind(("127.0.0.1", 0))
+        self.agent, self.vehicle, self.cut, self._stop = ("127.0.0.1", agent_port), None, False, False
+        self.thread = threading.Thread(target=self._run, daemon=True)
+        self.thread.start()
+
+    def _run(self) -> None:
+        import select
+
+        while not self._stop:
+            ready, _, _ = select.select([self.vehicle_side, self.agent_side], [], [], 0.05)
+            for s in ready:
+                data, addr = s.recvfrom(65536)
+                if s is self.vehicle_side:
+                    self.vehicle = addr
+                    if not self.cut:
+                        self.agent_side.sendto(data, self.agent)
+                elif not self.cut and self.vehicle is not None:
+                    self.vehicle_side.sendto(data, self.vehicle)
+
+    def close(self) -> None:
+        self._stop = True
+        self.thread.join()
+        self.vehicle_side.close()
+        self.agent_side.close()
+
+
+@pytest.mark.slow
+def test_a_link_that_drops_for_2_s_trips_the_failsafe_and_the_agent_switches_back_and_tracks(tmp_path):
+    """Real time; UAV 2's MAVLink link is cut for 2 s mid-run: its vehicle leaves offboard mode and holds (setpoints
+    older than 0.5 s); when the link returns the agent switches it back to offboard mode, and within 10 s its error
+    is under twice the swarm's median again."""
+    vehicle_port, cable_port, zenoh_port = _udp_ports(3), _udp_ports(1), free_port()
+    swarm = f"test-{uuid.uuid4().hex[:8]}"
+    base = [sys.executable, "-m", "swarmtrack"]
+    common = ["l24-ct", "--insecure", "--swarm", swarm, "--set", "duration=30"]
+    world = subprocess.Popen(base + ["world", *common, "--realtime", "--mavlink", "--mavlink-port", str(vehicle_port),
+                                     "--listen", f"tcp/127.0.0.1:{zenoh_port}", "--no-plots", "--out",
+                                     str(tmp_path / "live")], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    cable = _Cable(vehicle_port + 1, cable_port)
+    ports = [vehicle_port, cable_port, vehicle_port + 2]  # UAV 2 listens behind the cable
+    agents = [subprocess.Popen(base + ["agent", *common, "--uav", str(i + 1), "--connect",
+                                       f"tcp/127.0.0.1:{zenoh_port}", "--autopilot", f"udp://127.0.0.1:{ports[i]}"],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for i in range(3)]
+    try:
+        listener = _join(zenoh_port)
+        shares = []
+        listener.subscribe(key(swarm, "uav", 1, "share"), lambda k, data: shares.append(data))
+        deadline = time.monotonic() + 120
+        while len(shares) < 160 and time.monotonic() < deadline:  # 8 s flown
+            time.sleep(0.05)
+        listener.close()
+        cable.cut = True
+        time.sleep(2.0)
+        cable.cut = False
+        out, err = world.communicate(timeout=240)
+        agent_err = agents[1].communicate(timeout=60)[1]
+    finally:
+        for p in (world, *agents):
+            if p.poll() is None:
+                p.kill()
+        cable.close()
+    assert world.returncode == 0, err[-3000:]
+    assert "UAV 2: its autopilot left offboard mode" in agent_err, agent_err[-2000:]
+    back = float(agent_err.split("UAV 2: its autopilot left offboard mode at t = ")[1].split(" s")[0])
+    rec = swarmtrack.load_run(tmp_path / "live")
+    error = np.linalg.norm(rec.estimate[:, :, :2] - rec.target[:, None, :2], axis=2)
+    after = (rec.t >= back + 5) & (rec.t < back + 10)
+    assert after.any() and np.nanmean(error[after, 1]) < 2 * np.nanmedian(error[after])

@@ -116,17 +116,20 @@ class AutopilotLink:
             self._acks[msg.command] = msg.result
 
     def pump(self, timeout: float = 0.0, until=None) -> bool:
-        """Take the messages that came, waiting up to ``timeout`` s for ``until()`` to hold (None: take what is
-        there); returns whether it holds."""
+        """Take the messages that came; then, unless ``until()`` holds (None: take what is there), wait up to
+        ``timeout`` s for more until it does. Returns whether it holds."""
         deadline = time.monotonic() + timeout
         while True:
-            msg = self.conn.recv_match(blocking=True, timeout=max(0.0, min(0.05, deadline - time.monotonic())))
+            while (msg := self.conn.recv_match(blocking=False)) is not None:
+                self._take(msg)
+            if until is None or until():
+                return True
+            left = deadline - time.monotonic()
+            if left <= 0:
+                return False
+            msg = self.conn.recv_match(blocking=True, timeout=min(0.05, left))
             if msg is not None:
                 self._take(msg)
-            if until is not None and until():
-                return True
-            if msg is None and time.monotonic() >= deadline:
-                return until is None
 
     def _command(self, command: int, *params: float, what: str) -> None:
         self._acks.pop(command, None)

@@ -14,6 +14,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import sys
 import time
 from collections import Counter
 
@@ -93,6 +94,7 @@ class Agent:
     def __init__(self, scenario: Scenario, uav: int, node: Node, autopilot: str | None = None):
         self.scenario, self.i, self.node, self.autopilot = scenario, uav, node, autopilot
         self.link: AutopilotLink | None = None
+        self.flying = False  # whether it has sent its autopilot a command of its controller
         self.n = scenario.swarm.n_uavs
         self.clock = clock_of(scenario)
         self.estimator = self.controller = None
@@ -226,8 +228,11 @@ class Agent:
             self.link.pump()
             if self.link.mode != px4.OFFBOARD and time.monotonic() - self._engaged > 1.0:
                 self._engaged = time.monotonic()
+                print(f"UAV {self.i + 1}: its autopilot left offboard mode at t = {t:.2f} s (its failsafe); switching "
+                      "it back", file=sys.stderr, flush=True)
                 self.link.offboard()
         self.link.send_acceleration(u, t)
+        self.flying = True
 
     def _sample(self, k: int) -> tuple[wire.Sample, TargetView]:
         """The step's probes, and where a gimballed sensor should aim at the next frame (its latest estimate); and

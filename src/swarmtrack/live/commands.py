@@ -127,8 +127,8 @@ def agent_cmd(scenario: str, seed, overrides, uav: int, connect, listen, connect
             sys.exit(1)
     except (Mismatch, AutopilotError) as exc:
         raise UsageFailure(str(exc) if str(exc).startswith("UAV") else f"UAV {uav}: {exc}") from None
-    except AutopilotRefused as exc:  # nothing was flown: the vehicle stays as it was
-        click.echo(f"{exc}; no setpoint was flown", err=True)
+    except AutopilotRefused as exc:
+        click.echo(f"{exc}{'' if agent.flying else '; no setpoint was flown'}", err=True)
         sys.exit(3)
     except KeyboardInterrupt:  # Ctrl-C reaches the whole process group: the world writes what was completed
         sys.exit(130)

@@ -5,6 +5,10 @@
   ping-pong (bytes out, bytes back) between the same two processes. Goal: median ≤ 2× the raw one.
 * **Lockstep ``l24-ct`` with 5 UAV processes**: simulated time over wall time of the step loop (start-up apart,
   printed too), against the simulator's own speed on the same scenario in this process. Goal: ≥ 5× real time.
+* **MAVLink round trip** (issue 24): a setpoint sent by the UAV's link until the navigation that reflects it comes
+  back from a vehicle process that answers at once, beside the Zenoh hop above; and lockstep ``l24-ct`` with every UAV
+  flying through a simulated autopilot (``--mavlink``): its speed and the CPU per UAV process per step, beside the
+  Zenoh-only run.
 * **Real time ``l24-ct`` with 10 UAV processes for 60 s**: how late after its time each UAV's step was done (goal: not
   more than one period at the 99th percentile), the world's own lateness, the share latency beside the one-hop
   figure, the messages that missed their deadlines, and the CPU time of a UAV's process per estimation step (median,
@@ -18,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import socket
 import subprocess
 import sys
 import threading
@@ -49,6 +54,48 @@ def _echo(port: int, raw: bool) -> None:
 
 
 KEY = bytes(range(32))
+
+
+def _vehicle_echo(port: int) -> None:
+    """The far side of the MAVLink round trip (a process of its own): a simulated vehicle that answers each setpoint
+    at once with a navigation message stamped with the setpoint's time."""
+    import select
+
+    from swarmtrack.autopilot.vehicle import MavlinkVehicle
+
+    vehicle, answered = MavlinkVehicle(0, port), -1
+    while True:
+        select.select([vehicle.conn.port], [], [], 0.5)
+        vehicle.poll(0.0)
+        if vehicle.setpoint_ms != answered:
+            answered = vehicle.setpoint_ms
+            vehicle.publish(answered / 1000, np.zeros(4))
+
+
+def mavlink_round_trip(trips: int) -> dict:
+    """Median and 99th percentile (µs) of a setpoint sent over MAVLink until the navigation that reflects it comes
+    back (a vehicle process answering at once)."""
+    from swarmtrack.autopilot.link import AutopilotLink
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    far = subprocess.Popen([sys.executable, __file__, "--vehicle-echo", str(port)])
+    try:
+        link = AutopilotLink(f"udp://127.0.0.1:{port}", 0, timeout=30)
+        rtt = []
+        for i in range(1, trips + 201):  # the first 200 warm up
+            t0 = time.perf_counter()
+            link.send_acceleration(np.ones(2), i / 1000)
+            link.navigation(i - 1, timeout=5.0)
+            if i > 200:
+                rtt.append(time.perf_counter() - t0)
+        link.close()
+    finally:
+        far.kill()
+        far.wait()
+    us = np.asarray(rtt) * 1e6
+    return {"median_us": float(np.median(us)), "p99_us": float(np.percentile(us, 99))}
 
 
 def ping_pong(hops: int) -> dict:
@@ -102,8 +149,9 @@ def _rounds(transport, raw: bool, hops: int) -> list[float]:
     return rtt
 
 
-def _live(uavs: int, duration: float, realtime: bool, progress=None):
-    """A live run of ``l24-ct`` with ``uavs`` UAV processes: (report, seconds from start to the first step)."""
+def _live(uavs: int, duration: float, realtime: bool, progress=None, mavlink: bool = False):
+    """A live run of ``l24-ct`` with ``uavs`` UAV processes (through simulated autopilots with ``mavlink``): the
+    scenario, the report and the world's CPU per step (ms)."""
     from swarmtrack import load_scenario
     from swarmtrack.live.commands import start_agents, stop_agents
     from swarmtrack.live.session import run_live
@@ -114,10 +162,12 @@ def _live(uavs: int, duration: float, realtime: bool, progress=None):
     endpoints = [f"tcp/127.0.0.1:{port}"]
     transport = ZenohTransport(listen=endpoints)
     node = Node(transport, wire.Seal(None, uavs), f"{SWARM}-{port}", wire.WORLD)
-    procs = start_agents(scenario, "l24-ct", None, overrides, endpoints, f"{SWARM}-{port}", None)
+    mavlink_port = _udp_base(uavs) if mavlink else None
+    procs = start_agents(scenario, "l24-ct", None, overrides, endpoints, f"{SWARM}-{port}", None, mavlink_port)
     try:
         cpu = time.process_time()
-        _rec, report, _tables = run_live(scenario, node, progress=progress, realtime=realtime)
+        _rec, report, _tables = run_live(scenario, node, progress=progress, realtime=realtime,
+                                         mavlink=None if mavlink_port is None else (mavlink_port, "127.0.0.1"))
         world_cpu_ms = 1e3 * (time.process_time() - cpu) / round(duration * scenario.rates.estimation)
     finally:
         stop_agents(procs)
@@ -125,7 +175,24 @@ def _live(uavs: int, duration: float, realtime: bool, progress=None):
     return scenario, report, world_cpu_ms
 
 
-def lockstep(uavs: int, duration: float) -> dict:
+def _udp_base(n: int) -> int:
+    """The first of ``n`` consecutive free UDP ports."""
+    for base in range(20000, 60000, 97):
+        socks = []
+        try:
+            for i in range(n):
+                socks.append(socket.socket(socket.AF_INET, socket.SOCK_DGRAM))
+                socks[-1].bind(("127.0.0.1", base + i))
+            return base
+        except OSError:
+            continue
+        finally:
+            for s in socks:
+                s.close()
+    raise RuntimeError("no free UDP ports")
+
+
+def lockstep(uavs: int, duration: float, mavlink: bool = False) -> dict:
     """A lockstep live run of ``l24-ct`` with ``uavs`` UAV processes, and the simulator on the same scenario."""
     from swarmtrack import load_scenario, simulate
 
@@ -135,7 +202,7 @@ def lockstep(uavs: int, duration: float) -> dict:
     marks = []
     t0 = time.perf_counter()
     _scenario, report, world_cpu = _live(uavs, duration, False,
-                                         lambda done: marks.append((time.perf_counter(), done)))
+                                         lambda done: marks.append((time.perf_counter(), done)), mavlink)
     end = time.perf_counter()
     (t_first, done_first) = marks[0]
     loop_s = (end - t_first) / (1 - done_first)  # the steps after the first, scaled to the whole run
@@ -166,17 +233,24 @@ def main() -> int:
     ap.add_argument("--echo", type=int, help=argparse.SUPPRESS)
     ap.add_argument("--raw", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--sealed", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--vehicle-echo", type=int, help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.echo:
         _echo(args.echo, args.raw)
+        return 0
+    if args.vehicle_echo:
+        _vehicle_echo(args.vehicle_echo)
         return 0
     if args.quick:
         args.duration, args.realtime_duration, args.hops = 10.0, 10.0, 500
     hop = ping_pong(args.hops)
     run = lockstep(args.uavs, args.duration)
+    trip = mavlink_round_trip(args.hops)
+    flown = lockstep(args.uavs, args.duration, mavlink=True)
     live = realtime(args.realtime_uavs, args.realtime_duration)
     if args.json:
-        print(json.dumps({"hop": hop, "lockstep": run, "realtime": live}, indent=1))
+        print(json.dumps({"hop": hop, "lockstep": run, "mavlink_round_trip": trip, "lockstep_mavlink": flown,
+                          "realtime": live}, indent=1))
         return 0
     raw, ours = hop["raw_zenoh"], hop["swarmtrack"]
     print(f"one hop, median / p99: swarmtrack {ours['median_us']:.0f} / {ours['p99_us']:.0f} µs; raw Zenoh "
@@ -186,6 +260,10 @@ def main() -> int:
           f"real time (goal ≥ 5), start-up {run['startup_s']:.1f} s; the simulator on it in this process: "
           f"{run['simulator_real_time_factor']:.0f}× real time; CPU per step: {run['cpu_per_uav_step_ms']:.2f} ms "
           f"per UAV process (median), {run['world_cpu_per_step_ms']:.2f} ms the world (mean, start-up included)")
+    print(f"MAVLink round trip (setpoint sent → the navigation that reflects it): {trip['median_us']:.0f} / "
+          f"{trip['p99_us']:.0f} µs (median / p99), beside the Zenoh hop above; lockstep l24-ct through simulated "
+          f"autopilots: {flown['real_time_factor']:.1f}× real time, CPU per UAV process per step "
+          f"{flown['cpu_per_uav_step_ms']:.2f} ms (median) against {run['cpu_per_uav_step_ms']:.2f} ms without")
     late, world, share, cpu = (live["step_lateness_periods"], live["world_lateness_periods"],
                                live["share_latency_ms"], live["cpu_per_uav_step_ms"])
     print(f"real time l24-ct, {live['uavs']} UAV processes, {live['duration_s']:g} s (period "

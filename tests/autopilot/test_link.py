@@ -28,6 +28,7 @@ class Flying:
     def __init__(self, port: int, **kwargs):
         self.vehicle = MavlinkVehicle(2, port, **kwargs)
         self.nav = np.array([10.0, -20.0, 1.5, -0.5])
+        self.attitude = np.array([0.1, -0.2, 2.5])  # roll, pitch, yaw (ENU)
         self.t0, self._stop = time.monotonic(), False
         self.thread = threading.Thread(target=self._run, daemon=True)
         self.thread.start()
@@ -41,7 +42,7 @@ class Flying:
             now = self.now()
             self.vehicle.poll(now)
             if now - last >= 0.02:
-                self.vehicle.publish(now, self.nav)
+                self.vehicle.publish(now, self.nav, self.attitude)
                 last = now
             time.sleep(0.005)
 
@@ -68,6 +69,7 @@ def test_the_link_engages_and_a_setpoint_arrives_as_sent_within_float32(flying):
         assert vehicle.vehicle.offboard() and link.pump(2.0, lambda: link.armed and link.mode == px4.OFFBOARD)
         nav = link.navigation()
         assert np.allclose(nav, vehicle.nav, rtol=2 ** -23, atol=0)  # ENU in, NED on the wire, ENU out (float32)
+        assert np.allclose(link.attitude, vehicle.attitude, rtol=0, atol=1e-6)
         accel = np.array([0.3, -1.7])
         link.send_acceleration(accel, 1.25)
         deadline = time.monotonic() + 2
@@ -161,5 +163,7 @@ def test_no_heartbeat_and_bad_urls_are_errors_naming_the_uav():
         s.bind(("127.0.0.1", 0))
         with pytest.raises(AutopilotError, match="cannot open the autopilot link"):  # a port in use
             AutopilotLink(f"udp://127.0.0.1:{s.getsockname()[1]}", 0, timeout=0.5)
+    with pytest.raises(AutopilotError, match="UAV 1: cannot open the autopilot link serial:///dev/no-such-tty"):
+        AutopilotLink("serial:///dev/no-such-tty:57600", 0)
     assert device_of("udp://:14540") == ("udpin:0.0.0.0:14540", 0)
     assert device_of("serial:///dev/ttyUSB0:57600") == ("/dev/ttyUSB0", 57600)

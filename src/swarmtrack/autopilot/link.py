@@ -12,7 +12,8 @@ companion computer usually listens on the port the autopilot's MAVLink instance 
   switches to offboard mode (``MAV_CMD_DO_SET_MODE``, PX4 main mode 6); a refusal stops it with
   :class:`AutopilotRefused`, naming the vehicle and the acknowledgement's result;
 - reads the navigation solution from ``LOCAL_POSITION_NED`` (NED, converted to the project's ENU:
-  :mod:`~swarmtrack.autopilot.frames`), keeping the latest (:meth:`AutopilotLink.navigation`);
+  :mod:`~swarmtrack.autopilot.frames`), keeping the latest (:meth:`AutopilotLink.navigation`), and ``ATTITUDE``
+  (:attr:`AutopilotLink.attitude`, its yaw in ENU's convention; the planar controllers do not read it);
 - sends the controller's planar acceleration as ``SET_POSITION_TARGET_LOCAL_NED`` with the acceleration type mask
   (:data:`~swarmtrack.autopilot.px4.ACCELERATION`; the quadrotor's command is an acceleration, tracked by its
   attitude loop), its ``time_boot_ms`` the navigation's it answers.
@@ -29,7 +30,7 @@ import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
 from swarmtrack.autopilot import px4
-from swarmtrack.autopilot.frames import enu_to_ned, ned_to_enu
+from swarmtrack.autopilot.frames import enu_to_ned, ned_to_enu, yaw_ned_to_enu
 
 #: Seconds to wait for the autopilot's first heartbeat, and for a command's acknowledgement.
 HEARTBEAT_TIMEOUT, ACK_TIMEOUT = 5.0, 3.0
@@ -81,6 +82,7 @@ class AutopilotLink:
         self.mode, self.armed = None, False  # from the autopilot's heartbeats
         self._acks: dict[int, int] = {}
         self.fault: str | None = None  # what is wrong with the autopilot's navigation stream
+        self.attitude: np.ndarray | None = None  # the latest [roll, pitch, yaw] (rad; yaw ENU's, from east)
         heartbeat = self.conn.wait_heartbeat(timeout=timeout)
         if heartbeat is None:
             self.conn.close()
@@ -112,6 +114,8 @@ class AutopilotLink:
             else:
                 p, v = ned_to_enu([msg.x, msg.y, msg.z]), ned_to_enu([msg.vx, msg.vy, msg.vz])
                 self.nav, self.nav_ms = np.concatenate([p[:2], v[:2]]), msg.time_boot_ms
+        elif kind == "ATTITUDE":
+            self.attitude = np.array([msg.roll, msg.pitch, float(yaw_ned_to_enu(msg.yaw))])
         elif kind == "COMMAND_ACK":
             self._acks[msg.command] = msg.result
 

@@ -70,15 +70,23 @@ def test_a_mavlink_live_run_equals_run_to_float32(tmp_path):
 
 @pytest.mark.slow
 def test_a_mavlink_run_in_real_time_tracks_as_run_does(tmp_path):
-    """At wall-clock rate the RMSE stays near the simulator's (20 s measured here: within 2-7 % per component; the
-    test allows 25 %, the machine may be busy)."""
+    """At wall-clock rate the position error stays near the simulator's (a 20 s run measured here: the RMSE within
+    2-7 % per component). The test allows 25 % over the samples that came in time (at least 80 % of them), the
+    machine may be busy with other tests."""
     proc, _, _ = _live(tmp_path, "--realtime", duration=10)
     out, err = proc.communicate(timeout=240)
     assert proc.returncode == 0, err[-3000:]
-    metrics = json.loads((tmp_path / "live" / "metrics.json").read_text())
-    ran_rmse = summary(swarmtrack.simulate(swarmtrack.load_scenario("l24-ct", ["duration=10"])))["rmse"]["total"]
-    assert metrics["live"]["mode"] == "realtime" and metrics["live"]["lost"] == []
-    assert all(abs(metrics["rmse"]["total"][k] / ran_rmse[k] - 1) < 0.25 for k in ran_rmse), metrics["rmse"]
+    assert json.loads((tmp_path / "live" / "metrics.json").read_text())["live"]["lost"] == []
+    live = swarmtrack.load_run(tmp_path / "live")
+    ran = swarmtrack.simulate(swarmtrack.load_scenario("l24-ct", ["duration=10"]))
+
+    def position_error(rec):
+        return np.linalg.norm(rec.estimate[:, :, :2] - rec.target[:, None, :2], axis=2)
+
+    came = np.isfinite(position_error(live))
+    assert came.mean() >= 0.8, came.mean()
+    rmse = [float(np.sqrt(np.mean(position_error(rec)[came] ** 2))) for rec in (live, ran)]
+    assert abs(rmse[0] / rmse[1] - 1) < 0.25, rmse
 
 
 @pytest.mark.slow

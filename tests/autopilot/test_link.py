@@ -105,6 +105,7 @@ def test_offboard_mode_is_refused_without_a_setpoint_stream(flying):
         link.close()
 
 
+@pytest.mark.slow  # two engagements and a failsafe: 3 s
 def test_setpoints_that_stop_trip_the_failsafe_which_holds_position_until_offboard_again(flying):
     vehicle, url = flying
     link = AutopilotLink(url, 2)

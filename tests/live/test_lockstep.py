@@ -22,7 +22,7 @@ import swarmtrack
 from swarmtrack.cli import main
 from swarmtrack.live import wire
 from swarmtrack.live.node import LOST_AFTER
-from swarmtrack.live.transport import ZenohTransport, free_port, key
+from swarmtrack.live.transport import free_port, key
 
 pytestmark = pytest.mark.xdist_group("live")  # one worker runs these (each starts several processes) in turn
 
@@ -49,18 +49,6 @@ def _columns(rec) -> dict[str, np.ndarray]:
     out = {name: np.concatenate([getattr(c, name) for c in chunks]) for name in ("t", "truth", "phase")}
     out.update({p: np.concatenate([c.probes[p] for c in chunks]) for p in rec.meta["probes"] if p != "solve_time"})
     return out
-
-
-def _join(port: int) -> ZenohTransport:
-    """A Zenoh peer joined to the world listening on ``port`` (once its scenario is built, within 60 s)."""
-    deadline = time.monotonic() + 60
-    while True:
-        try:
-            return ZenohTransport(connect=[f"tcp/127.0.0.1:{port}"], timeout=1.0)
-        except Exception:
-            if time.monotonic() > deadline:
-                raise
-            time.sleep(0.2)
 
 
 def assert_same_recording(a, b) -> None:
@@ -140,7 +128,7 @@ def test_an_endpoint_in_use_or_unreachable_is_refused(tmp_path):
 
 
 @pytest.mark.slow
-def test_a_uav_with_another_swarm_key_is_refused_by_both_sides_naming_the_key(tmp_path):
+def test_a_uav_with_another_swarm_key_is_refused_by_both_sides_naming_the_key(tmp_path, peer):
     keys = [tmp_path / "a.key", tmp_path / "b.key"]
     for k in keys:
         assert CliRunner().invoke(main, ["keygen", str(k)]).exit_code == 0
@@ -151,7 +139,7 @@ def test_a_uav_with_another_swarm_key_is_refused_by_both_sides_naming_the_key(tm
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     agent = None
     try:
-        _join(port).close()  # the world listens
+        peer.join(port).close()  # the world listens
         agent = subprocess.Popen(base + ["agent", "l24-ct", "--uav", "1", "--key", str(keys[1]), "--swarm", swarm,
                                          "--connect", f"tcp/127.0.0.1:{port}"],
                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -167,7 +155,7 @@ def test_a_uav_with_another_swarm_key_is_refused_by_both_sides_naming_the_key(tm
 
 
 @pytest.mark.slow
-def test_forged_replayed_and_undecodable_messages_are_dropped_counted_and_change_nothing(tmp_path):
+def test_forged_replayed_and_undecodable_messages_are_dropped_counted_and_change_nothing(tmp_path, peer):
     """l24-ct with a swarm key while an outsider publishes forged messages, replays a real one and an insider sends
     bodies that do not decode, on a UAV's share key: all dropped and counted, the recording equal to simulate's."""
     key_file = tmp_path / "swarm.key"
@@ -180,7 +168,7 @@ def test_forged_replayed_and_undecodable_messages_are_dropped_counted_and_change
     proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     captured, sent = [], {"forged": 0, "replayed": 0, "undecodable": 0}
     try:
-        intruder = _join(port)
+        intruder = peer.join(port)
         share = key(swarm, "uav", 1, "share")
         intruder.subscribe(share, lambda k, data: captured.append(data))
         outsider, insider = wire.Seal(wire.keygen(), 3), wire.Seal(secret, 3)
@@ -210,7 +198,7 @@ def test_forged_replayed_and_undecodable_messages_are_dropped_counted_and_change
 
 @pytest.mark.slow
 @pytest.mark.parametrize("clock", [[], ["--realtime"]], ids=["lockstep", "realtime"])
-def test_a_killed_uav_is_flown_safely_named_and_rejoins_tracking(tmp_path, clock):
+def test_a_killed_uav_is_flown_safely_named_and_rejoins_tracking(tmp_path, peer, clock):
     """SIGKILL on UAV 2's process mid-run: the run finishes (exit 0), metrics.json names the UAV and the time it was
     lost; ``swarmtrack agent --uav 2 --rejoin`` brings it back, and within 10 s its error is under twice the swarm's
     median. In real time the new process catches up through the steps it is sent."""
@@ -221,15 +209,9 @@ def test_a_killed_uav_is_flown_safely_named_and_rejoins_tracking(tmp_path, clock
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     rejoined = None
     try:
-        listener = _join(port)
-        steps = []
-        listener.subscribe(key(swarm, "uav", 1, "share"), lambda k, data: steps.append(data))
-        deadline = time.monotonic() + 120
-        while len(steps) < 60 and time.monotonic() < deadline:  # UAV 2 has shared 60 steps (3 s)
-            time.sleep(0.05)
-        listener.close()
+        steps = peer.flown(port, swarm, 1, 60)  # UAV 2 has shared 60 steps (3 s)
         victim = [line.split()[0] for line in _processes_of(swarm) if "--uav 2 " in line]
-        assert len(victim) == 1, (len(steps), _processes_of(swarm))
+        assert len(victim) == 1, (steps, _processes_of(swarm))
         os.kill(int(victim[0]), 9)
         time.sleep(LOST_AFTER + 1.0)  # the world has taken it for lost (no heartbeat) and flies it safely
         rejoined = subprocess.Popen(base + ["agent", "l24-ct", "--uav", "2", "--rejoin", "--insecure", "--swarm",
@@ -258,19 +240,13 @@ def test_a_killed_uav_is_flown_safely_named_and_rejoins_tracking(tmp_path, clock
 
 
 @pytest.mark.slow
-def test_ctrl_c_stops_every_process_within_2_s_and_keeps_the_steps_completed(tmp_path):
+def test_ctrl_c_stops_every_process_within_2_s_and_keeps_the_steps_completed(tmp_path, peer):
     port, swarm = free_port(), f"test-{uuid.uuid4().hex[:8]}"
     world = subprocess.Popen([sys.executable, "-m", "swarmtrack", "live", "l24-ct", "--insecure", "--no-plots",
                               "--out", str(tmp_path / "live"), "--swarm", swarm, "--listen", f"tcp/127.0.0.1:{port}",
                               "--set", "duration=60"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        listener = _join(port)
-        steps = []
-        listener.subscribe(key(swarm, "uav", 0, "share"), lambda k, data: steps.append(data))
-        deadline = time.monotonic() + 120
-        while len(steps) < 40 and time.monotonic() < deadline:
-            time.sleep(0.05)
-        listener.close()
+        peer.flown(port, swarm, 0, 40)
         world.send_signal(2)  # SIGINT, as Ctrl-C
         stopped = time.monotonic()
         while _processes_of(swarm) and time.monotonic() < stopped + 10:

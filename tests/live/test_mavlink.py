@@ -19,7 +19,7 @@ from pymavlink.dialects.v20 import common as mavlink
 import swarmtrack
 from swarmtrack.analysis.metrics import summary
 from swarmtrack.autopilot.vehicle import MavlinkVehicle
-from swarmtrack.live.transport import ZenohTransport, free_port, key
+from swarmtrack.live.transport import ZenohTransport, free_port
 
 pytestmark = pytest.mark.xdist_group("live")
 
@@ -90,16 +90,10 @@ def test_a_mavlink_run_in_real_time_tracks_as_run_does(tmp_path):
 
 
 @pytest.mark.slow
-def test_a_killed_agent_is_held_by_its_vehicles_failsafe(tmp_path):
+def test_a_killed_agent_is_held_by_its_vehicles_failsafe(tmp_path, peer):
     proc, swarm, zenoh_port = _live(tmp_path, duration=20)
     try:
-        listener = _join(zenoh_port)
-        shares = []
-        listener.subscribe(key(swarm, "uav", 1, "share"), lambda k, data: shares.append(data))
-        deadline = time.monotonic() + 120
-        while len(shares) < 100 and time.monotonic() < deadline:  # 5 s flown
-            time.sleep(0.05)
-        listener.close()
+        peer.flown(zenoh_port, swarm, 1, 100)  # 5 s flown
         lines = subprocess.run(["ps", "-eo", "pid,args", "-ww"], capture_output=True, text=True).stdout.splitlines()
         victim = [ln.split()[0] for ln in lines if "agent --uav 2 " in ln and f"--swarm {swarm}" in ln]
         assert len(victim) == 1, lines
@@ -115,17 +109,6 @@ def test_a_killed_agent_is_held_by_its_vehicles_failsafe(tmp_path):
     held = rec.t > lost[0]["t"] + 6.0  # its vehicle's failsafe has held it for a few seconds
     speed = np.linalg.norm(rec.uav[:, 1, 2:4], axis=1)
     assert held.any() and speed[held][-1] < 0.05 < speed[~held].max()
-
-
-def _join(port: int) -> ZenohTransport:
-    deadline = time.monotonic() + 60
-    while True:
-        try:
-            return ZenohTransport(connect=[f"tcp/127.0.0.1:{port}"], timeout=1.0)
-        except Exception:
-            if time.monotonic() > deadline:
-                raise
-            time.sleep(0.2)
 
 
 class _Refusing:
@@ -149,7 +132,7 @@ class _Refusing:
 @pytest.mark.slow
 def test_an_agent_whose_autopilot_refuses_to_arm_exits_3_naming_it_and_one_without_an_autopilot_exits_2():
     zenoh_port = free_port()
-    peer = ZenohTransport(listen=[f"tcp/127.0.0.1:{zenoh_port}"])
+    listener = ZenohTransport(listen=[f"tcp/127.0.0.1:{zenoh_port}"])
     port = _udp_ports(1)
     refusing = _Refusing(port)
     base = [sys.executable, "-m", "swarmtrack", "agent", "l24-ct", "--uav", "1", "--insecure", "--connect",
@@ -161,7 +144,7 @@ def test_an_agent_whose_autopilot_refuses_to_arm_exits_3_naming_it_and_one_witho
                                 text=True, timeout=60)
     finally:
         refusing.close()
-        peer.close()
+        listener.close()
     assert refused.returncode == 3, refused.stderr[-2000:]
     assert "UAV 1's autopilot refused to arm: MAV_RESULT_DENIED; no setpoint was flown" in refused.stderr
     assert not refusing.vehicle.armed and refusing.vehicle.setpoint is None
@@ -204,7 +187,7 @@ class _Cable:
 
 
 @pytest.mark.slow
-def test_a_link_that_drops_for_2_s_trips_the_failsafe_and_the_agent_switches_back_and_tracks(tmp_path):
+def test_a_link_that_drops_for_2_s_trips_the_failsafe_and_the_agent_switches_back_and_tracks(tmp_path, peer):
     """Real time; UAV 2's MAVLink link is cut for 2 s mid-run: its vehicle leaves offboard mode and holds (setpoints
     older than 0.5 s); when the link returns the agent switches it back to offboard mode, and within 10 s its error
     is under twice the swarm's median again."""
@@ -221,13 +204,7 @@ def test_a_link_that_drops_for_2_s_trips_the_failsafe_and_the_agent_switches_bac
                                        f"tcp/127.0.0.1:{zenoh_port}", "--autopilot", f"udp://127.0.0.1:{ports[i]}"],
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for i in range(3)]
     try:
-        listener = _join(zenoh_port)
-        shares = []
-        listener.subscribe(key(swarm, "uav", 1, "share"), lambda k, data: shares.append(data))
-        deadline = time.monotonic() + 120
-        while len(shares) < 160 and time.monotonic() < deadline:  # 8 s flown
-            time.sleep(0.05)
-        listener.close()
+        peer.flown(zenoh_port, swarm, 1, 160)  # 8 s flown
         cable.cut = True
         time.sleep(2.0)
         cable.cut = False

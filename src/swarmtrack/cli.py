@@ -18,6 +18,7 @@ import yaml
 from swarmtrack import registry
 from swarmtrack.analysis.papers import PAPERS
 from swarmtrack.cli_support import UsageFailure, report_run, warn_run, write_run
+from swarmtrack.interop import commands as interop_commands
 from swarmtrack.live import commands as live_commands
 from swarmtrack.scenarios.loader import ScenarioError, builtin_names, load_raw, load_scenario
 
@@ -350,6 +351,7 @@ main.add_command(live_commands.live_cmd)
 main.add_command(live_commands.world_cmd)
 main.add_command(live_commands.agent_cmd)
 main.add_command(live_commands.keygen_cmd)
+main.add_command(interop_commands.export_cmd)
 
 if __name__ == "__main__":  # pragma: no cover
     main()

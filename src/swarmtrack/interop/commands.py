@@ -1,0 +1,50 @@
+"""``swarmtrack export RUN --format mcap|rosbag2|csv``: a finished run for the field's viewers."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+import click
+
+from swarmtrack.cli_support import UsageFailure
+
+
+@click.command("export")
+@click.argument("run", type=click.Path(file_okay=False, path_type=Path))
+@click.option("--format", "fmt", type=click.Choice(["mcap", "rosbag2", "csv"]), default="mcap", show_default=True,
+              help="mcap: a ROS 2 bag in MCAP storage (Foxglove); rosbag2: sqlite3 storage; csv: the time series")
+@click.option("--out", type=click.Path(path_type=Path), default=None,
+              help="the new bag (a folder) or CSV folder (default: RUN.<format> beside RUN); never replaced")
+def export_cmd(run: Path, fmt: str, out: Path | None) -> None:
+    """Write the run in RUN (a swarmtrack run folder) as standard messages: the truth and every UAV's estimate with
+    its covariance (docs/replay.md lists the topics)."""
+    from swarmtrack import load_run
+
+    if not (run / "recording").is_dir():
+        raise UsageFailure(f"{run}: not a swarmtrack run folder (it has no recording/)")
+    out = (out or run.parent / f"{run.name}.{fmt}").absolute()
+    if out.exists():
+        raise UsageFailure(f"--out {out}: something is already there (an export never replaces anything)")
+    rec = load_run(run)
+    try:
+        staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".partial", dir=out.parent))
+    except OSError as exc:
+        raise UsageFailure(f"--out {out}: {exc.strerror or exc}") from None
+    try:  # written whole in a staging folder beside it, then moved into place
+        if fmt == "csv":
+            rec.write_csv(staging / "export")
+            counts = None
+        else:
+            from swarmtrack.interop.ros import export_ros
+
+            counts = export_ros(rec, staging / "export", fmt)
+        os.rename(staging / "export", out)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+    if counts is None:
+        click.echo(f"time series written to {out}")
+    else:
+        click.echo(f"{sum(counts.values())} messages on {len(counts)} topics written to {out}")

@@ -83,7 +83,11 @@ class AutopilotLink:
         self._acks: dict[int, int] = {}
         self.fault: str | None = None  # what is wrong with the autopilot's navigation stream
         self.attitude: np.ndarray | None = None  # the latest [roll, pitch, yaw] (rad; yaw ENU's, from east)
-        heartbeat = self.conn.wait_heartbeat(timeout=timeout)
+        heartbeat, deadline = None, time.monotonic() + timeout
+        while heartbeat is None and time.monotonic() < deadline:  # the autopilot's, not a ground station's
+            beat = self.conn.recv_match(type="HEARTBEAT", blocking=True, timeout=deadline - time.monotonic())
+            if beat is not None and beat.autopilot != mavlink.MAV_AUTOPILOT_INVALID:
+                heartbeat = beat
         if heartbeat is None:
             self.conn.close()
             raise AutopilotError(f"UAV {uav + 1}: no heartbeat from the autopilot at {url} within {timeout:g} s")

@@ -236,7 +236,9 @@ def test_a_killed_uav_is_flown_safely_named_and_rejoins_tracking(tmp_path, peer,
     away = (steps_t > lost["t"]) & (steps_t < back["t"])
     assert away.any() and np.isnan(error[away, 1]).all()  # nothing recorded while it was lost
     after = (t >= back["t"] + 5) & (t < back["t"] + 10)
-    assert after.any() and np.mean(error[after, 1]) < 2 * np.median(error[after])
+    # in real time a sample late to the world is recorded as NaN (a busy machine): judged on those that came
+    assert after.any() and np.isfinite(error[after, 1]).mean() > 0.8
+    assert np.nanmean(error[after, 1]) < 2 * np.nanmedian(error[after])
 
 
 @pytest.mark.slow

@@ -55,24 +55,25 @@ def _live(tmp_path, *extra, duration=8):
 @pytest.mark.slow
 def test_a_mavlink_live_run_equals_run_to_float32(tmp_path):
     """Navigation and setpoints travel as MAVLink's float32: the UAVs fly what ``swarmtrack run`` flies to within
-    micrometres, and the RMSE agrees to 1e-6 relative (60 s: 2.7 µm and 1e-9 measured)."""
+    10 µm (about ten float32 steps at these distances), and the RMSE agrees to 1e-7 relative (10 s measured: 0.39 µm,
+    estimates 5.6e-9 m, RMSE 1.4e-9 relative; 60 s: 2.7 µm and 1e-9)."""
     proc, _, _ = _live(tmp_path, duration=10)
     out, err = proc.communicate(timeout=240)
     assert proc.returncode == 0, err[-3000:]
     live = swarmtrack.load_run(tmp_path / "live")
     ran = swarmtrack.simulate(swarmtrack.load_scenario("l24-ct", ["duration=10"]))
-    assert np.max(np.abs(live.uav - ran.uav)) < 1e-4 and np.max(np.abs(live.estimate - ran.estimate)) < 1e-4
+    assert np.max(np.abs(live.uav - ran.uav)) < 1e-5 and np.max(np.abs(live.estimate - ran.estimate)) < 1e-6
     assert not np.array_equal(live.uav, ran.uav)  # it did go through float32
     rmse = json.loads((tmp_path / "live" / "metrics.json").read_text())["rmse"]["total"]
     ran_rmse = summary(ran)["rmse"]["total"]
-    assert all(abs(rmse[k] - ran_rmse[k]) <= 1e-6 * ran_rmse[k] for k in rmse)
+    assert all(abs(rmse[k] - ran_rmse[k]) <= 1e-7 * ran_rmse[k] for k in rmse)
 
 
 @pytest.mark.slow
 def test_a_mavlink_run_in_real_time_tracks_as_run_does(tmp_path):
-    """At wall-clock rate the position error stays near the simulator's (a 20 s run measured here: the RMSE within
-    2-7 % per component). The test allows 25 % over the samples that came in time (at least 80 % of them), the
-    machine may be busy with other tests."""
+    """At wall-clock rate the position error's RMSE stays within 10 % of the simulator's (the issue's goal), over the
+    samples that came in time (at least 80 % of them: a busy machine records late ones as NaN). Measured on 10 s with
+    a core busy elsewhere: 0.5 %, 99.5 % of the samples in time."""
     proc, _, _ = _live(tmp_path, "--realtime", duration=10)
     out, err = proc.communicate(timeout=240)
     assert proc.returncode == 0, err[-3000:]
@@ -86,7 +87,7 @@ def test_a_mavlink_run_in_real_time_tracks_as_run_does(tmp_path):
     came = np.isfinite(position_error(live))
     assert came.mean() >= 0.8, came.mean()
     rmse = [float(np.sqrt(np.mean(position_error(rec)[came] ** 2))) for rec in (live, ran)]
-    assert abs(rmse[0] / rmse[1] - 1) < 0.25, rmse
+    assert abs(rmse[0] / rmse[1] - 1) < 0.10, rmse
 
 
 @pytest.mark.slow

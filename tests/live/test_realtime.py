@@ -20,6 +20,7 @@ import swarmtrack
 from swarmtrack.live import wire
 from swarmtrack.live.agent import Agent, build_onboard
 from swarmtrack.live.node import Node
+from swarmtrack.live.world import FIELDS
 from swarmtrack.scenarios import load_scenario
 from swarmtrack.sim.build import build
 from swarmtrack.sim.engine import step_loop
@@ -75,9 +76,7 @@ def _agent_run(scenario, inputs, lag: int | None) -> tuple[np.ndarray, dict]:
             neighbour.send(1, wire.Share(k=k - lag, taken=inputs[k - lag][0],
                                          payloads={name: wire.pack(v[1:2]) for name, v in inputs[k - lag][3].items()}))
         world.send(0, wire.Navigation(k=k, taken=t, nav=wire.pack(nav[0:1]), radio=wire.Radio(
-            links=[1], parts=[(k, [1])]), detections={f: wire.pack(getattr(own, f)) for f in
-                                                      ("owner", "z", "sensor_pos", "label", "n_uavs", "grid", "frame",
-                                                       "footprint", "taken")},
+            links=[1], parts=[(k, [1])]), detections={f: wire.pack(getattr(own, f)) for f in FIELDS},
             due=time.time() - 60.0))  # every deadline of the step has passed
         for node in (world, neighbour):
             for key_expr, data in node.transport.sent:

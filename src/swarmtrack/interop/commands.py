@@ -41,6 +41,8 @@ def export_cmd(run: Path, fmt: str, out: Path | None) -> None:
             from swarmtrack.interop.ros import export_ros
 
             counts = export_ros(rec, staging / "export", fmt)
+        if out.exists():  # arrived meanwhile (a folder renamed onto an empty one would replace it)
+            raise UsageFailure(f"--out {out}: something was put there meanwhile; nothing was written")
         os.rename(staging / "export", out)
     finally:
         shutil.rmtree(staging, ignore_errors=True)

@@ -1,12 +1,14 @@
 """One UAV's own process: exactly the onboard stack the simulator runs for that UAV (its estimator and controller,
 built through the registry for the one UAV, ``Context.uavs = [i]``), fed by messages.
 
-In lockstep (:meth:`Agent.run`) the UAV follows the world's schedule, the simulator's step loop
-(:func:`swarmtrack.sim.engine.step_loop`) seen from one UAV: per estimation step, take its navigation (with the
-simulated radio's word) and detections; share; fuse what the radio delivered; (publish; combine); report its probes;
-then per control step: beacon, hear the beacons the radio delivered (and the plans of its lower-indexed neighbours,
-IB21 Sec. 5.3), command. Its inputs are its own navigation, its own detections and its inbox: nothing else reaches
-this process.
+The UAV follows the world's steps, the simulator's step loop (:func:`swarmtrack.sim.engine.step_loop`) seen from one
+UAV (:meth:`Agent.step`): take the step's message (its navigation, or its autopilot's; its detections; the simulated
+radio's word); share, with the beacon of the control step that starts now; fuse what the radio delivered; (publish;
+combine); take its probes; command (hearing the beacons the radio delivered, and the plans of its lower-indexed
+neighbours, IB21 Sec. 5.3); answer with its probes and its command. A control step between estimation steps is one
+more exchange (:meth:`Agent.control`). In lockstep it waits for every message its radio names; in real time until
+deadlines (:data:`FUSE_BY` ...). Its inputs are its own navigation, its own detections and its inbox: nothing else
+reaches this process.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from collections import Counter
 import numpy as np
 
 from swarmtrack import registry
+from swarmtrack.analysis.sweep import warm
 from swarmtrack.autopilot import px4
 from swarmtrack.autopilot.link import AutopilotLink
 from swarmtrack.control.base import SequentialPlanner
@@ -32,7 +35,6 @@ from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sensors.detections import Detections
 from swarmtrack.sim.build import Context, command_width
 from swarmtrack.sim.clock import Clock
-from swarmtrack.sim.engine import simulate
 
 #: How long a process waits for a message its step needs before it gives up (s).
 PATIENCE = 60.0
@@ -75,16 +77,12 @@ def telemetry_of(scenario: Scenario) -> dict[str, registry.Telemetry]:
     return out
 
 
-#: Simulated seconds of the throwaway run :func:`warm` makes.
-WARM_UP_S = 1.0
-
-
-def warm(scenario: Scenario) -> None:
-    """Load the compiled kernels the stack calls before the first step is due (in a fresh process numba's cache
-    takes about 1 s to load at the first call, which would make a real-time run's first steps late): a throwaway
-    simulation of the scenario's first :data:`WARM_UP_S` s with another seed, of which nothing is kept."""
-    short = WARM_UP_S if scenario.duration is None else min(scenario.duration, WARM_UP_S)
-    simulate(scenario.model_copy(update={"duration": short, "seed": scenario.seed + 1}))
+def warm_up(scenario: Scenario) -> None:
+    """Load the compiled kernels the stack calls before the first real-time step is due (in a fresh process numba's
+    cache takes about 1 s to load at the first call, which would make the first steps late): the sweeps' warm-up
+    (:func:`swarmtrack.analysis.sweep.warm`, a throwaway run of the scenario's first second) with another seed, so that
+    nothing of the run's own truth is computed here."""
+    warm(scenario.model_copy(update={"seed": scenario.seed + 1}))
 
 
 class Agent:
@@ -138,7 +136,7 @@ class Agent:
                            if start.mavlink else "--autopilot: the world does not fly its UAVs through MAVLink "
                            "(start it with --mavlink)")
         if start.realtime:
-            warm(self.scenario)
+            warm_up(self.scenario)
             node.heard = []  # every message's latency is logged and reported
         self.estimator, self.controller = build_onboard(self.scenario, self.i, start.labels)
         self._sequential = isinstance(self.controller, SequentialPlanner)
@@ -241,7 +239,8 @@ class Agent:
         view = self.estimator.view()
         reports = {role: self._telemetry[role].report(component) for role, component in
                    (("estimator", self.estimator), ("controller", self.controller)) if role in self._telemetry}
-        cpu, self._cpu = time.process_time() - self._cpu, time.process_time()
+        now = time.process_time()
+        cpu, self._cpu = now - self._cpu, now
         return wire.Sample(k=k, probes=_pack(probes), aim=wire.pack(view.state[:, :2]),
                            telemetry={role: _pack(r) for role, r in reports.items()},
                            rejected=dict(self.node.seal.rejected), cpu=cpu, heard=self.node.log(),

@@ -273,10 +273,11 @@ def start_agents(scn, scenario: str, seed, overrides, endpoints: list[str], swar
     for o in overrides:
         common += ["--set", o]
     common += ["--key", str(key_file)] if key_file is not None else ["--insecure"]
-    autopilot = [] if mavlink_port is None else [["--autopilot", f"udp://127.0.0.1:{mavlink_port + i}"]
-                                                 for i in range(scn.swarm.n_uavs)]
-    return [subprocess.Popen([sys.executable, "-m", "swarmtrack", "agent", "--uav", str(i + 1), *common,
-                              *(autopilot[i] if autopilot else [])]) for i in range(scn.swarm.n_uavs)]
+    def autopilot(i: int) -> list[str]:
+        return [] if mavlink_port is None else ["--autopilot", f"udp://127.0.0.1:{mavlink_port + i}"]
+
+    return [subprocess.Popen([sys.executable, "-m", "swarmtrack", "agent", "--uav", str(i + 1), *common, *autopilot(i)])
+            for i in range(scn.swarm.n_uavs)]
 
 
 def stop_agents(procs: list) -> None:

@@ -28,7 +28,7 @@ import numpy as np
 import pandas as pd
 
 from swarmtrack.live import wire
-from swarmtrack.live.agent import warm
+from swarmtrack.live.agent import warm_up
 from swarmtrack.live.world import LockstepWorld, _percentiles, labels_of, safe_command
 
 #: Seconds between the UAVs' stacks being built and the first step.
@@ -45,13 +45,14 @@ class RealtimeWorld(LockstepWorld):
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
-        warm(self.scenario)  # the world's first steps call its kernels too
+        warm_up(self.scenario)  # the world's first steps call its kernels too
         self.report.mode = "realtime"
         self.joining: set[int] = set()  # UAVs whose new process was sent its start, not back yet
         self.steps: list[tuple[int, int, float, float]] = []  # (UAV, k, done after its time (s), CPU (s))
         self.messages: list[tuple] = []  # (channel, sender, receiver, k, c, sent after the epoch (s), latency (s))
         self.world_late: list[float] = []  # how late the world began each step (s)
         self._late: dict[int, dict] = {}  # each UAV's latest counts of the messages that missed its deadlines
+        self._tables: dict[str, pd.DataFrame] = {}
 
     def _begin(self) -> None:
         self.node.heard = []
@@ -135,9 +136,11 @@ class RealtimeWorld(LockstepWorld):
         dt = self.sim.clock.dt_estimation
         self.messages += [(ch, s, wire.WORLD, k, c, sent - self.epoch, lat) for ch, s, k, c, sent, lat in
                           self.node.log()]
-        frame = self.tables()["latency"]
+        latency = pd.DataFrame(self.messages, columns=["channel", "sender", "receiver", "k", "c", "sent", "latency"])
+        latency["channel"] = latency["channel"].astype("category")
+        self._tables = {"latency": latency, "steps": pd.DataFrame(self.steps, columns=["uav", "k", "done", "cpu"])}
         self.report.latency_ms = {ch: _percentiles(1e3 * lat.to_numpy())
-                                  for ch, lat in frame.groupby("channel", observed=True)["latency"]}
+                                  for ch, lat in latency.groupby("channel", observed=True)["latency"]}
         self.report.step_lateness = _percentiles(np.array([s[2] for s in self.steps]) / dt)
         self.report.world_lateness = _percentiles(np.array(self.world_late) / dt)
         late = Counter()
@@ -148,7 +151,6 @@ class RealtimeWorld(LockstepWorld):
     def tables(self) -> dict[str, pd.DataFrame]:
         """``latency``: every message received, ``channel, sender, receiver, k, c, sent, latency`` (UAVs 0-based,
         the world −1; ``sent`` s after t = 0's wall-clock time, ``latency`` s); ``steps``: each UAV's estimation steps,
-        ``uav, k, done, cpu`` (``done``: s after the step's time; ``cpu``: the CPU time its process spent on it)."""
-        latency = pd.DataFrame(self.messages, columns=["channel", "sender", "receiver", "k", "c", "sent", "latency"])
-        latency["channel"] = latency["channel"].astype("category")
-        return {"latency": latency, "steps": pd.DataFrame(self.steps, columns=["uav", "k", "done", "cpu"])}
+        ``uav, k, done, cpu`` (``done``: s after the step's time; ``cpu``: the CPU time its process spent on it); made
+        once, when the run is over."""
+        return self._tables

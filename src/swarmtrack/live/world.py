@@ -11,6 +11,7 @@ records what ``swarmtrack run`` records, bit for bit.
 
 from __future__ import annotations
 
+import dataclasses
 import signal
 import time
 from collections import Counter
@@ -27,6 +28,7 @@ from swarmtrack.live.agent import HELLO_EVERY, PATIENCE, scenario_hash, telemetr
 from swarmtrack.live.node import LOST_AFTER, Node
 from swarmtrack.network.links import neighbour_lists
 from swarmtrack.scenarios.schema import Scenario
+from swarmtrack.sensors.detections import Detections
 from swarmtrack.sim.build import build, command_width
 from swarmtrack.sim.recorder import Recorder, Recording
 
@@ -91,8 +93,9 @@ class LiveReport:
     fused afterwards at their time stamps, within the scenario's delay bound)."""
 
     def warnings(self) -> list[dict]:
-        out = [{"check": "live", "message": f"UAV {e['uav']} stopped answering at t = {e['t']:.2f} s; the world "
-                f"flew it with the safe command from then{self._back(e['uav'])}"} for e in self.lost]
+        out = [{"check": "live", "message": f"UAV {e['uav']} stopped answering at t = {e['t']:.2f} s; it was flown "
+                f"safely from then (the world's safe command, or with --mavlink its autopilot's failsafe)"
+                f"{self._back(e['uav'])}"} for e in self.lost]
         if self.step_lateness is not None and self.step_lateness["p99"] > 1:
             out.append({"check": "live", "message": f"real time not kept: 1 % of the UAVs' steps were done more than "
                         f"{self.step_lateness['p99']:.1f} estimation periods late (the machine is too slow for "
@@ -108,9 +111,9 @@ class LiveReport:
 
 
 def safe_command(nav: np.ndarray, width: int) -> np.ndarray:
-    """What the world flies a UAV whose process stopped answering with, (1, width): a planar command brakes to a
-    hover, ``u = −v`` (1/s, as PX4's offboard-loss failsafe holds position); a fixed wing's yaw acceleration is 0
-    (it flies straight, it cannot hover)."""
+    """What the world flies a UAV whose process stopped answering with, (1, width): a planar command brakes it to a
+    hover, ``u = −v`` (1/s); a fixed wing's yaw acceleration is 0 (it flies straight, it cannot hover). With
+    ``--mavlink`` its simulated autopilot's failsafe flies it instead (:func:`swarmtrack.autopilot.vehicle.hold`)."""
     if width == 2:
         return -nav[:, 2:4]
     return np.zeros((len(nav), width))
@@ -422,7 +425,8 @@ class LockstepWorld:
         return np.concatenate([wire.unpack(self.last[i].aim) for i in range(self.n)])
 
 
-FIELDS = ("owner", "z", "sensor_pos", "label", "n_uavs", "grid", "frame", "footprint", "taken")
+#: What a UAV's detections travel as (every field of :class:`~swarmtrack.sensors.detections.Detections`).
+FIELDS = tuple(f.name for f in dataclasses.fields(Detections))
 
 
 def _row_of_view(view, i: int) -> dict:

@@ -20,6 +20,7 @@ from swarmtrack.analysis.papers import PAPERS
 from swarmtrack.cli_support import UsageFailure, report_run, warn_run, write_run
 from swarmtrack.interop import commands as interop_commands
 from swarmtrack.live import commands as live_commands
+from swarmtrack.replay import commands as replay_commands
 from swarmtrack.scenarios.loader import ScenarioError, builtin_names, load_raw, load_scenario
 
 
@@ -352,6 +353,7 @@ main.add_command(live_commands.world_cmd)
 main.add_command(live_commands.agent_cmd)
 main.add_command(live_commands.keygen_cmd)
 main.add_command(interop_commands.export_cmd)
+main.add_command(replay_commands.replay_cmd)
 
 if __name__ == "__main__":  # pragma: no cover
     main()

@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 if TYPE_CHECKING:
+    from swarmtrack.replay.formats import LogFormat
     from swarmtrack.vehicles.base import Vehicle
 
 #: The roles a kind can fill.
@@ -35,6 +36,9 @@ ROLES = ("estimator", "controller", "sensor")
 #: The role of vehicle kinds (:class:`~swarmtrack.vehicles.base.Vehicle`, registered with :func:`register_vehicle`):
 #: named by ``swarm.vehicle`` and a group's ``vehicle`` (a name, not a ``kind``-tagged section), read by the world.
 VEHICLE = "vehicle"
+#: The role of log readers (:class:`~swarmtrack.replay.formats.LogFormat`, registered with :func:`register_reader`):
+#: what ``swarmtrack replay`` reads recorded flights with.
+READER = "reader"
 
 #: The built-in capabilities, imported (and so registered) the first time the registry is asked.
 BUILTIN = (
@@ -44,6 +48,7 @@ BUILTIN = (
     "swarmtrack.capabilities.mpc",
     "swarmtrack.capabilities.set_membership",
     "swarmtrack.capabilities.vehicles",
+    "swarmtrack.capabilities.readers",
 )
 #: Entry-point group of third-party capabilities (each entry point names a module that calls :func:`register`).
 ENTRY_POINTS = "swarmtrack.capabilities"
@@ -143,7 +148,7 @@ class UnknownKind(ValueError):
     kinds)."""
 
 
-_KINDS: dict[str, dict[str, Any]] = {role: {} for role in (*ROLES, VEHICLE)}
+_KINDS: dict[str, dict[str, Any]] = {role: {} for role in (*ROLES, VEHICLE, READER)}
 _BASES: dict[str, type] = {}
 _loaded = False
 
@@ -203,6 +208,18 @@ def register_vehicle(vehicle: Vehicle) -> Vehicle:
         raise ValueError(f"vehicle kind {name!r} is already registered")
     _KINDS[VEHICLE][name] = vehicle
     return vehicle
+
+
+def register_reader(reader: LogFormat) -> LogFormat:
+    """Register a log reader (:class:`~swarmtrack.replay.formats.LogFormat`: its name, what it recognises, how it
+    turns logs into estimation steps); a name is registered once."""
+    _load()
+    if not isinstance(reader.name, str) or not reader.name:
+        raise TypeError(f"a log reader needs a name; got {reader.name!r}")
+    if reader.name in _KINDS[READER]:
+        raise ValueError(f"log reader {reader.name!r} is already registered")
+    _KINDS[READER][reader.name] = reader
+    return reader
 
 
 def unregister(role: str, name: str) -> None:

@@ -20,12 +20,16 @@ from swarmtrack.sim.recorder import Recorder, Recording
 
 
 def simulate(scenario: Scenario, progress: Callable[[float], None] | None = None,
-             record_to: Path | None = None, on_step: Callable[[Simulation], None] | None = None) -> Recording:
+             record_to: Path | None = None, on_step: Callable[[Simulation], None] | None = None,
+             inputs: bool | None = None) -> Recording:
     """Run one closed-loop simulation and return its recording (kept in memory, or streamed to ``record_to``).
-    Same scenario and seed, same numbers. ``on_step``: see :func:`step_loop`."""
+    Same scenario and seed, same numbers. ``on_step``: see :func:`step_loop`. ``inputs``: keep the onboard
+    stack's inputs (navigation and detections, :mod:`swarmtrack.sim.inputs`) so the run can be replayed; by
+    default a recording streamed to ``record_to`` keeps them and one in memory does not."""
     sim = build(scenario)
     probes = {**sim.stack.probes, **dict.fromkeys(sim.monitors, ())}
-    recorder = Recorder(sim.meta, sim.world.n_objects, scenario.swarm.n_uavs, probes, record_to)
+    recorder = Recorder(sim.meta, sim.world.n_objects, scenario.swarm.n_uavs, probes, record_to,
+                        inputs=record_to is not None if inputs is None else inputs)
     return step_loop(sim, recorder, progress, on_step)
 
 
@@ -54,6 +58,7 @@ def step_loop(sim: Simulation, recorder: Recorder, progress: Callable[[float], N
             posteriors = publish(t) if publish is not None else None
             if posteriors:  # the second message of the step travels over the links that carried the first
                 stack.estimator.combine(t, Inbox(links, posteriors))
+        recorder.record_inputs(k, t, nav, detections)
         recorder.record(t, truth, world.phase_index(), {**stack.sample(), **{k: f() for k, f in sim.monitors.items()}})
         if on_step is not None:
             on_step(sim)

@@ -17,6 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
+from swarmtrack.sensors.detections import Detections
+from swarmtrack.sim.inputs import InputLog, read_inputs
+
 #: Version of the on-disk layout (``meta.json`` and the two Parquet files).
 FORMAT = 1
 #: Rows per chunk (a Parquet row group), about 8-40 MB of columns.
@@ -122,7 +125,7 @@ class Recorder:
     allocations."""
 
     def __init__(self, meta: dict, n_objects: int, n_uavs: int, probes: dict[str, tuple[int, ...]],
-                 path: Path | None = None):
+                 path: Path | None = None, inputs: bool = False):
         self.meta = {**meta, "format": FORMAT, "n_objects": n_objects, "n_uavs": n_uavs,
                      "probes": {k: list(v) for k, v in probes.items()}}
         self.n_objects, self.n_uavs, self.probes = n_objects, n_uavs, probes
@@ -134,6 +137,8 @@ class Recorder:
         self._writers = None
         self._steps = 0
         self._t_last = 0.0
+        #: The onboard stack's inputs (:mod:`swarmtrack.sim.inputs`), kept when ``inputs`` (a run to replay).
+        self.inputs = InputLog(self.path) if inputs else None
 
     def record(self, t: float, truth: np.ndarray, phase: np.ndarray, probes: dict[str, np.ndarray]) -> None:
         """Append one step (arrays are copied)."""
@@ -146,6 +151,11 @@ class Recorder:
         self._pending += 1
         if self._pending == self.chunk_steps:
             self._flush()
+
+    def record_inputs(self, k: int, t: float, nav: np.ndarray, detections: Detections) -> None:
+        """Keep step ``k``'s onboard inputs (when the recorder keeps them: ``inputs=True``)."""
+        if self.inputs is not None:
+            self.inputs.put(k, t, nav, detections)
 
     def _flush(self) -> None:
         if not self._pending:
@@ -161,6 +171,8 @@ class Recorder:
             self._mem.append(chunk)
         else:
             self._write(chunk)
+        if self.inputs is not None:
+            self.inputs.flush()
 
     def _write(self, c: Chunk) -> None:
         import pyarrow.parquet as pq
@@ -181,8 +193,10 @@ class Recorder:
         """Finish the recording (files closed, ``meta.json`` written last) and return it."""
         self._flush()
         meta = {**self.meta, "n_steps": self._steps, "chunk_steps": self.chunk_steps, "t_last": self._t_last}
+        if self.inputs is not None and self.inputs.meta is not None:
+            meta["inputs"] = self.inputs.close()
         if self.path is None:
-            return Recording(meta, self._mem)
+            return Recording(meta, self._mem, inputs=None if self.inputs is None else self.inputs.steps)
         if self._writers is not None:
             for w in self._writers.values():
                 w.close()
@@ -200,8 +214,10 @@ class Recording:
     target's ``[x, y, vx, vy]``.
     """
 
-    def __init__(self, meta: dict, chunks: list[Chunk] | None = None, path: Path | None = None):
+    def __init__(self, meta: dict, chunks: list[Chunk] | None = None, path: Path | None = None,
+                 inputs: list | None = None):
         self.meta, self._chunks, self.path = meta, chunks, path
+        self._inputs = inputs
         self._cache: dict[str, np.ndarray] = {}
 
     @classmethod
@@ -258,6 +274,16 @@ class Recording:
             yield Chunk(k0, o.column("t").to_numpy()[::m].copy(), truth,
                         o.column("phase_index").to_numpy().reshape(k, m), probes)
             k0 += k
+
+    def inputs(self) -> Iterator[tuple[int, float, np.ndarray, Detections]]:
+        """The onboard stack's inputs step by step, ``(k, t, navigation (N, d), detections)``, as they were handed
+        (:mod:`swarmtrack.sim.inputs`); a recording made without them raises ``LookupError``."""
+        if "inputs" not in self.meta:
+            raise LookupError("the recording holds no inputs (navigation and detections): it was made by a run "
+                              "that did not keep them")
+        if self._inputs is not None:
+            return iter(self._inputs)
+        return read_inputs(self.path, self.meta["inputs"], self.meta["n_uavs"])
 
     # --- tables -----------------------------------------------------------------------------------------
     def frame(self, table: str = "uavs"):

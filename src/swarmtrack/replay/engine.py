@@ -1,0 +1,57 @@
+"""The replay loop: the simulator's estimation step, with the world's sensing replaced by a log.
+
+Per step: share → deliver → fuse → (publish → deliver → combine) → record, exactly as
+:func:`swarmtrack.sim.engine.step_loop` does it, on the navigation and detections a log reader gives
+(:class:`~swarmtrack.replay.steps.StepInputs`). The messages between UAVs are the scenario's: its channel (topology,
+losses, delays, outages, from the scenario's seeded streams) carries what the estimators share, over the links the
+UAVs' logged positions give. The controller is not run (its commands would fly nothing), so a channel that draws
+losses draws them for the estimation links only: a replay of a lossy run draws other losses than the run did, whose
+flocking beacons drew from the same stream.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from pathlib import Path
+
+import numpy as np
+
+from swarmtrack.network.messages import Inbox
+from swarmtrack.replay.steps import LogError, StepInputs
+from swarmtrack.scenarios.schema import Scenario
+from swarmtrack.sim.build import build
+from swarmtrack.sim.recorder import Recorder, Recording
+
+
+def replay(scenario: Scenario, steps: Iterable[StepInputs], record_to: Path | None = None,
+           progress: Callable[[float], None] | None = None, source: dict | None = None) -> Recording:
+    """Run ``scenario``'s estimator on ``steps`` (in time order, on its estimation grid) and return the recording:
+    the estimator's probes, and the log's ground truth where it has one. ``source`` (what was replayed) goes into the
+    recording's ``meta`` under ``replay``."""
+    sim = build(scenario)
+    estimator, channel, dt = sim.stack.estimator, sim.channel, sim.clock.dt_estimation
+    n = scenario.swarm.n_uavs
+    probes = {p.name: p.shape for p in estimator.probes}
+    # the controller was not run: its kind's metrics and figures have nothing to read
+    meta = {**sim.meta, "controller": None, "replay": source or {}}
+    # a replay keeps its inputs too (a replayed run folder can be replayed again, with another estimator)
+    recorder = Recorder(meta, sim.world.n_objects, n, probes, record_to, inputs=record_to is not None)
+    publish = getattr(estimator, "publish", None)  # the optional second round (Estimator.publish)
+    duration = max(sim.clock.steps * dt, dt)
+    k_last = -1
+    for s in steps:
+        if s.k <= k_last:
+            raise LogError(f"replay: step {s.k} (t = {s.t:g} s) came after step {k_last}; steps must go forward")
+        k_last = s.k
+        with np.errstate(over="ignore", invalid="ignore"):  # a diverging filter is reported by fuse()
+            outbox = estimator.share(s.t, s.navigation, s.detections)
+            links = channel.links(s.positions, s.t)
+            estimator.fuse(s.t, s.detections, channel.deliver(links, outbox, s.t))
+            posteriors = publish(s.t) if publish is not None else None
+            if posteriors:
+                estimator.combine(s.t, Inbox(links, posteriors))
+        recorder.record_inputs(s.k, s.t, s.navigation, s.detections)
+        recorder.record(s.t, s.truth, s.phase, estimator.sample())
+        if progress is not None:
+            progress(min(1.0, (s.t + dt) / duration))
+    return recorder.close()

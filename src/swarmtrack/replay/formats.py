@@ -1,0 +1,32 @@
+"""What a log reader registers: a :class:`LogFormat` (a kind of the registry's ``reader`` role).
+
+A format has a name (``swarmtrack replay --format NAME``), says whether it recognises a path (``accepts``, used
+when ``--format`` is not given) and turns the logs into estimation steps (``steps``). Both are ``"module:function"``
+references, imported when first used, so that listing the formats imports no reader library.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from swarmtrack.registry import Ref, resolve
+
+
+@dataclass(frozen=True)
+class LogFormat:
+    """``accepts(path) -> bool``; ``steps(paths, scenario, mapping, counts) -> Iterator[StepInputs]`` with
+    ``mapping`` the parsed map file (or None) and ``counts`` a dict the reader adds what it skipped to (name →
+    count, reported in ``metrics.json`` under ``replay``). ``needs_map``: the reader cannot run without a map
+    file."""
+
+    name: str
+    description: str
+    accepts: Ref
+    steps: Ref
+    needs_map: bool = False
+
+    def recognises(self, path) -> bool:
+        return bool(resolve(self.accepts)(path))
+
+    def open(self, paths, scenario, mapping, counts: dict):
+        return resolve(self.steps)(paths, scenario, mapping, counts)

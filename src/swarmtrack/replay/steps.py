@@ -1,0 +1,40 @@
+"""What a replay hands the onboard stack each estimation step, whatever log it came from."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from swarmtrack.sensors.detections import Detections
+
+
+def layout(scenario) -> dict[str, slice]:
+    """The world objects' rows of ``scenario`` (targets, decoys, UAVs, in the world's order)."""
+    sizes = {"targets": scenario.targets.size(), "decoys": scenario.decoys.size(), "uavs": scenario.swarm.n_uavs}
+    out, start = {}, 0
+    for name, size in sizes.items():
+        out[name] = slice(start, start + size)
+        start += size
+    return out
+
+
+class LogError(ValueError):
+    """A log that cannot be replayed (the message names the file, topic, field or row)."""
+
+
+@dataclass(frozen=True)
+class StepInputs:
+    """Estimation step ``k`` at ``t``: every UAV's ``navigation`` (N, d) and its ``detections``, as its onboard
+    code gets them; ``positions`` (N, 2) where the UAVs were (what the channel's proximity links read: the log's
+    ground truth of the UAVs, or their navigation); ``truth`` (M, 4) every world object's ``[x, y, vx, vy]`` where
+    the log holds ground truth (NaN elsewhere) and ``phase`` (M,) its profile phase (−1: none). Only the recorder
+    and the channel read ``positions``, ``truth`` and ``phase``."""
+
+    k: int
+    t: float
+    navigation: np.ndarray
+    detections: Detections
+    positions: np.ndarray
+    truth: np.ndarray
+    phase: np.ndarray

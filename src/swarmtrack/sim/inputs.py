@@ -1,0 +1,160 @@
+"""What the onboard code was handed, kept beside a recording so that a run can be replayed (``swarmtrack replay``).
+
+Every estimation step, each UAV's navigation solution and its sensor's :class:`Detections` are the onboard stack's
+only inputs besides its inbox (which the channel recomputes from the scenario). A run folder keeps them in two
+Parquet tables beside ``objects`` and ``uavs``:
+
+- ``navigation.parquet``: one row per step and UAV: ``step``, ``t``, ``uav`` (1-based), ``navigation`` (the UAV's
+  navigation solution, ``[x, y, vx, vy, …]``), the step's ``taken`` (when the sensor took the frame; NaN: now) and
+  ``grid`` (−1: none; see :attr:`Detections.grid`), and ``footprint`` (4 corners, flattened) for a sensor that
+  reports one;
+- ``detections.parquet``: one row per detection: ``step``, ``uav`` (1-based owner), ``label``, ``z``,
+  ``sensor_x``/``sensor_y`` (where the UAV's navigation put it) and ``frame`` (``[A | b]`` flattened) for a sensor
+  that stamps one.
+
+The values are stored as float64 as they were handed, so reading them back gives the same :class:`Detections`,
+bit for bit (the round trip of :mod:`swarmtrack.replay`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+
+from swarmtrack.sensors.detections import Detections
+
+#: The tables' file names.
+NAVIGATION, DETECTIONS = "navigation.parquet", "detections.parquet"
+
+
+def _fixed(values: np.ndarray, width: int):
+    import pyarrow as pa
+
+    return pa.FixedSizeListArray.from_arrays(pa.array(np.ascontiguousarray(values, dtype=float).ravel()), width)
+
+
+class InputLog:
+    """Collects each estimation step's navigation and detections (:meth:`put`) and writes them in chunks
+    (:meth:`flush`, a row group per table) to ``path``; ``path=None`` keeps them in memory (:attr:`steps`)."""
+
+    def __init__(self, path: Path | None):
+        self.path = None if path is None else Path(path)
+        self.steps: list[tuple[int, float, np.ndarray, Detections]] = []
+        self._pending: list[tuple[int, float, np.ndarray, Detections]] = []
+        self._writers: dict | None = None
+        self.meta: dict | None = None
+
+    def put(self, k: int, t: float, nav: np.ndarray, det: Detections) -> None:
+        """Step ``k`` at ``t``: every UAV's navigation (N, d) (copied) and the detections handed to the stack."""
+        if self.meta is None:
+            self.meta = {"navigation": int(nav.shape[1]), "z": int(det.z.shape[1]),
+                         "frame": det.frame is not None, "footprint": det.footprint is not None}
+        (self.steps if self.path is None else self._pending).append((k, t, np.array(nav, dtype=float), det))
+
+    def flush(self) -> None:
+        """Write the steps put since the last flush (a row group per table)."""
+        if self.path is None or not self._pending:
+            return
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        tables = {NAVIGATION: pa.table(self._navigation()), DETECTIONS: pa.table(self._detections())}
+        if self._writers is None:
+            self.path.mkdir(parents=True, exist_ok=True)
+            self._writers = {name: pq.ParquetWriter(self.path / name, table.schema, write_statistics=["step"])
+                             for name, table in tables.items()}
+        for name, table in tables.items():
+            self._writers[name].write_table(table, row_group_size=max(1, len(table)))
+        self._pending = []
+
+    def _navigation(self) -> dict:
+        steps = self._pending
+        n, d = steps[0][2].shape
+        k = np.array([s[0] for s in steps], dtype=np.int32)
+        cols = {"step": np.repeat(k, n), "t": np.repeat([s[1] for s in steps], n),
+                "uav": np.tile(np.arange(1, n + 1, dtype=np.int32), len(steps)),
+                "navigation": _fixed(np.concatenate([s[2] for s in steps]), d),
+                "taken": np.repeat([np.nan if s[3].taken is None else s[3].taken for s in steps], n),
+                "grid": np.repeat(np.array([-1 if s[3].grid is None else s[3].grid for s in steps], np.int32), n)}
+        if self.meta["footprint"]:
+            cols["footprint"] = _fixed(np.concatenate([s[3].footprint for s in steps]), 8)
+        return cols
+
+    def _detections(self) -> dict:
+        dets = [s[3] for s in self._pending]
+        counts = [len(d) for d in dets]
+
+        def cat(field):
+            return np.concatenate([field(d) for d in dets])
+
+        cols = {"step": np.repeat(np.array([s[0] for s in self._pending], dtype=np.int32), counts),
+                "uav": cat(lambda d: d.owner).astype(np.int32) + 1, "label": cat(lambda d: d.label).astype(np.int32),
+                "z": _fixed(cat(lambda d: d.z), self.meta["z"]),
+                "sensor_x": cat(lambda d: d.sensor_pos[:, 0]), "sensor_y": cat(lambda d: d.sensor_pos[:, 1])}
+        if self.meta["frame"]:
+            cols["frame"] = _fixed(cat(lambda d: d.frame), 6)
+        return cols
+
+    def close(self) -> dict | None:
+        """Write what is left; the log's description for the recording's ``meta`` (None: nothing was put)."""
+        self.flush()
+        for w in (self._writers or {}).values():
+            w.close()
+        return self.meta
+
+
+def read_inputs(path: Path, meta: dict, n_uavs: int) -> Iterator[tuple[int, float, np.ndarray, Detections]]:
+    """The steps an :class:`InputLog` wrote to ``path`` (``meta``: its description), in order: ``(k, t, nav,
+    detections)``, a row group at a time."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    nav_file, det_file = pq.ParquetFile(path / NAVIGATION), pq.ParquetFile(path / DETECTIONS)
+    d, m = meta["navigation"], meta["z"]
+    det_groups = (det_file.read_row_group(g) for g in range(det_file.num_row_groups))
+    held = None  # detection rows read ahead of the navigation's row group
+    for g in range(nav_file.num_row_groups):
+        nav = nav_file.read_row_group(g)
+        steps = nav.column("step").to_numpy()[::n_uavs]
+        last = steps[-1]
+        parts = [] if held is None else [held]
+        while not parts or parts[-1].num_rows == 0 or parts[-1].column("step").to_numpy()[-1] < last:
+            nxt = next(det_groups, None)
+            if nxt is None:
+                break
+            parts.append(nxt)
+        dets = pa.concat_tables(parts) if parts else None
+        det_step = np.zeros(0, np.int32) if dets is None else dets.column("step").to_numpy()
+        after = det_step > last
+        held = dets.filter(pa.array(after)) if dets is not None and after.any() else None
+        yield from _steps(nav, dets, det_step, steps, n_uavs, d, m, meta)
+
+
+def _flat(table, name: str, width: int) -> np.ndarray:
+    return table.column(name).combine_chunks().flatten().to_numpy().reshape(-1, width)
+
+
+def _steps(nav, dets, det_step, steps, n, d, m, meta):
+    t = nav.column("t").to_numpy()[::n]
+    navigation = _flat(nav, "navigation", d).reshape(len(steps), n, d)
+    taken = nav.column("taken").to_numpy()[::n]
+    grid = nav.column("grid").to_numpy()[::n]
+    footprint = _flat(nav, "footprint", 8).reshape(len(steps), n, 4, 2) if meta["footprint"] else None
+    if dets is not None and dets.num_rows:
+        owner = dets.column("uav").to_numpy().astype(np.int64) - 1
+        label = dets.column("label").to_numpy().astype(np.int64)
+        z = _flat(dets, "z", m)
+        pos = np.stack([dets.column("sensor_x").to_numpy(), dets.column("sensor_y").to_numpy()], axis=1)
+        frame = _flat(dets, "frame", 6).reshape(-1, 2, 3) if meta["frame"] else None
+    else:
+        owner = label = np.zeros(0, np.int64)
+        z, pos, frame = np.zeros((0, m)), np.zeros((0, 2)), (np.zeros((0, 2, 3)) if meta["frame"] else None)
+    bounds = np.searchsorted(det_step, np.append(steps, steps[-1] + 1))
+    for j, k in enumerate(steps):
+        r = slice(bounds[j], bounds[j + 1])
+        yield int(k), float(t[j]), navigation[j], Detections(
+            owner[r], z[r], pos[r], label[r], n, None if grid[j] < 0 else int(grid[j]),
+            None if frame is None else frame[r], None if footprint is None else footprint[j],
+            None if np.isnan(taken[j]) else float(taken[j]))

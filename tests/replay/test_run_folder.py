@@ -1,0 +1,89 @@
+"""Replaying a run folder with its own scenario gives the run's estimates bit for bit (the round trip of issue 25)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import swarmtrack
+from swarmtrack.cli import main
+from swarmtrack.replay import run_folder
+from swarmtrack.replay.engine import replay
+from swarmtrack.replay.steps import LogError
+from swarmtrack.sim.engine import simulate
+
+
+def _same_recordings(a, b) -> None:
+    """Every probe of the estimator and every truth column of ``a`` (a run) equal in ``b`` (its replay)."""
+    chunks_a, chunks_b = list(a.chunks()), list(b.chunks())
+    assert [c.k0 for c in chunks_a] == [c.k0 for c in chunks_b]
+    for ca, cb in zip(chunks_a, chunks_b, strict=True):
+        assert np.array_equal(ca.t, cb.t) and np.array_equal(ca.truth, cb.truth) and np.array_equal(ca.phase, cb.phase)
+        assert cb.probes  # the estimator's probes (the controller's are not recorded: it did not run)
+        for name, values in cb.probes.items():
+            assert np.array_equal(ca.probes[name], values, equal_nan=True), name
+
+
+def _round_trip(tmp_path, name: str, duration: float | None) -> None:
+    overrides = [] if duration is None else [f"duration={duration}"]
+    scenario = swarmtrack.load_scenario(name, overrides, seed=3)
+    run = simulate(scenario, record_to=tmp_path / "run")
+    again = replay(scenario, run_folder.steps([tmp_path / "run"], scenario, None, {}), tmp_path / "replayed")
+    assert again.meta["n_steps"] == run.meta["n_steps"] > 0
+    _same_recordings(run, again)
+    # a replay keeps its inputs: replayed once more, it gives the same numbers again
+    twice = replay(scenario, run_folder.steps([tmp_path / "replayed"], scenario, None, {}))
+    _same_recordings(again, twice)
+
+
+@pytest.mark.parametrize("name, duration", [("l24-ct", 12), ("w20-switching", 8), ("ib21-fleet-2", 12)])
+def test_a_replayed_run_folder_gives_the_runs_estimates_bit_for_bit(tmp_path, name, duration):
+    _round_trip(tmp_path, name, duration)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["l24-ct", "w20-switching", "ib21-fleet-2"])
+def test_a_whole_run_replayed_gives_its_estimates_bit_for_bit(tmp_path, name):
+    _round_trip(tmp_path, name, None)
+
+
+def test_the_replay_command_writes_a_run_folder_with_the_runs_metrics(tmp_path):
+    run, out = tmp_path / "run", tmp_path / "replayed"
+    ran = CliRunner().invoke(main, ["run", "l24-ct", "--set", "duration=6", "--no-plots", "--out", str(run)])
+    assert ran.exit_code == 0, ran.output
+    res = CliRunner().invoke(main, ["replay", str(run), "--no-plots", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    a, b = (json.loads((p / "metrics.json").read_text()) for p in (run, out))
+    assert a["rmse"] == b["rmse"] and a["consistency"] == b["consistency"]
+    assert b["replay"]["format"] == "run" and b["replay"]["skipped"] == {}
+    assert (out / "manifest.json").is_file() and (out / "scenario.yaml").is_file()
+    # another estimator on the same flight: the question a replay answers
+    other = CliRunner().invoke(main, ["replay", str(run), "--set", "estimator.model=cv", "--no-plots",
+                                      "--out", str(tmp_path / "cv")])
+    assert other.exit_code == 0, other.output
+    assert json.loads((tmp_path / "cv" / "metrics.json").read_text())["rmse"] != a["rmse"]
+
+
+def test_a_run_folder_that_does_not_fit_the_scenario_is_refused_naming_why(tmp_path):
+    scenario = swarmtrack.load_scenario("l24-ct", ["duration=1"], seed=3)
+    simulate(scenario, record_to=tmp_path / "run")
+    bigger = swarmtrack.load_scenario("l24-ct", ["duration=1", "swarm.n_uavs=4"], seed=3)
+    with pytest.raises(LogError, match="flew 3 UAVs, the scenario has swarm.n_uavs 4"):
+        run_folder.steps([tmp_path / "run"], bigger, None, {})
+    rate = 2 * scenario.rates.estimation
+    faster = swarmtrack.load_scenario("l24-ct", ["duration=1", f"rates.estimation={rate}", f"rates.control={rate}",
+                                                 f"rates.physics={5 * rate}"], seed=3)
+    with pytest.raises(LogError, match="rates.estimation"):
+        run_folder.steps([tmp_path / "run"], faster, None, {})
+    simulate(scenario, record_to=tmp_path / "bare", inputs=False)
+    with pytest.raises(LogError, match="kept no navigation and detections"):
+        run_folder.steps([tmp_path / "bare"], scenario, None, {})
+    res = CliRunner().invoke(main, ["replay", str(tmp_path / "run"), "--scenario", "l24-ct", "--set", "swarm.n_uavs=4",
+                                    "--out", str(tmp_path / "x")])
+    assert res.exit_code == 2 and "swarm.n_uavs 4" in res.output and "Traceback" not in res.output
+    assert not (tmp_path / "x").exists()
+    missing = CliRunner().invoke(main, ["replay", str(tmp_path / "nothing"), "--out", str(tmp_path / "y")])
+    assert missing.exit_code == 2 and "no such file" in missing.output

@@ -69,7 +69,8 @@ def replay_cmd(logs: tuple[Path, ...], scenario: str | None, map_file: Path | No
         with run_folder(out, overwrite) as tmp:
             with Progress(transient=True, disable=not sys.stderr.isatty()) as bar:
                 task = bar.add_task(f"replaying {len(logs)} log(s) through {scn.name}", total=1.0)
-                rec = replay(scn, steps, tmp / "recording", lambda done: bar.update(task, completed=done), source)
+                rec = replay(scn, steps, tmp / "recording", lambda done: bar.update(task, completed=done), source,
+                             phases=reader.phases)
             metrics = write_run(rec, scn, tmp, no_plots=no_plots, extra={"replay": {**source, "skipped": counts}},
                                 warnings=_warnings(counts))
     except (ScenarioError, LogError, FilterDivergence, OutputError) as exc:

@@ -22,18 +22,26 @@ from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sim.build import build
 from swarmtrack.sim.recorder import Recorder, Recording
 
+#: The one phase of a log that does not know the scenario's profile phases.
+LOGGED = "logged"
+
 
 def replay(scenario: Scenario, steps: Iterable[StepInputs], record_to: Path | None = None,
-           progress: Callable[[float], None] | None = None, source: dict | None = None) -> Recording:
+           progress: Callable[[float], None] | None = None, source: dict | None = None,
+           phases: bool = True) -> Recording:
     """Run ``scenario``'s estimator on ``steps`` (in time order, on its estimation grid) and return the recording:
     the estimator's probes, and the log's ground truth where it has one. ``source`` (what was replayed) goes into the
-    recording's ``meta`` under ``replay``."""
+    recording's ``meta`` under ``replay``. ``phases=False``: the log does not know the scenario's profile phases;
+    the tracked target's steps are one phase, ``logged`` (phase 0 of the steps)."""
     sim = build(scenario)
     estimator, channel, dt = sim.stack.estimator, sim.channel, sim.clock.dt_estimation
     n = scenario.swarm.n_uavs
     probes = {p.name: p.shape for p in estimator.probes}
     # the controller was not run: its kind's metrics and figures have nothing to read
     meta = {**sim.meta, "controller": None, "replay": source or {}}
+    if not phases:
+        meta["phase_names"] = [LOGGED] if meta["tracked"] is not None else []
+        meta["object_phases"] = [[LOGGED] if j == meta["tracked"] else [] for j in range(sim.world.n_objects)]
     # a replay keeps its inputs too (a replayed run folder can be replayed again, with another estimator)
     recorder = Recorder(meta, sim.world.n_objects, n, probes, record_to, inputs=record_to is not None)
     publish = getattr(estimator, "publish", None)  # the optional second round (Estimator.publish)

@@ -17,13 +17,15 @@ class LogFormat:
     """``accepts(path) -> bool``; ``steps(paths, scenario, mapping, counts) -> Iterator[StepInputs]`` with
     ``mapping`` the parsed map file (or None) and ``counts`` a dict the reader adds what it skipped to (name →
     count, reported in ``metrics.json`` under ``replay``). ``needs_map``: the reader cannot run without a map
-    file."""
+    file. ``phases``: its steps carry the scenario's profile phases (a run folder's do; a flight's log knows none).
+    """
 
     name: str
     description: str
     accepts: Ref
     steps: Ref
     needs_map: bool = False
+    phases: bool = False
 
     def recognises(self, path) -> bool:
         return bool(resolve(self.accepts)(path))

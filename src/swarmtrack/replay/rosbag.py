@@ -1,0 +1,164 @@
+"""Log reader ``rosbag``: ROS 1 bags and ROS 2 bags (sqlite3 or MCAP storage), read with ``rosbags`` (pure Python,
+no ROS installation), the topics named by the map file (:mod:`swarmtrack.replay.mapping`).
+
+What a message holds is told by its type, or by the map's dotted field paths:
+
+========================================  ==================================================================
+navigation, truth                         ``geometry_msgs/PoseStamped`` (``pose.position``),
+                                          ``PoseWithCovarianceStamped`` and ``nav_msgs/Odometry``
+                                          (``pose.pose.position``; their covariance is checked), or
+                                          ``position: <path>`` to a message with ``x`` and ``y``
+detections                                ``geometry_msgs/PointStamped`` (``point``: the target relative to the
+                                          UAV along the map frame's axes), ``point: <path>``, or
+                                          ``range: <path>`` and ``bearing: <path>`` (m, rad)
+========================================  ==================================================================
+
+Positions are in the map frame, ENU (REP 103: x east, y north), as swarmtrack's own; a message's time is its
+header's stamp (the log time for a message without a header). Odometry's twist is in the body frame and is not
+read: velocities are the positions' finite differences.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+
+from swarmtrack.replay.grid import Detection, Navigation, Truth, on_grid
+from swarmtrack.replay.steps import LogError, StepInputs
+
+#: Where the position is in the message types the reader knows, and where their covariance is.
+POSITION = {"geometry_msgs/msg/PoseStamped": "pose.position",
+            "geometry_msgs/msg/PoseWithCovarianceStamped": "pose.pose.position",
+            "nav_msgs/msg/Odometry": "pose.pose.position",
+            "geometry_msgs/msg/PointStamped": "point"}
+COVARIANCE = {"geometry_msgs/msg/PoseWithCovarianceStamped": "pose.covariance",
+              "nav_msgs/msg/Odometry": "pose.covariance"}
+
+
+def accepts(path: Path) -> bool:
+    path = Path(path)
+    if path.is_dir():
+        return (path / "metadata.yaml").is_file()
+    return path.suffix in (".bag", ".mcap", ".db3")
+
+
+def _field(msg, path: str, topic: str, msgtype: str):
+    value = msg
+    for part in path.split("."):
+        if not hasattr(value, part):
+            raise LogError(f"{topic}: its messages ({msgtype}) have no field {path!r}")
+        value = getattr(value, part)
+    return value
+
+
+def _xy(msg, path: str, topic: str, msgtype: str) -> tuple[float, float]:
+    point = _field(msg, path, topic, msgtype)
+    return float(_field(point, "x", topic, msgtype)), float(_field(point, "y", topic, msgtype))
+
+
+def _stamp(msg, logged: int) -> float:
+    header = getattr(msg, "header", None)
+    if header is None:
+        return logged * 1e-9
+    stamp = header.stamp
+    return stamp.sec + stamp.nanosec * 1e-9
+
+
+def _covariance_ok(msg, msgtype: str) -> bool:
+    """The position block of a message's covariance is positive definite (an all-zero one means "not given")."""
+    path = COVARIANCE.get(msgtype)
+    if path is None:
+        return True
+    value = msg
+    for part in path.split("."):
+        value = getattr(value, part)
+    cov = np.asarray(value, dtype=float).reshape(6, 6)[:2, :2]
+    if not cov.any():
+        return True
+    if not np.isfinite(cov).all() or not np.allclose(cov, cov.T):
+        return False
+    return bool(np.linalg.eigvalsh(cov)[0] > 0.0)
+
+
+class _Topics:
+    """The map's topics: what each one feeds (navigation / detections of a UAV, truth) and how it is read."""
+
+    def __init__(self, mapping):
+        self.roles: dict[str, list] = {}
+        for number, sources in mapping.uavs.items():
+            self.roles.setdefault(sources.navigation.topic, []).append(("navigation", number - 1,
+                                                                         sources.navigation))
+            if sources.detections is not None:
+                self.roles.setdefault(sources.detections.topic, []).append(("detections", number - 1,
+                                                                             sources.detections))
+        if mapping.truth is not None:
+            self.roles.setdefault(mapping.truth.topic, []).append(("truth", None, mapping.truth))
+
+    def read(self, topic: str, msgtype: str, msg, logged: int, counts: dict) -> Iterator:
+        stamp = _stamp(msg, logged)
+        for role, uav, source in self.roles[topic]:
+            if role == "detections":
+                if source.range is not None:
+                    rb = (float(_field(msg, source.range, topic, msgtype)),
+                          float(_field(msg, source.bearing, topic, msgtype)))
+                    yield Detection(topic, uav, stamp, range_bearing=rb)
+                    continue
+                path = source.point or POSITION.get(msgtype)
+                if path is None:
+                    raise LogError(f"{topic}: {msgtype} is not a detection type the reader knows; name its "
+                                   "point (or range and bearing) field in the map")
+                yield Detection(topic, uav, stamp, relative=_xy(msg, path, topic, msgtype))
+                continue
+            path = source.position or POSITION.get(msgtype)
+            if path is None:
+                raise LogError(f"{topic}: {msgtype} is not a pose type the reader knows; name its position field "
+                               "in the map")
+            if not _covariance_ok(msg, msgtype):
+                why = f"covariance not positive definite on {topic}"
+                counts[why] = counts.get(why, 0) + 1
+                continue
+            position = _xy(msg, path, topic, msgtype)
+            if role == "truth":
+                yield Truth(topic, stamp, position)
+            else:
+                yield Navigation(topic, uav, stamp, position)
+
+
+def messages(paths: list[Path], mapping, counts: dict) -> Iterator:
+    """The map's messages of the bags ``paths``, in the bags' (log time) order."""
+    from rosbags.highlevel import AnyReader, AnyReaderError
+    from rosbags.typesys import Stores, get_typestore
+
+    topics = _Topics(mapping)
+    try:
+        reader = AnyReader([Path(p) for p in paths], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
+        reader.open()
+    except (AnyReaderError, OSError) as exc:
+        raise LogError(f"{', '.join(map(str, paths))}: not a readable ROS bag ({exc})") from None
+    try:
+        present = {c.topic for c in reader.connections}
+        for topic in topics.roles:
+            if topic not in present:
+                raise LogError(f"{', '.join(map(str, paths))}: no topic {topic} (the map names it; the bag has "
+                               f"{', '.join(sorted(present)) or 'none'})")
+        wanted = [c for c in reader.connections if c.topic in topics.roles]
+        try:
+            for connection, logged, raw in reader.messages(connections=wanted):
+                try:
+                    msg = reader.deserialize(raw, connection.msgtype)
+                except Exception as exc:  # a message the type system cannot decode: the file is damaged
+                    raise LogError(f"{connection.topic}: a message logged at {logged * 1e-9:.6f} s cannot be "
+                                   f"decoded ({exc})") from None
+                yield from topics.read(connection.topic, connection.msgtype, msg, logged, counts)
+        except AnyReaderError as exc:
+            raise LogError(f"{', '.join(map(str, paths))}: the bag is damaged or truncated ({exc})") from None
+    finally:
+        reader.close()
+
+
+def steps(paths: list[Path], scenario, mapping, counts: dict) -> Iterator[StepInputs]:
+    return on_grid(messages(paths, mapping, counts), scenario, counts, mapping.window)
+
+

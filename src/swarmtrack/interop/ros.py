@@ -12,7 +12,16 @@ topic                       type                                        content
 ``/uav<i>/estimate``        ``geometry_msgs/msg/PoseWithCovarianceStamped``  UAV i's estimate of the target, its
                                                                         position covariance in the 6×6 matrix's x-y
                                                                         block (the rest 0)
+``/uav<i>/navigation``      ``geometry_msgs/msg/PoseStamped``           UAV i's own navigation solution (what its
+                                                                        onboard code was handed)
+``/uav<i>/target``          ``geometry_msgs/msg/PointStamped``          UAV i's detection of the tracked target: its
+                                                                        position relative to the UAV along the map
+                                                                        frame's axes, stamped when it was taken
 ==========================  ==========================================  ==============================================
+
+The last two are written for a run that kept its inputs (every ``swarmtrack run``) and whose sensor's measurements
+map back to a relative position (range-bearing, camera; :data:`swarmtrack.replay.grid.MEASUREMENTS`): the exported
+bag then replays with ``swarmtrack replay`` and a map naming them.
 
 The frame is ``map``: the project's ENU world frame is ROS's convention for it (REP 103), so no axis changes; z is 0
 (the world is planar) and orientations are the identity. Estimates are written for the runs whose estimator records a
@@ -50,9 +59,14 @@ def export_ros(rec, out: Path, fmt: str) -> dict[str, int]:
             counts[conn.topic] += 1
 
         pose, cov = "geometry_msgs/msg/PoseStamped", "geometry_msgs/msg/PoseWithCovarianceStamped"
+        point = "geometry_msgs/msg/PointStamped"
         target = connection("/target/pose", pose) if rec.tracked is not None else None
         uavs = [connection(f"/uav{i + 1}/pose", pose) for i in range(n_uavs)]
         estimates = None
+        inputs, to_relative = _inputs(rec)
+        if inputs is not None:
+            navs = [connection(f"/uav{i + 1}/navigation", pose) for i in range(n_uavs)]
+            seen = [connection(f"/uav{i + 1}/target", point) for i in range(n_uavs)]
         for chunk in rec.chunks():
             if estimates is None and "estimate" in chunk.probes and "covariance" in chunk.probes:
                 estimates = [connection(f"/uav{i + 1}/estimate", cov) for i in range(n_uavs)]
@@ -62,6 +76,18 @@ def export_ros(rec, out: Path, fmt: str) -> dict[str, int]:
                     sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000), frame_id="map")
 
                 truth = chunk.truth[s]
+                if inputs is not None:
+                    _k, _t, nav, det = next(inputs)
+                    for i, conn in enumerate(navs):
+                        write(conn, ns, msg[pose](header=header, pose=_pose(msg, nav[i])), pose)
+                    taken = ns if det.taken is None else int(round(det.taken * 1e9))
+                    if taken >= 0:  # a sensor's latency buffer at the start holds nothing
+                        at = msg["std_msgs/msg/Header"](stamp=msg["builtin_interfaces/msg/Time"](
+                            sec=taken // 1_000_000_000, nanosec=taken % 1_000_000_000), frame_id="map")
+                        pick = det.label == rec.meta["tracked_label"]
+                        for owner, rel in zip(det.owner[pick], to_relative(det)[pick], strict=True):
+                            write(seen[owner], ns, msg[point](header=at, point=msg["geometry_msgs/msg/Point"](
+                                x=float(rel[0]), y=float(rel[1]), z=0.0)), point)
                 if target is not None:
                     write(target, ns, msg[pose](header=header, pose=_pose(msg, truth[rec.tracked])), pose)
                 for i, conn in enumerate(uavs):
@@ -77,6 +103,17 @@ def export_ros(rec, out: Path, fmt: str) -> dict[str, int]:
                     write(conn, ns, msg[cov](header=header, pose=msg["geometry_msgs/msg/PoseWithCovariance"](
                         pose=_pose(msg, est[i]), covariance=covariance.ravel())), cov)
     return counts
+
+
+def _inputs(rec):
+    """The recording's inputs step by step and how its sensor's detections map back to relative positions, or
+    ``(None, None)`` when it kept no inputs or its sensor's measurements do not map back."""
+    from swarmtrack.replay.grid import MEASUREMENTS
+
+    kind = (rec.meta.get("sensor") or {}).get("kind")
+    if "inputs" not in rec.meta or kind not in MEASUREMENTS or rec.meta.get("tracked_label") is None:
+        return None, None
+    return rec.inputs(), MEASUREMENTS[kind][1]
 
 
 def _pose(msg, state: np.ndarray):

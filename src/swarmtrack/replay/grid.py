@@ -88,9 +88,21 @@ def _camera(rel: np.ndarray, pos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return rel.copy(), frame
 
 
-#: How a relative position becomes a sensor kind's measurement ``(z, frame)``, given where the UAV was.
-MEASUREMENTS: dict[str, Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray | None]]] = {
-    "range_bearing": _range_bearing, "camera": _camera}
+def _range_bearing_relative(det: Detections) -> np.ndarray:
+    return det.z[:, :1] * np.stack([np.cos(det.z[:, 1]), np.sin(det.z[:, 1])], axis=1)
+
+
+def _camera_relative(det: Detections) -> np.ndarray:
+    """``p = A⁻¹ (z − b)`` (solved), less where the UAV was."""
+    p = np.linalg.solve(det.frame[:, :, :2], (det.z - det.frame[:, :, 2])[..., None])[..., 0]
+    return p - det.sensor_pos
+
+
+#: Per sensor kind: how a relative position becomes its measurement ``(z, frame)`` given where the UAV was, and
+#: back (its detections' target relative to the UAV along the map frame's axes, for ``swarmtrack export``).
+MEASUREMENTS: dict[str, tuple[Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray | None]],
+                              Callable[[Detections], np.ndarray]]] = {
+    "range_bearing": (_range_bearing, _range_bearing_relative), "camera": (_camera, _camera_relative)}
 
 
 @dataclass
@@ -146,7 +158,7 @@ def on_grid(messages: Iterable[Message], scenario, counts: dict, window: float =
         raise LogError(f"estimator.kind {scenario.estimator.kind} follows no single target: a replay from "
                        "time-stamped logs gives detections of one target")
     grid = _Grid(scenario, counts, window, start, world.label_of(world.slices["targets"].start + followed - 1),
-                 MEASUREMENTS[kind], world.slices["targets"].start + followed - 1)
+                 MEASUREMENTS[kind][0], world.slices["targets"].start + followed - 1)
     for msg in messages:
         yield from grid.put(msg)
     yield from grid.finish()
@@ -215,7 +227,7 @@ class _Grid:
 
     def _emit(self, upto: float) -> Iterator[StepInputs]:
         """Every step whose time (and whose detections' window) the log has gone past."""
-        while (self.k + 0.5) * self.dt <= upto - self.t0:
+        while (self.k + 0.5) * self.dt <= upto - self.t0 + 1e-9:  # stamps in ns: a step's end is not rounded away
             yield self._step()
 
     def finish(self) -> Iterator[StepInputs]:
@@ -225,7 +237,7 @@ class _Grid:
                 self._place(m)
         if self.t0 is None:
             raise LogError("the logs hold no message of the map's topics")
-        yield from self._emit(self.newest + 0.5 * self.dt)  # the log's last step
+        yield from self._emit(self.newest + 0.5 * self.dt)  # up to the step of the log's last stamp
 
     def _step(self) -> StepInputs:
         k, dt = self.k, self.dt

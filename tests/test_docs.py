@@ -7,7 +7,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ["docs/tracking-swarm.md", "docs/multi-model.md", "README.md", "docs/scenarios.md", "docs/identification.md",
-        "docs/mpc.md", "docs/python.md", "docs/stonesoup.md"]
+        "docs/mpc.md", "docs/python.md", "docs/stonesoup.md", "docs/replay.md"]
 
 
 def python_blocks(path: Path) -> list[str]:

@@ -9,6 +9,8 @@ The public API (``docs/python.md``), imported on first use so that ``import swar
 - :func:`simulate` — run it, giving a :class:`~swarmtrack.sim.recorder.Recording`;
 - :func:`summarize` — the metrics of a recording (what ``metrics.json`` holds);
 - :func:`load_run` — the recording of a ``swarmtrack run`` folder;
+- :func:`replay_logs` — a scenario's estimator on recorded flights (run folders, ROS bags, ULog, CSV), as
+  ``swarmtrack replay`` runs it (``docs/replay.md``);
 - :func:`register` — add a kind (sensor, estimator, controller) with its settings class (subclassing
   :class:`SensorSpec`, :class:`EstimatorSpec` or :class:`ControllerSpec`) and its builder.
 """
@@ -25,6 +27,7 @@ _PUBLIC = {
     "Scenario": ("swarmtrack.scenarios.schema", "Scenario"),
     "ScenarioError": ("swarmtrack.scenarios.loader", "ScenarioError"),
     "simulate": ("swarmtrack.sim.engine", "simulate"),
+    "replay_logs": ("swarmtrack.replay.engine", "replay_logs"),
     "Recording": ("swarmtrack.sim.recorder", "Recording"),
     "summarize": ("swarmtrack.analysis.metrics", "summary"),
     "register": ("swarmtrack.registry", "register"),
@@ -36,12 +39,13 @@ _PUBLIC = {
 }
 
 __all__ = ["ControllerSpec", "EstimatorSpec", "Probe", "Recording", "Scenario", "ScenarioError", "SensorSpec",
-           "TargetView", "load_run", "load_scenario", "register", "simulate", "summarize"]
+           "TargetView", "load_run", "load_scenario", "register", "replay_logs", "simulate", "summarize"]
 
 if TYPE_CHECKING:
     from swarmtrack.analysis.metrics import summary as summarize
     from swarmtrack.estimation.base import Probe, TargetView
     from swarmtrack.registry import register
+    from swarmtrack.replay.engine import replay_logs
     from swarmtrack.scenarios.loader import ScenarioError, load_scenario
     from swarmtrack.scenarios.schema import ControllerSpec, EstimatorSpec, Scenario, SensorSpec
     from swarmtrack.sim.engine import simulate

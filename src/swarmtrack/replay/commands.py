@@ -11,12 +11,6 @@ import click
 from swarmtrack.cli_support import UsageFailure, report_run, warn_run, write_run
 
 
-def _formats() -> list[str]:
-    from swarmtrack import registry
-
-    return sorted(registry.kinds(registry.READER))
-
-
 @click.command("replay")
 @click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
 @click.option("--scenario", "scenario", default=None, metavar="FILE|NAME",
@@ -46,33 +40,26 @@ def replay_cmd(logs: tuple[Path, ...], scenario: str | None, map_file: Path | No
 
     from swarmtrack.estimation.information import FilterDivergence
     from swarmtrack.outputs import OutputError, Terminated, run_folder
-    from swarmtrack.replay.engine import replay
-    from swarmtrack.replay.mapping import load_map
+    from swarmtrack.replay.engine import replay_logs
+    from swarmtrack.replay.formats import reader_for
     from swarmtrack.replay.steps import LogError
     from swarmtrack.scenarios.loader import ScenarioError, load_scenario
 
     try:
-        reader = _reader(fmt, logs)
         if scenario is None:
-            if reader.name != "run" or not (logs[0] / "scenario.yaml").is_file():
+            if reader_for(fmt, logs).name != "run" or not (logs[0] / "scenario.yaml").is_file():
                 raise UsageFailure("--scenario FILE|NAME is needed (only a run folder brings its own)")
             scenario = str(logs[0] / "scenario.yaml")
         scn = load_scenario(scenario, list(overrides), seed)
-        mapping = None if map_file is None else load_map(map_file, scn)
-        if mapping is None and reader.needs_map:
-            raise UsageFailure(f"--map MAP.yaml is needed to read {reader.name} logs (docs/replay.md)")
-        counts: dict[str, int] = {}
-        steps = reader.open(list(logs), scn, mapping, counts)
         out = out or Path("runs") / f"replay-{scn.name}-seed{scn.seed}"
-        source = {"format": reader.name, "logs": [str(p) for p in logs],
-                  "map": None if map_file is None else str(map_file)}
         with run_folder(out, overwrite) as tmp:
             with Progress(transient=True, disable=not sys.stderr.isatty()) as bar:
                 task = bar.add_task(f"replaying {len(logs)} log(s) through {scn.name}", total=1.0)
-                rec = replay(scn, steps, tmp / "recording", lambda done: bar.update(task, completed=done), source,
-                             phases=reader.phases)
-            metrics = write_run(rec, scn, tmp, no_plots=no_plots, extra={"replay": {**source, "skipped": counts}},
-                                warnings=_warnings(counts))
+                rec = replay_logs(logs, scn, map_file, fmt, tmp / "recording",
+                                  lambda done: bar.update(task, completed=done))
+            source = rec.meta["replay"]
+            metrics = write_run(rec, scn, tmp, no_plots=no_plots, extra={"replay": source},
+                                warnings=_warnings(source["skipped"]))
     except (ScenarioError, LogError, FilterDivergence, OutputError) as exc:
         raise UsageFailure(str(exc)) from None
     except (KeyboardInterrupt, Terminated):
@@ -80,25 +67,6 @@ def replay_cmd(logs: tuple[Path, ...], scenario: str | None, map_file: Path | No
         sys.exit(130)
     report_run(metrics, scn, out)
     warn_run(metrics, strict)
-
-
-def _reader(fmt: str | None, logs: tuple[Path, ...]):
-    """The reader named by ``--format``, or the first registered one that recognises the first log."""
-    from swarmtrack import registry
-
-    for log in logs:
-        if not log.exists():
-            raise UsageFailure(f"{log}: no such file or folder")
-    if fmt is not None:
-        try:
-            return registry.get(registry.READER, fmt)
-        except registry.UnknownKind:
-            raise UsageFailure(f"--format {fmt}: unknown; known: {', '.join(_formats())}") from None
-    for reader in registry.kinds(registry.READER).values():
-        if reader.recognises(logs[0]):
-            return reader
-    raise UsageFailure(f"{logs[0]}: not a log any reader recognises ({', '.join(_formats())}); name one with "
-                       "--format")
 
 
 def _warnings(counts: dict[str, int]) -> list[dict]:

@@ -63,3 +63,28 @@ def replay(scenario: Scenario, steps: Iterable[StepInputs], record_to: Path | No
         if progress is not None:
             progress(min(1.0, (s.t + dt) / duration))
     return recorder.close()
+
+
+def replay_logs(logs, scenario: Scenario, mapping=None, fmt: str | None = None, record_to: Path | None = None,
+                progress: Callable[[float], None] | None = None) -> Recording:
+    """Replay ``logs`` (paths: a run folder, ROS bags, ULog or CSV files) through ``scenario``'s estimator:
+    ``mapping`` is a map file's path, its contents as a dict, or None (a run folder needs none); ``fmt`` a registered
+    reader's name (default: recognised from the first log). The recording's ``meta["replay"]`` says what was
+    replayed and, under ``skipped``, how many messages were skipped and why. Bad logs raise
+    :class:`~swarmtrack.replay.steps.LogError` naming the file, topic, field or row."""
+    from swarmtrack.replay.formats import reader_for
+    from swarmtrack.replay.mapping import ReplayMap, load_map
+
+    logs = [Path(p) for p in ([logs] if isinstance(logs, (str, Path)) else logs)]
+    reader = reader_for(fmt, logs)
+    if isinstance(mapping, (str, Path)):
+        source_map, mapping = str(mapping), load_map(Path(mapping), scenario)
+    else:
+        source_map = None
+        mapping = None if mapping is None else ReplayMap.checked(mapping, scenario)
+    if mapping is None and reader.needs_map:
+        raise LogError(f"a map (--map MAP.yaml) is needed to read {reader.name} logs (docs/replay.md)")
+    skipped: dict[str, int] = {}
+    source = {"format": reader.name, "logs": [str(p) for p in logs], "map": source_map, "skipped": skipped}
+    return replay(scenario, reader.open(logs, scenario, mapping, skipped), record_to, progress, source,
+                  phases=reader.phases)

@@ -32,3 +32,27 @@ class LogFormat:
 
     def open(self, paths, scenario, mapping, counts: dict):
         return resolve(self.steps)(paths, scenario, mapping, counts)
+
+
+def reader_for(fmt: str | None, logs) -> LogFormat:
+    """The reader named ``fmt``, or (None) the first registered one that recognises the first of ``logs``; a
+    missing log or an unknown format is a :class:`~swarmtrack.replay.steps.LogError` naming it."""
+    from pathlib import Path
+
+    from swarmtrack import registry
+    from swarmtrack.replay.steps import LogError
+
+    if not logs:
+        raise LogError("no log to replay")
+    for log in logs:
+        if not Path(log).exists():
+            raise LogError(f"{log}: no such file or folder")
+    known = registry.kinds(registry.READER)
+    if fmt is not None:
+        if fmt not in known:
+            raise LogError(f"--format {fmt}: unknown; known: {', '.join(known)}")
+        return known[fmt]
+    for reader in known.values():
+        if reader.recognises(Path(logs[0])):
+            return reader
+    raise LogError(f"{logs[0]}: not a log any reader recognises ({', '.join(known)}); name one with --format")

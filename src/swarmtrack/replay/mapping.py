@@ -75,6 +75,23 @@ class ReplayMap(_Strict):
 
     _truth = field_validator("truth", mode="before")(classmethod(lambda cls, v: _topic(v)))
 
+    @classmethod
+    def checked(cls, data, scenario, origin: str = "map") -> ReplayMap:
+        """``data`` (a dict, or a ``ReplayMap``) validated and checked against ``scenario`` (its UAVs exist); one
+        readable :class:`LogError` otherwise."""
+        try:
+            mapping = data if isinstance(data, cls) else cls.model_validate(data if data is not None else {})
+        except ValidationError as exc:
+            err = exc.errors()[0]
+            where = ".".join(str(p) for p in err["loc"])
+            raise LogError(f"{origin}: {where}: {err['msg'].removeprefix('Value error, ')}") from None
+        n = scenario.swarm.n_uavs
+        extra = [i for i in mapping.uavs if i > n]
+        if extra:
+            raise LogError(f"{origin}: uavs.{extra[0]} is in the map but the scenario {scenario.name} has "
+                           f"{n} UAV(s) (swarm.n_uavs)")
+        return mapping
+
     @field_validator("uavs")
     @classmethod
     def _numbered(cls, uavs):
@@ -92,15 +109,4 @@ def load_map(path: Path, scenario) -> ReplayMap:
         raise LogError(f"--map {path}: {exc.strerror or exc}") from None
     except yaml.YAMLError as exc:
         raise LogError(f"--map {path}: not YAML ({str(exc).splitlines()[0]})") from None
-    try:
-        mapping = ReplayMap.model_validate(data if data is not None else {})
-    except ValidationError as exc:
-        err = exc.errors()[0]
-        where = ".".join(str(p) for p in err["loc"])
-        raise LogError(f"--map {path}: {where}: {err['msg'].removeprefix('Value error, ')}") from None
-    n = scenario.swarm.n_uavs
-    extra = [i for i in mapping.uavs if i > n]
-    if extra:
-        raise LogError(f"--map {path}: uavs.{extra[0]} is in the map but the scenario {scenario.name} has "
-                       f"{n} UAV(s) (swarm.n_uavs)")
-    return mapping
+    return ReplayMap.checked(data, scenario, f"--map {path}")

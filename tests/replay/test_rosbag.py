@@ -206,3 +206,29 @@ def test_bad_bags_and_maps_are_refused_with_one_message_naming_the_cause(tmp_pat
     with pytest.raises(LogError, match="no topic"):
         list(rosbag.steps([bag], scenario, ReplayMap.model_validate(
             {"uavs": {1: {"navigation": "/nothing"}}}), {}))
+
+
+def test_a_navigation_message_whose_covariance_is_not_positive_definite_is_skipped_and_counted(tmp_path, flown):
+    scenario, rec = flown
+    cov_type = "geometry_msgs/msg/PoseWithCovarianceStamped"
+
+    def with_covariance(msg, bad: bool):
+        c = np.zeros((6, 6))
+        c[:2, :2] = [[1.0, 2.0], [2.0, 1.0]] if bad else [[0.01, 0.0], [0.0, 0.01]]  # eigenvalues −1, 3: not PD
+        return T[cov_type](header=msg.header, pose=T["geometry_msgs/msg/PoseWithCovariance"](
+            pose=msg.pose, covariance=c.ravel()))
+
+    messages, bad = [], 0
+    for logged, topic, kind, msg in flight(rec, drop=0.0, reorder=0.0):
+        if topic == "/uav1/pose":
+            wrong = 5.0 < logged < 6.0
+            bad += wrong
+            messages.append((logged, topic, cov_type, with_covariance(msg, wrong)))
+        else:
+            messages.append((logged, topic, kind, msg))
+    bag = write_bag(tmp_path / "flight", messages)
+    counts = {}
+    again = replay(scenario, rosbag.steps([bag], scenario, ReplayMap.model_validate(yaml.safe_load(SIMPLE_MAP)),
+                                          counts), phases=False)
+    assert bad > 10 and counts == {"covariance not positive definite on /uav1/pose": bad}
+    assert np.isfinite(again.estimate[-1]).all()

@@ -210,7 +210,7 @@ def build(scenario: Scenario) -> Simulation:
                                                               net.liar.sigma, net.liar.start, stream(seed, "liar")))
     meta = run_meta(scenario, world.slices, flown, dt_est)
     # the label the sensor reports for the tracked target (which detections are of it, for readers of the inputs)
-    meta["tracked_label"] = None if tracked is None or tracked not in world._sensed else world.label_of(tracked)
+    meta["tracked_label"] = None if tracked is None else world.label_of(tracked)
     return Simulation(world, OnboardStack(estimator, controller, guide), channel, clock, meta,
                       monitors(scenario, world, {"estimator": estimator, "controller": controller}))
 

@@ -394,9 +394,10 @@ class World:
             out[self._driven] = self._phase[min(self._tick, len(self._phase) - 1)]
         return out
 
-    def label_of(self, obj: int) -> int:
-        """The label the sensor reports for world object ``obj``."""
-        return int(np.flatnonzero(self._sensed == obj)[0])
+    def label_of(self, obj: int) -> int | None:
+        """The label the sensor reports for world object ``obj`` (None: the sensor does not see it)."""
+        at = np.flatnonzero(self._sensed == obj)
+        return int(at[0]) if len(at) else None
 
     # --- what each UAV's own devices report ----------------------------------------------------------
     def navigation(self) -> np.ndarray:

@@ -3,7 +3,13 @@
 ===========  ===========================================================================================
 ``run``      a swarmtrack run folder: its recorded navigation and detections, replayed as they were handed
 ``rosbag``   ROS 1 bags, ROS 2 bags (sqlite3 or MCAP storage), the topics named by a map file
+``ulog``     PX4 ULog files (pyulog), one per UAV, for its navigation (``vehicle_local_position``,
+             ``vehicle_odometry``, NED made ENU); the map names each UAV's file and message
+``csv``      CSV files with a documented header (``t, uav, kind, x, y`` ...), one row per message; no map needed
 ===========  ===========================================================================================
+
+The last three are one flight's pieces: each recognises its own files, and any mix of them is read together
+(:func:`swarmtrack.replay.timestamped.steps`), e.g. a ULog per UAV for navigation and a bag or a CSV of detections.
 """
 
 from __future__ import annotations
@@ -16,4 +22,10 @@ registry.register_reader(LogFormat(
     "swarmtrack.replay.run_folder:accepts", "swarmtrack.replay.run_folder:steps", phases=True))
 registry.register_reader(LogFormat(
     "rosbag", "ROS 1 bags and ROS 2 bags (sqlite3 or MCAP storage), read with rosbags; topics named by --map",
-    "swarmtrack.replay.rosbag:accepts", "swarmtrack.replay.rosbag:steps", needs_map=True))
+    "swarmtrack.replay.rosbag:accepts", "swarmtrack.replay.timestamped:steps", needs_map=True))
+registry.register_reader(LogFormat(
+    "ulog", "PX4 ULog files (pyulog), one per UAV, for its navigation; files and messages named by --map",
+    "swarmtrack.replay.ulog:accepts", "swarmtrack.replay.timestamped:steps", needs_map=True))
+registry.register_reader(LogFormat(
+    "csv", "CSV files, one row per message (t, uav, kind, x, y, ...: docs/replay.md); no map needed",
+    "swarmtrack.replay.csv_log:accepts", "swarmtrack.replay.timestamped:steps"))

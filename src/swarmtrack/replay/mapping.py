@@ -11,9 +11,11 @@ The simplest map names topics only, for bags whose message types say what they h
 A source written as a mapping names the fields of other messages by dotted paths (``docs/replay.md``): a
 detection's ``point`` (a message with ``x``, ``y``: the target relative to the UAV along the map frame's axes) or
 its ``range`` and ``bearing`` fields (bearing in radians from the map frame's x axis, counter-clockwise), and a
-navigation's or the truth's ``position`` (a message with ``x``, ``y``). ``log`` names the file a UAV's topics are in
-when each UAV has its own (ULog, CSV). ``window`` bounds how far (s) a message may come after later-stamped ones and
-still be placed at its own time stamp.
+navigation's or the truth's ``position`` (a message with ``x``, ``y``). ``log`` names the file a UAV's navigation is
+in when each UAV has its own (a PX4 ULog, :mod:`swarmtrack.replay.ulog`; its ``navigation`` is then the ULog message's
+name), resolved against the map file's folder or matched by file name to a log given on the command line, and
+``time_offset`` (s) is added to that file's time stamps (a ULog's boot clock onto the other logs' clock). ``window``
+bounds how far (s) a message may come after later-stamped ones and still be placed at its own time stamp.
 """
 
 from __future__ import annotations
@@ -63,6 +65,7 @@ class UavSources(_Strict):
     navigation: Source
     detections: DetectionSource | None = None
     log: Path | None = None
+    time_offset: float = Field(default=0.0, allow_inf_nan=False)
 
     _nav = field_validator("navigation", mode="before")(classmethod(lambda cls, v: _topic(v)))
     _det = field_validator("detections", mode="before")(classmethod(lambda cls, v: _topic(v)))
@@ -109,4 +112,8 @@ def load_map(path: Path, scenario) -> ReplayMap:
         raise LogError(f"--map {path}: {exc.strerror or exc}") from None
     except yaml.YAMLError as exc:
         raise LogError(f"--map {path}: not YAML ({str(exc).splitlines()[0]})") from None
-    return ReplayMap.checked(data, scenario, f"--map {path}")
+    mapping = ReplayMap.checked(data, scenario, f"--map {path}")
+    for sources in mapping.uavs.values():  # a UAV's own log is found beside the map file
+        if sources.log is not None and not sources.log.is_absolute():
+            sources.log = Path(path).parent / sources.log
+    return mapping

@@ -88,8 +88,9 @@ class _Topics:
     def __init__(self, mapping):
         self.roles: dict[str, list] = {}
         for number, sources in mapping.uavs.items():
-            self.roles.setdefault(sources.navigation.topic, []).append(("navigation", number - 1,
-                                                                         sources.navigation))
+            if sources.log is None:  # a UAV with a log of its own (a ULog) has its navigation there
+                self.roles.setdefault(sources.navigation.topic, []).append(("navigation", number - 1,
+                                                                             sources.navigation))
             if sources.detections is not None:
                 self.roles.setdefault(sources.detections.topic, []).append(("detections", number - 1,
                                                                              sources.detections))
@@ -159,6 +160,9 @@ def messages(paths: list[Path], mapping, counts: dict) -> Iterator:
 
 
 def steps(paths: list[Path], scenario, mapping, counts: dict) -> Iterator[StepInputs]:
+    """The steps of the bags ``paths`` alone. The registered reader's are
+    :func:`swarmtrack.replay.timestamped.steps`, which reads bags with ULogs and CSVs of the same flight too (it
+    imports this module, so this one cannot go through it)."""
     return on_grid(messages(paths, mapping, counts), scenario, counts, mapping.window)
 
 

@@ -26,6 +26,7 @@ RUNS = {
     "l24-imm": ("l24-imm", []),
     "robust-5": ("robust-5", []),
     "w20-switching": ("w20-switching", []),
+    "w20-evasive-imm": ("w20-evasive-imm", []),
     "w20-mpc-formation": ("w20-mpc-formation", []),
     "ib21-fleet-6-polygons": ("ib21-fleet-6", ["estimator.sets=polygons"]),
     "ib21-fleet-6-raster": ("ib21-fleet-6", ["estimator.sets=raster"]),

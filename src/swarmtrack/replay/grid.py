@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import heapq
 import math
-from bisect import insort
+from bisect import bisect_right, insort
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
@@ -105,6 +105,10 @@ MEASUREMENTS: dict[str, tuple[Callable[[np.ndarray, np.ndarray], tuple[np.ndarra
     "range_bearing": (_range_bearing, _range_bearing_relative), "camera": (_camera, _camera_relative)}
 
 
+def _stamp(sample: tuple) -> float:
+    return sample[0]
+
+
 @dataclass
 class _Track:
     """A time-ordered buffer of one stream's (stamp, position, velocity) samples, for interpolation."""
@@ -120,7 +124,7 @@ class _Track:
         s = self.samples
         if not s or t < s[0][0]:
             return None
-        i = next((j for j in range(len(s) - 1, -1, -1) if s[j][0] <= t), 0)
+        i = bisect_right(s, t, key=_stamp) - 1  # the last sample at or before t
         t0, p0, v0 = s[i]
         if i + 1 < len(s):
             t1, p1, v1 = s[i + 1]
@@ -138,7 +142,7 @@ class _Track:
     def forget(self, before: float) -> None:
         """Drop the samples not needed to interpolate at ``before`` or later."""
         s = self.samples
-        keep = next((j for j in range(len(s) - 1, -1, -1) if s[j][0] <= before), 0)
+        keep = max(bisect_right(s, before, key=_stamp) - 1, 0)
         if keep > 1:
             del s[:keep - 1]
 
@@ -164,6 +168,17 @@ def on_grid(messages: Iterable[Message], scenario, counts: dict, window: float =
     yield from grid.finish()
 
 
+def _finite(msg: Message) -> bool:
+    """Every number of the message is finite (its stamp and its pairs)."""
+    if not math.isfinite(msg.stamp):
+        return False
+    for name in ("position", "velocity", "relative", "range_bearing"):
+        pair = getattr(msg, name, None)
+        if pair is not None and not (math.isfinite(pair[0]) and math.isfinite(pair[1])):
+            return False
+    return True
+
+
 class _Grid:
     def __init__(self, scenario, counts: dict, window: float, start: float | None, label: int, measure, tracked: int):
         self.n = scenario.swarm.n_uavs
@@ -185,10 +200,7 @@ class _Grid:
         self.counts[why] = self.counts.get(why, 0) + 1
 
     def put(self, msg: Message) -> Iterator[StepInputs]:
-        values = [msg.stamp, *(getattr(msg, f) or () for f in ("position", "velocity", "relative", "range_bearing")
-                               if hasattr(msg, f))]
-        flat = [msg.stamp] + [v for part in values[1:] for v in part]
-        if not all(math.isfinite(v) for v in flat):
+        if not _finite(msg):
             self._skip(f"NaN or infinite value in a message on {msg.topic}")
             return
         last = self.latest.get(msg.topic, -math.inf)

@@ -27,6 +27,9 @@ from swarmtrack.sensors.detections import Detections
 
 #: The tables' file names.
 NAVIGATION, DETECTIONS = "navigation.parquet", "detections.parquet"
+#: Steps held before they are written (a row group per table): the log's memory is bounded by these, whatever the
+#: run's length (the recorder's own chunks can hold tens of thousands of steps of a small swarm).
+FLUSH_STEPS = 1024
 
 
 def _fixed(values: np.ndarray, width: int):
@@ -52,6 +55,8 @@ class InputLog:
             self.meta = {"navigation": int(nav.shape[1]), "z": int(det.z.shape[1]),
                          "frame": det.frame is not None, "footprint": det.footprint is not None}
         (self.steps if self.path is None else self._pending).append((k, t, np.array(nav, dtype=float), det))
+        if len(self._pending) >= FLUSH_STEPS:
+            self.flush()
 
     def flush(self) -> None:
         """Write the steps put since the last flush (a row group per table)."""

@@ -24,6 +24,9 @@ from swarmtrack.sim.recorder import Recorder, Recording
 
 #: The one phase of a log that does not know the scenario's profile phases.
 LOGGED = "logged"
+#: The most steps a replay's recording holds in memory before it writes them (the simulator's recorder sizes its
+#: chunks by rows, which for a small swarm is tens of thousands of steps).
+REPLAY_CHUNK_STEPS = 4096
 
 
 def replay(scenario: Scenario, steps: Iterable[StepInputs], record_to: Path | None = None,
@@ -43,7 +46,9 @@ def replay(scenario: Scenario, steps: Iterable[StepInputs], record_to: Path | No
         meta["phase_names"] = [LOGGED] if meta["tracked"] is not None else []
         meta["object_phases"] = [[LOGGED] if j == meta["tracked"] else [] for j in range(sim.world.n_objects)]
     # a replay keeps its inputs too (a replayed run folder can be replayed again, with another estimator)
-    recorder = Recorder(meta, sim.world.n_objects, n, probes, record_to, inputs=record_to is not None)
+    # chunks of at most REPLAY_CHUNK_STEPS steps: a long log of a small swarm streams in bounded memory
+    recorder = Recorder(meta, sim.world.n_objects, n, probes, record_to, inputs=record_to is not None,
+                        max_chunk_steps=REPLAY_CHUNK_STEPS)
     publish = getattr(estimator, "publish", None)  # the optional second round (Estimator.publish)
     duration = max(sim.clock.steps * dt, dt)
     k_last = -1

@@ -125,11 +125,13 @@ class Recorder:
     allocations."""
 
     def __init__(self, meta: dict, n_objects: int, n_uavs: int, probes: dict[str, tuple[int, ...]],
-                 path: Path | None = None, inputs: bool = False):
+                 path: Path | None = None, inputs: bool = False, max_chunk_steps: int | None = None):
         self.meta = {**meta, "format": FORMAT, "n_objects": n_objects, "n_uavs": n_uavs,
                      "probes": {k: list(v) for k, v in probes.items()}}
         self.n_objects, self.n_uavs, self.probes = n_objects, n_uavs, probes
         self.chunk_steps = max(1, CHUNK_ROWS // max(n_objects, n_uavs, 1))
+        if max_chunk_steps is not None:  # a long run of a small swarm: a chunk of that many steps at most
+            self.chunk_steps = min(self.chunk_steps, max_chunk_steps)
         self.path = None if path is None else Path(path)
         self._blocks: list[_Block] = []  # the steps of the chunk being filled
         self._pending = 0  # steps in those blocks

@@ -31,6 +31,7 @@ bench: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_sim.py
 	$(VENV)/bin/python benchmarks/bench_mpc.py
 	$(VENV)/bin/python benchmarks/bench_setmembership.py
+	$(VENV)/bin/python benchmarks/bench_cli.py
 
 bench-large: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_filters.py
@@ -40,6 +41,7 @@ bench-large: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_sim.py --large
 	$(VENV)/bin/python benchmarks/bench_mpc.py
 	$(VENV)/bin/python benchmarks/bench_setmembership.py
+	$(VENV)/bin/python benchmarks/bench_cli.py
 
 clean:
 	rm -rf $(VENV) runs

@@ -1,4 +1,11 @@
-"""Command line: ``swarmtrack run | reproduce | sweep | summarize | validate | schema | identify | scenarios``.
+"""Command line: ``swarmtrack run | reproduce | sweep | summarize | validate | schema | identify | scenarios | live |
+world | agent | keygen | export | replay``.
+
+This module is what ``swarmtrack`` starts with, so it imports click and nothing of the simulator: the commands are
+listed in :data:`COMMANDS` ("module:attribute" and their one-line help) and a command's module is imported only when
+that command is run or its own ``--help`` is asked (click's lazy-loading group). ``swarmtrack --help`` answers
+from the table. The commands themselves are in :mod:`swarmtrack.commands`, :mod:`swarmtrack.live.commands`,
+:mod:`swarmtrack.interop.commands` and :mod:`swarmtrack.replay.commands`.
 
 Bad input (scenario, override, option) prints one message naming the field and exits with code 2; a run's
 folder is staged and moved into place only when complete, and never replaces what the tool did not write
@@ -7,353 +14,111 @@ folder is staged and moved into place only when complete, and never replaces wha
 
 from __future__ import annotations
 
-import functools
-import sys
-import time
-from pathlib import Path
+import atexit
+import gc
+import importlib
+from gettext import gettext as _
 
 import click
-import yaml
 
-from swarmtrack import registry
-from swarmtrack.analysis.papers import PAPERS
-from swarmtrack.cli_support import UsageFailure, report_run, warn_run, write_run
-from swarmtrack.interop import commands as interop_commands
-from swarmtrack.live import commands as live_commands
-from swarmtrack.replay import commands as replay_commands
-from swarmtrack.scenarios.loader import ScenarioError, builtin_names, load_raw, load_scenario
+#: Every command: its name → ("module:attribute" of the click command, or of a function without arguments that
+#: makes it; the first sentence of its help, which ``swarmtrack --help`` shortens as click does). A test checks
+#: that each sentence is the command's own.
+COMMANDS: dict[str, tuple[str, str]] = {
+    "agent": ("swarmtrack.live.commands:agent_cmd",
+              "Run UAV --uav's onboard stack (estimator, controller) of SCENARIO, as on its companion computer: its "
+              "navigation, detections and radio from the world (or its navigation from its autopilot, --autopilot), "
+              "its neighbours' messages over Zenoh."),
+    "export": ("swarmtrack.interop.commands:export_cmd",
+               "Write the run in RUN (a swarmtrack run folder) as standard messages: the truth and every UAV's "
+               "estimate with its covariance (docs/replay.md lists the topics)."),
+    "identify": ("swarmtrack.commands:identify_cmd", "Identify the UAV's position-controlled dynamics (W20 eqs."),
+    "keygen": ("swarmtrack.live.commands:keygen_cmd",
+               "Write a new swarm key to FILE (readable by its owner only); an existing FILE is never replaced."),
+    "live": ("swarmtrack.live.commands:live_cmd",
+             "Run SCENARIO with every UAV's onboard stack in its own process (swarmtrack agent --uav I), talking over "
+             "Eclipse Zenoh on loopback with this world process: in lockstep (the run folder of swarmtrack run, with "
+             "the same numbers) or at wall-clock rate (--realtime)."),
+    "replay": ("swarmtrack.replay.commands:replay_cmd",
+               "Run a scenario's onboard stack (its estimator; the controller is not run) on recorded navigation and "
+               "detections instead of a simulated world: LOGS are a swarmtrack run folder, ROS bags (ROS 1, ROS 2 "
+               "sqlite3 or MCAP), PX4 ULog files or CSV files."),
+    "reproduce": ("swarmtrack.commands:reproduce_command",
+                  "Run a paper's experiments over several seeds and check its claims."),
+    "run": ("swarmtrack.commands:run_cmd",
+            "Run one closed-loop simulation of SCENARIO (a built-in name or a YAML file)."),
+    "scenarios": ("swarmtrack.commands:scenarios_cmd", "List the built-in scenarios."),
+    "schema": ("swarmtrack.commands:schema_cmd",
+               "Every scenario key: dotted path, type, default, allowed values and unit (docs/scenarios.md)."),
+    "summarize": ("swarmtrack.commands:summarize_cmd",
+                  "Summarize a sweep's result store OUT: mean ± std and the 95 % interval of each metric per setting "
+                  "(printed, and written to OUT/summary.md and OUT/summary.json together), each metric against each "
+                  "grid key, and each time series (position error, NEES, formation tracking error) as mean lines with "
+                  "±1 std bands over the seeds per setting, as figures in OUT/summary/ (listed in summary.md)."),
+    "sweep": ("swarmtrack.commands:sweep_cmd",
+              "Run SCENARIO over the cross product of grid values x seeds 1..RUNS, in parallel."),
+    "validate": ("swarmtrack.commands:validate_cmd",
+                 "Check SCENARIO (a built-in name or a YAML file) and print it fully resolved, as run writes "
+                 "scenario.yaml."),
+    "world": ("swarmtrack.live.commands:world_cmd",
+              "Run the truth side of SCENARIO alone (world, sensors, simulated radio, recorder) and wait for its UAVs' "
+              "processes (swarmtrack agent --uav I --connect ENDPOINT) to join."),
+}
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+class LazyGroup(click.Group):
+    """A group whose commands are imported when first asked for (click's lazy-loading pattern): ``lazy`` maps a
+    command's name to ("module:attribute", the first sentence of its help). Running a command, its ``--help`` or
+    shell completion imports it (once per group); the group's own ``--help`` lists the sentences, shortened as click
+    shortens a command's help, and imports nothing."""
+
+    def __init__(self, *args, lazy: dict[str, tuple[str, str]], **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self.lazy = dict(lazy)
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted({*super().list_commands(ctx), *self.lazy})
+
+    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
+        if cmd_name in self.lazy and cmd_name not in self.commands:
+            self.add_command(self._load(cmd_name), cmd_name)
+        return super().get_command(ctx, cmd_name)
+
+    def _load(self, name: str) -> click.Command:
+        module, _, attr = self.lazy[name][0].partition(":")
+        found = getattr(importlib.import_module(module), attr)
+        command = found if isinstance(found, click.Command) else found()
+        if not isinstance(command, click.Command):
+            raise TypeError(f"{self.lazy[name][0]} (command {name!r}) is not a click command nor makes one")
+        return command
+
+    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        """click's listing, with a stand-in holding the table's sentence for each command not imported yet."""
+        commands = []
+        for name in self.list_commands(ctx):
+            cmd = self.commands.get(name) or click.Command(name, help=self.lazy[name][1])
+            if not cmd.hidden:
+                commands.append((name, cmd))
+        if commands:
+            limit = formatter.width - 6 - max(len(name) for name, _ in commands)
+            with formatter.section(_("Commands")):
+                formatter.write_dl([(name, cmd.get_short_help_str(limit)) for name, cmd in commands])
+
+
+@click.group(cls=LazyGroup, lazy=COMMANDS, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="swarmtrack")
 def main() -> None:
     """Cooperative target estimation and tracking by UAV swarms."""
+    if not _exit_fast:
+        _exit_fast.append(atexit.register(gc.freeze))
 
 
-@main.command("scenarios")
-def scenarios_cmd() -> None:
-    """List the built-in scenarios."""
-    for name in builtin_names():
-        desc = load_raw(name).get("description", "")
-        click.echo(f"{name:24s} {desc}")
+#: Once a command runs, its process ends without the cycle collector's final passes over what it imported:
+#: ``gc.freeze`` at exit (an atexit handler; the other handlers and the modules' teardown still run). A command has
+#: written and closed its files before it returns; collecting the cycles of numba, pandas and pydantic as the
+#: interpreter ended took 0.4-0.6 s of a 3.5 s ``swarmtrack run l24-cv --no-plots``.
+_exit_fast: list = []
 
-
-@main.command("run")
-@click.argument("scenario", default="l24-ct")
-@click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), default=None,
-              help="output folder (default: runs/<name>-seed<seed>-<hash of the resolved scenario>)")
-@click.option("--overwrite", is_flag=True,
-              help="replace an earlier run in --out (only the files its manifest.json lists), and the --animate file")
-@click.option("--seed", type=int, default=None, help="override the scenario's seed")
-@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
-              help="override a scenario key, e.g. --set network.topology=full (repeatable)")
-@click.option("--no-plots", is_flag=True, help="skip the PNG figures")
-@click.option("--strict", is_flag=True, help="exit with code 3 when the run has warnings (lost target, ...)")
-@click.option("--format", "formats", type=click.Choice(["parquet", "csv"]), multiple=True, default=("parquet",),
-              show_default=True, help="time series formats: the Parquet recording always, csv adds timeseries/*.csv")
-@click.option("--animate", type=click.Path(dir_okay=False, path_type=Path), default=None, metavar="FILE.gif|FILE.mp4",
-              help="also write an animation of the sets, footprints, paths, targets and decoys (set-membership "
-                   "scenarios; .mp4 needs ffmpeg); an existing file is replaced only with --overwrite")
-@click.option("--animate-every", type=click.FloatRange(min=0, min_open=True), default=None, metavar="SECONDS",
-              help="simulated time between frames  [default: 1]")
-@click.option("--animate-uav", type=click.IntRange(min=1), default=None, metavar="N",
-              help="show UAV N's own sets (default: the union of every UAV's sets)")
-def run_cmd(scenario: str, out: Path | None, overwrite: bool, seed: int | None, overrides: tuple[str, ...],
-            no_plots: bool, strict: bool, formats: tuple[str, ...], animate: Path | None,
-            animate_every: float | None, animate_uav: int | None) -> None:
-    """Run one closed-loop simulation of SCENARIO (a built-in name or a YAML file).
-
-    Writes scenario.yaml (resolved), metrics.json, recording/ (Parquet; load it with
-    swarmtrack.sim.recorder.Recording.load), manifest.json and, unless --no-plots, PNG figures. An existing
-    non-empty --out is refused unless it holds an earlier run and --overwrite is given; without --overwrite, an
-    --out that another run fills while this one runs is not replaced either (exit 2, this run's files are not
-    kept). With --animate, also the
-    animation (a frame every --animate-every s of simulated time, played at 10 frames per second)."""
-    from rich.progress import Progress
-
-    from swarmtrack.analysis.animation import AnimationError
-    from swarmtrack.analysis.reproduce import run_key
-    from swarmtrack.estimation.information import FilterDivergence
-    from swarmtrack.outputs import OutputError, Terminated, run_folder
-    from swarmtrack.sim.engine import simulate
-
-    try:
-        scn = load_scenario(scenario, list(overrides), seed)
-        _check_animation(scn, animate, animate_every, animate_uav, overwrite)
-        out = out or Path("runs") / f"{scn.name}-seed{scn.seed}-{run_key(scn)[:8]}"
-        with run_folder(out, overwrite) as tmp:
-            with Progress(transient=True, disable=not sys.stderr.isatty()) as bar:
-                task = bar.add_task(f"simulating {scn.name}", total=1.0)
-                if animate is None:
-                    rec = simulate(scn, progress=lambda done: bar.update(task, completed=done),
-                                   record_to=tmp / "recording")
-                else:
-                    from swarmtrack.analysis.animation import simulate_animated
-
-                    rec, capture = simulate_animated(scn, animate_every or 1.0, animate_uav,
-                                                     progress=lambda done: bar.update(task, completed=done),
-                                                     record_to=tmp / "recording")
-            metrics = write_run(rec, scn, tmp, formats, no_plots)
-            if animate is not None:
-                from swarmtrack.analysis.animation import render
-
-                with Progress(transient=True, disable=not sys.stderr.isatty()) as bar:
-                    task = bar.add_task(f"animating {len(capture.frames)} frames", total=1.0)
-                    render(capture, animate, f"{scn.name}, seed {scn.seed}", overwrite,
-                           progress=lambda done: bar.update(task, completed=done))
-    except (ScenarioError, FilterDivergence, OutputError, AnimationError) as exc:
-        raise UsageFailure(str(exc)) from None
-    except (KeyboardInterrupt, Terminated):
-        click.echo("interrupted; nothing was written", err=True)
-        sys.exit(130)
-    report_run(metrics, scn, out)
-    if animate is not None:
-        click.echo(f"animation: {len(capture.frames)} frames written to {animate}")
-    warn_run(metrics, strict)
-
-
-def _check_animation(scn, animate: Path | None, every: float | None, uav: int | None, overwrite: bool) -> None:
-    """Refuse, before anything runs, an animation that cannot be made: options without --animate, a scenario
-    without set-membership estimator, a UAV it does not have, a destination that cannot be written
-    (:func:`swarmtrack.analysis.animation.check_destination`)."""
-    from swarmtrack.analysis.animation import check_destination
-
-    if animate is None:
-        if every is not None or uav is not None:
-            raise UsageFailure("--animate-every and --animate-uav need --animate FILE")
-        return
-    if not registry.get("estimator", scn.estimator.kind).animated:
-        animated = ", ".join(name for name, kind in registry.kinds("estimator").items() if kind.animated)
-        raise UsageFailure(f"--animate: {scn.name} has estimator.kind {scn.estimator.kind}; the animation shows the "
-                           f"sets of a set-membership estimator (estimator.kind: {animated}, e.g. ib21-fleet-6)")
-    if uav is not None and uav > scn.swarm.n_uavs:
-        raise UsageFailure(f"--animate-uav {uav}: {scn.name} has {scn.swarm.n_uavs} UAVs")
-    check_destination(animate, overwrite)
-
-
-@main.command("reproduce", epilog="\b\nPapers:\n" + "\n".join(f"  {k}  {p.title}" for k, p in sorted(PAPERS.items())))
-@click.argument("paper", type=click.Choice(sorted(PAPERS)))
-@click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), default=None,
-              help="output folder (default: runs/reproduce-<paper>)")
-@click.option("--runs", type=click.IntRange(min=1), default=10, show_default=True, help="seeds per experiment")
-@click.option("--workers", type=click.IntRange(min=1), default=None, help="parallel processes (default: cores)")
-@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
-              help="override a key of every experiment's scenario, e.g. --set sensor.latency=0 (repeatable)")
-@click.option("--no-figures", is_flag=True, help="skip the paper's figures")
-@click.option("--cluster", default=None, metavar="ADDRESS",
-              help="run on Dask: tcp://HOST:PORT of a running scheduler, or 'local' for a LocalCluster of --workers")
-@click.option("--figure", default=None, metavar="NAME",
-              help="only one figure's experiments, figures and claims, for a paper that groups them (" + "; ".join(
-                  f"{k}: {', '.join(p.figure_groups)}" for k, p in sorted(PAPERS.items()) if p.figure_groups) + ")")
-def reproduce_cmd(paper: str, out: Path | None, runs: int, workers: int | None, overrides: tuple[str, ...],
-                  no_figures: bool, cluster: str | None, figure: str | None) -> None:
-    """Run a paper's experiments over several seeds and check its claims.
-
-    Every finished run is kept in OUT/runs and reused next time (keyed by its resolved scenario and the
-    swarmtrack version); Ctrl-C stops at once; the two reports are written together or not at all (with
-    --figure N: reproduction-figN.json and .md)."""
-    from swarmtrack.analysis.reproduce import figure_experiments, reproduce
-    from swarmtrack.outputs import Terminated, terminate_as_exception
-
-    try:
-        figure_experiments(paper, figure)
-    except ValueError as exc:
-        raise UsageFailure(str(exc)) from None
-    out = out or Path("runs") / f"reproduce-{paper}"
-    try:
-        with terminate_as_exception():
-            reproduce(paper, out, runs=runs, workers=workers, figures=not no_figures, overrides=overrides,
-                      cluster=cluster, figure=figure)
-    except ScenarioError as exc:
-        raise UsageFailure(str(exc)) from None
-    except (KeyboardInterrupt, Terminated):
-        click.echo(f"interrupted; finished runs are kept in {out / 'runs'} and reused next time", err=True)
-        sys.exit(130)
-
-
-@main.command("sweep")
-@click.argument("scenario")
-@click.option("--grid", "grid", multiple=True, metavar="KEY=V1,V2,...",
-              help="a scenario key and its values; several --grid give their cross product (repeatable)")
-@click.option("--runs", type=click.IntRange(min=1), default=10, show_default=True, help="seeds per setting")
-@click.option("--workers", type=click.IntRange(min=1), default=None, help="parallel processes (default: cores)")
-@click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), required=True,
-              help="the result store (a folder)")
-@click.option("--resume", is_flag=True, help="run only the runs missing from an existing store")
-@click.option("--cluster", default=None, metavar="ADDRESS",
-              help="run on Dask: tcp://HOST:PORT of a running scheduler, or 'local' for a LocalCluster of --workers")
-@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help="fix a key for every run (repeatable)")
-def sweep_cmd(scenario: str, grid: tuple[str, ...], runs: int, workers: int | None, out: Path, resume: bool,
-              cluster: str | None, overrides: tuple[str, ...]) -> None:
-    """Run SCENARIO over the cross product of grid values x seeds 1..RUNS, in parallel.
-
-    Each finished run's row (grid values, seed, status, error, wall time, version, metrics) is written to
-    OUT/results at once, so an interrupted sweep loses only the runs in progress; --resume runs only what is
-    missing. A run that fails is stored as failed and the sweep goes on. Read the store with
-    swarmtrack.analysis.sweep.load_results(OUT)."""
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
-
-    from swarmtrack.analysis.sweep import load_results, parse_grid, sweep
-    from swarmtrack.outputs import Terminated, terminate_as_exception
-
-    try:
-        with terminate_as_exception(), Progress(TextColumn("sweep"), BarColumn(), MofNCompleteColumn(),
-                                                TextColumn("{task.fields[rate]}"), TimeRemainingColumn(),
-                                                transient=True) as progress:
-            task = progress.add_task("sweep", total=None, rate="")
-            start, resumed = time.perf_counter(), []
-
-            def advance(done: int, total: int) -> None:  # the rate counts this session's runs, not resumed ones
-                if not resumed:
-                    resumed.append(done)
-                fresh, wall = done - resumed[0], time.perf_counter() - start
-                progress.update(task, completed=done, total=total,
-                                rate=f"{fresh / wall:.2f} runs/s" if fresh and wall > 0 else "")
-
-            sweep(scenario, parse_grid(grid), runs, out, workers=workers, resume=resume, overrides=overrides,
-                  on_done=advance, cluster=cluster)
-    except ScenarioError as exc:
-        raise UsageFailure(str(exc)) from None
-    except (KeyboardInterrupt, Terminated):
-        click.echo(f"interrupted; finished runs are kept in {out / 'results'}; --resume runs the rest", err=True)
-        sys.exit(130)
-    table = load_results(out)
-    counts = table["status"].value_counts().to_dict() if len(table) else {}
-    click.echo(f"{len(table)} runs in {out}: " + ", ".join(f"{v} {k}" for k, v in sorted(counts.items())))
-    for _, row in table[table["status"] != "ok"].head(10).iterrows():
-        click.echo(f"  seed {row['seed']} {row['status']}: {row['error']}", err=True)
-
-
-@main.command("summarize")
-@click.argument("out", type=click.Path(file_okay=False, path_type=Path))
-@click.option("--no-figures", is_flag=True, help="skip the figures")
-def summarize_cmd(out: Path, no_figures: bool) -> None:
-    """Summarize a sweep's result store OUT: mean ± std and the 95 % interval of each metric per setting (printed,
-    and written to OUT/summary.md and OUT/summary.json together), each metric against each grid key, and each time
-    series (position error, NEES, formation tracking error) as mean lines with ±1 std bands over the seeds per
-    setting, as figures in OUT/summary/ (listed in summary.md)."""
-    from swarmtrack.analysis.sweep import plot_series, plot_summary, summarize
-    from swarmtrack.outputs import dump_json, write_together
-
-    if not (out / "sweep.json").is_file():
-        raise UsageFailure(f"{out} is not a sweep's result store (no sweep.json)")
-    try:
-        md, numbers = summarize(out)
-    except ScenarioError as exc:
-        raise UsageFailure(str(exc)) from None
-    paths = [] if no_figures else [*plot_summary(numbers, out / "summary"), *plot_series(numbers, out / "summary")]
-    if paths:
-        md += "\n\n## Figures\n\n" + "\n".join(f"- {p.relative_to(out)}" for p in paths)
-    write_together({out / "summary.md": md + "\n", out / "summary.json": dump_json(numbers)})
-    click.echo(md)
-    if paths:
-        click.echo(f"{len(paths)} figures in {out / 'summary'}")
-
-
-@main.command("validate")
-@click.argument("scenario")
-@click.option("--seed", type=int, default=None, help="override the scenario's seed")
-@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
-              help="override a scenario key, e.g. --set network.topology=full (repeatable)")
-def validate_cmd(scenario: str, seed: int | None, overrides: tuple[str, ...]) -> None:
-    """Check SCENARIO (a built-in name or a YAML file) and print it fully resolved, as run writes scenario.yaml."""
-    try:
-        scn = load_scenario(scenario, list(overrides), seed)
-    except ScenarioError as exc:
-        raise UsageFailure(str(exc)) from None
-    click.echo(yaml.safe_dump(scn.model_dump(mode="json"), sort_keys=False), nl=False)
-
-
-@main.command("schema")
-@click.option("--format", "fmt", type=click.Choice(["text", "markdown"]), default="text", show_default=True)
-def schema_cmd(fmt: str) -> None:
-    """Every scenario key: dotted path, type, default, allowed values and unit (docs/scenarios.md)."""
-    from swarmtrack.scenarios import reference
-
-    click.echo(reference.markdown() if fmt == "markdown" else reference.text(), nl=False)
-
-
-def _matrix_lines(name: str, M) -> list[str]:
-    rows = [" ".join(f"{v:>11.6g}" for v in row) for row in M]
-    return [f"{name} = [" + rows[0]] + ["     " + r for r in rows[1:-1]] + ["     " + rows[-1] + " ]"]
-
-
-def _free_destination(path: Path, option: str, overwrite: bool) -> None:
-    """Refuse a --out / --save-log that cannot receive the file (:func:`swarmtrack.outputs.check_file_destination`)."""
-    from swarmtrack.outputs import OutputError, check_file_destination
-
-    try:
-        check_file_destination(path, option, overwrite)
-    except OutputError as exc:
-        raise UsageFailure(str(exc)) from None
-
-
-@main.command("identify")
-@click.argument("log", required=False, type=click.Path(dir_okay=True, path_type=Path))
-@click.option("--simulator", is_flag=True,
-              help="fly the simulator's own quadrotor through setpoint steps and identify that, instead of a LOG")
-@click.option("--save-log", type=click.Path(path_type=Path), default=None,
-              help="with --simulator: also write the generated log as CSV")
-@click.option("--out", "out", type=click.Path(path_type=Path), default=None,
-              help="write the model as YAML (default: print it)")
-@click.option("--overwrite", is_flag=True, help="replace existing --out / --save-log files")
-def identify_cmd(log: Path | None, simulator: bool, save_log: Path | None, out: Path | None,
-                 overwrite: bool) -> None:
-    """Identify the UAV's position-controlled dynamics (W20 eqs. 2.30-2.36, 5.32) from LOG.csv (columns
-    t,x,y,vx,vy,ux,uy at a fixed period; u is the position setpoint), or from the simulator's own quadrotor with
-    --simulator. Prints A, B and the fit on position per axis; the model goes, as YAML for a scenario's
-    controller.model, to --out or to stdout (the summary then goes to stderr). Existing files are not replaced
-    unless --overwrite is given."""
-    from swarmtrack.control import identification as ident
-    from swarmtrack.outputs import write_together
-
-    if simulator == (log is not None):
-        raise UsageFailure("give either a LOG file or --simulator (not both)" if simulator
-                           else "give a LOG file to identify, or --simulator")
-    if save_log is not None and not simulator:
-        raise UsageFailure("--save-log is for --simulator (a LOG file is already saved)")
-    for path, option in ((out, "--out"), (save_log, "--save-log")):
-        if path is not None:
-            _free_destination(path, option, overwrite)
-    if out is not None and save_log is not None and out.absolute() == save_log.absolute():
-        raise UsageFailure(f"--out and --save-log are the same file {out}")
-    try:
-        if simulator:
-            data, source = ident.step_response_log(), "the simulator's quadrotor"
-        else:
-            data, source = ident.read_log_csv(log), str(log)
-        result = ident.identify(data)
-        A, B = ident.rounded_model(result)
-        text = ident.model_yaml(result, source)
-    except ValueError as exc:
-        raise UsageFailure(str(exc)) from None
-    say = functools.partial(click.echo, err=out is None)  # without --out, stdout carries only the YAML
-    say(f"identified from {source}: {result.n_samples} samples, T = {result.T:.6g} s")
-    say(f"fit on position (free run, %): x {result.fits['x']:.2f}, y {result.fits['y']:.2f}")
-    say("state [x, y, vx, vy], input [ux, uy] (position setpoint):")
-    for line in [*_matrix_lines("A", A), *_matrix_lines("B", B)]:
-        say("  " + line)
-    files = {}
-    if out is not None:
-        files[out] = text
-    if save_log is not None:
-        files[save_log] = ident.log_csv_text(data)
-    if files:
-        try:
-            write_together(files)
-        except OSError as exc:
-            raise UsageFailure(f"cannot write {', '.join(str(p) for p in files)}: {exc.strerror or exc}") from None
-        say("written: " + ", ".join(str(p) for p in files))
-    else:
-        click.echo(text, nl=False)
-
-
-main.add_command(live_commands.live_cmd)
-main.add_command(live_commands.world_cmd)
-main.add_command(live_commands.agent_cmd)
-main.add_command(live_commands.keygen_cmd)
-main.add_command(interop_commands.export_cmd)
-main.add_command(replay_commands.replay_cmd)
 
 if __name__ == "__main__":  # pragma: no cover
     main()

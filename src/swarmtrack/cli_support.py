@@ -1,10 +1,12 @@
 """What the commands that produce a run folder share (``swarmtrack run``, ``swarmtrack live``): the exit-2 error,
-writing the run's files, and the lines printed about it."""
+the progress bar, writing the run's files, and the lines printed about it."""
 
 from __future__ import annotations
 
 import math
 import sys
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import click
@@ -15,6 +17,20 @@ class UsageFailure(click.ClickException):
     """Bad input or a refused action: one message, exit code 2."""
 
     exit_code = 2
+
+
+@contextmanager
+def progress_bar(description: str) -> Iterator[Callable[[float], None]]:
+    """A transient rich progress bar while stderr is a terminal; gives the function that sets the fraction done.
+    Without a terminal nothing is shown and rich is not imported (a run's start-up does not pay for it)."""
+    if not sys.stderr.isatty():
+        yield lambda done: None
+        return
+    from rich.progress import Progress
+
+    with Progress(transient=True) as bar:
+        task = bar.add_task(description, total=1.0)
+        yield lambda done: bar.update(task, completed=done)
 
 
 def write_run(rec, scn, folder: Path, formats=("parquet",), no_plots: bool = False, extra: dict | None = None,

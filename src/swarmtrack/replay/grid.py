@@ -118,26 +118,32 @@ class _Track:
     def add(self, stamp: float, position, velocity) -> None:
         insort(self.samples, (stamp, tuple(position), None if velocity is None else tuple(velocity)))
 
-    def at(self, t: float, hold: float) -> tuple[np.ndarray, np.ndarray] | None:
-        """Position and velocity at ``t``: interpolated between the samples around it, held for ``hold`` s after the
-        last one, None before the first or when there are none."""
+    def at(self, t: float, hold: float) -> tuple[float, float, float, float] | None:
+        """``(x, y, vx, vy)`` at ``t``: interpolated between the samples around it, held for ``hold`` s after the
+        last one, None before the first or when there are none; the velocity is the samples' finite difference where
+        they carry none. (Plain floats: a replay interpolates every UAV's track at every step.)"""
         s = self.samples
         if not s or t < s[0][0]:
             return None
         i = bisect_right(s, t, key=_stamp) - 1  # the last sample at or before t
-        t0, p0, v0 = s[i]
+        t0, (x0, y0), v0 = s[i]
         if i + 1 < len(s):
-            t1, p1, v1 = s[i + 1]
+            t1, (x1, y1), v1 = s[i + 1]
             w = (t - t0) / (t1 - t0) if t1 > t0 else 0.0
-            p = (1 - w) * np.asarray(p0) + w * np.asarray(p1)
+            x, y = (1 - w) * x0 + w * x1, (1 - w) * y0 + w * y1
             if v0 is not None and v1 is not None:
-                return p, (1 - w) * np.asarray(v0) + w * np.asarray(v1)
-            return p, (np.asarray(p1) - np.asarray(p0)) / (t1 - t0) if t1 > t0 else np.zeros(2)
+                return x, y, (1 - w) * v0[0] + w * v1[0], (1 - w) * v0[1] + w * v1[1]
+            if t1 > t0:
+                return x, y, (x1 - x0) / (t1 - t0), (y1 - y0) / (t1 - t0)
+            return x, y, 0.0, 0.0
         if t - t0 > hold:
             return None
-        if v0 is None and i > 0 and t0 > s[i - 1][0]:
-            return np.asarray(p0), (np.asarray(p0) - np.asarray(s[i - 1][1])) / (t0 - s[i - 1][0])
-        return np.asarray(p0), np.zeros(2) if v0 is None else np.asarray(v0)
+        if v0 is not None:
+            return x0, y0, v0[0], v0[1]
+        if i > 0 and t0 > s[i - 1][0]:
+            tp, (xp, yp), _ = s[i - 1]
+            return x0, y0, (x0 - xp) / (t0 - tp), (y0 - yp) / (t0 - tp)
+        return x0, y0, 0.0, 0.0
 
     def forget(self, before: float) -> None:
         """Drop the samples not needed to interpolate at ``before`` or later."""
@@ -258,7 +264,7 @@ class _Grid:
         for i, track in enumerate(self.navs):
             got = track.at(t, self.window)
             if got is not None:
-                nav[i, :2], nav[i, 2:] = got
+                nav[i] = got
         owners, rel, pos = [], [], []
         while self.pending and self.pending[0][0] < (k + 0.5) * dt:
             stamp, _, det = heapq.heappop(self.pending)
@@ -273,11 +279,11 @@ class _Grid:
                 d = np.array([r * math.cos(b), r * math.sin(b)])
             owners.append(det.uav)
             rel.append(d)
-            pos.append(where[0])
+            pos.append(where[:2])
         truth = np.full((self.m, 4), np.nan)
         got = self.truth.at(t, self.window)
         if got is not None:
-            truth[self.tracked, :2], truth[self.tracked, 2:] = got
+            truth[self.tracked] = got
         uavs = self.rows["uavs"]
         truth[uavs] = nav
         for track in (*self.navs, self.truth):

@@ -20,6 +20,8 @@ read: velocities are the positions' finite differences.
 
 from __future__ import annotations
 
+import functools
+import operator
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -42,18 +44,24 @@ def accepts(path: Path) -> bool:
     return path.suffix in (".bag", ".mcap", ".db3")
 
 
+@functools.cache
+def _getter(path: str):
+    return operator.attrgetter(path)
+
+
 def _field(msg, path: str, topic: str, msgtype: str):
-    value = msg
-    for part in path.split("."):
-        if not hasattr(value, part):
-            raise LogError(f"{topic}: its messages ({msgtype}) have no field {path!r}")
-        value = getattr(value, part)
-    return value
+    try:
+        return _getter(path)(msg)
+    except AttributeError:
+        raise LogError(f"{topic}: its messages ({msgtype}) have no field {path!r}") from None
 
 
 def _xy(msg, path: str, topic: str, msgtype: str) -> tuple[float, float]:
     point = _field(msg, path, topic, msgtype)
-    return float(_field(point, "x", topic, msgtype)), float(_field(point, "y", topic, msgtype))
+    try:
+        return float(point.x), float(point.y)
+    except AttributeError:
+        raise LogError(f"{topic}: its messages' field {path!r} ({msgtype}) has no x and y") from None
 
 
 def _stamp(msg, logged: int) -> float:

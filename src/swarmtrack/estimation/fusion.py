@@ -33,6 +33,8 @@ to 1, the same as FilterPy's ``IMMEstimator.M``), and the predicted probabilitie
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from swarmtrack.estimation.information import symmetrize
@@ -65,12 +67,26 @@ def _check_valid(valid, shape) -> np.ndarray:
     return valid
 
 
+@functools.lru_cache(maxsize=32)
 def _triangle(d: int):
-    """Flat indices of the upper triangle of a d x d matrix, and for every flat entry its triangle position."""
+    """Flat indices of the upper triangle of a d x d matrix, and for every flat entry its triangle position (made
+    once per size, read-only: the IMM asks every step)."""
     iu0, iu1 = np.triu_indices(d)
     pos = np.empty((d, d), dtype=np.intp)
     pos[iu0, iu1] = pos[iu1, iu0] = np.arange(iu0.size)
-    return iu0, iu1, iu0 * d + iu1, pos.ravel()
+    out = iu0, iu1, iu0 * d + iu1, pos.ravel()
+    for a in out:
+        a.flags.writeable = False
+    return out
+
+
+@functools.lru_cache(maxsize=32)
+def _pairs(m: int):
+    """``np.triu_indices(m, 1)``, made once per size, read-only."""
+    out = np.triu_indices(m, 1)
+    for a in out:
+        a.flags.writeable = False
+    return out
 
 
 def _upper(P: np.ndarray, upper_flat: np.ndarray) -> np.ndarray:
@@ -293,7 +309,7 @@ def imm_mix(mu: np.ndarray, rho: np.ndarray, x: np.ndarray, P: np.ndarray, valid
     # One product of the weights with [upper triangles of P_i; pairwise spreads], mirrored at the end, so P0 is
     # exactly symmetric. Written into preallocated blocks: fewer large temporaries.
     iu0, iu1, upper_flat, full_of = _triangle(d)
-    ia, ka = np.triu_indices(M, 1)
+    ia, ka = _pairs(M)
     lead, pairs, nt = x.shape[:-2], ia.size, iu0.size
     terms = np.empty(lead + (M + pairs, nt))
     np.take(P.reshape(lead + (M, d * d)), upper_flat, axis=-1, out=terms[..., :M, :], mode="clip")

@@ -47,6 +47,13 @@ from swarmtrack.estimation.information import (
     recover,
     symmetrize,
 )
+from swarmtrack.estimation.predict_kernels import (
+    has_kernel,
+    model_params,
+    position_block,
+    position_loglik,
+    predict_bank,
+)
 from swarmtrack.models.base import MotionModel
 from swarmtrack.network.rows import Rows
 from swarmtrack.sensors.range_bearing import to_position
@@ -63,12 +70,13 @@ class IMMInformationEstimator:
     default: ``STAY`` on the diagonal (:func:`fusion.default_markov`). ``share``, ``initial_info`` and
     ``fake_vz_sigma`` as in :class:`~swarmtrack.estimation.information.InformationEstimator`; ``n_uavs`` rows, the
     swarm's UAVs ``rows`` (default: a whole swarm of ``n_uavs``), each bit for bit the whole swarm's given the same
-    inputs (:mod:`swarmtrack.network.rows`).
+    inputs (:mod:`swarmtrack.network.rows`). ``compiled``: the members' predictions by the numba kernels of
+    :mod:`swarmtrack.estimation.predict_kernels` (the same numbers as the numpy reference).
     """
 
     def __init__(self, models: list[MotionModel], update: RangeBearingUpdate, n_uavs: int, *, label: int = 0,
                  share: str = "information", markov=None, initial_info: float = 1e-6,
-                 fake_vz_sigma: float | None = None, rows: Rows | None = None):
+                 fake_vz_sigma: float | None = None, rows: Rows | None = None, compiled: bool = False):
         if share not in ("information", "measurements"):
             raise ValueError(f"unknown share mode {share!r}; expected 'information' or 'measurements'")
         M = len(models)
@@ -82,6 +90,9 @@ class IMMInformationEstimator:
         self.n, self.label = n_uavs, label
         self.rows = Rows.all(n_uavs) if rows is None else rows
         self._mixing = M > 1 and not np.array_equal(rho, np.eye(M))
+        self.compiled = compiled
+        self._kernels = [(*model_params(m), np.ascontiguousarray(m.Q, dtype=float))
+                         if compiled and has_kernel(m) else None for m in models]
         self.x, self.P = [], []  # per model: (N, n_m), (N, n_m, n_m)
         for model in models:
             x, P = recover(*initial_information(model, n_uavs, initial_info))
@@ -105,12 +116,7 @@ class IMMInformationEstimator:
         """Interaction, prediction of every bank member, and this UAV's broadcast (module docstring, 1-3)."""
         z, pos, seen = own.of_label(self.label)
         x0, P0, self._mu_pred = self._mix()
-        self._pred = []
-        for model, x, P in zip(self.models, x0, P0, strict=True):
-            Y, y, x_pred = predict(model, x, P, self.rows)
-            F2 = model.F[:2] if getattr(model, "linear", False) else model.jacobian(x)[..., :2, :]
-            P_pos = symmetrize(F2 @ P @ np.swapaxes(F2, -1, -2) + model.Q[:2, :2])
-            self._pred.append((Y, y, x_pred, P_pos))
+        self._pred = [self._predict(m, x, P) for m, x, P in zip(range(len(self.models)), x0, P0, strict=True)]
         xbar, Pbar = fusion.moment_combine(self._mu_pred, np.stack([p[2][:, :2] for p in self._pred], axis=1),
                                            np.stack([p[3] for p in self._pred], axis=1))
         I, i = self.update_rule.contributions(xbar, pos, z)
@@ -148,12 +154,29 @@ class IMMInformationEstimator:
                 what = str(e).split(": ", 1)[-1]
                 raise FilterDivergence(e.agents, t, f"the {model.name.upper()} model's filter: {what}") from None
             self.x[m], self.P[m] = recover(Y, y)
-            loglik[:, m] = _position_loglik(I, i, x_pred[:, :2], P_pos)
+            loglik[:, m] = (position_loglik if self.compiled else _position_loglik)(I, i, x_pred[:, :2], P_pos)
         self.loglik = loglik
         self.mu = fusion.imm_update(self._mu_pred, loglik, ~np.isnan(loglik))
         self.out_x, self.out_P = self._combined()
 
     # --- the IMM's pieces -----------------------------------------------------------------------------------
+    def _predict(self, m: int, x: np.ndarray, P: np.ndarray):
+        """Member m's prediction in information form and its predicted position covariance ``(Y, y, x_pred,
+        P_pos)``: the compiled kernels (:mod:`swarmtrack.estimation.predict_kernels`, then numpy's solve) or the
+        numpy reference (:func:`~swarmtrack.estimation.information.predict`), the same numbers."""
+        model, kernel = self.models[m], self._kernels[m]
+        if kernel is None:
+            Y, y, x_pred = predict(model, x, P, self.rows)
+            F2 = model.F[:2] if getattr(model, "linear", False) else model.jacobian(x)[..., :2, :]
+            P_pos = symmetrize(F2 @ P @ np.swapaxes(F2, -1, -2) + model.Q[:2, :2])
+            return Y, y, x_pred, P_pos
+        kind, params, F_lin, Q = kernel
+        x_pred, F, P_pred = predict_bank(kind, params, F_lin, x, P, Q, self.rows.n)
+        n = model.dim
+        sol = np.linalg.solve(P_pred, np.concatenate(
+            [x_pred[..., None], np.broadcast_to(np.eye(n), P_pred.shape)], axis=-1))  # as predict() solves
+        return symmetrize(sol[..., 1:]), sol[..., 0], x_pred, position_block(F, P, Q)
+
     def _mix(self):
         """Mixed priors of every member (module docstring, 1) and ``μ(k|k−1)``."""
         if not self._mixing:

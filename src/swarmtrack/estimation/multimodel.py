@@ -33,6 +33,8 @@ from swarmtrack.estimation import fusion
 from swarmtrack.estimation.base import Probe, TargetView
 from swarmtrack.estimation.information import FilterDivergence, positive_definite, symmetrize
 from swarmtrack.estimation.kalman import ekf_predict
+from swarmtrack.estimation.multimodel_kernels import stacked_statistic, stacked_update
+from swarmtrack.estimation.predict_kernels import has_kernel, model_params, predict_bank
 from swarmtrack.models.base import MotionModel
 from swarmtrack.network.rows import Rows
 
@@ -44,6 +46,25 @@ _LOG_2PI = float(np.log(2.0 * np.pi))
 W20_STAY = 0.99
 
 
+def _statistic(n: int, parts):
+    """Σ Hᵀ R⁻¹ H, Σ Hᵀ R⁻¹ ν, Σ νᵀ R⁻¹ ν, Σ log det R and the count per receiver over ``parts`` of measurements
+    ``(rows, (ν, H, R⁻¹, log det R))`` (the numpy reference of
+    :func:`~swarmtrack.estimation.multimodel_kernels.stacked_statistic`)."""
+    I = np.zeros((n, 2, 2))  # Σ Hᵀ R⁻¹ H
+    b = np.zeros((n, 2))  # Σ Hᵀ R⁻¹ ν
+    s = np.zeros(n)  # Σ νᵀ R⁻¹ ν
+    logdet_r = np.zeros(n)
+    count = np.zeros(n)
+    for rows, (nu, H, Rinv, ld) in parts:
+        HtRi = np.swapaxes(H, -1, -2) @ Rinv
+        np.add.at(I, rows, HtRi @ H)
+        np.add.at(b, rows, np.einsum("eab,eb->ea", HtRi, nu))
+        np.add.at(s, rows, np.einsum("ea,eab,eb->e", nu, Rinv, nu))
+        np.add.at(logdet_r, rows, ld)
+        np.add.at(count, rows, 1.0)
+    return I, b, s, logdet_r, count
+
+
 class _Bank:
     """The filters of the UAVs ``idx`` (rows) that share one model: ``x`` (n, d), ``P`` (n, d, d); ``rows``: which
     of the swarm's filters of that model they are."""
@@ -53,6 +74,16 @@ class _Bank:
         self.P0, self.x0_hidden = P0, x0_hidden
         self.x = np.zeros((len(idx), model.dim))
         self.P = np.broadcast_to(P0, (len(idx), model.dim, model.dim)).copy()
+        self.kernel = None  # (kind, params, F, Q) of the compiled prediction, where it is used
+
+    def predict(self) -> None:
+        """``x(k|k-1)``, ``P(k|k-1)`` (W20 eqs. 4.7-4.9): the compiled kernel
+        (:func:`~swarmtrack.estimation.predict_kernels.predict_bank`) or its numpy reference, the same numbers."""
+        if self.kernel is None:
+            self.x, self.P = ekf_predict(self.model, self.x, self.P, self.rows)
+        else:
+            kind, params, F, Q = self.kernel
+            self.x, _, self.P = predict_bank(kind, params, F, self.x, self.P, Q, self.rows.n)
 
 
 class MultiModelEstimator:
@@ -62,8 +93,9 @@ class MultiModelEstimator:
     :mod:`swarmtrack.estimation.measurements`; ``fusion`` one of :data:`FUSIONS`; ``occlusion`` one of
     :data:`OCCLUSION_POLICIES`; ``window`` the T-test's n; ``markov`` the (N, N) switching matrix of the IMM kinds
     (rows sum to 1); ``P0`` per model name, (d, d); ``x0_hidden`` per model name, the initial states after
-    ``[x, y]`` (zeros, CT's ω0 = 1e-5); ``compiled``: the numba stacked update
-    (:mod:`swarmtrack.estimation.multimodel_kernels`) instead of its numpy reference.
+    ``[x, y]`` (zeros, CT's ω0 = 1e-5); ``compiled``: the numba prediction
+    (:mod:`swarmtrack.estimation.predict_kernels`) and stacked update (:mod:`swarmtrack.estimation.multimodel_kernels`)
+    instead of their numpy references.
 
     Built for a subset of the swarm's UAVs (one UAV's own process): ``models`` are theirs, ``team`` (N,) the names
     of every UAV's model (the candidates a UAV fuses and names in its view) and ``rows`` which UAVs they are; every
@@ -96,7 +128,10 @@ class MultiModelEstimator:
             hidden = np.asarray(x0_hidden.get(name, np.zeros(model.dim - 2)), dtype=float)
             members = np.flatnonzero([m == name for m in self.team])  # the swarm's filters of this model
             rows = Rows(np.searchsorted(members, self.rows.uavs[idx]), len(members))
-            self._banks.append(_Bank(model, idx, np.asarray(P0[name], dtype=float), hidden, rows))
+            bank = _Bank(model, idx, np.asarray(P0[name], dtype=float), hidden, rows)
+            if compiled and has_kernel(model):
+                bank.kernel = (*model_params(model), np.ascontiguousarray(model.Q, dtype=float))
+            self._banks.append(bank)
         self._k = 0
         self.initialised = np.zeros(n, dtype=bool)
         self._x_pos = np.zeros((n, 2))  # each filter's predicted position, where measurements are linearised
@@ -125,7 +160,7 @@ class MultiModelEstimator:
         first ``solo_steps`` steps; before, nobody shares)."""
         self._k += 1
         for bank in self._banks:
-            bank.x, bank.P = ekf_predict(bank.model, bank.x, bank.P, bank.rows)
+            bank.predict()
             self._x_pos[bank.idx] = bank.x[:, :2]
         self._own = self.measurement.payload(own, self.label)
         self._detected = self._own["seen"].astype(float)
@@ -181,18 +216,11 @@ class MultiModelEstimator:
         recv, send = recv[pick], send[pick]
         parts = [(own_rows, self.measurement.terms(self._x_pos[own_rows], mine, own_rows)),
                  (recv, self.measurement.terms(self._x_pos[recv], got, send))]
-        I = np.zeros((n, 2, 2))  # Σ Hᵀ R⁻¹ H
-        b = np.zeros((n, 2))  # Σ Hᵀ R⁻¹ ν
-        s = np.zeros(n)  # Σ νᵀ R⁻¹ ν
-        logdet_r = np.zeros(n)
-        count = np.zeros(n)
-        for rows, (nu, H, Rinv, ld) in parts:
-            HtRi = np.swapaxes(H, -1, -2) @ Rinv
-            np.add.at(I, rows, HtRi @ H)
-            np.add.at(b, rows, np.einsum("eab,eb->ea", HtRi, nu))
-            np.add.at(s, rows, np.einsum("ea,eab,eb->e", nu, Rinv, nu))
-            np.add.at(logdet_r, rows, ld)
-            np.add.at(count, rows, 1.0)
+        if self.compiled:  # the same sums, compiled (multimodel_kernels.stacked_statistic)
+            I, b, s, logdet_r, count = stacked_statistic(n, np.concatenate([p[0] for p in parts]), *(
+                np.ascontiguousarray(np.concatenate([p[1][k] for p in parts])) for k in range(4)))
+        else:
+            I, b, s, logdet_r, count = _statistic(n, parts)
         rows = np.flatnonzero(upd)
         I, b, s, logdet_r, count = I[rows], b[rows], s[rows], logdet_r[rows], count[rows]
         # the measurements' sufficient statistic in position space: ν_pos = I⁻¹ b with covariance I⁻¹
@@ -239,8 +267,6 @@ class MultiModelEstimator:
         return loglik, quad, eps / count[at]
 
     def _compiled_update(self, bank, local, at, nu_pos, R_pos, I, b, s, logdet_r, count, t):
-        from swarmtrack.estimation.multimodel_kernels import stacked_update
-
         loglik, nis, eps, ok = stacked_update(bank.x, bank.P, local, at, nu_pos, R_pos, I, b, s, logdet_r, count)
         self._check(bank, local, ok & np.isfinite(bank.x[local]).all(axis=-1), t)
         return loglik, nis, eps

@@ -14,6 +14,8 @@ import math
 import numpy as np
 from numba import njit
 
+from swarmtrack.estimation.predict_kernels import fma
+
 _LOG_2PI = math.log(2.0 * math.pi)
 
 
@@ -79,3 +81,36 @@ def stacked_update(x, P, local, at, nu_pos, R_pos, I, b, s, logdet_r, count):
         e = s[a] - 2.0 * (d0 * b[a, 0] + d1 * b[a, 1]) + (d0 * d0 * ia00 + 2.0 * d0 * d1 * ia01 + d1 * d1 * ia11)
         eps[r] = e / count[a]
     return loglik, nis, eps, ok
+
+
+@njit(cache=True)
+def stacked_statistic(n, rows, nu, H, Rinv, logdet):
+    """The sums over each receiver's stacked measurements (W20 eqs. 4.3-4.4, position block): ``I = Σ Hᵀ R⁻¹ H``,
+    ``b = Σ Hᵀ R⁻¹ ν``, ``s = Σ νᵀ R⁻¹ ν``, ``Σ log det R`` and their number, for ``n`` receivers from the
+    measurements ``e`` (receiver ``rows[e]``, in order) with ``nu`` (E, 2), ``H`` (E, 2, 2), ``Rinv`` (E, 2, 2)
+    (diagonal, as every measurement model's is) and ``logdet`` (E,). The numbers of
+    :meth:`~swarmtrack.estimation.multimodel.MultiModelEstimator._update`'s numpy sums bit for bit: its 2 x 2
+    products are OpenBLAS ``gemm``'s in-order fused multiply-adds, its ``einsum`` sums in order without them, and
+    ``np.add.at`` adds in the measurements' order from zero."""
+    I = np.zeros((n, 2, 2))
+    b = np.zeros((n, 2))
+    s = np.zeros(n)
+    logdet_r = np.zeros(n)
+    count = np.zeros(n)
+    HtRi = np.empty((2, 2))
+    for e in range(rows.shape[0]):
+        r = rows[e]
+        for a in range(2):  # Hᵀ R⁻¹
+            for c in range(2):
+                HtRi[a, c] = fma(H[e, 1, a], Rinv[e, 1, c], fma(H[e, 0, a], Rinv[e, 0, c], 0.0))
+        for a in range(2):
+            for c in range(2):
+                I[r, a, c] += fma(HtRi[a, 1], H[e, 1, c], fma(HtRi[a, 0], H[e, 0, c], 0.0))
+        for a in range(2):
+            b[r, a] += (0.0 + HtRi[a, 0] * nu[e, 0]) + HtRi[a, 1] * nu[e, 1]
+        n0, n1 = nu[e, 0], nu[e, 1]
+        s[r] += (((0.0 + n0 * Rinv[e, 0, 0] * n0) + n0 * Rinv[e, 0, 1] * n1) + n1 * Rinv[e, 1, 0] * n0) \
+            + n1 * Rinv[e, 1, 1] * n1
+        logdet_r[r] += logdet[e]
+        count[r] += 1.0
+    return I, b, s, logdet_r, count

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,11 +22,12 @@ class ConstantAcceleration(LinearMotionModel):
     linear: bool = True
     hidden_prior_std: tuple[float, ...] = (3.0, 3.0)  # acceleration, m/s²
 
-    @property
+    @functools.cached_property
     def F(self) -> np.ndarray:
         T = float(self.dt)
         F = np.eye(6)
         F[0, 2] = F[1, 3] = T
         F[2, 4] = F[3, 5] = T
         F[0, 4] = F[1, 5] = 0.5 * T * T
+        F.flags.writeable = False  # made once, shared
         return F

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,9 +21,10 @@ class ConstantVelocity(LinearMotionModel):
     state_names: tuple[str, ...] = ("x", "y", "vx", "vy")
     linear: bool = True
 
-    @property
+    @functools.cached_property
     def F(self) -> np.ndarray:
         T = float(self.dt)
         F = np.eye(4)
         F[0, 2] = F[1, 3] = T
+        F.flags.writeable = False  # made once, shared
         return F

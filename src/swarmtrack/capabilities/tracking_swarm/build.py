@@ -66,13 +66,14 @@ def information(spec: FilterSpec, ctx: Context) -> InformationEstimator:
 
 
 def imm(spec: IMMSpec, ctx: Context) -> IMMInformationEstimator:
+    """L24's IMM bank; its members' predictions compiled (numba) or the numpy reference, as ``kernels`` asks."""
     s = ctx.scenario.sensor
     qs = spec.q or [None] * len(spec.models)
     return IMMInformationEstimator(
         [make_model(m, ctx.dt_estimation, q) for m, q in zip(spec.models, qs, strict=True)],
         RangeBearingUpdate(s.sigma_range, s.sigma_bearing, s.update), len(ctx.uavs),
         label=ctx.label_of("targets", spec.target - 1), share=spec.share, markov=spec.markov,
-        initial_info=spec.initial_information, fake_vz_sigma=spec.fake_vz_sigma, rows=ctx.rows)
+        initial_info=spec.initial_information, fake_vz_sigma=spec.fake_vz_sigma, rows=ctx.rows, compiled=ctx.compiled)
 
 
 def flocking_gains(spec: FlockingSpec, r_comm: float) -> FlockingGains:

@@ -60,6 +60,7 @@ def test_an_exported_mcap_file_decodes_to_the_runs_truth_estimates_and_covarianc
     assert missing.exit_code == 2 and "not a swarmtrack run folder" in missing.output
 
 
+@pytest.mark.slow
 def test_an_exported_run_replays_to_its_own_estimates(tmp_path):
     """Export, then replay the bag with a map naming the exported topics: the run's RMSE to round-off. The run's
     sensor has no latency (the run fused each detection at its stamp, as a replay does) and its navigation no noise

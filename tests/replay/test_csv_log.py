@@ -84,6 +84,7 @@ def test_a_csv_of_a_flight_replays_to_the_simulators_accuracy_with_no_map(tmp_pa
     assert sum(metrics["replay"]["skipped"].values()) <= 5
 
 
+@pytest.mark.slow
 def test_range_and_bearing_detections_and_unusable_rows_are_skipped_and_counted(tmp_path, flown):
     scenario, rec = flown
     rows = flight(rec, polar=True)

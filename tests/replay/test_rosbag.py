@@ -124,7 +124,8 @@ def flown(tmp_path_factory):
     return scenario, simulate(scenario, inputs=True)
 
 
-@pytest.mark.parametrize("storage", ["MCAP", "SQLITE3", "ROS1"])
+@pytest.mark.parametrize("storage", ["MCAP", pytest.param("SQLITE3", marks=pytest.mark.slow),
+                                     pytest.param("ROS1", marks=pytest.mark.slow)])
 def test_a_bag_of_a_flight_with_uneven_rates_and_reordered_messages_replays_to_the_simulators_accuracy(
         tmp_path, flown, storage):
     scenario, rec = flown
@@ -143,6 +144,7 @@ def test_a_bag_of_a_flight_with_uneven_rates_and_reordered_messages_replays_to_t
     assert np.nanmax(np.abs(again.target[:, :2] - rec.target[:len(again.t), :2])) < 0.05
 
 
+@pytest.mark.slow
 def test_the_simplest_map_works_as_written_through_the_command(tmp_path, flown):
     scenario, rec = flown
     bag = write_bag(tmp_path / "flight", flight(rec))
@@ -155,6 +157,7 @@ def test_the_simplest_map_works_as_written_through_the_command(tmp_path, flown):
     assert metrics["replay"]["format"] == "rosbag" and metrics["rmse"]["total"]["x"] > 0
 
 
+@pytest.mark.slow
 def test_unusable_messages_are_skipped_and_counted_not_fatal(tmp_path, flown):
     scenario, rec = flown
     messages = flight(rec, drop=0.0, reorder=0.0)
@@ -208,6 +211,7 @@ def test_bad_bags_and_maps_are_refused_with_one_message_naming_the_cause(tmp_pat
             {"uavs": {1: {"navigation": "/nothing"}}}), {}))
 
 
+@pytest.mark.slow
 def test_a_navigation_message_whose_covariance_is_not_positive_definite_is_skipped_and_counted(tmp_path, flown):
     scenario, rec = flown
     cov_type = "geometry_msgs/msg/PoseWithCovarianceStamped"

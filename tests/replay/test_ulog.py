@@ -133,7 +133,8 @@ def flown():
     return scenario, simulate(scenario, inputs=True)
 
 
-@pytest.mark.parametrize("message", ["vehicle_local_position", "vehicle_odometry"])
+@pytest.mark.parametrize("message", ["vehicle_local_position",
+                                     pytest.param("vehicle_odometry", marks=pytest.mark.slow)])
 def test_ulogs_per_uav_with_a_csv_of_detections_replay_to_the_simulators_accuracy(tmp_path, flown, message):
     scenario, rec = flown
     navs, rows = flight(rec)
@@ -151,6 +152,7 @@ def test_ulogs_per_uav_with_a_csv_of_detections_replay_to_the_simulators_accurac
     assert len(again.t) >= len(rec.t) - 2
 
 
+@pytest.mark.slow
 def test_ulogs_with_an_mcap_bag_of_detections_replay_through_the_command(tmp_path, flown):
     """The map names each UAV's ULog (found beside the map) and its detection topic in the bag, and the truth."""
     from rosbags.rosbag2 import StoragePlugin, Writer
@@ -190,6 +192,7 @@ def test_ulogs_with_an_mcap_bag_of_detections_replay_through_the_command(tmp_pat
         assert abs(metrics["rmse"]["total"][axis] - want[axis]) <= 0.10 * want[axis]
 
 
+@pytest.mark.slow
 def test_invalid_and_nan_navigation_is_skipped_and_counted_not_fatal(tmp_path, flown):
     scenario, rec = flown
     navs, rows = flight(rec, drop=0.0, reorder=0.0)

@@ -75,8 +75,9 @@ def report_run(metrics: dict, scn, out: Path) -> None:
                      + " m")
     if "set_membership" in metrics:  # IB21
         sm = metrics["set_membership"]
-        facts.append(f"Φ̄ {sm['phi_bar_final']:.0f} m² at the end, "
-                     f"{sm['guarantee_violations']:.0f} guarantee violations")
+        checked = sm["guarantee_violations"]  # None: no truth-side check ran (a replay)
+        facts.append(f"Φ̄ {sm['phi_bar_final']:.0f} m² at the end, " + (
+            "the guarantee not checked" if checked is None else f"{checked:.0f} guarantee violations"))
     offset = metrics["inter_agent_distance"]["offset"]
     if offset is not None and math.isfinite(offset):
         facts.append(f"spacing offset {offset:.3f} m")

@@ -93,3 +93,20 @@ def test_a_run_folder_that_does_not_fit_the_scenario_is_refused_naming_why(tmp_p
     assert not (tmp_path / "x").exists()
     missing = CliRunner().invoke(main, ["replay", str(tmp_path / "nothing"), "--out", str(tmp_path / "y")])
     assert missing.exit_code == 2 and "no such file" in missing.output
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["w20-switching", "ib21-fleet-2"])
+def test_every_capabilitys_replay_writes_its_metrics_and_figures(tmp_path, name):
+    """The command on a W20 and an IB21 run folder: the run's own figures and metrics, the controller's absent
+    (it did not run) and IB21's truth-side guarantee check said not to have run."""
+    run, out = tmp_path / "run", tmp_path / "replayed"
+    assert CliRunner().invoke(main, ["run", name, "--set", "duration=6", "--out", str(run)]).exit_code == 0
+    res = CliRunner().invoke(main, ["replay", str(run), "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    assert list(out.glob("*.png"))
+    metrics = json.loads((out / "metrics.json").read_text())
+    if name == "ib21-fleet-2":
+        assert "the guarantee not checked" in res.output and metrics["set_membership"]["guarantee_violations"] is None
+        ran = json.loads((run / "metrics.json").read_text())
+        assert metrics["set_membership"]["phi_bar_final"] == ran["set_membership"]["phi_bar_final"]

@@ -204,7 +204,7 @@ def test_bad_bags_and_maps_are_refused_with_one_message_naming_the_cause(tmp_pat
     cut.mkdir()
     (cut / "metadata.yaml").write_text((bag / "metadata.yaml").read_text())
     (cut / mcap.name).write_bytes(mcap.read_bytes()[: mcap.stat().st_size // 2])
-    assert "cut" in _refused(tmp_path, cut, SIMPLE_MAP)
+    assert f"{cut}: not a readable ROS bag" in _refused(tmp_path, cut, SIMPLE_MAP)
     assert "not YAML" in _refused(tmp_path, bag, "uavs: [")
     with pytest.raises(LogError, match="no topic"):
         list(rosbag.steps([bag], scenario, ReplayMap.model_validate(

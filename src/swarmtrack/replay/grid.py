@@ -27,7 +27,6 @@ from __future__ import annotations
 import heapq
 import math
 from bisect import bisect_right, insort
-from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 
@@ -156,19 +155,24 @@ class _Track:
 def on_grid(messages: Iterable[Message], scenario, counts: dict, window: float = 1.0,
             start: float | None = None) -> Iterator[StepInputs]:
     """The estimation steps of ``messages`` (see the module's docstring); ``counts`` gets what was skipped."""
-    from swarmtrack.sim.build import build
+    from swarmtrack.sim.build import build_component
+    from swarmtrack.sim.world import sensed_objects
 
     kind = scenario.sensor.kind
     if kind not in MEASUREMENTS:
         raise LogError(f"sensor.kind {kind}: a replay from time-stamped logs makes {', '.join(MEASUREMENTS)} "
                        "measurements (replay a run folder for other sensors)")
-    world = build(scenario).world
     followed = scenario.estimator.followed_target()
     if followed is None:
         raise LogError(f"estimator.kind {scenario.estimator.kind} follows no single target: a replay from "
                        "time-stamped logs gives detections of one target")
-    grid = _Grid(scenario, counts, window, start, world.label_of(world.slices["targets"].start + followed - 1),
-                 MEASUREMENTS[kind][0], world.slices["targets"].start + followed - 1)
+    rows = layout(scenario)
+    tracked = rows["targets"].start + followed - 1
+    sensed = sensed_objects(rows, build_component("sensor", scenario, scenario).sensed)  # the world's label order
+    if tracked not in sensed:
+        raise LogError(f"sensor.kind {kind} does not see the followed target (estimator.target {followed})")
+    grid = _Grid(scenario, counts, window, start, int(np.flatnonzero(sensed == tracked)[0]), MEASUREMENTS[kind][0],
+                 tracked)
     for msg in messages:
         yield from grid.put(msg)
     yield from grid.finish()
@@ -198,12 +202,13 @@ class _Grid:
         self.pending: list = []  # (stamp, order, Detection) heap
         self.latest: dict[str, float] = {}  # the latest stamp of each topic
         self.newest = -math.inf  # the latest stamp of the log so far
-        self.early: deque = deque()  # the messages of the first window (before t0 is known)
+        self.early: list = []  # the messages of the first window (before t0 is known)
+        self.first = math.inf  # their earliest stamp
         self.k = 0  # the next step to emit
         self._order = 0
 
-    def _skip(self, why: str) -> None:
-        self.counts[why] = self.counts.get(why, 0) + 1
+    def _skip(self, why: str, n: int = 1) -> None:
+        self.counts[why] = self.counts.get(why, 0) + n
 
     def put(self, msg: Message) -> Iterator[StepInputs]:
         if not _finite(msg):
@@ -217,12 +222,10 @@ class _Grid:
         self.newest = max(self.newest, msg.stamp)
         if self.t0 is None:
             self.early.append(msg)
-            if self.newest - min(m.stamp for m in self.early) < self.window:
+            self.first = min(self.first, msg.stamp)
+            if self.newest - self.first < self.window:
                 return
-            self.t0 = min(m.stamp for m in self.early)
-            early, self.early = list(self.early), deque()
-            for m in early:
-                self._place(m)
+            self._start()
         else:
             self._place(msg)
         yield from self._emit(self.newest - self.window)
@@ -248,11 +251,15 @@ class _Grid:
         while (self.k + 0.5) * self.dt <= upto - self.t0 + 1e-9:  # stamps in ns: a step's end is not rounded away
             yield self._step()
 
+    def _start(self) -> None:
+        """t = 0 at the first window's earliest stamp; its messages placed."""
+        self.t0, early, self.early = self.first, self.early, []
+        for m in early:
+            self._place(m)
+
     def finish(self) -> Iterator[StepInputs]:
         if self.t0 is None and self.early:
-            self.t0 = min(m.stamp for m in self.early)
-            for m in list(self.early):
-                self._place(m)
+            self._start()
         if self.t0 is None:
             raise LogError("the logs hold no message of the map's topics")
         yield from self._emit(self.newest + 0.5 * self.dt)  # up to the step of the log's last stamp
@@ -302,10 +309,7 @@ class _Grid:
         last = np.ones(len(owner), dtype=bool)
         last[:-1] = owner[1:] != owner[:-1]
         if not last.all():
-            self._skip_n("a second detection of the target by one UAV in one estimation step", int((~last).sum()))
+            self._skip("a second detection of the target by one UAV in one estimation step", int((~last).sum()))
             owner, rel, pos = owner[last], rel[last], pos[last]
         z, frame = self.measure(rel, pos)
         return Detections(owner, z, pos, np.full(len(owner), self.label, dtype=np.int64), self.n, frame=frame)
-
-    def _skip_n(self, why: str, n: int) -> None:
-        self.counts[why] = self.counts.get(why, 0) + n

@@ -222,6 +222,13 @@ class _Layout:
     point_driver: list = field(default_factory=list)
 
 
+def sensed_objects(slices: dict[str, slice], groups) -> np.ndarray:
+    """The world objects (rows of ``slices``' groups) a sensor of ``groups`` sees, in label order: a cooperative
+    sensor labels each by its place here."""
+    return np.concatenate([np.arange(slices[n].start, slices[n].stop, dtype=np.int64)
+                           for n in groups if n in slices] or [np.zeros(0, np.int64)])
+
+
 class World:
     """Truth of every group; :meth:`advance` integrates them together (one batched step per vehicle kind).
 
@@ -262,8 +269,7 @@ class World:
         local = [(g.name, k % (g.size // self.worlds)) for g in groups for k in range(g.size)]
         # the objects the sensor sees, in label order (a cooperative sensor labels each by this index), each
         # with its own noise stream
-        self._sensed = np.concatenate([np.arange(self.slices[n].start, self.slices[n].stop, dtype=np.int64)
-                                       for n in sensor.sensed if n in self.slices] or [np.zeros(0, np.int64)])
+        self._sensed = sensed_objects(self.slices, sensor.sensed)
         self._sensor_rngs = [world_streams[self.world_of[o]]("sensor/{}/{}/{}".format(sensor.name, *local[o]))
                              for o in self._sensed]
         self._uniforms: _Uniforms | None = None  # their uniforms, for a sensor that takes them (frame_uniforms)

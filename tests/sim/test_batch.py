@@ -10,6 +10,12 @@ from swarmtrack.sim.batch import simulate_batch, unbatchable
 from swarmtrack.sim.engine import simulate
 
 
+def _numbers(summary: dict) -> dict:
+    """A run's summary without the solvers' measured wall time (it differs from run to run)."""
+    summary.get("formation", {}).get("solver", {}).pop("mean_solve_us", None)
+    return summary
+
+
 def _seeds(name: str, overrides: list[str], seeds=(1, 2, 3)):
     return [load_scenario(name, overrides, seed=s) for s in seeds]
 
@@ -20,6 +26,12 @@ def _seeds(name: str, overrides: list[str], seeds=(1, 2, 3)):
     ("l24-ct", ["duration=6", "network.loss_probability=0.3"]),  # each world's losses from its own stream
     ("l23-no-fusion", ["duration=6"]),
     ("l24-fs", ["duration=4", "kernels=numpy"]),
+    ("w20-switching", ["duration=5", "estimator.solo_steps=30"]),  # camera, multi-model T-test, compiled
+    ("w20-switching", ["duration=4", "estimator.solo_steps=30", "estimator.fusion=imm", "kernels=numpy"]),
+    ("l24-imm", ["duration=4"]),
+    ("l24-imm", ["duration=4", "swarm.n_uavs=1"]),  # worlds of one UAV: its products are gemv's, as alone
+    ("w20-mpc-single", ["duration=22"]),  # the truth oracle per world, one UAV's MPC from t = 20 s
+    ("w20-mpc-formation-estimated", ["duration=21", "estimator.solo_steps=5"]),
 ])
 def test_each_world_of_a_batch_equals_its_run_alone(name, overrides):
     scenarios = _seeds(name, overrides)
@@ -30,7 +42,7 @@ def test_each_world_of_a_batch_equals_its_run_alone(name, overrides):
         np.testing.assert_array_equal(batched.uav, alone.uav)
         np.testing.assert_array_equal(batched.target, alone.target)
         assert batched.meta["seed"] == s.seed and batched.meta["tracked"] == alone.meta["tracked"]
-        assert summary(batched) == summary(alone)
+        np.testing.assert_equal(_numbers(summary(batched)), _numbers(summary(alone)))
 
 
 def test_a_uav_detects_only_its_own_worlds_objects():
@@ -45,7 +57,6 @@ def test_a_uav_detects_only_its_own_worlds_objects():
 
 
 @pytest.mark.parametrize(("override", "why"), [
-    ("controller.follow=truth", "oracle"),
     ("estimator.kind=centralized", "estimator.kind 'centralized'"),
     ("sensor.occluders=[{window: [1, 2]}]", "occluders"),
 ])
@@ -61,11 +72,11 @@ def test_different_scenarios_are_not_one_batch():
 
 
 def test_studies_group_seeds_into_batches_that_keep_every_worker_busy():
-    runs = _seeds("l24-cv", ["duration=2"], seeds=range(1, 11)) + _seeds("w20-switching", ["duration=1"], (1, 2))
+    runs = _seeds("l24-cv", ["duration=2"], seeds=range(1, 11)) + _seeds("w20-occlusion", ["duration=1"], (1, 2))
     got = reproduce.batches(runs, workers=2)
     assert sorted(k for b in got for k in b) == list(range(12))
     assert [len(b) for b in got if b[0] < 10] == [5, 5]  # ten seeds, two workers
-    assert [b for b in got if b[0] >= 10] == [[10], [11]]  # the multi-model filter is not batched
+    assert [b for b in got if b[0] >= 10] == [[10], [11]]  # occluders are not batched
     assert max(len(b) for b in reproduce.batches(runs[:10], workers=1)) == 10
 
 

@@ -171,7 +171,7 @@ class IMMInformationEstimator:
             P_pos = symmetrize(F2 @ P @ np.swapaxes(F2, -1, -2) + model.Q[:2, :2])
             return Y, y, x_pred, P_pos
         kind, params, F_lin, Q = kernel
-        x_pred, F, P_pred = predict_bank(kind, params, F_lin, x, P, Q, self.rows.n)
+        x_pred, F, P_pred = predict_bank(kind, params, F_lin, x, P, Q, self.rows.n // self.rows.worlds)
         n = model.dim
         sol = np.linalg.solve(P_pred, np.concatenate(
             [x_pred[..., None], np.broadcast_to(np.eye(n), P_pred.shape)], axis=-1))  # as predict() solves

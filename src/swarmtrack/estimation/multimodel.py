@@ -67,7 +67,7 @@ def _statistic(n: int, parts):
 
 class _Bank:
     """The filters of the UAVs ``idx`` (rows) that share one model: ``x`` (n, d), ``P`` (n, d, d); ``rows``: which
-    of the swarm's filters of that model they are."""
+    of the swarm's filters of that model they are (in a batch of worlds, of every world's)."""
 
     def __init__(self, model: MotionModel, idx: np.ndarray, P0: np.ndarray, x0_hidden: np.ndarray, rows: Rows):
         self.model, self.idx, self.rows = model, idx, rows
@@ -81,9 +81,9 @@ class _Bank:
         (:func:`~swarmtrack.estimation.predict_kernels.predict_bank`) or its numpy reference, the same numbers."""
         if self.kernel is None:
             self.x, self.P = ekf_predict(self.model, self.x, self.P, self.rows)
-        else:
+        else:  # a batch's worlds each as alone: one world's filters of this model are the "whole"
             kind, params, F, Q = self.kernel
-            self.x, _, self.P = predict_bank(kind, params, F, self.x, self.P, Q, self.rows.n)
+            self.x, _, self.P = predict_bank(kind, params, F, self.x, self.P, Q, self.rows.n // self.rows.worlds)
 
 
 class MultiModelEstimator:
@@ -101,6 +101,10 @@ class MultiModelEstimator:
     of every UAV's model (the candidates a UAV fuses and names in its view) and ``rows`` which UAVs they are; every
     row is bit for bit the whole swarm's given the same inputs. Candidates (``winner``, the columns of
     ``probability``, ``markov``) are numbered by the swarm's UAVs either way.
+
+    A batch of B worlds (:mod:`swarmtrack.sim.batch`) is ``rows`` over ``B·N`` UAVs with ``team`` one world's N
+    names: UAV ``u`` is candidate ``u mod N`` of world ``u div N``, and fuses its own world's candidates only (the
+    team state, ``winner`` and ``probability``, is kept per world, numbered as in the world alone).
     """
 
     def __init__(self, models: list[MotionModel], measurement, *, label: int = 0, fusion_rule: str = "ttest",
@@ -119,6 +123,8 @@ class MultiModelEstimator:
         self.model_names = self.team  # of every candidate, by the swarm's UAVs
         self.compiled = compiled  # the numba stacked update (multimodel_kernels), same numbers as the numpy one
         n_team = len(self.team)
+        self._worlds = self.rows.worlds
+        self._world, self._candidate = np.divmod(self.rows.uavs, n_team)  # each row's world and candidate number
         self.rho = fusion.default_markov(n_team, W20_STAY) if markov is None else np.asarray(markov, dtype=float)
         x0_hidden = x0_hidden or {}
         self._banks = []
@@ -126,8 +132,8 @@ class MultiModelEstimator:
             idx = np.flatnonzero([m == name for m in names])
             model = models[idx[0]]
             hidden = np.asarray(x0_hidden.get(name, np.zeros(model.dim - 2)), dtype=float)
-            members = np.flatnonzero([m == name for m in self.team])  # the swarm's filters of this model
-            rows = Rows(np.searchsorted(members, self.rows.uavs[idx]), len(members))
+            members = np.flatnonzero(np.tile(np.asarray(self.team) == name, self._worlds))  # the swarm's filters
+            rows = Rows(np.searchsorted(members, self.rows.uavs[idx]), len(members), self._worlds)
             bank = _Bank(model, idx, np.asarray(P0[name], dtype=float), hidden, rows)
             if compiled and has_kernel(model):
                 bank.kernel = (*model_params(model), np.ascontiguousarray(model.Q, dtype=float))
@@ -259,11 +265,16 @@ class MultiModelEstimator:
         quad = (nu[:, 0] ** 2 * s11 - 2.0 * nu[:, 0] * nu[:, 1] * s01 + nu[:, 1] ** 2 * s00) / det_s
         det_i = Ia[:, 0, 0] * Ia[:, 1, 1] - Ia[:, 0, 1] * Ia[:, 1, 0]
         m = 2.0 * count[at]
-        # eq. 4.31 for the stacked innovation, from its position-space statistic (see the module docstring)
-        loglik = (-0.5 * quad - 0.5 * np.log(det_s) - _LOG_2PI - 0.5 * (s[at] - np.einsum("na,nab,nb->n", nu, Ia, nu))
+        # eq. 4.31 for the stacked innovation, from its position-space statistic (see the module docstring); the
+        # 2 x 2 quadratic forms written out (einsum's order of summation changes with the number of rows)
+        n0, n1 = nu[:, 0], nu[:, 1]
+        nin = n0 * (Ia[:, 0, 0] * n0 + Ia[:, 0, 1] * n1) + n1 * (Ia[:, 1, 0] * n0 + Ia[:, 1, 1] * n1)
+        loglik = (-0.5 * quad - 0.5 * np.log(det_s) - _LOG_2PI - 0.5 * (s[at] - nin)
                   + (1.0 - 0.5 * m) * _LOG_2PI - 0.5 * np.log(det_i) - 0.5 * logdet_r[at])
-        d = x_new[:, :2] - x[:, :2]  # posterior residuals ν⁺ = ν − H δ (eq. 4.28), summed in R⁻¹ weight
-        eps = s[at] - 2.0 * np.einsum("na,na->n", d, b[at]) + np.einsum("na,nab,nb->n", d, Ia, d)
+        d0, d1 = x_new[:, 0] - x[:, 0], x_new[:, 1] - x[:, 1]  # ν⁺ = ν − H δ (eq. 4.28), summed in R⁻¹ weight
+        ia01 = 0.5 * (Ia[:, 0, 1] + Ia[:, 1, 0])
+        eps = (s[at] - 2.0 * (d0 * b[at, 0] + d1 * b[at, 1])
+               + (d0 * d0 * Ia[:, 0, 0] + 2.0 * d0 * d1 * ia01 + d1 * d1 * Ia[:, 1, 1]))
         return loglik, quad, eps / count[at]
 
     def _compiled_update(self, bank, local, at, nu_pos, R_pos, I, b, s, logdet_r, count, t):
@@ -285,7 +296,7 @@ class MultiModelEstimator:
         self._team_motion = self.rows.widen(motion)  # by the swarm's UAVs, as the view reads it
         if not self._sharing or self.fusion == "none":
             self.out_x, self.out_P = x, P
-            self._winner = np.where(self.initialised, self.rows.uavs, -1)
+            self._winner = np.where(self.initialised, self._candidate, -1)
             return {}
         return {"x": x, "P": P, "loglik": self._loglik.copy(), "measured": self._measured.copy(),
                 "started": self.initialised.copy(), "window": self._windows.copy(), "motion": motion}
@@ -312,14 +323,13 @@ class MultiModelEstimator:
         """Fuse the candidates each UAV received (itself and the neighbours whose messages arrived) into its output."""
         got = inbox.payloads
         self._team_motion = got["motion"]
-        n, n_team, own = self.n, len(self.team), self.rows.uavs
+        n, n_team, own = self.n, len(self.team), self._candidate
         recv, send = inbox.edges()
         valid = np.zeros((n, n_team), dtype=bool)
-        valid[recv, send] = got["started"][send]
+        valid[recv, send % n_team] = got["started"][send]
         valid[np.arange(n), own] = self.initialised
-        X = np.broadcast_to(got["x"], (n, n_team, COMMON))
-        P = np.broadcast_to(got["P"], (n, n_team, COMMON, COMMON))
-        evidence = valid & got["measured"][None, :]
+        X, P = self._candidates(got["x"]), self._candidates(got["P"])
+        evidence = valid & self._candidates(got["measured"])
         if self.fusion == "ttest":
             winner = self._select(valid, evidence, got)
             self._set_output(winner, got["x"], got["P"])
@@ -331,7 +341,7 @@ class MultiModelEstimator:
             return
         # IMM: probabilities (eqs. 4.32-4.34), combination (4.35); with mixing, each filter restarts from its mix
         mu_pred = fusion.imm_predict(self._mu, self.rho, self.rows.matmul)
-        loglik = np.broadcast_to(got["loglik"], (n, n_team))
+        loglik = self._candidates(got["loglik"])
         self._mu = fusion.imm_update(mu_pred, loglik, evidence)
         live = np.flatnonzero(self.initialised)
         w = np.where(valid, self._mu, 0.0)
@@ -340,9 +350,19 @@ class MultiModelEstimator:
         if self.fusion == "imm":
             self._mix(valid, X, P)
 
+    def _candidates(self, a: np.ndarray) -> np.ndarray:
+        """(n, N, ...) per row, what its world's N candidates sent, from ``a`` (rows.n, ...) by the swarm's UAVs."""
+        if self._worlds == 1:
+            return np.broadcast_to(a, (self.n, *a.shape))
+        return a.reshape(self._worlds, -1, *a.shape[1:])[self._world]
+
+    def _sender(self, candidate: np.ndarray) -> np.ndarray:
+        """The swarm's UAV that is candidate ``candidate`` (per row) of each row's world."""
+        return candidate if self._worlds == 1 else self._world * len(self.team) + candidate
+
     def _select(self, valid, evidence, got) -> np.ndarray:
         """T-test winner (eqs. 4.23-4.28); where no candidate measured this step, the occlusion policy (4.38-4.40)."""
-        score = np.broadcast_to(fusion.window_score(got["window"]), valid.shape)
+        score = self._candidates(fusion.window_score(got["window"]))
         winner = fusion.ttest_select(score, valid)
         occluded = self.initialised & ~evidence.any(axis=1)
         if occluded.any():
@@ -352,7 +372,7 @@ class MultiModelEstimator:
                 keep = (last >= 0) & valid[rows, np.maximum(last, 0)]
                 winner[rows[keep]] = last[keep]
             else:
-                Ppos = np.broadcast_to(got["P"][:, :2, :2], (len(rows), len(self.team), 2, 2))
+                Ppos = self._candidates(got["P"][:, :2, :2])[rows]
                 pick = fusion.select_least_trace if self.occlusion == "trace" else fusion.select_least_max_eigenvalue
                 winner[rows] = pick(Ppos, valid[rows])
         return winner
@@ -366,15 +386,16 @@ class MultiModelEstimator:
     def _set_output(self, winner: np.ndarray, x: np.ndarray, P: np.ndarray) -> None:
         self._note(winner)
         ok = winner >= 0
-        self.out_x = np.where(ok[:, None], x[np.maximum(winner, 0)], np.nan)
-        self.out_P = np.where(ok[:, None, None], P[np.maximum(winner, 0)], np.nan)
+        sender = self._sender(np.maximum(winner, 0))
+        self.out_x = np.where(ok[:, None], x[sender], np.nan)
+        self.out_P = np.where(ok[:, None, None], P[sender], np.nan)
 
     def _mix(self, valid, X, P) -> None:
         """Standard IMM interaction: each UAV's filter restarts from the mix of the team's posteriors on the common
         states, the states its model adds carried by their conditional on them (:func:`fusion.extend_to_model`)."""
         x0, P0, _ = fusion.imm_mix(self._mu, self.rho, X, P, valid, matmul=self.rows.matmul)
         rows = np.arange(self.n)
-        x0, P0 = x0[rows, self.rows.uavs], P0[rows, self.rows.uavs]  # UAV i mixes for its own filter only
+        x0, P0 = x0[rows, self._candidate], P0[rows, self._candidate]  # UAV i mixes for its own filter only
         for bank in self._banks:
             rows = np.flatnonzero(self.initialised[bank.idx])
             if len(rows):
@@ -388,7 +409,8 @@ class MultiModelEstimator:
         ok = self._winner >= 0
         pick = np.maximum(self._winner, 0)
         model = np.where(ok, np.asarray(self.model_names, dtype=object)[pick], None)
-        return TargetView(self.out_x, model=model, motion=np.where(ok[:, None], self._team_motion[pick], 0.0))
+        return TargetView(self.out_x, model=model,
+                          motion=np.where(ok[:, None], self._team_motion[self._sender(pick)], 0.0))
 
     def sample(self) -> dict[str, np.ndarray]:
         own = self._posterior[0]

@@ -39,10 +39,13 @@ def subset_of(uavs, n: int) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Rows:
-    """The UAVs ``uavs`` (R,), sorted, of a swarm of ``n`` that a component's rows are."""
+    """The UAVs ``uavs`` (R,), sorted, of a swarm of ``n`` that a component's rows are; ``worlds``: the swarm is a
+    batch of that many worlds of ``n / worlds`` UAVs each (:mod:`swarmtrack.sim.batch`), whose products are taken
+    as one world's (a world of one UAV multiplies its row alone)."""
 
     uavs: np.ndarray
     n: int
+    worlds: int = 1
 
     @classmethod
     def of(cls, uavs, n: int) -> Rows:
@@ -77,13 +80,15 @@ class Rows:
         """``a @ b`` for ``a`` (R, k) whose rows are UAVs, each row bit for bit the whole swarm's (module
         docstring): computed in the swarm's shape, with ``a``'s kind of strides (which decides whether numpy calls
         BLAS; one row alone would go to ``gemv`` even where the swarm's rows do not go to BLAS at all)."""
-        if self.whole or a.ndim != 2:
-            return a @ b
-        return (self.widen(a) @ b)[self.uavs]
+        return self.rowwise(lambda rows: rows @ b, a)
 
     def rowwise(self, f: Callable[[np.ndarray], np.ndarray], a: np.ndarray) -> np.ndarray:
         """``f(a)`` of a function computed row by row that may take a 2-D product of ``a`` (R, k) (a linear motion
         model's ``x Fᵀ``), each row bit for bit the whole swarm's (as :meth:`matmul`)."""
-        if self.whole or a.ndim != 2:
+        if a.ndim != 2:
+            return f(a)
+        if self.worlds > 1 and self.n == self.worlds and len(a) > 1:  # worlds of one UAV: each row is gemv's
+            return np.concatenate([f(a[i:i + 1]) for i in range(len(a))])
+        if self.whole:
             return f(a)
         return f(self.widen(a))[self.uavs]

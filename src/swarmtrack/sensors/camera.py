@@ -96,3 +96,21 @@ def sense(objects: np.ndarray, uavs: np.ndarray, stamped: np.ndarray, height: fl
     z = pc[owner, source, :2] + sigma * noise[owner, source]
     frame = ground_affine(C, stamped, height)[owner]
     return Detections(owner, z, stamped[owner], source, len(uavs), frame=frame, taken=taken), source
+
+
+def sense_worlds(objects: np.ndarray, uavs: np.ndarray, stamped: np.ndarray, height: float, aim: np.ndarray,
+                 tan_half: tuple[float, float], sigma: float, noise: np.ndarray, labels: np.ndarray,
+                 taken: float | None = None):
+    """:func:`sense` for a batch of B worlds of one layout, each UAV's camera towards its own world's objects only:
+    ``objects`` (B, M, 2), ``uavs``, ``stamped`` and ``aim`` (B, N, 2), ``noise`` (B, N, M, 2), ``labels`` (B, M)
+    each object's label. The detections of world b's UAV i are those of UAV ``b·N + i``, in the order :func:`sense`
+    gives them alone (no occluders: they name one world's UAVs). Returns the detections and each one's label."""
+    n = uavs.shape[1]
+    C = rotation(stamped, height, aim)  # (B, N, 3, 3)
+    pc = camera_frame(objects[:, None, :, :], C[:, :, None], uavs[:, :, None, :], height)  # (B, N, M, 3)
+    world, uav, obj = np.nonzero(in_view(pc, tan_half))
+    source = labels[world, obj]
+    z = pc[world, uav, obj, :2] + sigma * noise[world, uav, obj]
+    frame = ground_affine(C, stamped, height)[world, uav]
+    return Detections(world * n + uav, z, stamped[world, uav], source, uavs.shape[0] * n, frame=frame,
+                      taken=taken), source

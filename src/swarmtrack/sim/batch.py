@@ -10,8 +10,9 @@ loop is :func:`swarmtrack.sim.engine.step_loop`, unchanged; the recording is cut
 
 The per-step Python cost is paid once for the batch instead of once per world, which is what small swarms spend
 their time on. Components with state that is not per UAV, or whose settings name UAVs, are not batched
-(:func:`unbatchable` says why): the centralized filter, the truth oracle, occluders and outages, and kinds other than
-the information filter, flocking and static control with the range-bearing sensor.
+(:func:`unbatchable` says why): kinds not registered as ``batched`` (the centralized filter, the set-membership
+estimator and its MPC), kinematic vehicles, occluders, outages, delays and liars. A truth oracle
+(``controller.follow: truth``) is one per world, each following its own world's target.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from swarmtrack import registry
+from swarmtrack.estimation.base import TargetView
 from swarmtrack.network.channel import Channel, WorldsChannel
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sim.agent import OnboardStack
@@ -26,6 +28,7 @@ from swarmtrack.sim.build import (
     Context,
     Simulation,
     _group,
+    _oracle,
     build_component,
     command_width,
     profiles,
@@ -34,6 +37,7 @@ from swarmtrack.sim.build import (
 )
 from swarmtrack.sim.clock import Clock
 from swarmtrack.sim.engine import step_loop
+from swarmtrack.sim.oracle import TruthOracle
 from swarmtrack.sim.recorder import Chunk, Recorder, Recording
 from swarmtrack.sim.streams import stream
 from swarmtrack.sim.world import Group, World, vehicle
@@ -55,8 +59,6 @@ def unbatchable(scenarios: list[Scenario]) -> str | None:
         kind = getattr(first, role).kind
         if not registry.get(role, kind).batched:
             return f"{role}.kind {kind!r} is not batched (batched: {', '.join(batched_kinds(role))})"
-    if first.controller.follows_truth():
-        return "controller.follow: truth (the oracle is not batched)"
     kinematic = [f"{section}.vehicle {v!r}" for section, v in
                  (("swarm", first.swarm.vehicle), ("targets", first.targets.vehicle),
                   ("decoys", first.decoys.vehicle)) if vehicle(v).is_kinematic]
@@ -78,6 +80,34 @@ def _concat_group(name: str, specs: list[Scenario], flown: list[dict]) -> Group:
         return Group(name, g0.vehicle, starts)
     driver = type(g0.driver)(sum((g.driver.profiles for g in groups), ()), g0.driver.gain, g0.driver.wind_std)
     return Group(name, g0.vehicle, starts, driver)
+
+
+class WorldsOracle:
+    """The truth oracles of a batch's worlds (one per world, of its N UAVs, each following its own world's target),
+    as one: their views stacked world-major."""
+
+    probes = ()
+
+    def __init__(self, oracles: list[TruthOracle]):
+        self.oracles = oracles
+
+    def share(self, t, nav, own) -> dict:
+        return {}
+
+    def fuse(self, t, own, inbox) -> None:
+        pass
+
+    def view(self) -> TargetView:
+        views = [o.view() for o in self.oracles]
+
+        def stacked(field: str):
+            parts = [getattr(v, field) for v in views]
+            return None if parts[0] is None else np.concatenate(parts)
+
+        return TargetView(stacked("state"), stacked("model"), stacked("motion"))
+
+    def sample(self) -> dict:
+        return {}
 
 
 def build_batch(scenarios: list[Scenario]) -> tuple[Simulation, list[dict]]:
@@ -107,9 +137,15 @@ def build_batch(scenarios: list[Scenario]) -> tuple[Simulation, list[dict]]:
         return np.repeat([world.label_of(o) for o in objects], n)
 
     ctx = Context(first, n * worlds, clock.dt_estimation, clock.dt_control, first.kernels != "numpy", label_of,
-                  command_width(first))
+                  command_width(first), worlds=worlds)
     estimator = build_component("estimator", first, ctx)
     controller = build_component("controller", first, ctx)
+    guide = estimator
+    followed = first.estimator.followed_target()
+    if first.controller.follows_truth():  # each world's UAVs told their own world's target (the schema checked it)
+        start = world.slices["targets"].start
+        guide = WorldsOracle([_oracle(world, start + b * per["targets"] + followed - 1,
+                                      f["targets"][followed - 1], n) for b, f in enumerate(flown)])
     net = first.network
     channel = WorldsChannel(tuple(Channel(net.topology, n, net.r_comm, tuple((a - 1, b - 1) for a, b in net.edges),
                                           net.loss_probability, stream(s.seed, "channel")) for s in scenarios), n)
@@ -118,7 +154,7 @@ def build_batch(scenarios: list[Scenario]) -> tuple[Simulation, list[dict]]:
     metas = [run_meta(s, local, f, clock.dt_estimation) for s, f in zip(scenarios, flown, strict=True)]
     batch_meta = {**metas[0], "seed": None, "groups": {k: [v.start, v.stop] for k, v in world.slices.items()},
                   "tracked": None, "worlds": worlds}
-    sim = Simulation(world, OnboardStack(estimator, controller, estimator), channel, clock, batch_meta)
+    sim = Simulation(world, OnboardStack(estimator, controller, guide), channel, clock, batch_meta)
     return sim, metas
 
 

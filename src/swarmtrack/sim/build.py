@@ -50,6 +50,8 @@ class Context:
     acceleration) or 1 (a fixed wing's yaw acceleration)."""
     uavs: np.ndarray | None = dataclasses.field(default=None, compare=False)
     resources: dict = dataclasses.field(default_factory=dict, compare=False)
+    worlds: int = 1
+    """A batch of worlds (:mod:`swarmtrack.sim.batch`): ``n_uavs`` is ``worlds`` worlds' UAVs, world-major."""
 
     def __post_init__(self) -> None:
         uavs = np.arange(self.n_uavs) if self.uavs is None else subset_of(self.uavs, self.n_uavs)
@@ -58,7 +60,7 @@ class Context:
     @property
     def rows(self) -> Rows:
         """The UAVs of the build (:class:`~swarmtrack.network.rows.Rows`)."""
-        return Rows(self.uavs, self.n_uavs)
+        return Rows(self.uavs, self.n_uavs, self.worlds)
 
     def whole_swarm_only(self, kind: str, why: str) -> None:
         """Refuse a build for a subset of the swarm's UAVs (``NotImplementedError`` naming the kind and why)."""

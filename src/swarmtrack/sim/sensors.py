@@ -179,6 +179,11 @@ class CameraSensor(Sensor):
         stamped, noise = scene.stamped(), scene.normal()
         aim = np.broadcast_to(self.home, (n, 2)) if scene.aim is None else np.asarray(scene.aim, dtype=float)
         aim = np.where(np.isfinite(aim).all(axis=-1, keepdims=True), aim, self.home)  # no estimate yet: home
+        if scene.worlds > 1:  # each world's cameras towards its own objects (no occluders in a batch)
+            labels, b = scene.world_labels(), scene.worlds
+            return camera.sense_worlds(objects[labels], uavs.reshape(b, n // b, 2), stamped.reshape(b, n // b, 2),
+                                       self.height, aim.reshape(b, n // b, 2), self.tan_half, self.sigma, noise,
+                                       labels, scene.taken)
         hidden = hidden_by(self.occluders, objects, n, scene.t)
         return camera.sense(objects, uavs, stamped, self.height, aim, self.tan_half, self.sigma, noise, hidden,
                             scene.taken)

@@ -3,5 +3,5 @@
 from swarmtrack import registry
 from swarmtrack.capabilities.mpc import metrics, settings
 
-registry.register("controller", settings.MPCSpec, "swarmtrack.capabilities.mpc.build:mpc", metrics=metrics.METRICS,
-                  figures=metrics.FIGURES)
+registry.register("controller", settings.MPCSpec, "swarmtrack.capabilities.mpc.build:mpc", batched=True,
+                  metrics=metrics.METRICS, figures=metrics.FIGURES)

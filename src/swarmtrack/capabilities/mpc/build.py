@@ -11,10 +11,10 @@ from swarmtrack.sim.build import Context
 
 
 def mpc(spec: MPCSpec, ctx: Context) -> MPCController:
-    pass
     _, A, B = spec.uav_model()
     settings = MPCSettings(spec.horizon, spec.period, spec.Q, spec.R, spec.Q_s, spec.r_s, spec.bound)
-    offsets = np.asarray(spec.offsets or [(0.0, 0.0)] * ctx.n_uavs, dtype=float)[ctx.uavs]
+    n = ctx.scenario.swarm.n_uavs  # a batch of worlds: each world's UAV i takes offset i
+    offsets = np.asarray(spec.offsets or [(0.0, 0.0)] * n, dtype=float)[ctx.uavs % n]
     return MPCController(A, B, offsets, settings, target_model=None if spec.target_model == "estimate" else
                          spec.target_model, start=spec.start, gains=PositionGains(**spec.gains.model_dump()),
                          rows=ctx.rows)

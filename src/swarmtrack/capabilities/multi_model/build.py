@@ -18,13 +18,14 @@ W20_HIDDEN_START = {"cv": (0.0, 0.0), "ca": (0.0,) * 4, "ct": (0.0, 0.0, 1e-5)}
 
 def multimodel(spec: MultiModelSpec, ctx: Context) -> MultiModelEstimator:
     """W20 Ch. 4: one model per UAV with Q = q I (ω: q_turn_rate), P0 = p0 I (ω: p0_turn_rate); the filters of the
-    UAVs ``ctx.uavs``, beside the names of every UAV's model (the candidates they fuse)."""
+    UAVs ``ctx.uavs``, beside the names of every UAV's model (the candidates they fuse; in a batch of worlds, one
+    world's)."""
     def diag(name: str, value: float, turn: float) -> list[float]:
         dim = make_model(name, ctx.dt_estimation).dim
         return [value] * 4 + ([turn] if name == "ct" else [value] * (dim - 4))
 
-    models = [make_model(spec.models[i], ctx.dt_estimation, diag(spec.models[i], spec.q, spec.q_turn_rate))
-              for i in ctx.uavs]
+    names = [spec.models[i % len(spec.models)] for i in ctx.uavs]  # a batch of worlds: every world's UAVs
+    models = [make_model(m, ctx.dt_estimation, diag(m, spec.q, spec.q_turn_rate)) for m in names]
     s = ctx.scenario.sensor
     measurement = CameraFrameMeasurement(spec.r) if isinstance(s, CameraSpec) else \
         RangeBearingMeasurement(s.sigma_range, s.sigma_bearing)

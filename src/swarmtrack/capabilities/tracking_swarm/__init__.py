@@ -11,6 +11,6 @@ registry.register("estimator", settings.InformationSpec, _BUILD + "information",
                   metrics=metrics.METRICS, health=metrics.HEALTH, figures=metrics.FIGURES)
 registry.register("estimator", settings.CentralizedSpec, _BUILD + "information", metrics=metrics.METRICS,
                   health=metrics.HEALTH, figures=metrics.FIGURES)
-registry.register("estimator", settings.IMMSpec, _BUILD + "imm", metrics=metrics.METRICS, health=metrics.HEALTH,
-                  figures=(*metrics.FIGURES, metrics.PROBABILITIES))
+registry.register("estimator", settings.IMMSpec, _BUILD + "imm", batched=True, metrics=metrics.METRICS,
+                  health=metrics.HEALTH, figures=(*metrics.FIGURES, metrics.PROBABILITIES))
 registry.register("controller", settings.FlockingSpec, _BUILD + "flocking", batched=True)

@@ -17,7 +17,8 @@ from swarmtrack.estimation import imm, multimodel
 from swarmtrack.estimation import predict_kernels as pk
 from swarmtrack.estimation.information import symmetrize
 from swarmtrack.estimation.kalman import ekf_predict
-from swarmtrack.estimation.multimodel_kernels import stacked_statistic
+from swarmtrack.estimation.measurements import CameraFrameMeasurement
+from swarmtrack.estimation.multimodel_kernels import camera_statistic, position_solve, stacked_statistic
 from swarmtrack.models import make_model
 from swarmtrack.network.rows import Rows
 
@@ -95,6 +96,32 @@ def test_stacked_statistic_equals_reference():
         _close(a, b)
 
 
+def test_camera_statistic_equals_the_terms_summed():
+    """The camera's sums straight from the payloads equal its terms (measurements.py) summed by the reference."""
+    rng = np.random.default_rng(5)
+    n, camera = 4, CameraFrameMeasurement(0.0316)
+    mine = {"z": rng.normal(size=(n, 2)), "frame": rng.normal(size=(n, 2, 3))}
+    got = {"z": rng.normal(size=(n, 2)), "frame": rng.normal(size=(n, 2, 3))}
+    x_pos, own = rng.normal(size=(n, 2)), np.array([0, 2, 3])
+    recv, send = np.array([0, 0, 1, 3, 3]), np.array([1, 2, 0, 1, 2])
+    ref = multimodel._statistic(n, [(own, camera.terms(x_pos[own], mine, own)),
+                                    (recv, camera.terms(x_pos[recv], got, send))])
+    fast = camera_statistic(n, x_pos, own, mine["z"], mine["frame"], recv, send, got["z"], got["frame"],
+                            *camera.noise())
+    for a, b in zip(fast, ref, strict=True):
+        _close(a, b)
+
+
+def test_position_solve_equals_lapack():
+    """The 2 x 2 solve with LAPACK's pivoting, both pivot orders, and the symmetrised inverse."""
+    rng = np.random.default_rng(6)
+    I = _spd(rng, 200, 2)
+    I[:100] = I[:100][:, ::-1, ::-1] * np.array([[1.0, -1.0], [-1.0, 1.0]])  # large pivots in both rows
+    b = rng.normal(size=(200, 2)) * 3.0
+    for a, r in zip(position_solve(I, b), multimodel._position_solve(I, b), strict=True):
+        _close(a, r)
+
+
 def _probes(name, seconds=2.0):
     rec = swarmtrack.simulate(swarmtrack.load_scenario(name, [f"duration={seconds}"], seed=3))
     chunks = list(rec.chunks())
@@ -103,15 +130,17 @@ def _probes(name, seconds=2.0):
 
 @pytest.mark.parametrize("name", ["w20-switching", "l24-imm"])
 def test_short_run_equals_numpy_reference(name, monkeypatch):
-    """A 2 s run with the new kernels records what it records with their numpy references (the other compiled
+    """A 5 s run with the new kernels records what it records with their numpy references (the other compiled
     paths, chosen by the same ``kernels``, left as they are)."""
-    fast = _probes(name)
+    fast = _probes(name, 5.0)  # W20 shares from step 100 (3.3 s)
     monkeypatch.setattr(multimodel, "has_kernel", lambda model: False)
     monkeypatch.setattr(multimodel, "stacked_statistic", lambda n, rows, *terms: multimodel._statistic(
         n, [(rows, terms)]))
+    monkeypatch.setattr(multimodel, "CameraFrameMeasurement", type(None))  # the camera's sums through its terms
+    monkeypatch.setattr(multimodel, "position_solve", multimodel._position_solve)
     monkeypatch.setattr(imm, "has_kernel", lambda model: False)
     monkeypatch.setattr(imm, "position_loglik", imm._position_loglik)
-    slow = _probes(name)
+    slow = _probes(name, 5.0)
     assert fast.keys() == slow.keys()
     for p in fast:
         _close(fast[p], slow[p], rtol=1e-9)

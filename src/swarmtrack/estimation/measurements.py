@@ -37,8 +37,12 @@ class CameraFrameMeasurement:
         H = frame[:, :, :2]
         nu = got["z"][rows] - np.einsum("eab,eb->ea", H, x_pos) - frame[:, :, 2]
         e = len(rows)
-        Rinv = np.broadcast_to(np.eye(2) / self.r, (e, 2, 2))
-        return nu, H, Rinv, np.full(e, 2.0 * np.log(self.r))
+        Rinv, logdet = self.noise()
+        return nu, H, np.broadcast_to(Rinv, (e, 2, 2)), np.full(e, logdet)
+
+    def noise(self) -> tuple[np.ndarray, float]:
+        """``R⁻¹`` (2, 2) and ``log det R`` of every measurement."""
+        return np.eye(2) / self.r, 2.0 * np.log(self.r)
 
     def position(self, got: dict, rows: np.ndarray) -> np.ndarray:
         """``h⁻¹(z)``: the ground position each payload row implies (W20 Table 4.1, ``x̂0``)."""

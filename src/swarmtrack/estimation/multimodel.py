@@ -33,7 +33,8 @@ from swarmtrack.estimation import fusion
 from swarmtrack.estimation.base import Probe, TargetView
 from swarmtrack.estimation.information import FilterDivergence, positive_definite, symmetrize
 from swarmtrack.estimation.kalman import ekf_predict
-from swarmtrack.estimation.multimodel_kernels import stacked_statistic, stacked_update
+from swarmtrack.estimation.measurements import CameraFrameMeasurement
+from swarmtrack.estimation.multimodel_kernels import camera_statistic, position_solve, stacked_statistic, stacked_update
 from swarmtrack.estimation.predict_kernels import has_kernel, model_params, predict_bank
 from swarmtrack.models.base import MotionModel
 from swarmtrack.network.rows import Rows
@@ -63,6 +64,13 @@ def _statistic(n: int, parts):
         np.add.at(logdet_r, rows, ld)
         np.add.at(count, rows, 1.0)
     return I, b, s, logdet_r, count
+
+
+def _position_solve(I: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``I⁻¹ b`` and ``sym(I⁻¹)`` by one solve (the numpy reference of
+    :func:`~swarmtrack.estimation.multimodel_kernels.position_solve`)."""
+    sol = np.linalg.solve(I, np.concatenate([b[..., None], np.broadcast_to(np.eye(2), I.shape)], axis=-1))
+    return sol[..., 0], symmetrize(sol[..., 1:])
 
 
 class _Bank:
@@ -220,18 +228,21 @@ class MultiModelEstimator:
         own_rows = own_rows[upd[own_rows]]
         pick = upd[recv]
         recv, send = recv[pick], send[pick]
-        parts = [(own_rows, self.measurement.terms(self._x_pos[own_rows], mine, own_rows)),
-                 (recv, self.measurement.terms(self._x_pos[recv], got, send))]
-        if self.compiled:  # the same sums, compiled (multimodel_kernels.stacked_statistic)
-            I, b, s, logdet_r, count = stacked_statistic(n, np.concatenate([p[0] for p in parts]), *(
-                np.ascontiguousarray(np.concatenate([p[1][k] for p in parts])) for k in range(4)))
+        if self.compiled and isinstance(self.measurement, CameraFrameMeasurement):  # the sums from the payloads
+            I, b, s, logdet_r, count = camera_statistic(n, self._x_pos, own_rows, mine["z"], mine["frame"], recv,
+                                                        send, got["z"], got["frame"], *self.measurement.noise())
         else:
-            I, b, s, logdet_r, count = _statistic(n, parts)
+            parts = [(own_rows, self.measurement.terms(self._x_pos[own_rows], mine, own_rows)),
+                     (recv, self.measurement.terms(self._x_pos[recv], got, send))]
+            if self.compiled:  # the same sums, compiled (multimodel_kernels.stacked_statistic)
+                I, b, s, logdet_r, count = stacked_statistic(n, np.concatenate([p[0] for p in parts]), *(
+                    np.ascontiguousarray(np.concatenate([p[1][k] for p in parts])) for k in range(4)))
+            else:
+                I, b, s, logdet_r, count = _statistic(n, parts)
         rows = np.flatnonzero(upd)
         I, b, s, logdet_r, count = I[rows], b[rows], s[rows], logdet_r[rows], count[rows]
         # the measurements' sufficient statistic in position space: ν_pos = I⁻¹ b with covariance I⁻¹
-        sol = np.linalg.solve(I, np.concatenate([b[..., None], np.broadcast_to(np.eye(2), I.shape)], axis=-1))
-        nu_pos, R_pos = sol[..., 0], symmetrize(sol[..., 1:])
+        nu_pos, R_pos = (position_solve if self.compiled else _position_solve)(I, b)
         for bank in self._banks:
             local = np.flatnonzero(upd[bank.idx])
             if not len(local):

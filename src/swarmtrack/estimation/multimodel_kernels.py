@@ -114,3 +114,79 @@ def stacked_statistic(n, rows, nu, H, Rinv, logdet):
         logdet_r[r] += logdet[e]
         count[r] += 1.0
     return I, b, s, logdet_r, count
+
+
+@njit(cache=True)
+def _add_camera_term(I, b, s, logdet_r, count, r, z, frame, x0, x1, Rinv, logdet):
+    """Add one camera measurement of receiver ``r`` (``z`` (2,), ``frame`` ``[A | b]`` (2, 3), linearised at the
+    receiver's predicted position ``(x0, x1)``) to its sums, as :func:`stacked_statistic` adds the terms of
+    :meth:`~swarmtrack.estimation.measurements.CameraFrameMeasurement.terms` (``ν = z − A x̂ − b``, ``H = A``)."""
+    n0 = (z[0] - ((0.0 + frame[0, 0] * x0) + frame[0, 1] * x1)) - frame[0, 2]
+    n1 = (z[1] - ((0.0 + frame[1, 0] * x0) + frame[1, 1] * x1)) - frame[1, 2]
+    h00, h01, h10, h11 = frame[0, 0], frame[0, 1], frame[1, 0], frame[1, 1]
+    t00 = fma(h10, Rinv[1, 0], fma(h00, Rinv[0, 0], 0.0))  # Hᵀ R⁻¹
+    t01 = fma(h10, Rinv[1, 1], fma(h00, Rinv[0, 1], 0.0))
+    t10 = fma(h11, Rinv[1, 0], fma(h01, Rinv[0, 0], 0.0))
+    t11 = fma(h11, Rinv[1, 1], fma(h01, Rinv[0, 1], 0.0))
+    I[r, 0, 0] += fma(t01, h10, fma(t00, h00, 0.0))
+    I[r, 0, 1] += fma(t01, h11, fma(t00, h01, 0.0))
+    I[r, 1, 0] += fma(t11, h10, fma(t10, h00, 0.0))
+    I[r, 1, 1] += fma(t11, h11, fma(t10, h01, 0.0))
+    b[r, 0] += (0.0 + t00 * n0) + t01 * n1
+    b[r, 1] += (0.0 + t10 * n0) + t11 * n1
+    s[r] += (((0.0 + n0 * Rinv[0, 0] * n0) + n0 * Rinv[0, 1] * n1) + n1 * Rinv[1, 0] * n0) + n1 * Rinv[1, 1] * n1
+    logdet_r[r] += logdet
+    count[r] += 1.0
+
+
+@njit(cache=True)
+def camera_statistic(n, x_pos, own_rows, own_z, own_frame, recv, send, got_z, got_frame, Rinv, logdet):
+    """:func:`stacked_statistic` of W20's camera measurements straight from the payloads: receiver ``r``'s own
+    (``own_rows``; ``own_z`` (n, 2), ``own_frame`` (n, 2, 3)), then those its links delivered (``recv[e]`` from
+    ``send[e]`` of ``got_z``, ``got_frame``), each linearised at ``x_pos`` (n, 2); ``Rinv`` (2, 2), ``logdet``:
+    every measurement's ``R⁻¹`` and ``log det R``. The same numbers, without the measurements' arrays."""
+    I = np.zeros((n, 2, 2))
+    b = np.zeros((n, 2))
+    s = np.zeros(n)
+    logdet_r = np.zeros(n)
+    count = np.zeros(n)
+    for e in range(own_rows.shape[0]):
+        r = own_rows[e]
+        _add_camera_term(I, b, s, logdet_r, count, r, own_z[r], own_frame[r], x_pos[r, 0], x_pos[r, 1], Rinv, logdet)
+    for e in range(recv.shape[0]):
+        r, j = recv[e], send[e]
+        _add_camera_term(I, b, s, logdet_r, count, r, got_z[j], got_frame[j], x_pos[r, 0], x_pos[r, 1], Rinv, logdet)
+    return I, b, s, logdet_r, count
+
+
+@njit(cache=True)
+def position_solve(I, b):
+    """``I⁻¹ b`` (n, 2) and ``sym(I⁻¹)`` (n, 2, 2) of each 2 x 2 ``I``: the numbers of ``np.linalg.solve(I, [b | E])``
+    (LAPACK's ``getrf``/``getrs``: the row of the larger pivot first, the multiplier and the back substitution by
+    reciprocals, as OpenBLAS computes them) and of ``symmetrize``."""
+    n = I.shape[0]
+    nu = np.empty((n, 2))
+    R = np.empty((n, 2, 2))
+    B = np.empty((2, 3))
+    X = np.empty((2, 3))
+    for k in range(n):
+        a00, a01, a10, a11 = I[k, 0, 0], I[k, 0, 1], I[k, 1, 0], I[k, 1, 1]
+        B[0, 0], B[0, 1], B[0, 2] = b[k, 0], 1.0, 0.0
+        B[1, 0], B[1, 1], B[1, 2] = b[k, 1], 0.0, 1.0
+        if abs(a10) > abs(a00):  # partial pivoting
+            a00, a01, a10, a11 = a10, a11, a00, a01
+            for j in range(3):
+                B[0, j], B[1, j] = B[1, j], B[0, j]
+        inv00 = 1.0 / a00
+        l10 = a10 * inv00
+        u11 = a11 - l10 * a01
+        inv11 = 1.0 / u11
+        for j in range(3):
+            X[1, j] = (B[1, j] - l10 * B[0, j]) * inv11
+            X[0, j] = (B[0, j] - a01 * X[1, j]) * inv00
+        nu[k, 0], nu[k, 1] = X[0, 0], X[1, 0]
+        R[k, 0, 0] = 0.5 * (X[0, 1] + X[0, 1])
+        R[k, 0, 1] = 0.5 * (X[0, 2] + X[1, 1])
+        R[k, 1, 0] = 0.5 * (X[1, 1] + X[0, 2])
+        R[k, 1, 1] = 0.5 * (X[1, 2] + X[1, 2])
+    return nu, R

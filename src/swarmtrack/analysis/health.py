@@ -69,12 +69,12 @@ class NetworkHealth:
     def add(self, c, keep=None, err=None) -> None:
         for p in self.names:
             self.total[p] += c.probes[p].sum(axis=0)
-        if "rejected" in self.names:
-            hit = c.probes["rejected"] > 0
-            for j in np.flatnonzero(hit.any(axis=0)):
-                at = c.t[hit[:, j]]
-                self.first[j] = at[0] if np.isnan(self.first[j]) else self.first[j]
-                self.last[j] = at[-1]
+        if "rejected" in self.names and len(c.t):
+            hit = c.probes["rejected"] > 0  # (k, N)
+            any_hit = hit.any(axis=0)
+            first, last = c.t[np.argmax(hit, axis=0)], c.t[len(c.t) - 1 - np.argmax(hit[::-1], axis=0)]
+            self.first = np.where(any_hit & np.isnan(self.first), first, self.first)
+            self.last = np.where(any_hit, last, self.last)
 
     def _rejected_fraction(self) -> np.ndarray:
         """Per UAV, the fraction of its delivered contributions that receivers gated (0 when none was delivered)."""

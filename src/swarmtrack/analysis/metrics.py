@@ -15,19 +15,26 @@ initialisation.
 Every metric streams over the recording's chunks (:meth:`Recording.chunks`) with accumulators of O(N) per
 quantity (O(pairs) for the spacing metrics), never steps × N, so it works on recordings larger than memory.
 Inter-agent spacing is measured over every pair for swarms of up to :data:`ALL_PAIRS_UP_TO` UAVs; for larger
-swarms over the neighbour pairs (closer than r_comm) of each step, from a KD-tree (see :func:`spacing`).
+swarms over the neighbour pairs (closer than r_comm) of each step, from a grid of cells (:func:`close_pairs`, compiled;
+see :func:`spacing`).
 The time series (:func:`series`) are per-bin means over fixed time bins, O(bins) per quantity.
 
 **The accumulator protocol.** A registered section's ``make(recording)`` gives an object with ``add(chunk, keep,
-err)`` (every chunk of the recording in order; ``keep``: the chunk's steps in the judged window; ``err`` is None:
-an accumulator reads the probes it needs from the chunk) and ``result()`` (the section). Optionally ``warnings()``
+shared)`` (every chunk of the recording in order; ``keep``: the chunk's steps in the judged window; an accumulator
+reads the probes it needs from the chunk; ``shared``: a dict fresh for each chunk, the same for every accumulator of
+the pass, where they keep what several of them compute from the chunk, e.g. a Gaussian estimate's errors and NEES,
+so that it is computed once; None: nothing is shared) and ``result()`` (the section). Optionally ``warnings()``
 (a list of warning dicts added to the run's ``warnings``) and ``extras()`` (more top-level keys, e.g. the run-wide
 ``nees`` beside its ``consistency`` section). A health check's ``result()`` is its list of warnings. A section
 registered as :data:`SERIES` is a part of the time series: its accumulator has ``quantities`` (their names) and
-``values(chunk)`` → ``{quantity: (t, values)}`` (one value per time ``t`` to average into the bins).
+``values(chunk)`` → ``{quantity: (t, values)}`` (one value per time ``t`` to average into the bins); a part with
+``shares = True`` gets ``values(chunk, shared)``.
 """
 
 from __future__ import annotations
+
+import functools
+import math
 
 import numpy as np
 
@@ -131,56 +138,249 @@ def spacing(rec: Recording, last: float = 10.0) -> dict:
     the last ``last`` seconds of the mean ``|distance − d|`` over each step's neighbour pairs, and no
     ``open_pairs``/``overshoot`` (None): they follow pairs through time, which a large swarm's changing
     neighbourhoods do not define.
+
+    The accumulator (:func:`spacing_accumulator`) reads the truth only; :func:`summary` feeds it in its own pass.
     """
-    n = rec.n_agents
-    if n < 2:
-        return {"min": None, "offset": None, "open_pairs": 0, "overshoot": None}
-    if n > ALL_PAIRS_UP_TO:
-        return _neighbour_spacing(rec, last)
-    tail_from = rec.t_last - last
-    d_min, tail_sum, tail_n = np.inf, 0.0, 0
-    last_sign = None  # sign of each pair's deviation at the last step seen (carried across chunks)
-    crossed = np.zeros(n * (n - 1) // 2, dtype=bool)
-    over = np.zeros(n * (n - 1) // 2)
+    acc = spacing_accumulator(rec, last)
     for c in rec.chunks(probes_wanted=False):
+        acc.add(c, None, None)
+    return acc.result()
+
+
+def spacing_accumulator(rec: Recording, last: float = 10.0):
+    """The accumulator of :func:`spacing` (``add(chunk, keep, shared)``, ``result()``): every pair followed up to
+    :data:`ALL_PAIRS_UP_TO` UAVs, each step's close pairs above."""
+    if rec.n_agents < 2:
+        return _NoSpacing()
+    return _PairSpacing(rec, last) if rec.n_agents <= ALL_PAIRS_UP_TO else _NeighbourSpacing(rec, last)
+
+
+class _NoSpacing:
+    def add(self, c: Chunk, keep, shared) -> None:
+        pass
+
+    def result(self) -> dict:
+        return {"min": None, "offset": None, "open_pairs": 0, "overshoot": None}
+
+
+class _PairSpacing:
+    """Every pair's distance, followed through time (small swarms)."""
+
+    def __init__(self, rec: Recording, last: float):
+        n = rec.n_agents
+        self.rec, self.tail_from = rec, rec.t_last - last
+        self.d_min, self.tail_sum, self.tail_n = np.inf, 0.0, 0
+        self.last_sign = None  # sign of each pair's deviation at the last step seen (carried across chunks)
+        self.crossed = np.zeros(n * (n - 1) // 2, dtype=bool)
+        self.over = np.zeros(n * (n - 1) // 2)
+
+    def add(self, c: Chunk, keep, shared) -> None:
+        rec = self.rec
+        if not len(c.t):
+            return
         dist = pairs_of(c.truth[:, rec.uav_slice, :2])
-        d_min = min(d_min, float(dist.min()))
-        tail = c.t >= tail_from
-        tail_sum = tail_sum + dist[tail].sum(axis=0)
-        tail_n += int(tail.sum())
+        self.d_min = min(self.d_min, float(dist.min()))
+        tail = c.t >= self.tail_from
+        self.tail_sum = self.tail_sum + dist[tail].sum(axis=0)
+        self.tail_n += int(tail.sum())
         dev = dist[chase_window(rec, c.t)] - rec.d
         if not len(dev):
-            continue
+            return
         # a pair counts from the step after its first sign change (the crossing of d) on
         sign = np.sign(dev)
-        before = sign[:1] if last_sign is None else last_sign[None]
+        before = sign[:1] if self.last_sign is None else self.last_sign[None]
         changed = np.concatenate([before, sign[:-1]]) != sign  # (k, P): changed at this step
-        counted = crossed[None] | np.logical_or.accumulate(changed, axis=0)
-        over = np.maximum(over, np.where(counted, np.abs(dev), 0.0).max(axis=0))
-        crossed, last_sign = counted[-1], sign[-1]
-    mean = tail_sum / tail_n
-    near = mean < rec.r_comm
-    return {"min": d_min, "offset": float(np.mean(np.abs(mean[near] - rec.d))) if near.any() else float("nan"),
-            "open_pairs": int(np.sum(~near)), "overshoot": float(over.max())}
+        counted = self.crossed[None] | np.logical_or.accumulate(changed, axis=0)
+        self.over = np.maximum(self.over, np.where(counted, np.abs(dev), 0.0).max(axis=0))
+        self.crossed, self.last_sign = counted[-1], sign[-1]
+
+    def result(self) -> dict:
+        rec = self.rec
+        mean = self.tail_sum / self.tail_n
+        near = mean < rec.r_comm
+        return {"min": self.d_min,
+                "offset": float(np.mean(np.abs(mean[near] - rec.d))) if near.any() else float("nan"),
+                "open_pairs": int(np.sum(~near)), "overshoot": float(self.over.max())}
 
 
-def _neighbour_spacing(rec: Recording, last: float) -> dict:
+class _NeighbourSpacing:
+    """Each step's pairs closer than r_comm (large swarms): from a grid of cells, :func:`close_pairs`."""
+
+    def __init__(self, rec: Recording, last: float):
+        self.rec, self.tail_from = rec, rec.t_last - last
+        self.d_min, self.offsets = np.inf, []
+
+    def add(self, c: Chunk, keep, shared) -> None:
+        rec = self.rec
+        q = c.truth[:, rec.uav_slice, :2]
+        tail = c.t >= self.tail_from
+        best, total, count = close_pairs(q, rec.r_comm, rec.d, nearest=~tail)  # before the tail: the nearest pair
+        for b, s, n, in_tail, step in zip(best, total, count, tail, q, strict=True):
+            # no pair closer than r_comm: the nearest pair is farther, found by a KD-tree (rare: a scattered swarm)
+            self.d_min = min(self.d_min, float(b) if np.isfinite(b) else _nearest_pair(step))
+            if in_tail and n:
+                self.offsets.append(float(s / n))
+
+    def result(self) -> dict:
+        return {"min": self.d_min, "offset": float(np.mean(self.offsets)) if self.offsets else float("nan"),
+                "open_pairs": None, "overshoot": None}
+
+
+def _nearest_pair(q: np.ndarray) -> float:
+    """The smallest distance between two of the positions ``q`` (n, 2), n ≥ 2 (KD-tree)."""
+    from scipy.spatial import cKDTree  # scipy's import costs a run 0.3-0.9 s: only where needed
+
+    return float(cKDTree(q).query(q, k=2)[0][:, 1].min())
+
+
+def close_pairs(q: np.ndarray, r, d: float, nearest=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per step of the positions ``q`` (k, n, 2), over the pairs closer than ``r`` (> 0; one for all steps or one
+    per step): the smallest distance (inf: no such pair), the sum of ``|distance − d|`` and their count, as three
+    (k,) arrays. O(n + pairs) per step (compiled, :func:`_close_pairs`); the distances are ``sqrt(dx² + dy²)`` as
+    ``np.linalg.norm`` gives them, the sums in another order than numpy's (equal to round-off). ``nearest`` (k,)
+    marks the steps of which only the smallest distance is wanted: they are searched first within a few times the
+    smallest distance of the step before (a contracted swarm has hundreds of pairs within r), and their sum and
+    count are of the pairs within the radius that found it. Positions that are not all finite, or spread over more
+    cells than 64-bit keys hold, are measured by a KD-tree instead (which refuses non-finite positions)."""
+    q = np.ascontiguousarray(q, dtype=float)
+    k, n = q.shape[:2]
+    r = np.ascontiguousarray(np.broadcast_to(np.asarray(r, dtype=float), (k,)))
+    if n >= 2 and k and np.isfinite(q).all():
+        cells = (q.max(axis=1) - q.min(axis=1)) / r[:, None] + 3.0  # cells along x and y, with the margins
+        if float((cells[:, 0] * cells[:, 1]).max()) < _KEYS:
+            only = np.zeros(k, dtype=bool) if nearest is None else np.asarray(nearest, dtype=bool)
+            return _close_pairs_kernel()(q, r, float(d), np.ascontiguousarray(only))
+    best, total, count = np.full(k, np.inf), np.zeros(k), np.zeros(k, dtype=np.int64)
+    if n < 2:
+        return best, total, count
     from scipy.spatial import cKDTree
 
-    tail_from = rec.t_last - last
-    d_min, offsets = np.inf, []
-    for c in rec.chunks(probes_wanted=False):
-        for t, q in zip(c.t, c.truth[:, rec.uav_slice, :2], strict=True):
-            tree = cKDTree(q, balanced_tree=False, compact_nodes=False)  # faster to build, same answers
-            d_min = min(d_min, float(tree.query(q, k=2)[0][:, 1].min()))  # each UAV's nearest other UAV
-            if t >= tail_from:
-                pairs = tree.query_pairs(rec.r_comm, output_type="ndarray")
-                dist = np.linalg.norm(q[pairs[:, 0]] - q[pairs[:, 1]], axis=1)
-                near = dist < rec.r_comm
-                if near.any():
-                    offsets.append(float(np.mean(np.abs(dist[near] - rec.d))))
-    return {"min": d_min, "offset": float(np.mean(offsets)) if offsets else float("nan"), "open_pairs": None,
-            "overshoot": None}
+    for i, step in enumerate(q):
+        pairs = cKDTree(step).query_pairs(r[i], output_type="ndarray")
+        dist = np.linalg.norm(step[pairs[:, 0]] - step[pairs[:, 1]], axis=1)
+        dist = dist[dist < r[i]]
+        if len(dist):
+            best[i], total[i], count[i] = dist.min(), np.abs(dist - d).sum(), len(dist)
+    return best, total, count
+
+
+#: Fewer cells than this (with the margins) number their keys in 64 bits.
+_KEYS = 2.0**62
+#: A nearest-only step of :func:`close_pairs` is first searched within this many times the step before's smallest
+#: distance (then within r if no pair is that close).
+_NEAREST_REACH = 4.0
+#: The cells of :func:`_close_pairs` are this much wider than r: a pair closer than r is always in the same or
+#: neighbouring cells, whatever the rounding of the cell indices.
+_CELL_MARGIN = 1.0 + 1e-9
+
+
+@functools.cache
+def _close_pairs_kernel():
+    """:func:`_close_pairs` compiled (numba, imported on first use; cached on disk like the simulator's kernels) for
+    C-contiguous arrays, read-only or not (one signature: a chunk read from disk has read-only arrays, one in memory
+    writable ones, and each compilation costs seconds)."""
+    import numba
+    from numba import types
+
+    def array(ndim: int, dtype=types.float64):
+        return types.Array(dtype, ndim, "C", readonly=True)
+
+    out = types.Array(types.float64, 1, "C")
+    signature = types.Tuple((out, out, types.Array(types.int64, 1, "C")))(array(3), array(1), types.float64,
+                                                                        array(1, types.boolean))
+    return numba.njit([signature], cache=True, fastmath=False)(_close_pairs)
+
+
+def _close_pairs(q, r, d, nearest):
+    """:func:`close_pairs` on finite positions (k, n ≥ 2, 2): per step, the points are sorted into square cells of
+    width the radius (a hair wider) by the key ``cx·w + cy`` (a counting sort, or a radix sort when the cells far
+    outnumber the points); each point is compared with the points after it in its own cell and in the cell above,
+    and with the three cells of the next column, so that every pair of neighbouring cells is visited once. The keys
+    of those cells are consecutive, so three pointers that only move forward find them."""
+    k, n = q.shape[0], q.shape[1]
+    best, total, count = np.full(k, np.inf), np.zeros(k), np.zeros(k, dtype=np.int64)
+    cx, cy = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
+    skey, order = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
+    xs, ys = np.empty(n), np.empty(n)
+    before = np.inf  # the step before's smallest distance
+    for step in range(k):
+        x0, y0, x1, y1 = q[step, 0, 0], q[step, 0, 1], q[step, 0, 0], q[step, 0, 1]
+        for i in range(n):
+            x0, y0 = min(x0, q[step, i, 0]), min(y0, q[step, i, 1])
+            x1, y1 = max(x1, q[step, i, 0]), max(y1, q[step, i, 1])
+        rs = r[step]
+        if nearest[step] and _NEAREST_REACH * before < rs:
+            reach = max(_NEAREST_REACH * before, rs * 1e-6)
+            if ((x1 - x0) / reach + 3.0) * ((y1 - y0) / reach + 3.0) < _KEYS:
+                rs = reach
+        while True:
+            h = rs * _CELL_MARGIN
+            right, top = 0, 0
+            for i in range(n):
+                cx[i] = int(math.floor((q[step, i, 0] - x0) / h))
+                cy[i] = int(math.floor((q[step, i, 1] - y0) / h)) + 1
+                right, top = max(right, cx[i]), max(top, cy[i])
+            w = top + 2  # cy in 1..top: the cells below and above a point's never wrap into another column
+            cells = (right + 1) * w
+            if cells <= 8 * n + 1024:  # counting sort, points of a cell in their order
+                start = np.zeros(cells + 1, dtype=np.int64)
+                for i in range(n):
+                    start[cx[i] * w + cy[i] + 1] += 1
+                for c in range(cells):
+                    start[c + 1] += start[c]
+                for i in range(n):
+                    c = cx[i] * w + cy[i]
+                    order[start[c]] = i
+                    start[c] += 1
+            else:  # far more cells than points (a narrow search): a radix sort of the keys, 11 bits a pass
+                for i in range(n):
+                    skey[i], order[i] = cx[i] * w + cy[i], i
+                shift, digits, other = 0, np.empty(2049, dtype=np.int64), np.empty(n, dtype=np.int64)
+                while (cells - 1) >> shift:
+                    digits[:] = 0
+                    for i in range(n):
+                        digits[((skey[order[i]] >> shift) & 2047) + 1] += 1
+                    for c in range(2048):
+                        digits[c + 1] += digits[c]
+                    for i in range(n):
+                        c = (skey[order[i]] >> shift) & 2047
+                        other[digits[c]] = order[i]
+                        digits[c] += 1
+                    order[:] = other
+                    shift += 11
+            for s in range(n):
+                i = order[s]
+                skey[s], xs[s], ys[s] = cx[i] * w + cy[i], q[step, i, 0], q[step, i, 1]
+            lo_best, lo_total, lo_count = np.inf, 0.0, 0
+            near = rs * rs * _CELL_MARGIN  # squared: only a pair this close is worth its square root
+            e = a = b = 0
+            for s in range(n):
+                c = skey[s]
+                while e < n and skey[e] <= c + 1:  # own cell and the one above
+                    e += 1
+                while a < n and skey[a] < c + w - 1:  # next column: the cells below, beside and above
+                    a += 1
+                b = max(a, b)
+                while b < n and skey[b] <= c + w + 1:
+                    b += 1
+                for part in range(2):
+                    lo, hi = (s + 1, e) if part == 0 else (a, b)
+                    for j in range(lo, hi):
+                        dx, dy = xs[j] - xs[s], ys[j] - ys[s]
+                        sq = dx * dx + dy * dy
+                        if sq > near:
+                            continue
+                        dist = math.sqrt(sq)
+                        if dist < rs:
+                            lo_best = min(lo_best, dist)
+                            lo_total += abs(dist - d)
+                            lo_count += 1
+            if lo_count or rs >= r[step]:
+                break
+            rs = r[step]  # no pair that close: search within r
+        best[step], total[step], count[step] = lo_best, lo_total, lo_count
+        before = lo_best
+    return best, total, count
 
 
 def spacing_offset(rec: Recording, last: float = 10.0) -> float:
@@ -218,9 +418,10 @@ class TargetDistance:
     def __init__(self, rec: Recording):
         self.rec, self.total, self.n, self.far = rec, 0.0, 0, 0.0
 
-    def add(self, c: Chunk, keep: np.ndarray, err) -> None:
-        truth = c.truth[keep]
-        dist = np.linalg.norm(truth[:, self.rec.uav_slice, :2] - truth[:, self.rec.tracked, None, :2], axis=-1)
+    def add(self, c: Chunk, keep: np.ndarray, shared=None) -> None:
+        truth = c.truth if keep.all() else c.truth[keep]
+        off = truth[:, self.rec.uav_slice, :2] - truth[:, self.rec.tracked, None, :2]
+        dist = np.sqrt(off[..., 0] ** 2 + off[..., 1] ** 2)  # np.linalg.norm(off, axis=-1), bit for bit
         self.total += float(dist.sum())
         self.n += dist.size
         self.far = max(self.far, float(dist.max())) if dist.size else self.far
@@ -264,9 +465,10 @@ class Series:
         self.sum[q] += np.bincount(b, weights=values, minlength=self.n_bins)
         self.count[q] += np.bincount(b, minlength=self.n_bins)
 
-    def add(self, c: Chunk, keep, err) -> None:
+    def add(self, c: Chunk, keep, shared=None) -> None:
         for part in self.parts:
-            for q, (t, values) in part.values(c).items():
+            got = part.values(c, shared) if getattr(part, "shares", False) else part.values(c)
+            for q, (t, values) in got.items():
                 self._add(q, t, values)
 
     def result(self) -> dict:
@@ -301,8 +503,9 @@ def _scan(rec: Recording, accumulators: list) -> list:
     """One pass over the recording's chunks feeding every accumulator."""
     for c in rec.chunks():
         keep = chase_window(rec, c.t)
+        shared = {}  # what several accumulators compute from this chunk, computed once (e.g. the errors)
         for m in accumulators:
-            m.add(c, keep, None)
+            m.add(c, keep, shared)
     return [m.result() for m in accumulators]
 
 
@@ -341,8 +544,8 @@ def series(rec: Recording) -> dict:
 
 
 def summary(rec: Recording) -> dict:
-    """All scalar metrics of one run, JSON-ready, in one pass over the recording (and one over its truth for the
-    spacing): the sections every run gets (``target_distance`` with a followed target, ``inter_agent_distance``,
+    """All scalar metrics of one run, JSON-ready, in one pass over the recording (health checks and spacing
+    included): the sections every run gets (``target_distance`` with a followed target, ``inter_agent_distance``,
     ``liar_uav`` when a member lied), the sections the run's kinds register (:func:`run_kinds`; e.g. a Gaussian
     estimator's ``rmse``, ``spread``, ``reported_std``, ``consistency``, ``mean_error``, a set-membership
     estimator's ``set_membership``, the formation MPC's ``formation``: see each capability's ``metrics`` module),
@@ -356,8 +559,8 @@ def summary(rec: Recording) -> dict:
     if rec.tracked is not None:
         accs["target_distance"] = TargetDistance(rec)
     accs[SERIES] = Series(rec, series_parts(rec, kinds))
-    results = _scan(rec, [*accs.values(), *checks])
-    sections, checked = results[:len(accs)], results[len(accs):]
+    results = _scan(rec, [*accs.values(), *checks, spacing_accumulator(rec)])
+    sections, checked, spaced = results[:len(accs)], results[len(accs):-1], results[-1]
     out = {"warnings": [w for ws in checked for w in ws]}
     out.update(zip(accs, sections, strict=True))
     for acc in accs.values():
@@ -367,7 +570,7 @@ def summary(rec: Recording) -> dict:
             out.update(acc.extras())
     if rec.meta.get("liar") is not None:  # which UAV lied (network.liar), 1-based: the others are the honest ones
         out["liar_uav"] = rec.meta["liar"] + 1
-    out["inter_agent_distance"] = spacing(rec)
+    out["inter_agent_distance"] = spaced
     return out
 
 

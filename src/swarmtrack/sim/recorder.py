@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from swarmtrack.sensors.detections import Detections
-from swarmtrack.sim.inputs import InputLog, read_inputs
+from swarmtrack.sim.inputs import InputLog, arrow, arrow_strings, numpy_of, read_inputs, writer_options
 
 #: Version of the on-disk layout (``meta.json`` and the two Parquet files).
 FORMAT = 1
@@ -42,30 +42,69 @@ def _tables(meta: dict, c: Chunk) -> dict:
     """The chunk as the two Parquet tables (pyarrow): ``objects`` with the truth of every world object (its
     ``group``, 1-based ``member``, ``phase`` by name) and ``uavs`` with the probes of every UAV (1-based ``uav``);
     multi-dimensional probes are fixed-size lists of their flattened values."""
-    import pyarrow as pa
+    return _Layout(meta).tables(c)
 
-    k, m, n = len(c.t), meta["n_objects"], meta["n_uavs"]
-    group, member = np.empty(m, dtype=object), np.empty(m, dtype=np.int32)
-    for name, (start, stop) in meta["groups"].items():
-        group[start:stop] = name
-        member[start:stop] = np.arange(1, stop - start + 1)
-    names = meta.get("object_phases") or [[] for _ in range(m)]
-    offset = np.cumsum([0] + [len(p) for p in names])[:-1]
-    dictionary = pa.array([p for obj in names for p in obj], type=pa.string())
-    code = np.where(c.phase >= 0, offset[None, :] + c.phase, -1).ravel()
-    phase = pa.DictionaryArray.from_arrays(pa.array(code, mask=code < 0, type=pa.int32()), dictionary)
-    objects = {"step": np.repeat(np.arange(c.k0, c.k0 + k, dtype=np.int32), m), "t": np.repeat(c.t, m),
-               "group": pa.array(np.tile(group, k), type=pa.string()).dictionary_encode(),
-               "member": np.tile(member, k),
-               **{col: c.truth[..., j].ravel() for j, col in enumerate(("x", "y", "vx", "vy"))},
-               "phase_index": c.phase.ravel(), "phase": phase}
-    uavs = {"step": np.repeat(np.arange(c.k0, c.k0 + k, dtype=np.int32), n), "t": np.repeat(c.t, n),
-            "uav": np.tile(np.arange(1, n + 1, dtype=np.int32), k)}
-    for name, shape in meta["probes"].items():
-        flat = c.probes[name].reshape(k * n, -1)
-        uavs[name] = (pa.array(flat[:, 0]) if not shape else
-                      pa.FixedSizeListArray.from_arrays(pa.array(flat.ravel()), int(np.prod(shape))))
-    return {"objects": pa.table(objects), "uavs": pa.table(uavs)}
+
+#: Columns dictionary-encoded and compressed (whole numbers, few values); the others, the floats, are written plain
+#: and compressed only where they shrink (:func:`~swarmtrack.sim.inputs.writer_options`).
+_CODED = ("step", "t", "group", "member", "uav", "phase_index", "phase")
+
+
+class _Layout:
+    """What :func:`_tables` repeats in every chunk of a recording, made once: each object's group (dictionary codes)
+    and member number, the phase names' dictionary and each object's offset in it, and the columns that tile them
+    over a chunk of ``k`` steps (kept for the last ``k``: a recording's chunks but its last have one size)."""
+
+    def __init__(self, meta: dict):
+        self.meta = meta
+        m = meta["n_objects"]
+        group, self.member = np.full(m, -1, dtype=np.int32), np.empty(m, dtype=np.int32)
+        for name, (start, stop) in meta["groups"].items():
+            group[start:stop] = list(meta["groups"]).index(name)
+            self.member[start:stop] = np.arange(1, stop - start + 1)
+        # the group names in the order of their first object, as dictionary_encode() of the names would give them
+        first = [int(g) for g in dict.fromkeys(group.tolist()) if g >= 0]
+        self.group_names = arrow_strings([list(meta["groups"])[g] for g in first])
+        recode = np.full(len(meta["groups"]) + 1, -1, dtype=np.int32)
+        recode[first] = np.arange(len(first), dtype=np.int32)
+        self.group = recode[group]  # -1 (None) for an object in no group
+        names = meta.get("object_phases") or [[] for _ in range(m)]
+        self.offset = np.cumsum([0] + [len(p) for p in names])[:-1]
+        self.phases = arrow_strings([p for obj in names for p in obj])
+        self._k, self._tiled = -1, {}
+
+    def _tile(self, k: int) -> dict:
+        """The columns of a chunk of ``k`` steps that do not depend on its steps."""
+        import pyarrow as pa
+
+        if k != self._k:
+            n = self.meta["n_uavs"]
+            group = np.tile(self.group, k)
+            self._tiled = {"group": pa.DictionaryArray.from_arrays(arrow(group, group < 0), self.group_names),
+                           "member": arrow(np.tile(self.member, k)),
+                           "uav": arrow(np.tile(np.arange(1, n + 1, dtype=np.int32), k))}
+            self._k = k
+        return self._tiled
+
+    def tables(self, c: Chunk) -> dict:
+        import pyarrow as pa
+
+        k, m, n = len(c.t), self.meta["n_objects"], self.meta["n_uavs"]
+        tiled = self._tile(k)
+        step = np.arange(c.k0, c.k0 + k, dtype=np.int32)
+        code = np.where(c.phase >= 0, self.offset[None, :] + c.phase, -1).ravel().astype(np.int32)
+        objects = {"step": arrow(np.repeat(step, m)), "t": arrow(np.repeat(c.t, m)), "group": tiled["group"],
+                   "member": tiled["member"],
+                   **{col: arrow(c.truth[..., j].ravel()) for j, col in enumerate(("x", "y", "vx", "vy"))},
+                   "phase_index": arrow(c.phase.ravel()),
+                   "phase": pa.DictionaryArray.from_arrays(arrow(code, code < 0), self.phases)}
+        uavs = {"step": arrow(np.repeat(step, n)), "t": arrow(np.repeat(c.t, n)), "uav": tiled["uav"]}
+        for name, shape in self.meta["probes"].items():
+            flat = c.probes[name].reshape(k * n, -1)
+            uavs[name] = (arrow(flat[:, 0]) if not shape else
+                          pa.FixedSizeListArray.from_arrays(arrow(flat.ravel()), int(np.prod(shape))))
+        return {name: pa.Table.from_arrays(list(cols.values()), names=list(cols))
+                for name, cols in (("objects", objects), ("uavs", uavs))}
 
 
 #: Steps per block of the recorder's buffers (at most a chunk's).
@@ -94,6 +133,11 @@ class _Block:
     def full(self) -> bool:
         return self.n == len(self.t)
 
+    def fits(self, steps: int, truth, phase, probes: dict) -> bool:
+        """Whether this block, emptied, is the one :meth:`like` would make for that step."""
+        return (len(self.t) == steps and list(self.probes) == list(probes)
+                and self._shapes == [np.shape(v) for v in (truth, phase, *probes.values())])
+
     def put(self, t: float, truth, phase, probes: dict) -> None:
         """Copy one step into the next row."""
         i = self.n
@@ -117,12 +161,19 @@ def _join(parts: list[np.ndarray]) -> np.ndarray:
     return parts[0].copy() if len(parts) == 1 else np.concatenate(parts)
 
 
+def _view(parts: list[np.ndarray]) -> np.ndarray:
+    """The blocks' filled rows as one array, the block's own rows when there is one block (no copy)."""
+    return parts[0] if len(parts) == 1 else np.concatenate(parts)
+
+
 class Recorder:
     """Collects one row per step; ``probes`` maps each recorded UAV quantity to its shape per UAV.
 
     A step is copied into preallocated blocks of :data:`BLOCK_STEPS` steps (:class:`_Block`), joined once per chunk,
     rather than kept as a list of small arrays stacked at the end: the same arrays, without the per-step
-    allocations."""
+    allocations. A recording on disk writes each chunk (and the input log's steps) in a writer thread while the
+    next chunk's steps are run, from the blocks themselves: two sets of blocks take turns, one filled while the
+    other is written, so memory holds two chunks at most and the writes come in the order of the steps."""
 
     def __init__(self, meta: dict, n_objects: int, n_uavs: int, probes: dict[str, tuple[int, ...]],
                  path: Path | None = None, inputs: bool = False, max_chunk_steps: int | None = None):
@@ -135,19 +186,26 @@ class Recorder:
         self.path = None if path is None else Path(path)
         self._blocks: list[_Block] = []  # the steps of the chunk being filled
         self._pending = 0  # steps in those blocks
+        self._writing: list[_Block] = []  # the blocks of the chunk being written to disk
+        self._spare: list[_Block] = []  # the blocks of a chunk written to disk, to fill again
+        self._layout: _Layout | None = None
+        self._pool = None  # the writer thread (a recording on disk)
+        self._futures: list = []  # the writes submitted to it and not yet waited for
         self._mem: list[Chunk] = []
         self._writers = None
         self._steps = 0
         self._t_last = 0.0
         #: The onboard stack's inputs (:mod:`swarmtrack.sim.inputs`), kept when ``inputs`` (a run to replay).
-        self.inputs = InputLog(self.path) if inputs else None
+        self.inputs = InputLog(self.path, None if self.path is None else self._submit) if inputs else None
 
     def record(self, t: float, truth: np.ndarray, phase: np.ndarray, probes: dict[str, np.ndarray]) -> None:
         """Append one step (arrays are copied)."""
         block = self._blocks[-1] if self._blocks else None
         if block is None or block.full:
-            block = _Block.like(min(BLOCK_STEPS, self.chunk_steps - self._pending), truth, phase,
-                                {k: probes[k] for k in self.probes})
+            steps, probes_now = min(BLOCK_STEPS, self.chunk_steps - self._pending), {k: probes[k] for k in self.probes}
+            block = self._spare.pop() if self._spare else None  # a block of a chunk already on disk
+            if block is None or not block.fits(steps, truth, phase, probes_now):
+                block = _Block.like(steps, truth, phase, probes_now)
             self._blocks.append(block)
         block.put(t, truth, phase, probes)
         self._pending += 1
@@ -163,37 +221,67 @@ class Recorder:
         if not self._pending:
             return
         blocks = self._blocks
-        chunk = Chunk(self._steps, _join([b.t[:b.n] for b in blocks]), _join([b.truth[:b.n] for b in blocks]),
-                      _join([b.phase[:b.n] for b in blocks]),
-                      {k: _join([b.probes[k][:b.n] for b in blocks]) for k in self.probes})
+        # a chunk kept in memory owns its arrays; one written to disk may be the blocks themselves, filled again after
+        join = _join if self.path is None else _view
+        chunk = Chunk(self._steps, join([b.t[:b.n] for b in blocks]), join([b.truth[:b.n] for b in blocks]),
+                      join([b.phase[:b.n] for b in blocks]),
+                      {k: join([b.probes[k][:b.n] for b in blocks]) for k in self.probes})
         self._steps += self._pending
         self._t_last = float(chunk.t[-1])
         self._blocks, self._pending = [], 0
         if self.path is None:
             self._mem.append(chunk)
         else:
+            self._wait()  # the chunk before is on disk (at most one chunk is being written): its blocks are free
+            for b in self._writing:
+                b.n = 0
+            self._spare, self._writing = self._writing, blocks
             self._write(chunk)
         if self.inputs is not None:
             self.inputs.flush()
 
+    def _submit(self, fn, *args) -> None:
+        """Run ``fn(*args)`` (a write to disk) in the writer thread, after the writes submitted before it: the
+        Parquet encoding and the file writes (they release the GIL) go on while the next chunk's steps are run."""
+        if self._pool is None:
+            from concurrent.futures import ThreadPoolExecutor
+
+            self._pool = ThreadPoolExecutor(1, thread_name_prefix="swarmtrack-recorder")
+        self._futures.append(self._pool.submit(fn, *args))
+
+    def _wait(self) -> None:
+        """Wait until the writes submitted are done; the first that failed raises its exception here."""
+        futures, self._futures = self._futures, []
+        for f in futures:
+            f.result()
+
     def _write(self, c: Chunk) -> None:
         import pyarrow.parquet as pq
 
-        tables = _tables(self.meta, c)
+        if self._layout is None:
+            self._layout = _Layout(self.meta)
+        tables = self._layout.tables(c)
         if self._writers is None:
             self.path.mkdir(parents=True, exist_ok=True)
-            # float columns are noise-like: no dictionary encoding, statistics only where a reader filters
+            # the float columns plain, compressed where they shrink; statistics only where a reader filters
             self._writers = {name: pq.ParquetWriter(self.path / f"{name}.parquet", table.schema,
-                                                    use_dictionary=["step", "group", "member", "uav", "phase_index",
-                                                                    "phase"],
-                                                    write_statistics=["step"])
+                                                    **writer_options(table, _CODED))
                              for name, table in tables.items()}
+        self._submit(self._write_tables, tables)
+
+    def _write_tables(self, tables: dict) -> None:
         for name, table in tables.items():
             self._writers[name].write_table(table, row_group_size=len(table))
 
     def close(self) -> Recording:
         """Finish the recording (files closed, ``meta.json`` written last) and return it."""
         self._flush()
+        if self.inputs is not None:
+            self.inputs.flush()
+        self._wait()
+        if self._pool is not None:
+            self._pool.shutdown()
+            self._pool = None
         meta = {**self.meta, "n_steps": self._steps, "chunk_steps": self.chunk_steps, "t_last": self._t_last}
         if self.inputs is not None and self.inputs.meta is not None:
             meta["inputs"] = self.inputs.close()
@@ -257,25 +345,36 @@ class Recording:
         if self._chunks is not None:
             yield from self._chunks
             return
+        if not self.meta["n_steps"]:
+            return
+        from concurrent.futures import ThreadPoolExecutor
+
         import pyarrow.parquet as pq
 
+        # read, not memory-mapped: the pages of a mapped file stay resident, and a long run's files are gigabytes
+        objects, uavs = (pq.ParquetFile(self.path / f"{name}.parquet") for name in ("objects", "uavs"))
+        m = self.meta["n_objects"]
+        k0 = np.cumsum([0] + [objects.metadata.row_group(g).num_rows // m for g in range(objects.num_row_groups)])
+        wanted = list(self.meta["probes"]) if probes_wanted else []
+        # the next chunk is read (pyarrow releases the GIL) while the caller works on this one
+        with ThreadPoolExecutor(1, thread_name_prefix="swarmtrack-reader") as pool:
+            ahead = pool.submit(self._read, objects, uavs, wanted, 0, int(k0[0]))
+            for g in range(objects.num_row_groups):
+                chunk = ahead.result()
+                if g + 1 < objects.num_row_groups:
+                    ahead = pool.submit(self._read, objects, uavs, wanted, g + 1, int(k0[g + 1]))
+                yield chunk
+
+    def _read(self, objects, uavs, wanted: list[str], g: int, k0: int) -> Chunk:
+        """Row group ``g`` as a chunk of steps from ``k0``: the columns it holds, no others."""
         m, n = self.meta["n_objects"], self.meta["n_uavs"]
-        objects = pq.ParquetFile(self.path / "objects.parquet") if self.meta["n_steps"] else None
-        uavs = pq.ParquetFile(self.path / "uavs.parquet") if self.meta["n_steps"] else None
-        k0 = 0
-        for g in range(objects.num_row_groups if objects else 0):
-            o = objects.read_row_group(g)
-            k = o.num_rows // m
-            truth = np.stack([o.column(c).to_numpy() for c in ("x", "y", "vx", "vy")], axis=-1).reshape(k, m, 4)
-            probes = {}
-            u = uavs.read_row_group(g) if probes_wanted else None
-            for name, shape in self.meta["probes"].items() if probes_wanted else ():
-                col = u.column(name).combine_chunks()
-                flat = col.to_numpy() if not shape else col.flatten().to_numpy()
-                probes[name] = flat.reshape(k, n, *shape)
-            yield Chunk(k0, o.column("t").to_numpy()[::m].copy(), truth,
-                        o.column("phase_index").to_numpy().reshape(k, m), probes)
-            k0 += k
+        o = objects.read_row_group(g, columns=["t", "x", "y", "vx", "vy", "phase_index"])
+        k = o.num_rows // m
+        truth = np.stack([numpy_of(o.column(c)) for c in ("x", "y", "vx", "vy")], axis=-1).reshape(k, m, 4)
+        u = uavs.read_row_group(g, columns=wanted) if wanted else None
+        probes = {name: numpy_of(u.column(name)).reshape(k, n, *self.meta["probes"][name]) for name in wanted}
+        return Chunk(k0, numpy_of(o.column("t"))[::m].copy(), truth, numpy_of(o.column("phase_index")).reshape(k, m),
+                     probes)
 
     def inputs(self) -> Iterator[tuple[int, float, np.ndarray, Detections]]:
         """The onboard stack's inputs step by step, ``(k, t, navigation (N, d), detections)``, as they were handed
@@ -297,7 +396,8 @@ class Recording:
             import pyarrow.parquet as pq
 
             return pq.read_table(self.path / f"{table}.parquet").to_pandas()
-        return pa.concat_tables([_tables(self.meta, c)[table] for c in self.chunks()]).to_pandas()
+        layout = _Layout(self.meta)
+        return pa.concat_tables([layout.tables(c)[table] for c in self.chunks()]).to_pandas()
 
     def write_csv(self, folder: Path) -> list[Path]:
         """Both tables as CSV (``objects.csv``, ``uavs.csv``), list probes spread over columns ``name_1`` …"""

@@ -20,6 +20,8 @@ Warnings (:class:`Health`, over every step, not only the chase window):
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from swarmtrack.analysis.health import NETWORK, chi2_mean_band, spans
@@ -51,14 +53,45 @@ def follows(rec: Recording) -> bool:
     return rec.tracked is not None and "estimate" in rec.meta["probes"]
 
 
-def _errors(rec: Recording, c: Chunk) -> np.ndarray:
+def _shared(shared: dict | None, key: str, compute):
+    """``compute()``, kept in ``shared`` (the scan's dict for the chunk, None: not kept) so that the accumulators
+    that need it compute it once per chunk."""
+    if shared is None:
+        return compute()
+    if key not in shared:
+        shared[key] = compute()
+    return shared[key]
+
+
+def _errors(rec: Recording, c: Chunk, shared: dict | None = None) -> np.ndarray:
     """(k, N, 4) estimate minus truth of the tracked target's [x, y, vx, vy]."""
-    return c.probes["estimate"][..., :4] - c.truth[:, rec.tracked, None, :]
+    return _shared(shared, "gaussian.errors", lambda: c.probes["estimate"][..., :4] - c.truth[:, rec.tracked, None, :])
 
 
-def chase_errors(rec: Recording, c: Chunk, keep: np.ndarray) -> np.ndarray:
+def _nees(rec: Recording, c: Chunk, shared: dict | None = None) -> np.ndarray:
+    """(k, N) NEES of [x, y, vx, vy] of every step and UAV (:func:`nees_per_uav`)."""
+    return _shared(shared, "gaussian.nees",
+                   lambda: nees_per_uav(_errors(rec, c, shared), c.probes["covariance"][..., :4, :4]))
+
+
+def _position_sq(rec: Recording, c: Chunk, shared: dict | None = None) -> np.ndarray:
+    """(k, N) squared distance of each UAV's estimated target position from the truth, ``ex² + ey²`` (the square
+    of ``np.linalg.norm(err[..., :2], axis=-1)``, bit for bit)."""
+    def compute():
+        e = _errors(rec, c, shared)
+        return e[..., 0] ** 2 + e[..., 1] ** 2
+
+    return _shared(shared, "gaussian.position_sq", compute)
+
+
+def _kept(x: np.ndarray, keep: np.ndarray) -> np.ndarray:
+    """The rows ``keep`` of ``x`` (``x`` itself, not a copy, when all are kept)."""
+    return x if keep.all() else x[keep]
+
+
+def chase_errors(rec: Recording, c: Chunk, keep: np.ndarray, shared: dict | None = None) -> np.ndarray:
     """(k', N, 4) the errors of the steps of ``c`` in the chase window ``keep``."""
-    return _errors(rec, c)[keep]
+    return _kept(_errors(rec, c, shared), keep)
 
 
 class _Rmse:
@@ -70,13 +103,12 @@ class _Rmse:
         self.sq = np.zeros((len(self.names) + 1, rec.n_agents, 4))
         self.count = np.zeros(len(self.names) + 1)
 
-    def add(self, c: Chunk, keep: np.ndarray, err=None) -> None:
-        err = chase_errors(self.rec, c, keep)
-        e2 = err ** 2
+    def add(self, c: Chunk, keep: np.ndarray, shared=None) -> None:
+        e2 = chase_errors(self.rec, c, keep, shared) ** 2
         phase = self.group[c.phase[keep, self.rec.tracked]]
         for p in np.unique(phase):
             sel = phase == p
-            self.sq[p] += e2[sel].sum(axis=0)
+            self.sq[p] += _kept(e2, sel).sum(axis=0)
             self.count[p] += sel.sum()
         self.sq[-1] += e2.sum(axis=0)
         self.count[-1] += len(e2)
@@ -104,9 +136,8 @@ class _Spread:
     def __init__(self, rec: Recording):
         self.rec, self.mom = rec, Moments()
 
-    def add(self, c: Chunk, keep: np.ndarray, err=None) -> None:
-        err = chase_errors(self.rec, c, keep)
-        self.mom.add(err)
+    def add(self, c: Chunk, keep: np.ndarray, shared=None) -> None:
+        self.mom.add(chase_errors(self.rec, c, keep, shared))
 
     def result(self) -> dict[str, float]:
         return dict(zip(COMPONENTS, self.mom.std.mean(axis=0).tolist(), strict=True))
@@ -118,8 +149,8 @@ class _ReportedStd:
     def __init__(self, rec: Recording):
         self.rec, self.total, self.n = rec, 0.0, 0
 
-    def add(self, c: Chunk, keep: np.ndarray, err=None) -> None:
-        cov = c.probes["covariance"][keep]
+    def add(self, c: Chunk, keep: np.ndarray, shared=None) -> None:
+        cov = _kept(c.probes["covariance"], keep)
         self.total = self.total + np.sqrt(np.diagonal(cov[..., :4, :4], axis1=-2, axis2=-1)).sum(axis=(0, 1))
         self.n += cov.shape[0] * cov.shape[1]
 
@@ -128,8 +159,75 @@ class _ReportedStd:
 
 
 def nees_per_uav(err: np.ndarray, cov: np.ndarray) -> np.ndarray:
-    """(k, N) normalised estimation error squared ``eᵀ P⁻¹ e`` of errors (k, N, d) with covariances (k, N, d, d)."""
-    return np.sum(err * np.linalg.solve(cov, err[..., None])[..., 0], axis=-1)
+    """(k, N) normalised estimation error squared ``eᵀ P⁻¹ e`` of errors (k, N, d) with covariances (k, N, d, d).
+
+    Compiled (:func:`_nees_rows`): ``np.sum(err * np.linalg.solve(cov, err[..., None])[..., 0], axis=-1)`` to
+    round-off, without LAPACK's cost per matrix (a 10,000-UAV run has millions of 4 x 4 systems); a singular
+    covariance raises ``LinAlgError`` as ``np.linalg.solve`` does, a NaN gives NaN."""
+    shape, d = err.shape[:-1], err.shape[-1]
+    e = np.ascontiguousarray(err, dtype=float).reshape(-1, d)
+    p = np.ascontiguousarray(np.broadcast_to(cov, (*shape, d, d)), dtype=float).reshape(-1, d, d)
+    out = np.empty(len(e))
+    if _nees_kernel()(e, p, out) >= 0:
+        raise np.linalg.LinAlgError("Singular matrix")
+    return out.reshape(shape)
+
+
+def _nees_mean(rec: Recording, c: Chunk, shared: dict | None = None) -> np.ndarray:
+    """(k,) NEES of every step, mean over the UAVs."""
+    return _shared(shared, "gaussian.nees_mean", lambda: _nees(rec, c, shared).mean(axis=1))
+
+
+@functools.cache
+def _nees_kernel():
+    """:func:`_nees_rows` compiled (numba, imported on first use; cached on disk like the simulator's kernels) for
+    C-contiguous arrays, the inputs read-only or not (one signature: each compilation costs seconds)."""
+    import numba
+    from numba import types
+
+    def array(ndim: int, readonly: bool = True):
+        return types.Array(types.float64, ndim, "C", readonly=readonly)
+
+    return numba.njit([types.int64(array(2), array(3), array(1, False))], cache=True, fastmath=False)(_nees_rows)
+
+
+def _nees_rows(err, cov, out):
+    """``out[i] = err[i]ᵀ cov[i]⁻¹ err[i]`` for rows ``err`` (m, d), ``cov`` (m, d, d): Gaussian elimination with
+    partial pivoting (LAPACK's choice of pivot) on a copy, then back substitution. Returns the first row whose
+    covariance is singular (a zero pivot), −1 when none is."""
+    m, d = err.shape
+    a, x = np.empty((d, d)), np.empty(d)
+    for i in range(m):
+        for r in range(d):
+            x[r] = err[i, r]
+            for col in range(d):
+                a[r, col] = cov[i, r, col]
+        for col in range(d):
+            p, big = col, abs(a[col, col])
+            for r in range(col + 1, d):
+                if abs(a[r, col]) > big:
+                    p, big = r, abs(a[r, col])
+            if a[p, col] == 0.0:
+                return i
+            if p != col:
+                for k in range(d):
+                    a[p, k], a[col, k] = a[col, k], a[p, k]
+                x[p], x[col] = x[col], x[p]
+            for r in range(col + 1, d):
+                f = a[r, col] / a[col, col]
+                for k in range(col + 1, d):
+                    a[r, k] -= f * a[col, k]
+                x[r] -= f * x[col]
+        q = 0.0
+        for r in range(d - 1, -1, -1):
+            v = x[r]
+            for k in range(r + 1, d):
+                v -= a[r, k] * x[k]
+            x[r] = v / a[r, r]
+        for r in range(d):
+            q += err[i, r] * x[r]
+        out[i] = q
+    return -1
 
 
 class _Consistency:
@@ -145,19 +243,19 @@ class _Consistency:
         self.full, self.comp, self.count = np.zeros(k), np.zeros((k, 4)), np.zeros(k)
         self.nis, self.nis_count = np.zeros(k), np.zeros(k)
 
-    def add(self, c: Chunk, keep: np.ndarray, err=None) -> None:
-        err = chase_errors(self.rec, c, keep)
-        cov = c.probes["covariance"][keep][..., :4, :4]
-        full = nees_per_uav(err, cov)  # (k, N)
+    def add(self, c: Chunk, keep: np.ndarray, shared=None) -> None:
+        err = chase_errors(self.rec, c, keep, shared)
+        cov = _kept(c.probes["covariance"], keep)[..., :4, :4]
+        full = _kept(_nees(self.rec, c, shared), keep)  # (k, N)
         comp = err**2 / np.diagonal(cov, axis1=-2, axis2=-1)  # (k, N, 4)
         phase = self.group[c.phase[keep, self.rec.tracked]]
         for p in [*np.unique(phase), -1]:
-            sel = phase == p if p >= 0 else slice(None)
-            self.full[p] += full[sel].sum()
-            self.comp[p] += comp[sel].sum(axis=(0, 1))
-            self.count[p] += full[sel].size
+            sel = phase == p if p >= 0 else np.ones(len(phase), dtype=bool)
+            self.full[p] += _kept(full, sel).sum()
+            self.comp[p] += _kept(comp, sel).sum(axis=(0, 1))
+            self.count[p] += _kept(full, sel).size
             if "nis" in c.probes:  # each UAV's own measurement, where it had one
-                nis = c.probes["nis"][keep][sel]
+                nis = _kept(_kept(c.probes["nis"], keep), sel)
                 self.nis[p] += np.nansum(nis)
                 self.nis_count[p] += np.isfinite(nis).sum()
 
@@ -187,8 +285,8 @@ class _MeanError:
         self.rec = rec
         self.total, self.n, self.occluded, self.n_occluded, self.steps_occluded = 0.0, 0, 0.0, 0, 0
 
-    def add(self, c: Chunk, keep: np.ndarray, err=None) -> None:
-        err = chase_errors(self.rec, c, keep)
+    def add(self, c: Chunk, keep: np.ndarray, shared=None) -> None:
+        err = chase_errors(self.rec, c, keep, shared)
         dist = np.hypot(err[..., 0], err[..., 1])  # (k, N)
         self.total += float(dist.sum())
         self.n += dist.size
@@ -213,15 +311,11 @@ class Health:
         self.rec = rec
         self.t, self.nees, self.error, self.detected = [], [], [], []
 
-    def add(self, c, keep=None, err=None) -> None:
+    def add(self, c, keep=None, shared=None) -> None:
         """Every step of chunk ``c`` (the warnings look at the whole run, not the chase window)."""
-        err = c.probes["estimate"][..., :4] - c.truth[:, self.rec.tracked, None, :4]
-        cov = c.probes["covariance"][..., :4, :4]
-        with np.errstate(all="ignore"):
-            sol = np.linalg.solve(cov, err[..., None])[..., 0]
         self.t.append(c.t)
-        self.nees.append(np.sum(err * sol, axis=-1).mean(axis=1))
-        self.error.append(np.median(np.linalg.norm(err[..., :2], axis=-1), axis=1))
+        self.nees.append(_nees_mean(self.rec, c, shared))
+        self.error.append(np.median(np.sqrt(_position_sq(self.rec, c, shared)), axis=1))
         if "detected" in c.probes:
             self.detected.append(c.probes["detected"] > 0.5)
 
@@ -291,15 +385,16 @@ class GaussianSeries:
     ``[x, y, vx, vy]``, mean over the UAVs per step."""
 
     quantities = ("position_error", "nees")
+    shares = True  # values(chunk, shared): the errors and NEES computed once per chunk with the accumulators
     labels = {"position_error": "position error, RMS over UAVs [m]", "nees": "NEES [x, y, vx, vy], mean over UAVs"}
 
     def __init__(self, rec: Recording):
         self.rec = rec
 
-    def values(self, c: Chunk) -> dict:
-        e = _errors(self.rec, c)  # every step, not only the chase window
-        return {"position_error": (c.t, np.sqrt(np.mean(e[..., 0] ** 2 + e[..., 1] ** 2, axis=1))),
-                "nees": (c.t, nees_per_uav(e, c.probes["covariance"][..., :4, :4]).mean(axis=1))}
+    def values(self, c: Chunk, shared: dict | None = None) -> dict:
+        # every step, not only the chase window
+        return {"position_error": (c.t, np.sqrt(np.mean(_position_sq(self.rec, c, shared), axis=1))),
+                "nees": (c.t, _nees_mean(self.rec, c, shared))}
 
 
 #: The sections a Gaussian estimator's runs get (and the network's, when they gate or fuse late data).

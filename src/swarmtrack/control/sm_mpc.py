@@ -122,24 +122,31 @@ def evolve(region, rem: Removals, s: SMMPCSettings, area, *, use_own: bool = Tru
     the neighbours in ``nb_masks[κ]`` (L,) at each step, which eq. 48 must then keep for all candidates or none.
     ``box``: X0 is a rectangle, clipped to with GEOS's rectangle clipping (same set, faster). ``window``: also clip
     every round to this box (the local window: what a dilation pushes out of it is dropped, which only widens the
-    band along its edge where the local sets are inexact by the ρ the proof allows per round)."""
+    band along its edge where the local sets are inexact by the ρ the proof allows per round). The empty set (a UAV
+    whose window holds nothing) gives empty sets without a GEOS call (:func:`_evolve_empty`)."""
+    region = pg.EMPTY if region is None else region
+    rect = None if s.baseline else _rect(area, box, window)
+    if region.is_empty:
+        return _evolve_empty(s, len(s.inputs) if use_own else 1, box, rect)
+    return _rounds(region, rem, s, area, use_own, nb_masks, own_last, box, rect)
+
+
+def _rounds(region, rem: Removals, s: SMMPCSettings, area, use_own: bool, nb_masks, own_last: bool, box: bool,
+            rect) -> np.ndarray:
+    """:func:`evolve`'s rounds, with ``rect`` the rectangle of every round's clip (:func:`_rect`)."""
     branch = len(s.inputs) if use_own else 1
-    a = np.array([region if region is not None else pg.EMPTY], dtype=object)
+    a = np.array([region], dtype=object)
+    reach = s.target_speed * s.period
     for k in range(s.horizon):
         if not s.baseline:
-            a = pg.dilate(a, s.target_speed * s.period, quad_segs=s.quad_segs, cap=math.inf)
+            a = pg.dilate(a, reach, quad_segs=s.quad_segs, cap=math.inf)
             if not box:
                 a = pg.clip(a, area)
-            if box or window is not None:
-                bounds = np.array(area.bounds if box else window)
-                if box and window is not None:
-                    bounds = np.concatenate([np.maximum(bounds[:2], window[:2]), np.minimum(bounds[2:], window[2:])])
+            if rect is not None:
                 pg.OPS["clip"] += len(a)
-                if bounds[2] > bounds[0] and bounds[3] > bounds[1]:
-                    a = shapely.clip_by_rect(a, *bounds)
-                else:  # the window lies off X0
-                    a = pg.empty(len(a))
-        a = np.repeat(a, branch)
+                a = shapely.clip_by_rect(a, *rect) if rect else pg.empty(len(a))  # () : the window lies off X0
+        if branch > 1:
+            a = np.repeat(a, branch)
         kept = rem.kept[k] if use_own else rem.kept[k][:1]
         if nb_masks is not None:
             kept = kept & nb_masks[k][None, :]
@@ -148,6 +155,29 @@ def evolve(region, rem: Removals, s: SMMPCSettings, area, *, use_own: bool = Tru
         if use_own and (own_last or k < s.horizon - 1):  # eq. 46 (a footprint that misses leaves the set as it is)
             a = pg.remove(a, rem.own[k])
     return a
+
+
+def _evolve_empty(s: SMMPCSettings, branch: int, box: bool, rect) -> np.ndarray:
+    """:func:`evolve` of the empty set: empty sets, with the operations :func:`_rounds` counts for it (every
+    dilation and clip of each node; no removal, as no footprint meets an empty set, so no union of footprints)."""
+    n = 1
+    for _ in range(s.horizon):
+        if not s.baseline:
+            pg.OPS["buffer"] += n
+            pg.OPS["clip"] += n * (int(not box) + int(rect is not None))
+        n *= branch
+    return pg.empty(n)
+
+
+def _rect(area, box: bool, window) -> tuple[float, ...] | None:
+    """The rectangle :func:`evolve` clips every round to: X0's bounds (``box``), the ``window``, or both's
+    intersection; None for none, ``()`` where the window lies off X0."""
+    if not box and window is None:
+        return None
+    bounds = np.array(area.bounds if box else window)
+    if box and window is not None:
+        bounds = np.concatenate([np.maximum(bounds[:2], window[:2]), np.minimum(bounds[2:], window[2:])])
+    return tuple(bounds.tolist()) if bounds[2] > bounds[0] and bounds[3] > bounds[1] else ()
 
 
 def _remove_neighbours(a: np.ndarray, kept: np.ndarray, branch: int, rem: Removals, k: int) -> np.ndarray:
@@ -175,29 +205,36 @@ def _minus_areas(sets: np.ndarray, corners: np.ndarray) -> np.ndarray:
     """``φ(A_c ∩ F_c)`` for sets (C,) and rectangles F_c given by their corners (C, 4, 2) (as
     :func:`footprint_corners` orders them), without an overlay: each set is mapped, by the affine map that takes
     F_c to the unit square [−1, 1]², into that square's frame, clipped there by GEOS's rectangle clipping (a few µs,
-    against ≈ 20 µs for a general overlay) and its area scaled back. Then ``φ(A \\ F) = φ(A) − φ(A ∩ F)``."""
+    against ≈ 20 µs for a general overlay) and its area scaled back. Then ``φ(A \\ F) = φ(A) − φ(A ∩ F)``. An
+    empty set's is 0 without a GEOS call (most candidates', when the window holds nothing)."""
     centre = corners.mean(axis=1)
     along, across = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 1]
     la, lc = np.linalg.norm(along, axis=1), np.linalg.norm(across, axis=1)
     ua, uc = along / la[:, None], across / lc[:, None]
-    counts = shapely.get_num_coordinates(sets)
-    cx, cy = np.repeat(centre[:, 0], counts), np.repeat(centre[:, 1], counts)
-    ax, ay = np.repeat(ua[:, 0] * 2 / la, counts), np.repeat(ua[:, 1] * 2 / la, counts)
-    bx, by = np.repeat(uc[:, 0] * 2 / lc, counts), np.repeat(uc[:, 1] * 2 / lc, counts)
-
-    def to_unit(xy: np.ndarray) -> np.ndarray:
-        dx, dy = xy[:, 0] - cx, xy[:, 1] - cy
-        return np.column_stack([dx * ax + dy * ay, dx * bx + dy * by])
-
     pg.OPS["clip"] += len(sets)
-    unit = shapely.clip_by_rect(shapely.transform(sets, to_unit), -1.0, -1.0, 1.0, 1.0)
-    return shapely.area(unit) * la * lc / 4
+    out = np.zeros(len(sets))  # an empty set's: 0 (its clip is empty)
+    live = ~shapely.is_empty(sets)
+    if live.any():
+        sets, la, lc = sets[live], la[live], lc[live]
+        # per vertex: the centre and the map's two rows of its set's rectangle (one repeat for all six numbers)
+        maps = np.repeat(np.column_stack([centre[live], ua[live] * 2 / la[:, None], uc[live] * 2 / lc[:, None]]),
+                         shapely.get_num_coordinates(sets), axis=0)
+        xy = shapely.get_coordinates(sets)
+        dx, dy = xy[:, 0] - maps[:, 0], xy[:, 1] - maps[:, 1]
+        unit = np.column_stack([dx * maps[:, 2] + dy * maps[:, 3], dx * maps[:, 4] + dy * maps[:, 5]])
+        unit = shapely.clip_by_rect(shapely.set_coordinates(sets.copy(), unit), -1.0, -1.0, 1.0, 1.0)
+        out[live] = shapely.area(unit) * la * lc / 4
+    return out
 
 
 def set_distance(sets, xy, kind: str = "nearest") -> np.ndarray:
-    """d of eq. 47 from points ``xy`` (n, 2) to ``sets`` (n,): nearest (inf) or Hausdorff (sup, the farthest
-    vertex); NaN for an empty set."""
-    pts = shapely.points(np.asarray(xy, dtype=float).reshape(-1, 2))
+    """d of eq. 47 from points ``xy`` (n, 2) to ``sets`` (n,), or to one set from every point: nearest (inf) or
+    Hausdorff (sup, the farthest vertex); NaN for an empty set."""
+    return _point_distance(shapely.points(np.asarray(xy, dtype=float).reshape(-1, 2)), sets, kind)
+
+
+def _point_distance(pts, sets, kind: str = "nearest") -> np.ndarray:
+    """:func:`set_distance` from points already made (a set may be one geometry for all of them)."""
     if kind == "nearest":
         return shapely.distance(pts, sets)
     return shapely.hausdorff_distance(pts, sets)  # from a point: the farthest vertex, sup over the polygon
@@ -300,7 +337,10 @@ def _distances(region, rem: Removals, s: SMMPCSettings, area, before, cut, rows,
         sets[hit] = pg.remove(sets[hit], rem.own[-1][rows[hit]])
     xy = rem.xy[-1][rows]
     pg.OPS["clip"] += len(sets)
-    near = set_distance(shapely.clip_by_rect(sets, *exact_box), xy, s.distance)
+    near = np.full(len(sets), np.nan)  # from an empty set: NaN
+    live = ~shapely.is_empty(sets)
+    if live.any():
+        near[live] = set_distance(shapely.clip_by_rect(sets[live], *exact_box), xy[live], s.distance)
     certified = near <= _box_gap(xy, exact_box)  # NaN (nothing inside) is not certified
     if s.distance == "nearest" and certified.all():
         return near
@@ -316,7 +356,7 @@ def _distances(region, rem: Removals, s: SMMPCSettings, area, before, cut, rows,
         outside = cache[key]
         pg.OPS["difference"] += 1
         far["set"] = shapely.difference(outside, shapely.box(*exact_box))
-    outer = set_distance(np.full(len(xy), far["set"], dtype=object), xy, s.distance)
+    outer = set_distance(far["set"], xy, s.distance)
     both = np.fmin(near, outer) if s.distance == "nearest" else np.fmax(near, outer)
     return np.nan_to_num(both, nan=0.0)
 
@@ -344,20 +384,22 @@ def _far_nearest(region, rem: Removals, s: SMMPCSettings, area, xy, exact_box, s
     parts = far["parts"]
     pts = shapely.points(xy)
     bound = shapely.distance(parts[:, None], pts[None, :]) - h * rho - 1e-9  # (P, n)
+    lowest = bound.min(axis=1).tolist()
     best = np.full(len(xy), np.inf)
-    exact = shapely.box(*exact_box)
-    for p in np.argsort(bound.min(axis=1), kind="stable"):
-        if bound[p].min() >= best.max():
+    worst = math.inf  # best.max()
+    for p in np.argsort(lowest, kind="stable").tolist():
+        if lowest[p] >= worst:
             break  # this part and every later one are no nearer
         if (bound[p] >= best).all():
             continue
-        key = (id(region), int(p), box)
+        key = (id(region), p, box)
         if key not in far["cache"]:
             far["cache"][key] = (region, evolve(parts[p], rem, s, area, use_own=False, nb_masks=steady, box=box)[0])
         if p not in far["rounds"]:
             pg.OPS["difference"] += 1
-            far["rounds"][p] = shapely.difference(far["cache"][key][1], exact)
-        best = np.fmin(best, set_distance(np.full(len(xy), far["rounds"][p], dtype=object), xy, s.distance))
+            far["rounds"][p] = shapely.difference(far["cache"][key][1], shapely.box(*exact_box))
+        best = np.fmin(best, _point_distance(pts, far["rounds"][p], s.distance))
+        worst = best.max()
     return np.where(np.isinf(best), np.nan, best)
 
 

@@ -75,7 +75,10 @@ def dilate(sets: np.ndarray, r: float, *, quad_segs: int = QUAD_SEGS, eps: float
     """``A ⊕ D(r)`` of every set, as an outer approximation: sets above ``cap`` vertices are simplified with
     tolerance ``eps`` first and the buffer grows by ``eps`` (IB21 eqs. 13-15 with the reachable displacement r)."""
     sets = np.asarray(sets, dtype=object)
-    big = shapely.get_num_coordinates(sets) > cap
+    big = shapely.get_num_coordinates(sets) > cap if cap < math.inf else None
+    if big is None or not big.any():  # nothing to simplify: every set grows by r (the same numbers as below)
+        OPS["buffer"] += len(sets)
+        return shapely.buffer(sets, circumscribed(r, quad_segs), quad_segs=quad_segs)
     grow = np.where(big, r + eps, r)
     if big.any():
         OPS["simplify"] += int(big.sum())
@@ -185,16 +188,28 @@ def remove(sets, regions):
     boxes apart, or then the ``intersects`` predicate false) ``A \\ F = A`` exactly and A itself, the same object, is
     returned: no overlay, and equal sets stay one object (fusion and prediction compare sets by identity)."""
     if isinstance(sets, shapely.Geometry):
-        return remove(np.array([sets], dtype=object), np.array([regions], dtype=object))[0]
+        return _remove_one(sets, regions)
     sets = np.asarray(sets, dtype=object)
     out = sets.copy()
     meet = _boxes_meet(sets, regions)
     if meet.any():
-        meet[meet] = shapely.intersects(sets[meet], np.broadcast_to(regions, sets.shape)[meet])
-    if meet.any():
-        OPS["difference"] += int(meet.sum())
-        out[meet] = shapely.difference(sets[meet], np.broadcast_to(regions, sets.shape)[meet])
+        regions = np.broadcast_to(regions, sets.shape)
+        meet[meet] = shapely.intersects(sets[meet], regions[meet])
+        if meet.any():
+            OPS["difference"] += int(meet.sum())
+            out[meet] = shapely.difference(sets[meet], regions[meet])
     return out
+
+
+def _remove_one(a, f):
+    """:func:`remove` of one set: the same tests and overlay, without the arrays."""
+    if a.is_empty or f.is_empty:  # NaN bounds: no box meets them
+        return a
+    (ax0, ay0, ax1, ay1), (fx0, fy0, fx1, fy1) = shapely.bounds(np.array([a, f], dtype=object)).tolist()
+    if not (ax0 <= fx1 and fx0 <= ax1 and ay0 <= fy1 and fy0 <= ay1) or not shapely.intersects(a, f):
+        return a
+    OPS["difference"] += 1
+    return shapely.difference(a, f)
 
 
 def _boxes_meet(a, b) -> np.ndarray:
@@ -222,11 +237,36 @@ def within(small, *big, loose: dict | None = None):
     ``loose`` (a dict kept by the caller, e.g. over one fusion round): the big sets are loosened whole, once, and
     cut afterwards to the part's box grown by ``4·LOOSEN`` (so no edge of the cut lies on the part's own extreme
     edges); ``part ∩ cut(loosen(B))`` is ``part ∩ loosen(B)``, the same outer approximation. A part that the
-    loosened union covers (a robust predicate, much cheaper than the overlay) is its own result: exact."""
+    loosened union covers (a robust predicate, much cheaper than the overlay) is its own result: exact. The result
+    is kept in ``loose`` too, by the objects: another group of the round that meets the same sets with the same
+    holders (the same first holder of a chain, :func:`setmembership._held_by_all`) reuses it, as a copy where the
+    computation would have made a new object (so which sets are one object, which the estimator and the MPC
+    compare, is as without the cache)."""
     if small.is_empty:
         return small
     if any(g is small for g in big):  # small ∩ (small ∪ …) = small, exactly
         return small
+    if loose is None:
+        return _within(small, big, None)
+    origin = loose.get(("copy", id(small)), (small, small))[1]  # the set small is a copy of (or itself)
+    key = ("within", id(origin), *(id(g) for g in big))
+    hit = loose.get(key)
+    if hit is None:  # the entry holds its operands: their ids stay theirs for the round
+        out = _within(small, big, loose)
+        hit = loose[key] = (origin, big, out, out is small)
+        return out
+    out = hit[2]
+    if hit[3]:  # small itself
+        return small
+    if out is EMPTY:
+        return out
+    copy = shapely.force_2d(out)  # a new object of the same value (as the computation would make), known as a copy
+    loose[("copy", id(copy))] = (copy, loose.get(("copy", id(out)), (out, out))[1])
+    return copy
+
+
+def _within(small, big: tuple, loose: dict | None):
+    """:func:`within` of a non-empty ``small`` that is none of ``big``."""
     big = np.array(list({id(g): g for g in big if not g.is_empty}.values()), dtype=object)
     if loose is not None and len(big):
         big = np.array([within_loosened(g, loose) for g in big], dtype=object)

@@ -366,26 +366,54 @@ def _check_lost(b: Beliefs, i: int) -> None:
         b.alarms["all_empty"][i] += 1
 
 
-def aggregated(b: Beliefs) -> np.ndarray:
+def aggregated(b: Beliefs, cache: dict | None = None) -> np.ndarray:
     """IB21 eq. 43: ``X^A_i = (∪_j X_{i,j}) ∪ Xᵁ_i ∪ X̄_i`` (N,), one union per distinct row of sets (UAVs that
-    fused the same inputs hold the same objects)."""
+    fused the same inputs hold the same objects).
+
+    ``cache`` (a dict the caller keeps between calls): the unions of the last call by their rows' objects; a row
+    still holding the very objects (a UAV that no update touched since, e.g. at an identification frame of
+    another) gets the same union object back without an overlay. The dict is left holding this call's rows."""
     keys = [_ids(b.unidentified), *(_ids(b.identified[:, j]) for j in range(b.n_ids))]
     first, inverse = pg.distinct(b.unexplored, *keys)
     out = np.empty(len(first), dtype=object)
+    kept: dict = {}
     for r, i in enumerate(first):
-        out[r] = pg.union_all([*b.identified[i], b.unidentified[i], b.unexplored[i]])
+        row = (*b.identified[i], b.unidentified[i], b.unexplored[i])
+        out[r] = _union_of_row(row, cache, kept)
+    if cache is not None:
+        cache.clear()
+        cache.update(kept)
     return out[inverse]
+
+
+def _union_of_row(row: tuple, cache: dict | None, kept: dict):
+    """``∪ row``, from ``cache`` when the same objects were unioned before (each entry holds its objects, so their
+    ids stay theirs); recorded in ``kept``."""
+    key = tuple(id(s) for s in row)
+    hit = None if cache is None else cache.get(key)
+    if hit is None:
+        hit = kept.get(key)
+    if hit is None:
+        hit = (row, pg.union_all(list(row)))
+    kept[key] = hit
+    return hit[1]
 
 
 def _ids(sets: np.ndarray) -> np.ndarray:
     return np.array([id(s) for s in sets], dtype=np.int64)
 
 
-def uncertainty(b: Beliefs, region: np.ndarray | None = None) -> dict[str, np.ndarray]:
+def uncertainty(b: Beliefs, region: np.ndarray | None = None, cache: dict | None = None) -> dict[str, np.ndarray]:
     """IB21 eq. 10 and its parts, (N,) each: ``phi`` = φ(X^A), ``unexplored`` = φ(X̄), ``unidentified`` = φ(Xᵁ),
     ``identified`` = φ(∪_j X_j) (m²; overlaps count once, so the parts need not add up to ``phi``). ``region``: X^A
-    if already computed (:func:`aggregated`)."""
-    ids = np.array([pg.union_all(row) for row in b.identified], dtype=object)
+    if already computed (:func:`aggregated`). ``cache``: as :func:`aggregated`'s, for the unions ``∪_j X_j``."""
+    kept: dict = {}
+    ids = np.empty(len(b.identified), dtype=object)
+    for i, row in enumerate(b.identified):
+        ids[i] = _union_of_row(tuple(row), cache, kept)
+    if cache is not None:
+        cache.clear()
+        cache.update(kept)
     region = aggregated(b) if region is None else region
     return {"phi": pg.area(region), "unexplored": pg.area(b.unexplored),
             "unidentified": pg.area(b.unidentified), "identified": pg.area(ids)}
@@ -431,6 +459,7 @@ class SetMembershipEstimator:
         self.beliefs = self._start(n_uavs, n_ids, area)
         self._next_share = 0.0
         self._sharing = False
+        self._unions: tuple[dict, dict] = ({}, {})  # the last X^A and ∪_j X_j per row of objects (aggregated)
         self._phi = self._uncertainty(self._aggregated())
         self.updates = np.zeros(n_uavs, dtype=np.int64)
         self._view: TargetView | None = None  # the view of the current sets (they change only at updates)
@@ -511,10 +540,10 @@ class SetMembershipEstimator:
         return Beliefs.start(n_uavs, n_ids, area)
 
     def _aggregated(self) -> np.ndarray:
-        return aggregated(self.beliefs)
+        return aggregated(self.beliefs, self._unions[0])
 
     def _uncertainty(self, region: np.ndarray) -> dict[str, np.ndarray]:
-        return uncertainty(self.beliefs, region)
+        return uncertainty(self.beliefs, region, self._unions[1])
 
     def _refresh(self) -> None:
         region = self._aggregated()  # X^A once, for Φ and the view

@@ -32,3 +32,24 @@ def test_random_network_delays_are_fused_with_nothing_dropped():
     s = summary(rec)
     assert s["network"]["stale_per_uav"] == [0.0] * 5
     assert not [w for w in s["warnings"] if w["kind"] in ("lost_target", "stale_data")]
+
+
+def _make_run_scenario() -> str:
+    """The scenario ``make run`` runs (the README's first command), read from the Makefile."""
+    from pathlib import Path
+
+    makefile = Path(__file__).resolve().parents[2] / "Makefile"
+    recipe = makefile.read_text().split("\nrun:", 1)[1]
+    return recipe.split("swarmtrack run ", 1)[1].split()[0]
+
+
+@pytest.mark.slow  # one whole 100 s run of the default scenario
+def test_the_default_scenario_of_make_run_ends_without_a_warning_and_not_overconfident():
+    name = _make_run_scenario()
+    s = summary(simulate(load_scenario(name)))
+    assert s["warnings"] == []
+    total = s["consistency"]["total"]
+    assert total["nees"] <= total["band"][1]
+    # the same swarm with the paper's filter (late data fused as current) is the one that warns
+    assert load_scenario(name, ["estimator.delayed_data=as_current"]).model_dump(exclude={"name", "description"}) == \
+        load_scenario("l24-ct").model_dump(exclude={"name", "description"})

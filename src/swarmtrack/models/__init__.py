@@ -1,4 +1,4 @@
-"""Target motion models (CV, CA, CT, FS) and the :func:`make_model` factory."""
+"""Target motion models (CV, CA, CT, FS; CV, CA and CT in 3-D) and the :func:`make_model` factory."""
 
 from __future__ import annotations
 
@@ -12,14 +12,18 @@ from swarmtrack.models.ca import ConstantAcceleration
 from swarmtrack.models.ct import ConstantTurn
 from swarmtrack.models.cv import ConstantVelocity
 from swarmtrack.models.fs import VZ_INDEX, FullStateQuadrotor
+from swarmtrack.models.three_d import ConstantAcceleration3D, ConstantTurn3D, ConstantVelocity3D
 
-MODEL_NAMES: tuple[str, ...] = ("cv", "ca", "ct", "fs")
+MODEL_NAMES: tuple[str, ...] = ("cv", "ca", "ct", "fs", "cv3d", "ca3d", "ct3d")
 
 _CLASSES: dict[str, type[MotionModel]] = {
     "cv": ConstantVelocity,
     "ca": ConstantAcceleration,
     "ct": ConstantTurn,
     "fs": FullStateQuadrotor,
+    "cv3d": ConstantVelocity3D,
+    "ca3d": ConstantAcceleration3D,
+    "ct3d": ConstantTurn3D,
 }
 
 #: Default diagonals of the process-noise covariance Q.
@@ -32,6 +36,10 @@ DEFAULT_Q_DIAG: dict[str, tuple[float, ...]] = {
     "ct": (0.05**2,) * 4 + (0.02**2,),
     # L24 Sec. 4: Q = diag(0.05² ×5, 0.02² ×4, 0.01² ×3)
     "fs": (0.05**2,) * 5 + (0.02**2,) * 4 + (0.01**2,) * 3,
+    # 3-D (ours): the planar diagonal, then the altitude's states with the same variances as the horizontal ones
+    "cv3d": (0.05**2,) * 6,
+    "ca3d": (0.05**2,) * 4 + (0.1**2,) * 2 + (0.05**2,) * 2 + (0.1**2,),
+    "ct3d": (0.05**2,) * 4 + (0.02**2,) + (0.05**2,) * 2,
 }
 
 
@@ -89,8 +97,11 @@ __all__ = [
     "VELOCITY",
     "VZ_INDEX",
     "ConstantAcceleration",
+    "ConstantAcceleration3D",
     "ConstantTurn",
+    "ConstantTurn3D",
     "ConstantVelocity",
+    "ConstantVelocity3D",
     "FullStateQuadrotor",
     "LinearMotionModel",
     "MotionModel",

@@ -17,7 +17,7 @@ def _states(model, n=40, seed=0, omega=None):
     rng = np.random.default_rng(seed)
     x = rng.normal(0.0, 3.0, (n, model.dim))
     if model.name == "ct3d":
-        x[:, 4] = rng.uniform(-2.0, 2.0, n) if omega is None else omega
+        x[:, 6] = rng.uniform(-2.0, 2.0, n) if omega is None else omega
     return x
 
 
@@ -41,33 +41,34 @@ def test_the_analytic_jacobian_equals_central_differences(name):
 def test_the_horizontal_states_are_predicted_bit_for_bit_as_the_planar_model_and_the_altitude_apart(name):
     m, planar = make_model(name, DT), make_model(PLANAR[name], DT)
     x = _states(m)
-    n = planar.dim
-    np.testing.assert_array_equal(m.f(x)[:, :n], planar.f(x[:, :n]))
-    np.testing.assert_array_equal(m.jacobian(x)[:, :n, :n], planar.jacobian(x[:, :n]))
-    assert not m.jacobian(x)[:, :n, n:].any() and not m.jacobian(x)[:, n:, :n].any()
+    p, v = m.planar_index, m.vertical_index
+    assert [m.state_names[i] for i in p] == list(planar.state_names)
+    assert m.state_names[:6] == ("x", "y", "vx", "vy", "z", "vz") and m.altitude_index == 4
+    np.testing.assert_array_equal(m.f(x)[:, p], planar.f(x[:, p]))
+    J = m.jacobian(x)
+    np.testing.assert_array_equal(J[:, p[:, None], p[None, :]], planar.jacobian(x[:, p]))
+    assert not J[:, p[:, None], v[None, :]].any() and not J[:, v[:, None], p[None, :]].any()
     moved = x.copy()
-    moved[:, n:] += 10.0  # another altitude: the horizontal prediction does not change
-    np.testing.assert_array_equal(m.f(moved)[:, :n], m.f(x)[:, :n])
-    z, vz = m.f(x)[:, n], m.f(x)[:, n + 1]
-    az = x[:, n + 2] if name == "ca3d" else 0.0
-    np.testing.assert_allclose(z, x[:, n] + DT * x[:, n + 1] + 0.5 * DT**2 * az, rtol=1e-15, atol=1e-15)
-    np.testing.assert_allclose(vz, x[:, n + 1] + DT * az, rtol=1e-15, atol=1e-15)
-    assert m.state_names[:4] == ("x", "y", "vx", "vy") and m.state_names[m.altitude_index] == "z"
+    moved[:, v] += 10.0  # another altitude: the horizontal prediction does not change
+    np.testing.assert_array_equal(m.f(moved)[:, p], m.f(x)[:, p])
+    z, vz = m.f(x)[:, 4], m.f(x)[:, 5]
+    az = x[:, 8] if name == "ca3d" else 0.0
+    np.testing.assert_allclose(z, x[:, 4] + DT * x[:, 5] + 0.5 * DT**2 * az, rtol=1e-15, atol=1e-15)
+    np.testing.assert_allclose(vz, x[:, 5] + DT * az, rtol=1e-15, atol=1e-15)
 
 
 def test_ct_in_3d_is_cv_in_3d_at_zero_turn_rate_and_keeps_the_turn_rate_column():
     ct, cv = make_model("ct3d", DT), make_model("cv3d", DT)
     x = _states(ct, omega=0.0)
-    keep = [0, 1, 2, 3, 5, 6]
-    np.testing.assert_allclose(ct.f(x)[:, keep], cv.f(x[:, keep]), rtol=0, atol=1e-15)
+    np.testing.assert_allclose(ct.f(x)[:, :6], cv.f(x[:, :6]), rtol=0, atol=1e-15)
     J = ct.jacobian(x)
-    np.testing.assert_allclose(J[:, 0, 4], -DT**2 * x[:, 3] / 2, rtol=1e-12)  # ∂x'/∂ω = −T² vy / 2
-    np.testing.assert_allclose(J[:, 1, 4], DT**2 * x[:, 2] / 2, rtol=1e-12)
+    np.testing.assert_allclose(J[:, 0, 6], -DT**2 * x[:, 3] / 2, rtol=1e-12)  # ∂x'/∂ω = −T² vy / 2
+    np.testing.assert_allclose(J[:, 1, 6], DT**2 * x[:, 2] / 2, rtol=1e-12)
 
 
 def test_a_q_that_couples_the_horizontal_and_the_altitude_states_is_refused():
     Q = np.eye(6) * 0.01
-    Q[0, 4] = Q[4, 0] = 0.001
+    Q[0, 5] = Q[5, 0] = 0.001
     with pytest.raises(ValueError, match="couples"):
         ConstantVelocity3D(dt=DT, Q=Q)
     with pytest.raises(ValueError, match="length 7"):
@@ -77,10 +78,10 @@ def test_a_q_that_couples_the_horizontal_and_the_altitude_states_is_refused():
 def test_the_initial_information_treats_the_altitude_as_a_kinematic_state():
     ct = make_model("ct3d", DT)
     diag = ct.initial_information_diagonal(1e-6)
-    np.testing.assert_array_equal(diag[[0, 1, 2, 3, 5, 6]], 1e-6)
-    assert diag[4] == 1 / 0.5**2  # the planar CT's turn-rate prior
+    np.testing.assert_array_equal(diag[:6], 1e-6)
+    assert diag[6] == 1 / 0.5**2  # the planar CT's turn-rate prior
     ca = make_model("ca3d", DT).initial_information_diagonal(1e-6)
-    np.testing.assert_array_equal(ca[[4, 5, 8]], 1 / 3.0**2)
+    np.testing.assert_array_equal(ca[6:], 1 / 3.0**2)
 
 
 def test_the_transitions_equal_stone_soups_3d_models_in_its_order():
@@ -90,25 +91,28 @@ def test_the_transitions_equal_stone_soups_3d_models_in_its_order():
     from stonesoup.models.transition.nonlinear import ConstantTurn
     from stonesoup.types.state import State
 
-    from swarmtrack.interop.stonesoup_models import permutation
+    from swarmtrack.interop.stonesoup_models import stone_soup_order
 
     interval = datetime.timedelta(seconds=DT)
     cv_ss = CombinedLinearGaussianTransitionModel([ConstantVelocity(0.3)] * 3)
-    p = permutation(6)
-    Q = np.asarray(cv_ss.covar(time_interval=interval))[np.ix_(p, p)]
+    p = stone_soup_order(make_model("cv3d", DT))
+    back = np.argsort(p)
+    Q = np.asarray(cv_ss.covar(time_interval=interval))[np.ix_(back, back)]
     Q[np.abs(Q) < 1e-300] = 0.0
     # swarmtrack's order couples x with vx, as Stone Soup's: a CV in 3-D with Stone Soup's Q
     cv = ConstantVelocity3D(dt=DT, Q=Q)
-    np.testing.assert_array_equal(cv.F, np.asarray(cv_ss.matrix(time_interval=interval))[np.ix_(p, p)])
+    np.testing.assert_array_equal(cv.F, np.asarray(cv_ss.matrix(time_interval=interval))[np.ix_(back, back)])
 
     ct_ss = CombinedGaussianTransitionModel([ConstantTurn(linear_noise_coeffs=np.array([0.3, 0.3]),
                                                           turn_noise_coeff=0.01), ConstantVelocity(0.3)])
-    p = permutation(7)
-    Q = np.asarray(ct_ss.covar(time_interval=interval))[np.ix_(p, p)]
+    p = stone_soup_order(make_model("ct3d", DT))
+    assert [make_model("ct3d", DT).state_names[i] for i in p] == ["x", "vx", "y", "vy", "omega", "z", "vz"]
+    back = np.argsort(p)
+    Q = np.asarray(ct_ss.covar(time_interval=interval))[np.ix_(back, back)]
     ct = ConstantTurn3D(dt=DT, Q=Q)
     for x in _states(ct, 8, seed=3):
-        want = np.asarray(ct_ss.function(State(x[p]), time_interval=interval), dtype=float).ravel()[p]
+        want = np.asarray(ct_ss.function(State(x[p]), time_interval=interval), dtype=float).ravel()[back]
         np.testing.assert_allclose(ct.f(x), want, rtol=0, atol=1e-12)
-        if abs(x[4]) > 0.1:  # Stone Soup's finite differences are accurate away from ω = 0
-            J = np.asarray(ct_ss.jacobian(State(x[p]), time_interval=interval), dtype=float)[np.ix_(p, p)]
+        if abs(x[6]) > 0.1:  # Stone Soup's finite differences are accurate away from ω = 0
+            J = np.asarray(ct_ss.jacobian(State(x[p]), time_interval=interval), dtype=float)[np.ix_(back, back)]
             np.testing.assert_allclose(ct.jacobian(x), J, atol=1e-6)

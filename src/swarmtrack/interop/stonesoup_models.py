@@ -54,6 +54,18 @@ def permutation(n: int) -> np.ndarray:
     return np.r_[[0, 2, 1, 3], np.arange(COMMON, n)].astype(int)
 
 
+def stone_soup_order(model: MotionModel) -> np.ndarray:
+    """Indices taking a state of ``model`` to Stone Soup's order, ``x_stonesoup = x[order]`` (the inverse is
+    ``np.argsort(order)``): :func:`permutation` for a planar model; for a 3-D one
+    (:mod:`swarmtrack.models.three_d`), its planar states in the planar convention followed by the altitude's,
+    ``[x, vx, y, vy, (planar hidden), z, vz, (az)]``, the order of Stone Soup's combined models (its 2-D
+    ``ConstantTurn`` or two ``ConstantVelocity``, then the altitude's)."""
+    planar = getattr(model, "planar_index", None)
+    if planar is None:
+        return permutation(model.dim)
+    return np.r_[planar[permutation(len(planar))], model.vertical_index].astype(int)
+
+
 def reorder(x: np.ndarray, P: np.ndarray | None = None):
     """``x`` (n,) and, if given, ``P`` (n, n) in the other ordering (an exact permutation, no arithmetic)."""
     x = np.asarray(x, dtype=float).reshape(-1)

@@ -36,10 +36,10 @@ DEFAULT_Q_DIAG: dict[str, tuple[float, ...]] = {
     "ct": (0.05**2,) * 4 + (0.02**2,),
     # L24 Sec. 4: Q = diag(0.05² ×5, 0.02² ×4, 0.01² ×3)
     "fs": (0.05**2,) * 5 + (0.02**2,) * 4 + (0.01**2,) * 3,
-    # 3-D (ours): the planar diagonal, then the altitude's states with the same variances as the horizontal ones
+    # 3-D (ours): the planar variances, repeated on the altitude's states ([x, y, vx, vy, z, vz] first)
     "cv3d": (0.05**2,) * 6,
-    "ca3d": (0.05**2,) * 4 + (0.1**2,) * 2 + (0.05**2,) * 2 + (0.1**2,),
-    "ct3d": (0.05**2,) * 4 + (0.02**2,) + (0.05**2,) * 2,
+    "ca3d": (0.05**2,) * 6 + (0.1**2,) * 3,
+    "ct3d": (0.05**2,) * 6 + (0.02**2,),
 }
 
 

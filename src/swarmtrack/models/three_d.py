@@ -1,19 +1,20 @@
-"""Target models in three dimensions: a planar model with the altitude appended (L24 Sec. 6's outlook, "a target
+"""Target models in three dimensions: a planar model with the altitude added (L24 Sec. 6's outlook, "a target
 moving in a three-dimensional environment").
 
-Each 3-D model is its planar counterpart on the horizontal states followed by a kinematic model of the altitude:
+Each 3-D model is its planar counterpart on the horizontal states and a kinematic model of the altitude:
 
-* ``cv3d``: CV ``[x, y, vx, vy]`` (L24 eq. 5) and CV in altitude ``[z, vz]``;
-* ``ca3d``: CA ``[x, y, vx, vy, ax, ay]`` (W20 eq. 2.38) and CA in altitude ``[z, vz, az]``;
-* ``ct3d``: CT ``[x, y, vx, vy, ω]`` (L24 Sec. 3.1, corrected) turning in the horizontal plane, and CV in altitude
-  ``[z, vz]`` (the coordinated turn of Stone Soup's and Bar-Shalom's 3-D CT).
+* ``cv3d``: CV (L24 eq. 5) and CV in altitude, ``[x, y, vx, vy, z, vz]``;
+* ``ca3d``: CA (W20 eq. 2.38) and CA in altitude, ``[x, y, vx, vy, z, vz, ax, ay, az]``;
+* ``ct3d``: CT (L24 Sec. 3.1, corrected) turning in the horizontal plane and CV in altitude (the coordinated turn of
+  Stone Soup's and Bar-Shalom's 3-D CT), ``[x, y, vx, vy, z, vz, ω]``.
 
-The horizontal states come first and in the planar order, so the first four are ``[x, y, vx, vy]`` as in every
-model (:mod:`swarmtrack.models.base`) and the planar code reads a 3-D estimate unchanged; the altitude states come
-last. The two blocks are decoupled: ``f`` and the Jacobian are block diagonal, the planar block is computed by the
-planar model itself (so a 3-D model predicts its horizontal states bit for bit as the planar one), and ``Q`` is
-taken block diagonal. With Stone Soup's interleaved order ``[x, vx, y, vy, …, z, vz]`` the states map by the same
-permutation as the planar models (:func:`swarmtrack.interop.stonesoup_models.permutation`).
+Every 3-D model starts with the common block ``[x, y, vx, vy, z, vz]`` (:data:`COMMON_3D`): its first four states
+are the planar models' ``[x, y, vx, vy]`` (:mod:`swarmtrack.models.base`), so the planar code reads a 3-D estimate
+unchanged, and the fusion of models of different sizes (IMM mixing, W20's model fusion) works on a leading block as
+in the plane. The hidden states follow: the planar model's, then the altitude's. The two blocks are decoupled:
+``f`` and the Jacobian are block diagonal (on :attr:`AltitudeModel.planar_index` and
+:attr:`AltitudeModel.vertical_index`), the planar block is computed by the planar model itself (so a 3-D model
+predicts its horizontal states bit for bit as the planar one), and ``Q`` may not couple them.
 """
 
 from __future__ import annotations
@@ -29,8 +30,9 @@ from swarmtrack.models.ca import ConstantAcceleration
 from swarmtrack.models.ct import ConstantTurn
 from swarmtrack.models.cv import ConstantVelocity
 
-#: The altitude states of each vertical order: 1 for CV ``[z, vz]``, 2 for CA ``[z, vz, az]``.
-VERTICAL_STATES = {1: ("z", "vz"), 2: ("z", "vz", "az")}
+#: The common block of every 3-D model, ``[x, y, vx, vy, z, vz]``: its size and the index of ``z``.
+COMMON_3D = 6
+ALTITUDE = 4
 
 
 def vertical_transition(dt: float, order: int) -> np.ndarray:
@@ -52,11 +54,10 @@ class AltitudeModel(MotionModel):
     vertical_order: ClassVar[int]
 
     def __post_init__(self) -> None:
-        n = self.planar_dim
         Q = np.asarray(self.Q)
         if Q.shape != (self.dim, self.dim):
             raise ValueError(f"{self.name}: Q must be {self.dim} x {self.dim}, got {Q.shape}")
-        if np.any(Q[:n, n:]) or np.any(Q[n:, :n]):
+        if np.any(Q[np.ix_(self.planar_index, self.vertical_index)]):
             raise ValueError(f"{self.name}: Q couples the horizontal and the altitude states; the blocks are "
                              "decoupled")
 
@@ -67,13 +68,22 @@ class AltitudeModel(MotionModel):
     @property
     def altitude_index(self) -> int:
         """Index of ``z`` in the state (``vz`` follows it)."""
-        return self.planar_dim
+        return ALTITUDE
+
+    @functools.cached_property
+    def planar_index(self) -> np.ndarray:
+        """The planar model's states in this one: ``[x, y, vx, vy]`` and its hidden states after the common block."""
+        return np.r_[0:4, COMMON_3D:COMMON_3D + self.planar_dim - 4]
+
+    @functools.cached_property
+    def vertical_index(self) -> np.ndarray:
+        """The altitude block's states: ``z, vz`` and, for CA, ``az`` last."""
+        return np.r_[ALTITUDE, ALTITUDE + 1, COMMON_3D + self.planar_dim - 4:self.dim]
 
     @functools.cached_property
     def planar(self) -> MotionModel:
         """The planar model of the horizontal block, with that block of ``Q``."""
-        n = self.planar_dim
-        Q = np.array(np.asarray(self.Q)[:n, :n])
+        Q = np.array(np.asarray(self.Q)[np.ix_(self.planar_index, self.planar_index)])
         Q.flags.writeable = False
         return self.planar_class(dt=self.dt, Q=Q)
 
@@ -86,37 +96,41 @@ class AltitudeModel(MotionModel):
     @functools.cached_property
     def F(self) -> np.ndarray:
         """The constant transition of a linear model (CV, CA): the planar ``F`` and the altitude block."""
-        n = self.planar_dim
         F = np.zeros((self.dim, self.dim))
-        F[:n, :n] = self.planar.F
-        F[n:, n:] = self.vertical_F
+        F[np.ix_(self.planar_index, self.planar_index)] = self.planar.F
+        F[np.ix_(self.vertical_index, self.vertical_index)] = self.vertical_F
         F.flags.writeable = False
         return F
 
     def f(self, x: np.ndarray) -> np.ndarray:
         x = np.asarray(x, dtype=float)
-        n = self.planar_dim
-        return np.concatenate([self.planar.f(x[..., :n]), x[..., n:] @ self.vertical_F.T], axis=-1)
+        out = np.empty_like(x)
+        out[..., self.planar_index] = self.planar.f(x[..., self.planar_index])
+        out[..., self.vertical_index] = x[..., self.vertical_index] @ self.vertical_F.T
+        return out
 
     def jacobian(self, x: np.ndarray) -> np.ndarray:
         """Block diagonal: the planar model's analytic Jacobian and the altitude block's constant transition."""
         x = np.asarray(x, dtype=float)
-        n = self.planar_dim
         J = np.zeros(x.shape[:-1] + (self.dim, self.dim))
-        J[..., :n, :n] = self.planar.jacobian(x[..., :n])
-        J[..., n:, n:] = self.vertical_F
+        p, v = self.planar_index, self.vertical_index
+        J[..., p[:, None], p[None, :]] = self.planar.jacobian(x[..., p])
+        J[..., v[:, None], v[None, :]] = self.vertical_F
         return J
 
     def initial_information_diagonal(self, information: float) -> np.ndarray:
-        """The planar model's diagonal (its hidden states at their prior), ``information`` on the altitude's
-        position and velocity, and the planar acceleration prior on a CA's vertical acceleration."""
-        extra = np.full(self.dim - self.planar_dim, float(information))
+        """The planar model's diagonal on its states (its hidden ones at their prior), ``information`` on ``z`` and
+        ``vz``, and the planar acceleration prior on a CA's vertical acceleration."""
+        diag = np.full(self.dim, float(information))
+        diag[self.planar_index] = self.planar.initial_information_diagonal(information)
         if self.vertical_order == 2:
-            extra[2] = 1.0 / self.planar.hidden_prior_std[0] ** 2
-        return np.concatenate([self.planar.initial_information_diagonal(information), extra])
+            diag[-1] = 1.0 / self.planar.hidden_prior_std[0] ** 2
+        return diag
 
     def initial_state(self) -> np.ndarray:
-        return np.concatenate([self.planar.initial_state(), np.zeros(self.dim - self.planar_dim)])
+        x0 = np.zeros(self.dim)
+        x0[self.planar_index] = self.planar.initial_state()
+        return x0
 
 
 @dataclass(frozen=True)
@@ -126,30 +140,30 @@ class ConstantVelocity3D(AltitudeModel):
     planar_class: ClassVar[type[MotionModel]] = ConstantVelocity
     vertical_order: ClassVar[int] = 1
     name: str = "cv3d"
-    state_names: tuple[str, ...] = ConstantVelocity.state_names + VERTICAL_STATES[1]
+    state_names: tuple[str, ...] = ConstantVelocity.state_names + ("z", "vz")
     linear: bool = True
 
 
 @dataclass(frozen=True)
 class ConstantAcceleration3D(AltitudeModel):
-    """CA in 3-D, state ``[x, y, vx, vy, ax, ay, z, vz, az]`` (W20 eq. 2.38 on each axis)."""
+    """CA in 3-D, state ``[x, y, vx, vy, z, vz, ax, ay, az]`` (W20 eq. 2.38 on each axis)."""
 
     planar_class: ClassVar[type[MotionModel]] = ConstantAcceleration
     vertical_order: ClassVar[int] = 2
     name: str = "ca3d"
-    state_names: tuple[str, ...] = ConstantAcceleration.state_names + VERTICAL_STATES[2]
+    state_names: tuple[str, ...] = ("x", "y", "vx", "vy", "z", "vz", "ax", "ay", "az")
     linear: bool = True
     hidden_prior_std: tuple[float, ...] = ConstantAcceleration.hidden_prior_std
 
 
 @dataclass(frozen=True)
 class ConstantTurn3D(AltitudeModel):
-    """CT in the horizontal plane with CV in altitude, state ``[x, y, vx, vy, ω, z, vz]``; exact at ω = 0 as the
+    """CT in the horizontal plane with CV in altitude, state ``[x, y, vx, vy, z, vz, ω]``; exact at ω = 0 as the
     planar CT (:mod:`swarmtrack.models.ct`)."""
 
     planar_class: ClassVar[type[MotionModel]] = ConstantTurn
     vertical_order: ClassVar[int] = 1
     name: str = "ct3d"
-    state_names: tuple[str, ...] = ConstantTurn.state_names + VERTICAL_STATES[1]
+    state_names: tuple[str, ...] = ("x", "y", "vx", "vy", "z", "vz", "omega")
     linear: bool = False
     hidden_prior_std: tuple[float, ...] = ConstantTurn.hidden_prior_std

@@ -28,11 +28,7 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from swarmtrack.estimation.elevation import (  # noqa: E402
-    RangeBearingElevationUpdate,
-    position_index,
-)
-from swarmtrack.estimation.elevation import add_position_information as add_position_information_3d  # noqa: E402
+from swarmtrack.estimation.elevation import POSITION_3D, RangeBearingElevationUpdate  # noqa: E402
 from swarmtrack.estimation.information import (  # noqa: E402
     RangeBearingUpdate,
     add_position_information,
@@ -156,14 +152,14 @@ def _measurements_3d(rng):
 def numpy_reference_3d(sensors, z):
     model = make_model("cv3d", DT)
     upd = RangeBearingElevationUpdate(*SIG3, mode="position", min_range=MIN_RANGE)
-    index = position_index(model)
+    index = POSITION_3D
     state = list(initial_information(model, N))
 
     def step():
         x, P = recover(*state)
         Yp, yp, xp = predict(model, x, P)
         I, i = upd.contributions(xp[:, index], sensors, z)
-        state[:] = add_position_information_3d(Yp, yp, I, i, index)
+        state[:] = add_position_information(Yp, yp, I, i, index)
 
     return step, state
 

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from swarmtrack.estimation import information
-from swarmtrack.estimation.elevation import RangeBearingElevationUpdate, add_position_information, position_index
+from swarmtrack.estimation.elevation import POSITION_3D, RangeBearingElevationUpdate
+from swarmtrack.estimation.information import add_position_information
 from swarmtrack.estimation.kalman import ekf_update
 from swarmtrack.models import make_model
 from swarmtrack.sensors import elevation_bearing_range as ebr
@@ -18,7 +19,7 @@ SIG = (0.08, 0.02, 0.02)
 def test_the_information_update_equals_the_ekf_update(mode):
     rng = np.random.default_rng(0)
     model = make_model("ct3d", 0.05)
-    ix = list(position_index(model))
+    ix = list(POSITION_3D)
     x = rng.normal(0, 2, model.dim)
     A = rng.normal(0, 0.3, (model.dim, model.dim))
     P = A @ A.T + 0.05 * np.eye(model.dim)
@@ -28,7 +29,7 @@ def test_the_information_update_equals_the_ekf_update(mode):
     upd = RangeBearingElevationUpdate(*SIG, mode=mode, own_sigma=0.02)
     I, i = upd.contributions(np.broadcast_to(x[ix], (3, 3)), sensors, z)
     Y, y = np.linalg.inv(P), np.linalg.solve(P, x)
-    Y, y = add_position_information(Y, y, I.sum(0), i.sum(0), position_index(model))
+    Y, y = add_position_information(Y, y, I.sum(0), i.sum(0), POSITION_3D)
     got_x, got_P = information.recover(Y, y)
 
     H = np.zeros((9, model.dim))
@@ -98,10 +99,74 @@ def test_an_information_filter_in_3d_gives_the_planar_filters_numbers_for_a_leve
             xp2 = xp3[:, :4]
         I3, i3 = upd3.contributions(np.broadcast_to(xp3[0, [0, 1, 4]], (3, 3)), sensors, z)
         I2, i2 = upd2.contributions(np.broadcast_to(xp2[0, :2], (3, 2)), sensors[:, :2], z[:, :2])
-        Y3, y3 = add_position_information(Y3, y3, I3.sum(0), i3.sum(0), position_index(cv3))
+        Y3, y3 = add_position_information(Y3, y3, I3.sum(0), i3.sum(0), POSITION_3D)
         Y2, y2 = information.add_position_information(Y2, y2, I2.sum(0), i2.sum(0))
         x3, P3 = information.recover(Y3, y3)
         x2, P2 = information.recover(Y2, y2)
         np.testing.assert_allclose(x3[0, :4], x2[0], rtol=1e-9, atol=1e-9)
         np.testing.assert_allclose(P3[0, :4, :4], P2[0], rtol=1e-9, atol=1e-12)
     assert abs(x3[0, 4] - 3.0) < 0.05  # the altitude is estimated too
+
+
+# --- the estimators in 3-D: a level target gives the planar numbers -----------------------------------------------
+
+
+def _level_run(est3, est2, steps=40, seed=3):
+    """Three UAVs on a line topology at the target's altitude (3 m); returns the two estimators after ``steps``,
+    comparing their horizontal outputs at every step."""
+    from swarmtrack.network.messages import Inbox
+    from swarmtrack.network.topology import adjacency
+    from swarmtrack.sensors.detections import Detections
+
+    rng = np.random.default_rng(seed)
+    sensors = np.array([[-4.0, -3.0, 3.0], [0.0, -4.0, 3.0], [4.0, -3.0, 3.0]])
+    links = adjacency("line", 3)
+    target = np.array([0.0, 0.0, 1.0, 0.3, 3.0, 0.0])
+    cv3 = make_model("cv3d", 0.05)
+    for k in range(steps):
+        target = cv3.f(target)
+        z = ebr.measure(np.broadcast_to(target[[0, 1, 4]], (3, 3)), sensors, *SIG, rng=rng)
+        z[:, 2] = 0.0  # level
+        if k % 7 == 3:
+            z[0] = np.nan  # UAV 1 misses one now and then
+        seen = ~np.isnan(z[:, 0])
+        for est, d in ((est3, 3), (est2, 2)):
+            own = Detections(np.flatnonzero(seen), z[seen][:, :d], sensors[seen][:, :d],
+                             np.zeros(seen.sum(), dtype=int), 3)
+            est.fuse(k * 0.05, own, Inbox(links, est.share(k * 0.05, sensors[:, :d], own)))
+        yield est3.sample(), est2.sample()
+
+
+def _known_altitude(est, z=3.0):
+    """Give every member's prior the target's altitude (the target is planar; nothing else known)."""
+    for x in ([est.x] if not isinstance(est.x, list) else est.x):
+        x[:, 4] = z
+
+
+def test_an_information_filter_in_3d_is_the_planar_one_for_a_level_target():
+    from swarmtrack.estimation.information import InformationEstimator, RangeBearingUpdate
+
+    est3 = InformationEstimator(make_model("cv3d", 0.05), RangeBearingElevationUpdate(*SIG), 3)
+    est2 = InformationEstimator(make_model("cv", 0.05), RangeBearingUpdate(*SIG[:2]), 3)
+    _known_altitude(est3)
+    for s3, s2 in _level_run(est3, est2):
+        np.testing.assert_allclose(s3["estimate"][:, :4], s2["estimate"], rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose(s3["covariance"][:, :4, :4], s2["covariance"], rtol=1e-9, atol=1e-12)
+    assert np.abs(s3["estimate"][:, 4] - 3.0).max() < 1e-9
+
+
+def test_an_imm_in_3d_is_the_planar_imm_for_a_level_target():
+    """CV and CT in 3-D share the altitude's model: the altitude adds the same likelihood to both, so the mode
+    probabilities, the mixing and the horizontal output are the planar IMM's."""
+    from swarmtrack.estimation.imm import IMMInformationEstimator
+    from swarmtrack.estimation.information import RangeBearingUpdate
+
+    est3 = IMMInformationEstimator([make_model("cv3d", 0.05), make_model("ct3d", 0.05)],
+                                   RangeBearingElevationUpdate(*SIG), 3)
+    est2 = IMMInformationEstimator([make_model("cv", 0.05), make_model("ct", 0.05)], RangeBearingUpdate(*SIG[:2]), 3)
+    _known_altitude(est3)
+    for s3, s2 in _level_run(est3, est2):
+        np.testing.assert_allclose(s3["probability"], s2["probability"], rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(s3["estimate"][:, :4], s2["estimate"], rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose(s3["covariance"][:, :4, :4], s2["covariance"], rtol=1e-9, atol=1e-12)
+    assert s3["estimate"].shape == (3, 6) and np.isfinite(s3["nis"]).all()

@@ -16,6 +16,9 @@ PLANAR = {"cv3d": "cv", "ca3d": "ca", "ct3d": "ct"}
 def _states(model, n=40, seed=0, omega=None):
     rng = np.random.default_rng(seed)
     x = rng.normal(0.0, 3.0, (n, model.dim))
+    if model.name == "fs3d":
+        x[:, 6:10] *= 0.1  # small angles and rates
+        x[:, 12] = 14.7 + rng.normal(0.0, 1.0, n)  # about the hover thrust
     if model.name == "ct3d":
         x[:, 6] = rng.uniform(-2.0, 2.0, n) if omega is None else omega
     return x
@@ -30,7 +33,7 @@ def _finite_difference(model, x, h=1e-6):
     return J
 
 
-@pytest.mark.parametrize("name", ["cv3d", "ca3d", "ct3d"])
+@pytest.mark.parametrize("name", ["cv3d", "ca3d", "ct3d", "fs3d"])
 def test_the_analytic_jacobian_equals_central_differences(name):
     m = make_model(name, DT)
     for x in _states(m, 10):
@@ -116,3 +119,17 @@ def test_the_transitions_equal_stone_soups_3d_models_in_its_order():
         if abs(x[6]) > 0.1:  # Stone Soup's finite differences are accurate away from ω = 0
             J = np.asarray(ct_ss.jacobian(State(x[p]), time_interval=interval), dtype=float)[np.ix_(back, back)]
             np.testing.assert_allclose(ct.jacobian(x), J, atol=1e-6)
+
+
+def test_fs_in_3d_is_the_planar_fs_plus_its_altitude_without_the_fake_vz_measurement():
+    fs3, fs = make_model("fs3d", DT), make_model("fs", DT)
+    x = _states(fs3, seed=5)
+    others = np.r_[0:4, 5:13]
+    np.testing.assert_array_equal(fs3.f(x)[:, others], fs.f(x[:, others]))
+    np.testing.assert_array_equal(fs3.f(x)[:, 4], x[:, 4] + DT * x[:, 5])
+    np.testing.assert_array_equal(fs3.jacobian(x)[:, others[:, None], others[None, :]], fs.jacobian(x[:, others]))
+    assert not hasattr(fs3, "VZ_INDEX")  # the estimators add L24's fake vz = 0 to the planar FS only
+    hover = fs3.initial_state()
+    np.testing.assert_allclose(fs3.f(hover), hover, atol=1e-12)  # hover thrust: it stays put
+    with pytest.raises(ValueError, match="mass"):
+        make_model("fs3d", DT, mass=-1.0)

@@ -4,7 +4,8 @@ target model, with IMM interaction through the states every model shares (L24's 
 Each estimation step, for all N UAVs at once (a loop over the M models only):
 
 1. **Interaction** (standard IMM, Bar-Shalom): the models' posteriors are mixed on the common block
-   ``[x, y, vx, vy]`` (:func:`fusion.imm_mix`, weights ``μ_{i|j} = ρ_ij μ_i / c̄_j``). The mixed common block then
+   ``[x, y, vx, vy]`` (a 3-D bank's ``[x, y, vx, vy, z, vz]``, :mod:`swarmtrack.models.three_d`;
+   :func:`fusion.imm_mix`, weights ``μ_{i|j} = ρ_ij μ_i / c̄_j``). The mixed common block then
    enters model j by :func:`fusion.extend_to_model`: the states model j adds beyond the common block (CT's ω, FS's
    vz, attitude, rates, moments and thrust) are **carried by their conditional on the common block** in model j's
    own posterior, ``x_e ← x_e + G (x0_c − x_c)``, ``G = P_ec P_cc⁻¹``, with the Schur complement
@@ -22,7 +23,7 @@ Each estimation step, for all N UAVs at once (a loop over the M models only):
    same measurements). With the ``position`` update the linearisation point enters only through the converted
    measurement's covariance, so the two agree closely.
 4. **Mode probabilities**: each member's likelihood is that of the fused measurements' position-space statistic
-   ``z = I⁻¹ i`` (covariance ``I⁻¹``) against its prediction, ``log N(z − x̂⁻[:2]; 0, P⁻[:2, :2] + I⁻¹)``
+   ``z = I⁻¹ i`` (covariance ``I⁻¹``) against its prediction, ``log N(z − x̂⁻[pos]; 0, P⁻[pos, pos] + I⁻¹)``
    (:func:`fusion.log_gaussian`); :func:`fusion.imm_update` (log space) gives ``μ``. A UAV that received no
    measurement keeps ``μ(k|k−1)``. L24's fake ``vz = 0`` measurement of the FS member is its own prior on a
    state the other models lack and is left out of the likelihood.
@@ -47,6 +48,7 @@ from swarmtrack.estimation.information import (
     recover,
     symmetrize,
 )
+from swarmtrack.estimation.information import position_block as block
 from swarmtrack.estimation.predict_kernels import (
     has_kernel,
     model_params,
@@ -55,8 +57,8 @@ from swarmtrack.estimation.predict_kernels import (
     predict_bank,
 )
 from swarmtrack.models.base import MotionModel
+from swarmtrack.models.three_d import COMMON_3D
 from swarmtrack.network.rows import Rows
-from swarmtrack.sensors.range_bearing import to_position
 
 COMMON = fusion.COMMON
 #: The probability that the target keeps its motion model from one step to the next (chosen: 0.98).
@@ -87,6 +89,8 @@ class IMMInformationEstimator:
                 or not np.allclose(rho.sum(axis=1), 1.0, atol=1e-9):
             raise ValueError(f"markov must be {M} x {M}, non-negative, with rows summing to 1; got {rho.tolist()}")
         self.models, self.rho, self.update_rule, self.share_mode = tuple(models), rho, update, share
+        self.index = update.index  # the position states the update observes
+        self.common = COMMON_3D if update.dim == 3 else COMMON  # the block every model shares
         self.n, self.label = n_uavs, label
         self.rows = Rows.all(n_uavs) if rows is None else rows
         self._mixing = M > 1 and not np.array_equal(rho, np.eye(M))
@@ -108,7 +112,7 @@ class IMMInformationEstimator:
         self._nis = np.full(n_uavs, np.nan)
         self.loglik = np.full((n_uavs, M), np.nan)
         self.out_x, self.out_P = self._combined()
-        self.probes = (Probe("estimate", (COMMON,)), Probe("covariance", (COMMON, COMMON)),
+        self.probes = (Probe("estimate", (self.common,)), Probe("covariance", (self.common, self.common)),
                        Probe("probability", (M,)), Probe("detected", ()), Probe("nis", ()))
 
     # --- the steps the engine drives -------------------------------------------------------------------------
@@ -117,10 +121,12 @@ class IMMInformationEstimator:
         z, pos, seen = own.of_label(self.label)
         x0, P0, self._mu_pred = self._mix()
         self._pred = [self._predict(m, x, P) for m, x, P in zip(range(len(self.models)), x0, P0, strict=True)]
-        xbar, Pbar = fusion.moment_combine(self._mu_pred, np.stack([p[2][:, :2] for p in self._pred], axis=1),
-                                           np.stack([p[3] for p in self._pred], axis=1))
-        I, i = self.update_rule.contributions(xbar, pos, z)
-        self._nis = _position_nis(to_position(z, pos) - xbar, Pbar, I)
+        positions = np.stack([p[2][:, self.index] for p in self._pred], axis=1)
+        xbar, Pbar = fusion.moment_combine(self._mu_pred, positions, np.stack([p[3] for p in self._pred], axis=1))
+        u = self.update_rule
+        I, i = u.contributions(xbar, pos, z)
+        self._nis = _position_nis(u.to_position(z, pos) - xbar, Pbar, I) if u.dim == 2 else \
+            u.nis(u.to_position(z, pos), I, xbar, Pbar)
         if not seen.all():  # unseen rows are NaN
             I[~seen] = 0.0
             i[~seen] = 0.0
@@ -140,11 +146,13 @@ class IMMInformationEstimator:
         loglik = np.full((self.n, M), np.nan)
         for m, (model, (Y, y, x_pred, P_pos)) in enumerate(zip(self.models, self._pred, strict=True)):
             if self.share_mode == "measurements":  # each member linearises at its own prediction
-                Ip, ip = self.update_rule.contributions(x_pred[recv, :2], got["sensor_pos"][send], got["z"][send])
-                I, i = np.zeros((self.n, 2, 2)), np.zeros((self.n, 2))
+                d = self.update_rule.dim
+                Ip, ip = self.update_rule.contributions(x_pred[recv][:, self.index], got["sensor_pos"][send],
+                                                        got["z"][send])
+                I, i = np.zeros((self.n, d, d)), np.zeros((self.n, d))
                 np.add.at(I, recv, Ip)
                 np.add.at(i, recv, ip)
-            Y, y = add_position_information(Y, y, I, i)
+            Y, y = add_position_information(Y, y, I, i, self.index)
             if self._vz[m] is not None:  # L24's fake vz = 0 measurement, local to the FS member
                 k, w_vz = self._vz[m]
                 Y[:, k, k] += w_vz
@@ -154,7 +162,9 @@ class IMMInformationEstimator:
                 what = str(e).split(": ", 1)[-1]
                 raise FilterDivergence(e.agents, t, f"the {model.name.upper()} model's filter: {what}") from None
             self.x[m], self.P[m] = recover(Y, y)
-            loglik[:, m] = (position_loglik if self.compiled else _position_loglik)(I, i, x_pred[:, :2], P_pos)
+            x_pos = x_pred[:, self.index]
+            loglik[:, m] = _position_loglik_nd(I, i, x_pos, P_pos) if self.update_rule.dim != 2 else \
+                (position_loglik if self.compiled else _position_loglik)(I, i, x_pos, P_pos)
         self.loglik = loglik
         self.mu = fusion.imm_update(self._mu_pred, loglik, ~np.isnan(loglik))
         self.out_x, self.out_P = self._combined()
@@ -167,8 +177,8 @@ class IMMInformationEstimator:
         model, kernel = self.models[m], self._kernels[m]
         if kernel is None:
             Y, y, x_pred = predict(model, x, P, self.rows)
-            F2 = model.F[:2] if getattr(model, "linear", False) else model.jacobian(x)[..., :2, :]
-            P_pos = symmetrize(F2 @ P @ np.swapaxes(F2, -1, -2) + model.Q[:2, :2])
+            F2 = model.F[self.index] if getattr(model, "linear", False) else model.jacobian(x)[..., self.index, :]
+            P_pos = symmetrize(F2 @ P @ np.swapaxes(F2, -1, -2) + model.Q[block(self.index)])
             return Y, y, x_pred, P_pos
         kind, params, F_lin, Q = kernel
         x_pred, F, P_pred = predict_bank(kind, params, F_lin, x, P, Q, self.rows.n // self.rows.worlds)
@@ -181,8 +191,9 @@ class IMMInformationEstimator:
         """Mixed priors of every member (module docstring, 1) and ``μ(k|k−1)``."""
         if not self._mixing:
             return self.x, self.P, fusion.imm_predict(self.mu, self.rho, self.rows.matmul)
-        xc = np.stack([x[:, :COMMON] for x in self.x], axis=1)
-        Pc = np.stack([P[:, :COMMON, :COMMON] for P in self.P], axis=1)
+        c = self.common
+        xc = np.stack([x[:, :c] for x in self.x], axis=1)
+        Pc = np.stack([P[:, :c, :c] for P in self.P], axis=1)
         x0c, P0c, mu_pred = fusion.imm_mix(self.mu, self.rho, xc, Pc, matmul=self.rows.matmul)
         x0, P0 = [], []
         for m in range(len(self.models)):
@@ -192,8 +203,9 @@ class IMMInformationEstimator:
         return x0, P0, mu_pred
 
     def _combined(self):
-        return fusion.moment_combine(self.mu, np.stack([x[:, :COMMON] for x in self.x], axis=1),
-                                     np.stack([P[:, :COMMON, :COMMON] for P in self.P], axis=1))
+        c = self.common
+        return fusion.moment_combine(self.mu, np.stack([x[:, :c] for x in self.x], axis=1),
+                                     np.stack([P[:, :c, :c] for P in self.P], axis=1))
 
     def members(self) -> list[tuple[np.ndarray, np.ndarray]]:
         """Every bank member's posterior ``(x (N, n_m), P (N, n_m, n_m))``, in model order."""
@@ -215,6 +227,18 @@ def _position_loglik(I: np.ndarray, i: np.ndarray, x_pos: np.ndarray, P_pos: np.
     R = _inv2(np.where(have[:, None, None], I, np.eye(2)))
     nu = np.einsum("nab,nb->na", R, i) - x_pos
     out = fusion.log_gaussian(nu, symmetrize(P_pos + R))
+    return np.where(have, out, np.nan)
+
+
+def _position_loglik_nd(I: np.ndarray, i: np.ndarray, x_pos: np.ndarray, P_pos: np.ndarray) -> np.ndarray:
+    """:func:`_position_loglik` for a position of any dimension (a 3-D update's): ``I⁻¹`` by a solve where ``I`` is
+    positive definite, NaN elsewhere (no measurement arrived)."""
+    d = I.shape[-1]
+    eig = np.linalg.eigvalsh(I)
+    have = eig[..., 0] > 1e-12 * np.maximum(eig[..., -1], 1e-300)
+    R = np.linalg.solve(np.where(have[:, None, None], I, np.eye(d)), np.broadcast_to(np.eye(d), I.shape))
+    nu = np.einsum("nab,nb->na", R, i) - x_pos
+    out = fusion.log_gaussian(nu, symmetrize(P_pos + symmetrize(R)))
     return np.where(have, out, np.nan)
 
 

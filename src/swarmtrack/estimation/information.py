@@ -9,6 +9,7 @@ model), so a measurement's information is a 2 x 2 block ``I`` and a 2-vector ``i
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
@@ -19,6 +20,17 @@ from swarmtrack.network.rows import Rows
 from swarmtrack.sensors.range_bearing import polar_model, position_covariance, to_position, wrap_angle
 
 UPDATES = ("position", "polar")
+#: The position states a planar update observes, ``[x, y]`` (a slice: the position block is a view).
+PLANAR = slice(0, 2)
+
+
+def position_block(index) -> tuple:
+    """The rows and columns selecting the position block of a matrix (``M[..., rows, cols]``): ``index`` a slice
+    (:data:`PLANAR`) or an array of states (a 3-D update's ``[x, y, z]``)."""
+    if isinstance(index, slice):
+        return index, index
+    ix = np.asarray(index)
+    return ix[:, None], ix[None, :]
 
 
 class FilterDivergence(RuntimeError):
@@ -45,6 +57,9 @@ class RangeBearingUpdate:
     sigma_bearing: float
     mode: str = "position"
     min_range: float = 0.05
+    #: The states it observes and their number (the position block of every planar model).
+    index: ClassVar[slice] = PLANAR
+    dim: ClassVar[int] = 2
     #: The std (m, per axis) of the UAV's own navigation position, which the measurement is taken from: added to
     #: the converted measurement's covariance (``R + σ²I``) and, to first order, to the polar one
     #: (``diag(σr² + σ², σβ² + σ²/ρ̂²)``, since the rows of ``H`` are orthogonal with norms 1 and 1/ρ̂).
@@ -79,6 +94,17 @@ class RangeBearingUpdate:
         I = HtW @ H
         i = np.einsum("...ab,...b->...a", HtW, nu + np.einsum("...ab,...b->...a", H, x_pos))
         return I, i
+
+
+    @staticmethod
+    def to_position(z: np.ndarray, sensor_pos: np.ndarray) -> np.ndarray:
+        """The position a measurement implies (:func:`~swarmtrack.sensors.range_bearing.to_position`)."""
+        return to_position(z, sensor_pos)
+
+    @staticmethod
+    def nis(q: np.ndarray, I: np.ndarray, x_pos: np.ndarray, P_pos: np.ndarray) -> np.ndarray:
+        """:func:`position_nis` (closed-form 2 x 2)."""
+        return position_nis(q, I, x_pos, P_pos)
 
 
 def _inv2(R: np.ndarray) -> np.ndarray:
@@ -144,12 +170,14 @@ def predict(model: MotionModel, x: np.ndarray, P: np.ndarray, rows: Rows | None 
     return symmetrize(sol[..., 1:]), sol[..., 0], x_pred
 
 
-def add_position_information(Y: np.ndarray, y: np.ndarray, I: np.ndarray, i: np.ndarray):
-    """Update (L24 eq. 7) with fused position-block information; returns new arrays."""
+def add_position_information(Y: np.ndarray, y: np.ndarray, I: np.ndarray, i: np.ndarray, index=PLANAR):
+    """Update (L24 eq. 7) with fused position-block information ``I`` (..., d, d), ``i`` (..., d) at the states
+    ``index`` (the update's: :data:`PLANAR`, or a 3-D update's ``[x, y, z]``); returns new arrays."""
     Y = Y.copy()
     y = y.copy()
-    Y[..., :2, :2] += I
-    y[..., :2] += i
+    rows, cols = position_block(index)
+    Y[..., rows, cols] += I
+    y[..., index] += i
     return Y, y
 
 
@@ -185,7 +213,7 @@ class NeighbourSum:
         """Start a step (a gate's counts)."""
 
     def current(self, est: InformationEstimator, inbox) -> tuple[np.ndarray, np.ndarray]:
-        """The delivered contributions' sums ``I (N, 2, 2), i (N, 2)``, late parts as if current."""
+        """The delivered contributions' sums ``I (N, d, d), i (N, d)``, late parts as if current."""
         return inbox.sum("info_matrix"), inbox.sum("info_vector")
 
     def part(self, part, rows: np.ndarray, prior) -> tuple[np.ndarray, np.ndarray]:
@@ -224,7 +252,7 @@ class InformationSharing:
 
     def information(self, est: InformationEstimator, inbox) -> tuple[np.ndarray, np.ndarray]:
         """Each filter's information after this step's measurements (L24 eq. 7)."""
-        return add_position_information(est.Y_pred, est.y_pred, *self.contributions(est, inbox))
+        return add_position_information(est.Y_pred, est.y_pred, *self.contributions(est, inbox), est.index)
 
 
 class MeasurementSharing(InformationSharing):
@@ -238,9 +266,11 @@ class MeasurementSharing(InformationSharing):
         """Per link, then per receiver: the information of every measurement it heard, its own first."""
         got = inbox.payloads
         recv, send = inbox.heard()  # own measurement first
-        Ipair, ipair = est.update_rule.contributions(est.x_pred[recv, :2], got["sensor_pos"][send], got["z"][send])
-        I = np.zeros((est.n, 2, 2))
-        i = np.zeros((est.n, 2))
+        d = est.update_rule.dim
+        Ipair, ipair = est.update_rule.contributions(est.x_pred[recv][:, est.index], got["sensor_pos"][send],
+                                                     got["z"][send])
+        I = np.zeros((est.n, d, d))
+        i = np.zeros((est.n, d))
         np.add.at(I, recv, Ipair)
         np.add.at(i, recv, ipair)
         return I, i
@@ -294,6 +324,7 @@ class InformationEstimator:
                  sharing: InformationSharing | None = None, cycle: NumpyCycle | None = None,
                  initial_info: float = 1e-6, fake_vz_sigma: float | None = None, rows: Rows | None = None):
         self.model, self.update_rule = model, update
+        self.index = update.index  # the position states it observes
         self.sharing = InformationSharing() if sharing is None else sharing
         self.cycle = NumpyCycle() if cycle is None else cycle
         self.n, self.label = n_uavs, label
@@ -311,9 +342,9 @@ class InformationEstimator:
         self.nis = np.full(n_uavs, np.nan)
         # the rows of F that predict the position, for the NIS: constant for the linear models and for FS (whose
         # position rows are x' = x + dt·vx, y' = y + dt·vy); CT's depend on the state
-        self.F2 = model.F[:2] if getattr(model, "linear", False) else \
-            model.jacobian(model.initial_state())[:2] if model.name == "fs" else None
-        self.Q2 = model.Q[:2, :2]
+        self.F2 = model.F[self.index] if getattr(model, "linear", False) else \
+            model.jacobian(model.initial_state())[self.index] if model.name == "fs" else None
+        self.Q2 = model.Q[position_block(self.index)]
         self.probes = (Probe("estimate", (model.dim,)), Probe("covariance", (model.dim, model.dim)),
                        Probe("detected", ()), Probe("nis", ()), *self.gate.probes)
 
@@ -337,7 +368,8 @@ class InformationEstimator:
                  x_pred: np.ndarray) -> dict:
         """Each UAV's own contribution (L24 eq. 6) linearised at ``x_pred``, predicted from the posterior ``x, P``
         (the fusion centre linearises every measurement at its one prediction), and its NIS."""
-        x_pos = np.broadcast_to(x_pred[:, :2], pos.shape) if self.centralized else x_pred[:, :2]
+        x_pos = x_pred[:, self.index]
+        x_pos = np.broadcast_to(x_pos, pos.shape) if self.centralized else x_pos
         I, i = self.update_rule.contributions(x_pos, pos, z)
         self.nis = self._own_nis(z, pos, I, x, P, x_pred)
         return self.contribution(I, i, z, pos, seen)
@@ -352,18 +384,19 @@ class InformationEstimator:
         return {"info_matrix": I, "info_vector": i, "z": z, "sensor_pos": pos, "seen": seen}
 
     def predicted_position_covariance(self, x: np.ndarray, P: np.ndarray) -> np.ndarray:
-        """Position block (..., 2, 2) of ``P(k|k−1) = F P Fᵀ + Q`` predicted from the posterior ``x, P``."""
-        F = self.F2 if self.F2 is not None else self.model.jacobian(x)[..., :2, :]
+        """Position block (..., d, d) of ``P(k|k−1) = F P Fᵀ + Q`` predicted from the posterior ``x, P``."""
+        F = self.F2 if self.F2 is not None else self.model.jacobian(x)[..., self.index, :]
         return F @ P @ np.swapaxes(F, -1, -2) + self.Q2
 
     def _own_nis(self, z: np.ndarray, pos: np.ndarray, I: np.ndarray, x: np.ndarray, P: np.ndarray,
                  x_pred: np.ndarray) -> np.ndarray:
         """Normalised innovation squared of each UAV's own measurement (N,), in position form whatever the update:
-        ``ν = q(z) − x̂(k|k−1)[:2]``, ``S = I⁻¹ + P(k|k−1)[:2, :2]`` with ``I`` the measurement's position-block
+        ``ν = q(z) − x̂(k|k−1)[pos]``, ``S = I⁻¹ + P(k|k−1)[pos, pos]`` with ``I`` the measurement's position-block
         information (``R⁻¹`` of the converted measurement; ``HᵀR⁻¹H`` of the polar one, equal to first order),
-        predicted from the posterior ``x, P`` to ``x_pred``. χ²(2) for a consistent filter; NaN where the UAV saw
-        nothing."""
-        return position_nis(to_position(z, pos), I, x_pred[..., :2], self.predicted_position_covariance(x, P))
+        predicted from the posterior ``x, P`` to ``x_pred``. χ²(d) for a consistent filter (d = 2 in the plane, 3 in
+        3-D); NaN where the UAV saw nothing."""
+        u = self.update_rule
+        return u.nis(u.to_position(z, pos), I, x_pred[..., self.index], self.predicted_position_covariance(x, P))
 
     def fuse(self, t: float, own, inbox) -> None:
         """Update (L24 eq. 7): own information plus what the links delivered, as the sharing fuses it."""

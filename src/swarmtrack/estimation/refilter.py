@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from swarmtrack.estimation.base import Probe
-from swarmtrack.estimation.information import InformationEstimator, predict
+from swarmtrack.estimation.information import InformationEstimator, position_block, predict
 from swarmtrack.network.links import neighbour_sum
 
 
@@ -42,8 +42,9 @@ class RefilteringEstimator(InformationEstimator):
         self._post_x = np.repeat(self.x[None], size, axis=0)
         self._post_P = np.repeat(self.P[None], size, axis=0)
         rows = len(self.x)
-        self._acc_I = np.zeros((size, rows, 2, 2))
-        self._acc_i = np.zeros((size, rows, 2))
+        d = self.update_rule.dim
+        self._acc_I = np.zeros((size, rows, d, d))
+        self._acc_i = np.zeros((size, rows, d))
         self._prior = (self.x.copy(), self.P.copy())  # before step 0
         self._k = -1
         self._own_slot = 0
@@ -97,8 +98,8 @@ class RefilteringEstimator(InformationEstimator):
         for s in range(first, self._k + 1):
             Y, y, _ = predict(self.model, *self._posterior(s - 1), self.rows)
             slot = s % len(self._acc_I)
-            Y[..., :2, :2] += self._acc_I[slot]
-            y[..., :2] += self._acc_i[slot]
+            Y[(..., *position_block(self.index))] += self._acc_I[slot]
+            y[..., self.index] += self._acc_i[slot]
             self._post_x[slot], self._post_P[slot] = self.update(Y, y, t)
         x, P = self._posterior(self._k)
         self.x, self.P = x.copy(), P.copy()  # the ring's rows are rewritten by later steps
@@ -124,7 +125,7 @@ class RefilteringEstimator(InformationEstimator):
                 continue
             def prior(s=int(s)):  # this UAV's prediction for the step the data was taken at (what a gate reads)
                 x, P = self._posterior(s - 1)
-                return self.rows.rowwise(self.model.f, x)[:, :2], self.predicted_position_covariance(x, P)
+                return self.rows.rowwise(self.model.f, x)[:, self.index], self.predicted_position_covariance(x, P)
 
             I, i = self.gate.part(part, rows, prior)
             first = min(first, self._add(int(s), I, i))

@@ -46,7 +46,7 @@ class Chi2Gate:
 
     def current(self, est: InformationEstimator, inbox) -> tuple[np.ndarray, np.ndarray]:
         """The gated sums of every part of the inbox against this step's prediction (late parts as if current)."""
-        x_pos, P_pos = est.x_pred[..., :2], est.predicted_position_covariance(est.x, est.P)
+        x_pos, P_pos = est.x_pred[..., est.index], est.predicted_position_covariance(est.x, est.P)
         I, i = 0.0, 0.0
         for part in inbox.parts():
             I_p, i_p = self._gate(part.links, part.payloads, x_pos, P_pos)

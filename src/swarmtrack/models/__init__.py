@@ -12,9 +12,14 @@ from swarmtrack.models.ca import ConstantAcceleration
 from swarmtrack.models.ct import ConstantTurn
 from swarmtrack.models.cv import ConstantVelocity
 from swarmtrack.models.fs import VZ_INDEX, FullStateQuadrotor
-from swarmtrack.models.three_d import ConstantAcceleration3D, ConstantTurn3D, ConstantVelocity3D
+from swarmtrack.models.three_d import (
+    ConstantAcceleration3D,
+    ConstantTurn3D,
+    ConstantVelocity3D,
+    FullStateQuadrotor3D,
+)
 
-MODEL_NAMES: tuple[str, ...] = ("cv", "ca", "ct", "fs", "cv3d", "ca3d", "ct3d")
+MODEL_NAMES: tuple[str, ...] = ("cv", "ca", "ct", "fs", "cv3d", "ca3d", "ct3d", "fs3d")
 
 _CLASSES: dict[str, type[MotionModel]] = {
     "cv": ConstantVelocity,
@@ -24,6 +29,7 @@ _CLASSES: dict[str, type[MotionModel]] = {
     "cv3d": ConstantVelocity3D,
     "ca3d": ConstantAcceleration3D,
     "ct3d": ConstantTurn3D,
+    "fs3d": FullStateQuadrotor3D,
 }
 
 #: Default diagonals of the process-noise covariance Q.
@@ -40,6 +46,7 @@ DEFAULT_Q_DIAG: dict[str, tuple[float, ...]] = {
     "cv3d": (0.05**2,) * 6,
     "ca3d": (0.05**2,) * 6 + (0.1**2,) * 3,
     "ct3d": (0.05**2,) * 6 + (0.02**2,),
+    "fs3d": (0.05**2,) * 6 + (0.02**2,) * 4 + (0.01**2,) * 3,
 }
 
 
@@ -48,7 +55,7 @@ def make_model(
 ) -> MotionModel:
     """Build a motion model by name with ``Q = diag(q)`` (``q=None``: :data:`DEFAULT_Q_DIAG`).
 
-    ``params`` are extra model parameters (only ``fs`` has any: ``mass``, ``Ixx``, ``Iyy``, ``g``).
+    ``params`` are extra model parameters (only ``fs`` and ``fs3d`` have any: ``mass``, ``Ixx``, ``Iyy``, ``g``).
     Raises ``ValueError`` for an unknown name, ``dt`` not finite and positive, a ``q`` of the wrong length or
     with non-finite / non-positive entries, or unknown / invalid parameters.
     """
@@ -79,7 +86,7 @@ def make_model(
         if not np.all(np.isfinite(q_arr)) or np.any(q_arr <= 0.0):
             raise ValueError(f"q entries must be finite and positive (variances), got {q_arr.tolist()}")
 
-    allowed = {"mass", "Ixx", "Iyy", "g"} if key == "fs" else set()
+    allowed = {"mass", "Ixx", "Iyy", "g"} if key in ("fs", "fs3d") else set()
     unknown = set(params) - allowed
     if unknown:
         raise ValueError(
@@ -103,6 +110,7 @@ __all__ = [
     "ConstantVelocity",
     "ConstantVelocity3D",
     "FullStateQuadrotor",
+    "FullStateQuadrotor3D",
     "LinearMotionModel",
     "MotionModel",
     "make_model",

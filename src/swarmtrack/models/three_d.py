@@ -6,7 +6,9 @@ Each 3-D model is its planar counterpart on the horizontal states and a kinemati
 * ``cv3d``: CV (L24 eq. 5) and CV in altitude, ``[x, y, vx, vy, z, vz]``;
 * ``ca3d``: CA (W20 eq. 2.38) and CA in altitude, ``[x, y, vx, vy, z, vz, ax, ay, az]``;
 * ``ct3d``: CT (L24 Sec. 3.1, corrected) turning in the horizontal plane and CV in altitude (the coordinated turn of
-  Stone Soup's and Bar-Shalom's 3-D CT), ``[x, y, vx, vy, z, vz, ω]``.
+  Stone Soup's and Bar-Shalom's 3-D CT), ``[x, y, vx, vy, z, vz, ω]``;
+* ``fs3d``: the FS quadrotor (L24 Sec. 3.1) with its altitude, ``[x, y, vx, vy, z, vz, φ, θ, …, T]``
+  (:class:`FullStateQuadrotor3D`: its vertical motion is the thrust's, so not a separate block).
 
 Every 3-D model starts with the common block ``[x, y, vx, vy, z, vz]`` (:data:`COMMON_3D`): its first four states
 are the planar models' ``[x, y, vx, vy]`` (:mod:`swarmtrack.models.base`), so the planar code reads a 3-D estimate
@@ -29,6 +31,7 @@ from swarmtrack.models.base import MotionModel
 from swarmtrack.models.ca import ConstantAcceleration
 from swarmtrack.models.ct import ConstantTurn
 from swarmtrack.models.cv import ConstantVelocity
+from swarmtrack.models.fs import FullStateQuadrotor
 
 #: The common block of every 3-D model, ``[x, y, vx, vy, z, vz]``: its size and the index of ``z``.
 COMMON_3D = 6
@@ -167,3 +170,67 @@ class ConstantTurn3D(AltitudeModel):
     state_names: tuple[str, ...] = ("x", "y", "vx", "vy", "z", "vz", "omega")
     linear: bool = False
     hidden_prior_std: tuple[float, ...] = ConstantTurn.hidden_prior_std
+
+
+#: The 3-D FS model's states in the planar FS's order (every state but ``z``).
+_FS_STATES = np.r_[0:ALTITUDE, ALTITUDE + 1:13]
+
+
+@dataclass(frozen=True)
+class FullStateQuadrotor3D(MotionModel):
+    """The FS quadrotor (:class:`~swarmtrack.models.fs.FullStateQuadrotor`, L24 Sec. 3.1) with its altitude, state
+    ``[x, y, vx, vy, z, vz, φ, θ, φ̇, θ̇, Uφ, Uθ, T]``: the planar FS already carries ``vz`` (L24 holds it at zero by a
+    fake measurement, the target being planar); here ``z' = z + dt·vz`` (its Euler step, as FS's ``x``) and a real
+    altitude measurement observes it. Not block diagonal: FS's ``vz`` depends on the attitude and the thrust. The
+    other twelve states are predicted by the planar FS itself, bit for bit."""
+
+    name: str = "fs3d"
+    state_names: tuple[str, ...] = ("x", "y", "vx", "vy", "z", "vz", "phi", "theta", "phi_dot", "theta_dot",
+                                    "U_phi", "U_theta", "T")
+    linear: bool = False
+    hidden_prior_std: tuple[float, ...] = FullStateQuadrotor.hidden_prior_std[1:]  # FS's, but vz's (common here)
+    mass: float = 1.5
+    Ixx: float = 0.029
+    Iyy: float = 0.029
+    g: float = 9.81
+
+    @functools.cached_property
+    def planar(self) -> FullStateQuadrotor:
+        Q = np.array(np.asarray(self.Q)[np.ix_(_FS_STATES, _FS_STATES)])
+        Q.flags.writeable = False
+        return FullStateQuadrotor(dt=self.dt, Q=Q, mass=self.mass, Ixx=self.Ixx, Iyy=self.Iyy, g=self.g)
+
+    def __post_init__(self) -> None:
+        self.planar  # noqa: B018 - validates the physical parameters
+
+    @property
+    def altitude_index(self) -> int:
+        return ALTITUDE
+
+    def f(self, x: np.ndarray) -> np.ndarray:
+        x = np.asarray(x, dtype=float)
+        out = np.empty_like(x)
+        out[..., _FS_STATES] = self.planar.f(x[..., _FS_STATES])
+        out[..., ALTITUDE] = x[..., ALTITUDE] + self.dt * x[..., ALTITUDE + 1]
+        return out
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        x = np.asarray(x, dtype=float)
+        J = np.zeros(x.shape[:-1] + (13, 13))
+        J[..., _FS_STATES[:, None], _FS_STATES[None, :]] = self.planar.jacobian(x[..., _FS_STATES])
+        J[..., ALTITUDE, ALTITUDE] = 1.0
+        J[..., ALTITUDE, ALTITUDE + 1] = self.dt
+        return J
+
+    def initial_information_diagonal(self, information: float) -> np.ndarray:
+        """``information`` on the common block (``vz`` too: the altitude measurement observes it), FS's priors on the
+        attitude, rates, moments and thrust."""
+        diag = np.full(self.dim, float(information))
+        diag[COMMON_3D:] = 1.0 / np.square(self.hidden_prior_std)
+        return diag
+
+    def initial_state(self) -> np.ndarray:
+        """Zeros except the thrust, at hover ``m·g`` (as FS)."""
+        x0 = np.zeros(13)
+        x0[-1] = self.mass * self.g
+        return x0

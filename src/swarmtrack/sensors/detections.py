@@ -21,7 +21,8 @@ IDENTIFIED_FALSE = -2
 
 @dataclass(frozen=True)
 class Detections:
-    """``owner`` (M,) int, ``z`` (M, m), ``sensor_pos`` (M, 2), ``label`` (M,) int; ``n_uavs`` owners exist."""
+    """``owner`` (M,) int, ``z`` (M, m), ``sensor_pos`` (M, d) (d = 2, or 3 for a 3-D sensor), ``label`` (M,) int;
+    ``n_uavs`` owners exist."""
 
     owner: np.ndarray
     z: np.ndarray
@@ -68,19 +69,19 @@ class Detections:
 
     def of_label(self, label) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Per-UAV arrays of the detection labelled ``label`` (one label, or one per UAV (N,): UAVs of a batch of
-        worlds follow their own world's target): ``z`` (N, m), ``sensor_pos`` (N, 2) and ``seen`` (N,); rows of UAVs
+        worlds follow their own world's target): ``z`` (N, m), ``sensor_pos`` (N, d) and ``seen`` (N,); rows of UAVs
         that did not detect it are NaN. A sensor gives at most one per UAV and label."""
-        n, m = self.n_uavs, self.z.shape[-1]
+        n, m, d = self.n_uavs, self.z.shape[-1], self.sensor_pos.shape[-1]
         if np.ndim(label):
             pick = self.label == np.asarray(label)[self.owner]
         elif self.grid is not None and 0 <= label < self.grid:
             return (self.z.reshape(n, self.grid, m)[:, label].copy(),
-                    self.sensor_pos.reshape(n, self.grid, 2)[:, label].copy(), np.ones(n, dtype=bool))
+                    self.sensor_pos.reshape(n, self.grid, d)[:, label].copy(), np.ones(n, dtype=bool))
         else:
             pick = self.label == label
         owners = self.owner[pick]
         z = np.full((n, m), np.nan)
-        pos = np.full((n, 2), np.nan)
+        pos = np.full((n, d), np.nan)
         z[owners] = self.z[pick]
         pos[owners] = self.sensor_pos[pick]
         seen = np.zeros(n, dtype=bool)

@@ -92,3 +92,34 @@ def test_phase_validates_its_fields():
         VelocityProfile(())
     ph = Phase("p", 2, c=[1, 2], phi=(0, math.pi))
     assert ph.c == (1.0, 2.0) and isinstance(ph.duration, float)
+
+
+def test_a_climbing_profile_keeps_its_planar_motion_and_its_height_is_the_integral_of_its_climb_rate():
+    import math
+
+    from swarmtrack.vehicles.profile import Phase, VelocityProfile, l24_profile
+
+    flat = l24_profile()
+    climbing = VelocityProfile(tuple(
+        Phase(p.name, p.duration, p.c, p.amplitude, p.omega, p.phi, p.accel, vertical=v)
+        for p, v in zip(flat, [(0.0, 0.0, 0.0, 0.0, 0.02), (0.0, 0.5, 0.2, 0.3, 0.0), (0.1, 0.0, 0.0, 0.0, 0.0)],
+                        strict=True)))
+    t = np.linspace(-1.0, 160.0, 4001)
+    assert climbing.climbs and not flat.climbs
+    np.testing.assert_array_equal(climbing.velocity(t), flat.velocity(t))
+    np.testing.assert_array_equal(climbing.position(t), flat.position(t))
+    assert not flat.vertical_velocity(t).any()
+    np.testing.assert_array_equal(flat.height(t, 2.0), 2.0)
+    # the height is the exact integral of the climb rate, across the phases' jumps of climb rate
+    from scipy.integrate import quad
+
+    for when in (20.0, 40.0, 70.0, 102.8, 130.0, 160.0):
+        integral = quad(climbing.vertical_velocity, 0.0, when, points=[40.0, 102.8], limit=200)[0]
+        assert math.isclose(float(climbing.height(when, 3.0)), 3.0 + integral, rel_tol=1e-10)
+    fine = np.linspace(0.0, 150.0, 30001)
+    # the climb acceleration is the derivative of the climb rate inside each phase
+    inside = fine[(fine > 41.0) & (fine < 100.0)]
+    h = 1e-5
+    slope = (climbing.vertical_velocity(inside + h) - climbing.vertical_velocity(inside - h)) / (2 * h)
+    np.testing.assert_allclose(climbing.vertical_acceleration(inside), slope, atol=1e-8)
+    assert math.isclose(climbing.vertical_velocity(45.0), 0.5 * math.sin(0.2 * (45.0 - 40.0) + 0.3))

@@ -51,6 +51,9 @@ class Phase:
     omega: Pair = (0.0, 0.0)
     phi: Pair = (0.0, 0.0)
     accel: Pair = (0.0, 0.0)
+    #: The climb rate of a target in 3-D, ``vz(τ) = c + accel·τ + amplitude·sin(omega·τ + phi)`` given as
+    #: ``(c, amplitude, omega, phi, accel)`` (issue 28; level flight by default).
+    vertical: tuple[float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
         if not self.duration > 0.0:
@@ -58,6 +61,11 @@ class Phase:
         object.__setattr__(self, "duration", float(self.duration))
         for attr in ("c", "amplitude", "omega", "phi", "accel"):
             object.__setattr__(self, attr, _pair(getattr(self, attr), attr))
+        vertical = tuple(float(v) for v in self.vertical)
+        if len(vertical) != 5:
+            raise ValueError(f"phase {self.name!r}: vertical must be (c, amplitude, omega, phi, accel), got "
+                             f"{self.vertical!r}")
+        object.__setattr__(self, "vertical", vertical)
 
 
 @dataclass(frozen=True)
@@ -73,6 +81,8 @@ class VelocityProfile:
     _starts: np.ndarray = field(init=False, repr=False, compare=False)
     _coef: np.ndarray = field(init=False, repr=False, compare=False)
     _disp: np.ndarray = field(init=False, repr=False, compare=False)
+    _vcoef: np.ndarray = field(init=False, repr=False, compare=False)
+    _vdisp: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         phases = tuple(self.phases)
@@ -86,7 +96,12 @@ class VelocityProfile:
         # Displacement accumulated at the start of each phase (relative to the profile start).
         full = self._integral(coef, durations[:, None])  # (P, 2)
         disp = np.concatenate((np.zeros((1, 2)), np.cumsum(full, axis=0)[:-1]), axis=0)
-        for name, val in (("_starts", starts), ("_coef", coef), ("_disp", disp)):
+        # the vertical axis alone, (P, 5, 1): the same per-axis arithmetic (the planar numbers are untouched)
+        vcoef = np.array([[[v] for v in p.vertical] for p in phases], dtype=float)
+        vfull = self._integral(vcoef, durations[:, None])
+        vdisp = np.concatenate((np.zeros((1, 1)), np.cumsum(vfull, axis=0)[:-1]), axis=0)
+        for name, val in (("_starts", starts), ("_coef", coef), ("_disp", disp), ("_vcoef", vcoef),
+                          ("_vdisp", vdisp)):
             val.setflags(write=False)
             object.__setattr__(self, name, val)
 
@@ -151,6 +166,35 @@ class VelocityProfile:
         idx, tau, *_ = self._locate(t)
         coef = self._coef[idx]
         return np.asarray(start, dtype=float) + self._disp[idx] + self._integral(coef, tau)
+
+    # ------------------------------------------------------------------ altitude (3-D targets)
+    @property
+    def climbs(self) -> bool:
+        """Whether any phase has a vertical velocity (a 3-D target)."""
+        return bool(np.any(self._vcoef))
+
+    def _vertical(self, t):
+        t = np.asarray(t, dtype=float)
+        idx = self.phase_index(t)
+        tau = (t - self._starts[idx])[..., None]
+        return idx, tau, self._vcoef[idx]
+
+    def vertical_velocity(self, t) -> np.ndarray:
+        """Commanded climb rate at time(s) ``t`` (t's shape), m/s: :meth:`velocity`'s law on the vertical axis."""
+        _, tau, coef = self._vertical(t)
+        c, a, w, ph, acc = (coef[..., j, :] for j in range(5))
+        return (c + acc * tau + a * np.sin(w * tau + ph))[..., 0]
+
+    def vertical_acceleration(self, t) -> np.ndarray:
+        """Analytic derivative of :meth:`vertical_velocity` (t's shape), m/s²."""
+        _, tau, coef = self._vertical(t)
+        _, a, w, ph, acc = (coef[..., j, :] for j in range(5))
+        return (acc + a * w * np.cos(w * tau + ph))[..., 0]
+
+    def height(self, t, start: float = 0.0) -> np.ndarray:
+        """Exact integral of :meth:`vertical_velocity` from 0 to ``t`` plus ``start`` (t's shape), m."""
+        idx, tau, coef = self._vertical(t)
+        return (start + self._vdisp[idx] + self._integral(coef, tau))[..., 0]
 
     @staticmethod
     def _integral(coef: np.ndarray, tau: np.ndarray) -> np.ndarray:

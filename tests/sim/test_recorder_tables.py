@@ -157,3 +157,28 @@ print("pandas" in sys.modules)
 """
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+@pytest.mark.parametrize("chunk_rows", [63, 4096])
+def test_a_3d_worlds_altitude_is_recorded_beside_the_planar_truth_and_read_back(tmp_path, chunk_rows, monkeypatch):
+    """Rows of six truth columns ([x, y, vx, vy, z, vz], World.recorded_truth): the chunks' truth keeps the planar
+    four and their altitude the other two, in memory and on disk (z, vz columns, meta "altitude"); a planar
+    recording has neither."""
+    monkeypatch.setattr(recorder, "CHUNK_ROWS", chunk_rows)
+    steps = list(_steps(40, seed=2))
+    heights = [np.random.default_rng(k).standard_normal((7, 2)) for k in range(40)]
+    recs = []
+    for path in (None, tmp_path / "rec"):
+        rec = Recorder(_meta(), 7, 5, PROBES, path)
+        for (_, t, truth, phase, probes, _, _), h in zip(steps, heights, strict=True):
+            rec.record(t, np.concatenate([truth, h], axis=1), phase, probes)
+        recs.append(rec.close())
+    for got in recs:
+        chunks = list(got.chunks())
+        assert got.meta["altitude"] is True
+        np.testing.assert_array_equal(np.concatenate([c.truth for c in chunks]), [s[2] for s in steps])
+        np.testing.assert_array_equal(np.concatenate([c.altitude for c in chunks]), heights)
+    assert {"z", "vz"} <= set(pq.read_schema(tmp_path / "rec" / "objects.parquet").names)
+    planar = _record(tmp_path / "planar", 4096, monkeypatch)
+    assert "altitude" not in planar.meta and all(c.altitude is None for c in planar.chunks())
+    assert "z" not in pq.read_schema(tmp_path / "planar" / "objects.parquet").names

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from swarmtrack.sensors.detections import Detections
 from swarmtrack.sensors.range_bearing import MIN_RANGE, wrap_angle
 
 #: Index of each angle in a measurement ``[ρ, β, ε]``.
@@ -160,3 +161,22 @@ def _spectral(rho, beta, eps, sigma_range, sigma_bearing, sigma_elevation, min_r
     var_e = rho**2 * np.asarray(sigma_elevation, dtype=float) ** 2
     return sum(weight(var)[..., None, None] * e[..., :, None] * e[..., None, :]
                for var, e in ((var_r, u), (var_b, v), (var_e, w)))
+
+
+def sense(objects: np.ndarray, uavs: np.ndarray, stamped: np.ndarray, sigma_range: float, sigma_bearing: float,
+          sigma_elevation: float, noise: np.ndarray, max_range: float | None = None, taken: float | None = None):
+    """One sensing step of every UAV towards every labelled object (truth side): ``objects`` (M, 3) and ``uavs``
+    (N, 3) true positions, ``stamped`` (N, 3) the navigation positions the UAVs stamp on their measurements,
+    ``noise`` (N, M, 3) standard normal draws for every pair, in range or not (the draws do not depend on the
+    geometry). As :func:`swarmtrack.sensors.range_bearing.sense`: UAV-major detections, each labelled with its
+    object's index, and (for the world only) the index of the object each came from."""
+    n, m = len(uavs), len(objects)
+    z = measure(objects[None, :, :], uavs[:, None, :], sigma_range, sigma_bearing, sigma_elevation,
+                noise=noise).reshape(n * m, 3)
+    owner, source = np.divmod(np.arange(n * m), m) if m else (np.zeros(0, int), np.zeros(0, int))
+    grid = m
+    if max_range is not None:
+        inside = _relative(objects[source], uavs[owner])[4] <= max_range
+        owner, source, z = owner[inside], source[inside], z[inside]
+        grid = None
+    return Detections(owner, z, stamped[owner], source, n, grid, taken=taken), source

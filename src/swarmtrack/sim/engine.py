@@ -59,7 +59,8 @@ def step_loop(sim: Simulation, recorder: Recorder, progress: Callable[[float], N
             if posteriors:  # the second message of the step travels over the links that carried the first
                 stack.estimator.combine(t, Inbox(links, posteriors))
         recorder.record_inputs(k, t, nav, detections)
-        recorder.record(t, truth, world.phase_index(), {**stack.sample(), **{k: f() for k, f in sim.monitors.items()}})
+        recorder.record(t, world.recorded_truth(truth), world.phase_index(),
+                        {**stack.sample(), **{k: f() for k, f in sim.monitors.items()}})
         if on_step is not None:
             on_step(sim)
         view = stack.guide.view()

@@ -26,16 +26,22 @@ FORMAT = 1
 CHUNK_ROWS = 1 << 18
 
 
+#: The truth columns of every object, and those a 3-D world adds (its altitude channel).
+TRUTH_COLUMNS = ("x", "y", "vx", "vy")
+ALTITUDE_COLUMNS = ("z", "vz")
+
+
 @dataclass(frozen=True)
 class Chunk:
     """Consecutive steps ``k0 .. k0 + k − 1``: ``t`` (k,), ``truth`` (k, M, 4), ``phase`` (k, M), ``probes``
-    ``name → (k, N, *shape)``."""
+    ``name → (k, N, *shape)``; ``altitude`` (k, M, 2) every object's ``[z, vz]`` in a 3-D world, else None."""
 
     k0: int
     t: np.ndarray
     truth: np.ndarray
     phase: np.ndarray
     probes: dict[str, np.ndarray]
+    altitude: np.ndarray | None = None
 
 
 def _tables(meta: dict, c: Chunk) -> dict:
@@ -93,9 +99,11 @@ class _Layout:
         tiled = self._tile(k)
         step = np.arange(c.k0, c.k0 + k, dtype=np.int32)
         code = np.where(c.phase >= 0, self.offset[None, :] + c.phase, -1).ravel().astype(np.int32)
+        heights = {} if c.altitude is None else \
+            {col: arrow(c.altitude[..., j].ravel()) for j, col in enumerate(ALTITUDE_COLUMNS)}
         objects = {"step": arrow(np.repeat(step, m)), "t": arrow(np.repeat(c.t, m)), "group": tiled["group"],
                    "member": tiled["member"],
-                   **{col: arrow(c.truth[..., j].ravel()) for j, col in enumerate(("x", "y", "vx", "vy"))},
+                   **{col: arrow(c.truth[..., j].ravel()) for j, col in enumerate(TRUTH_COLUMNS)}, **heights,
                    "phase_index": arrow(c.phase.ravel()),
                    "phase": pa.DictionaryArray.from_arrays(arrow(code, code < 0), self.phases)}
         uavs = {"step": arrow(np.repeat(step, n)), "t": arrow(np.repeat(c.t, n)), "uav": tiled["uav"]}
@@ -192,6 +200,7 @@ class Recorder:
         self._pool = None  # the writer thread (a recording on disk)
         self._futures: list = []  # the writes submitted to it and not yet waited for
         self._mem: list[Chunk] = []
+        self._altitude = False  # whether the steps carry a 3-D world's altitude
         self._writers = None
         self._steps = 0
         self._t_last = 0.0
@@ -199,7 +208,9 @@ class Recorder:
         self.inputs = InputLog(self.path, None if self.path is None else self._submit) if inputs else None
 
     def record(self, t: float, truth: np.ndarray, phase: np.ndarray, probes: dict[str, np.ndarray]) -> None:
-        """Append one step (arrays are copied)."""
+        """Append one step (arrays are copied). ``truth`` (M, 4) ``[x, y, vx, vy]``, or (M, 6) with a 3-D world's
+        ``[z, vz]`` after them (:meth:`~swarmtrack.sim.world.World.recorded_truth`)."""
+        self._altitude = np.shape(truth)[-1] > len(TRUTH_COLUMNS)
         block = self._blocks[-1] if self._blocks else None
         if block is None or block.full:
             steps, probes_now = min(BLOCK_STEPS, self.chunk_steps - self._pending), {k: probes[k] for k in self.probes}
@@ -223,9 +234,11 @@ class Recorder:
         blocks = self._blocks
         # a chunk kept in memory owns its arrays; one written to disk may be the blocks themselves, filled again after
         join = _join if self.path is None else _view
-        chunk = Chunk(self._steps, join([b.t[:b.n] for b in blocks]), join([b.truth[:b.n] for b in blocks]),
-                      join([b.phase[:b.n] for b in blocks]),
-                      {k: join([b.probes[k][:b.n] for b in blocks]) for k in self.probes})
+        truth, altitude = join([b.truth[:b.n] for b in blocks]), None
+        if truth.shape[-1] > len(TRUTH_COLUMNS):  # a 3-D world's rows are [x, y, vx, vy, z, vz]
+            truth, altitude = np.ascontiguousarray(truth[..., :4]), np.ascontiguousarray(truth[..., 4:])
+        chunk = Chunk(self._steps, join([b.t[:b.n] for b in blocks]), truth, join([b.phase[:b.n] for b in blocks]),
+                      {k: join([b.probes[k][:b.n] for b in blocks]) for k in self.probes}, altitude)
         self._steps += self._pending
         self._t_last = float(chunk.t[-1])
         self._blocks, self._pending = [], 0
@@ -283,6 +296,8 @@ class Recorder:
             self._pool.shutdown()
             self._pool = None
         meta = {**self.meta, "n_steps": self._steps, "chunk_steps": self.chunk_steps, "t_last": self._t_last}
+        if self._altitude:
+            meta["altitude"] = True  # the objects' table has z, vz (a 3-D world)
         if self.inputs is not None and self.inputs.meta is not None:
             meta["inputs"] = self.inputs.close()
         if self.path is None:
@@ -368,13 +383,15 @@ class Recording:
     def _read(self, objects, uavs, wanted: list[str], g: int, k0: int) -> Chunk:
         """Row group ``g`` as a chunk of steps from ``k0``: the columns it holds, no others."""
         m, n = self.meta["n_objects"], self.meta["n_uavs"]
-        o = objects.read_row_group(g, columns=["t", "x", "y", "vx", "vy", "phase_index"])
+        heights = ALTITUDE_COLUMNS if self.meta.get("altitude") else ()
+        o = objects.read_row_group(g, columns=["t", *TRUTH_COLUMNS, *heights, "phase_index"])
         k = o.num_rows // m
-        truth = np.stack([numpy_of(o.column(c)) for c in ("x", "y", "vx", "vy")], axis=-1).reshape(k, m, 4)
+        truth = np.stack([numpy_of(o.column(c)) for c in TRUTH_COLUMNS], axis=-1).reshape(k, m, 4)
+        altitude = np.stack([numpy_of(o.column(c)) for c in heights], axis=-1).reshape(k, m, 2) if heights else None
         u = uavs.read_row_group(g, columns=wanted) if wanted else None
         probes = {name: numpy_of(u.column(name)).reshape(k, n, *self.meta["probes"][name]) for name in wanted}
         return Chunk(k0, numpy_of(o.column("t"))[::m].copy(), truth, numpy_of(o.column("phase_index")).reshape(k, m),
-                     probes)
+                     probes, altitude)
 
     def inputs(self) -> Iterator[tuple[int, float, np.ndarray, Detections]]:
         """The onboard stack's inputs step by step, ``(k, t, navigation (N, d), detections)``, as they were handed

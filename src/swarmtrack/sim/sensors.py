@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
-from swarmtrack.sensors import camera, footprint, range_bearing
+from swarmtrack.sensors import camera, elevation_bearing_range, footprint, range_bearing
 from swarmtrack.sensors.detections import Detections
 from swarmtrack.vehicles import fixed_wing, ground_walker
 
@@ -30,11 +30,12 @@ class Scene:
     gimballed sensor. The draws are made when asked for, each from its own streams, so a sensor draws only what it
     uses."""
 
-    __slots__ = ("_world", "aim", "t", "worlds", "_lagged")
+    __slots__ = ("_world", "aim", "t", "worlds", "_lagged", "_heights")
 
     def __init__(self, world: World, aim: np.ndarray | None):
         self._world, self.aim, self.t, self.worlds = world, aim, world.t, world.worlds
         self._lagged = None
+        self._heights = None
 
     def _positions(self) -> tuple[np.ndarray, float]:
         if self._lagged is None:  # read when a sensor asks (the footprint sensor reads full states instead)
@@ -57,9 +58,28 @@ class Scene:
         """(N, 2) the navigation positions stamped on the detections: ``uavs`` with their own navigation error."""
         return self._world.stamped(self.uavs)
 
-    def normal(self) -> np.ndarray:
-        """(N, M, 2) standard normal noise of every (UAV, sensed object) pair (a batch: (B, n, M_b, 2))."""
-        return self._world.normal_noise()
+    def _lagged_heights(self) -> np.ndarray:
+        if self._heights is None:
+            self._heights = self._world.lagged_heights()
+        return self._heights
+
+    @property
+    def uav_heights(self) -> np.ndarray:
+        """(N,) the UAVs' true heights at ``taken`` (a 3-D world)."""
+        return self._lagged_heights()[self._world.slices["uavs"]]
+
+    @property
+    def object_heights(self) -> np.ndarray:
+        """(M,) the sensed objects' true heights at ``taken`` (a 3-D world)."""
+        return self._lagged_heights()[self._world._sensed]
+
+    def stamped_heights(self) -> np.ndarray:
+        """(N,) the navigation heights stamped on a 3-D sensor's detections."""
+        return self._world.stamped_heights(self.uav_heights)
+
+    def normal(self, width: int = 2) -> np.ndarray:
+        """(N, M, width) standard normal noise of every (UAV, sensed object) pair (a batch: (B, n, M_b, width))."""
+        return self._world.normal_noise(width)
 
     def uniforms(self) -> np.ndarray:
         """(N, M, 2) uniform noise in [0, 1) of every (UAV, sensed object) pair."""
@@ -120,6 +140,29 @@ class RangeBearingSensor(Sensor):
         hidden = hidden_by(self.occluders, objects, len(uavs), scene.t)
         return range_bearing.sense(objects, uavs, stamped, self.sigma_range, self.sigma_bearing, noise,
                                    self.max_range, hidden, scene.taken)
+
+
+@dataclass(frozen=True)
+class RangeBearingElevationSensor(Sensor):
+    """Truth side of the range-bearing-elevation sensor (:mod:`swarmtrack.sensors.elevation_bearing_range`, issue
+    28): the range-bearing sensor of L24 Sec. 3.2 in a 3-D world, with the elevation angle; every UAV measures
+    every object of the ``sensed`` groups within ``max_range`` (3-D distance), ``latency`` s late, noise from each
+    object's stream (``sensor/range_bearing_elevation/<group>/<member>``). One world at a time."""
+
+    sigma_range: float
+    sigma_bearing: float
+    sigma_elevation: float
+    max_range: float | None = None
+    latency: float = 0.0
+    sensed: tuple[str, ...] = ("targets", "decoys")
+    name: ClassVar[str] = "range_bearing_elevation"
+
+    def sense(self, scene: Scene) -> tuple[Detections, np.ndarray]:
+        objects = np.column_stack([scene.objects, scene.object_heights])
+        uavs = np.column_stack([scene.uavs, scene.uav_heights])
+        stamped = np.column_stack([scene.stamped(), scene.stamped_heights()])
+        return elevation_bearing_range.sense(objects, uavs, stamped, self.sigma_range, self.sigma_bearing,
+                                             self.sigma_elevation, scene.normal(3), self.max_range, scene.taken)
 
 
 @dataclass(frozen=True)

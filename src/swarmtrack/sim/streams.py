@@ -3,9 +3,8 @@
 ``stream(seed, "wind")`` is the same generator whatever other streams a scenario uses, so adding a sensor or a
 vehicle group later does not shift the draws of the others (a single generator drawn in call order would).
 Purposes used by the simulator: ``spawn`` (initial positions), ``wind/<group>/<member>`` (the gusts on each driven
-vehicle), ``navigation`` (each UAV's own navigation error), ``sensor/<kind>/<group>/<member>`` (the noise of the
-detections of each sensed object), ``channel``
-(message loss).
+vehicle), ``navigation`` (each UAV's own navigation error; ``navigation/altitude`` its height's, in a 3-D world),
+``sensor/<kind>/<group>/<member>`` (the noise of the detections of each sensed object), ``channel`` (message loss).
 """
 
 from __future__ import annotations

@@ -19,9 +19,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from swarmtrack import registry
+from swarmtrack.sim.altitude_channel import AltitudeChannel
 from swarmtrack.sim.sensors import Scene, Sensor
 from swarmtrack.vehicles import double_integrator, fixed_wing, quadrotor
 from swarmtrack.vehicles import kernels as _kernels
+from swarmtrack.vehicles.altitude import GroupAltitude
 from swarmtrack.vehicles.base import Vehicle
 from swarmtrack.vehicles.profile import VelocityProfile
 
@@ -46,9 +48,9 @@ class ProfileDriver:
 @dataclass(frozen=True)
 class Group:
     """``vehicle``: a registered vehicle kind's name; ``start`` (n, 2) initial positions; ``driver`` None: commanded
-    onboard (the UAVs). A kinematic vehicle also takes its ``params`` (e.g. ``WalkerParams``, ``FixedWingParams``)
-    and initial ``heading`` (n,); a kinematic group other than the UAVs draws its own inputs (stream
-    ``walk/<group>/<member>``)."""
+    onboard (the UAVs); ``altitude``: its heights in a 3-D world (:mod:`swarmtrack.sim.altitude_channel`). A
+    kinematic vehicle also takes its ``params`` (e.g. ``WalkerParams``, ``FixedWingParams``) and initial ``heading``
+    (n,); a kinematic group other than the UAVs draws its own inputs (stream ``walk/<group>/<member>``)."""
 
     name: str
     vehicle: str
@@ -56,6 +58,8 @@ class Group:
     driver: ProfileDriver | None = None
     params: object = None
     heading: np.ndarray | None = None
+    #: Its altitude channel in a 3-D world (:class:`~swarmtrack.vehicles.altitude.GroupAltitude`); None: planar.
+    altitude: GroupAltitude | None = None
 
     @property
     def size(self) -> int:
@@ -344,6 +348,10 @@ class World:
         # ring buffer of past positions, for measurements that arrive `latency` late
         lag = int(round(sensor.latency / dt))
         self._history = np.repeat(starts[None], lag + 1, axis=0)
+        # a 3-D world: every object's altitude, stepped beside the physics, and the UAVs' navigation heights' noise
+        self._altitude = AltitudeChannel(groups, self.slices, self.n_objects, grid, lag) \
+            if any(g.altitude is not None for g in groups) else None
+        self._nav_z_rngs = [s("navigation/altitude") for s in world_streams] if self._altitude is not None else []
         # where each group's commands go: a group is one vehicle kind, laid out contiguously in that kind's rows
         self._cmd_rows = {}
         for g in groups:
@@ -369,6 +377,11 @@ class World:
         return self._tick * self.dt
 
     @property
+    def three_d(self) -> bool:
+        """Whether the world has an altitude channel (:meth:`altitude`)."""
+        return self._altitude is not None
+
+    @property
     def aims(self) -> bool:
         """Whether the sensor is gimballed (:meth:`sense` reads its ``aim``)."""
         return self.sensor.aims
@@ -392,6 +405,17 @@ class World:
         """(n, 4) ``[x, y, vx, vy]`` of a group's members (a copy), or of every object with ``group=None``."""
         truth = self._all_truth()
         return truth.copy() if group is None else truth[self.slices[group]].copy()
+
+    def recorded_truth(self, truth: np.ndarray | None = None) -> np.ndarray:
+        """What the recorder keeps of every object: its ``[x, y, vx, vy]`` (``truth``, this tick's :meth:`truth` if
+        not given), and in a 3-D world ``[z, vz]`` after them (M, 6)."""
+        truth = self._all_truth() if truth is None else truth
+        return truth if self._altitude is None else np.concatenate([truth, self._altitude.truth()], axis=1)
+
+    def altitude(self, group: str | None = None) -> np.ndarray:
+        """(n, 2) ``[z, vz]`` of a group's members, or of every object with ``group=None`` (a 3-D world only)."""
+        alt = self._altitude.truth()
+        return alt if group is None else alt[self.slices[group]]
 
     def phase_index(self) -> np.ndarray:
         """(n_objects,) index of the profile phase each driven object flies now (−1: not driven)."""
@@ -448,6 +472,19 @@ class World:
         taken = (self._tick - (len(self._history) - 1)) * self.dt
         return self._history[(self._tick + 1) % len(self._history)], taken
 
+    def lagged_heights(self) -> np.ndarray:
+        """Every object's height ``sensor.latency`` ago (M,), with :meth:`lagged_positions` (a 3-D world)."""
+        return self._altitude.lagged(self._tick)
+
+    def stamped_heights(self, heights: np.ndarray) -> np.ndarray:
+        """The navigation heights a 3-D sensor stamps on its detections: ``heights`` (N,) plus their navigation error
+        (σ of the navigation position, from the ``navigation/altitude`` stream: the planar draws are left as
+        they are)."""
+        stamped = heights.copy()
+        if self._nav_std[0] > 0:
+            stamped += self._draw(self._nav_z_rngs, 1)[:, 0] * self._nav_std[0]
+        return stamped
+
     def stamped(self, uavs: np.ndarray) -> np.ndarray:
         """The navigation positions a sensor stamps on its detections: ``uavs`` (N, 2) plus their own navigation
         error (the ``navigation`` stream)."""
@@ -456,20 +493,20 @@ class World:
             stamped += self._draw(self._nav_rngs, 2) * self._nav_std[0]
         return stamped
 
-    def normal_noise(self) -> np.ndarray:
-        """(N, M, 2) standard normal draws of this frame, each sensed object's (N, 2) from its own stream (a batch:
-        (B, n, M_b, 2), each world's UAVs towards its own objects)."""
+    def normal_noise(self, width: int = 2) -> np.ndarray:
+        """(N, M, width) standard normal draws of this frame, each sensed object's (N, width) from its own stream (a
+        batch: (B, n, M_b, width), each world's UAVs towards its own objects); width 3: a 3-D sensor's."""
         if self.worlds > 1:
             labels, n = self._world_labels, self._world_uavs[0].stop
-            noise = np.empty((self.worlds, n, labels.shape[1], 2))
+            noise = np.empty((self.worlds, n, labels.shape[1], width))
             for b, row in enumerate(labels):
                 for j, label in enumerate(row):
-                    noise[b, :, j] = self._sensor_rngs[label].standard_normal((n, 2))
+                    noise[b, :, j] = self._sensor_rngs[label].standard_normal((n, width))
             return noise
         n = self.groups["uavs"].size
-        noise = np.empty((n, len(self._sensed), 2))
+        noise = np.empty((n, len(self._sensed), width))
         for j, rng in enumerate(self._sensor_rngs):
-            noise[:, j] = rng.standard_normal((n, 2))
+            noise[:, j] = rng.standard_normal((n, width))
         return noise
 
     # --- physics -----------------------------------------------------------------------------------------
@@ -497,11 +534,14 @@ class World:
                          (self._v_cmd, self._a_ff, self._wind, self._gains), self._tick, ticks, self.dt,
                          self._kernel_consts, self._history)
         for tick in range(start, start + ticks):
-            self._step_kinematic(tick)
+            self._step_beside(tick)
         self._tick += ticks
 
-    def _step_kinematic(self, tick: int) -> None:
-        """One tick of every kinematic group (from tick ``tick``), and their positions into the latency buffer."""
+    def _step_beside(self, tick: int) -> None:
+        """One tick (from tick ``tick``) of what the physics kernel does not step: every kinematic group (their
+        positions into the latency buffer) and a 3-D world's altitude channel."""
+        if self._altitude is not None:
+            self._altitude.step(tick, self.dt)
         if self._pack is not None:
             self._pack.step(tick)
         for kin in self._loose:
@@ -523,7 +563,7 @@ class World:
 
     def step(self) -> None:
         """Advance the truth by one physics step (the numpy reference of the compiled kernel)."""
-        self._step_kinematic(self._tick)
+        self._step_beside(self._tick)
         if len(self._quad_obj):
             a = self._accel(self._quad_cmd, self._quad_driver, self._quads[:, 2:4])
             self._quads = quadrotor.step(self._quads, a, self.params, self.dt)

@@ -19,6 +19,8 @@ every planar recording stay exactly as they are.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 STATE_DIM = 3
@@ -55,3 +57,25 @@ def step(state: np.ndarray, accel: np.ndarray, dt: float, lag: np.ndarray, up: n
 def hold(state: np.ndarray, z_ref: np.ndarray, kp: float, kd: float) -> np.ndarray:
     """A UAV's altitude hold: the PD command ``kp·(z_ref − z) − kd·vz`` (M,) towards ``z_ref`` (M,)."""
     return kp * (np.asarray(z_ref, dtype=float) - state[:, Z]) - kd * state[:, VZ]
+
+
+@dataclass(frozen=True)
+class GroupAltitude:
+    """A group's altitude channel: its members' start heights ``z0`` (n,), their thrust lag ``lag`` (s; 0: a double
+    integrator), the largest vertical accelerations ``up`` and ``down`` (m/s²), and, for a group commanded onboard
+    (the UAVs), the heights ``hold`` (n,) its autopilots keep with the PD gains ``kp`` (s⁻²), ``kd`` (s⁻¹). A group
+    flying velocity profiles climbs as its profiles say (``VelocityProfile.vertical_velocity``)."""
+
+    z0: np.ndarray
+    lag: float = 0.0
+    up: float = np.inf
+    down: float = np.inf
+    hold: np.ndarray | None = None
+    kp: float = 1.44
+    kd: float = 2.16
+
+    @classmethod
+    def quadrotor(cls, z0, mass: float, g: float, max_thrust: float, hold=None, **gains) -> GroupAltitude:
+        """Quadrotors: the iris motors' lag, up to ``max_thrust/m − g`` up and ``g`` down (no thrust)."""
+        return cls(np.asarray(z0, dtype=float), QUADROTOR_THRUST_LAG, max_thrust / mass - g, g,
+                   None if hold is None else np.asarray(hold, dtype=float), **gains)

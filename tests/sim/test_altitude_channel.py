@@ -81,3 +81,25 @@ def test_a_world_without_an_altitude_channel_is_the_planar_world(compiled):
         a.advance({"uavs": np.ones((3, 2))}, 10)
         b.advance({"uavs": np.ones((3, 2))}, 10)
     np.testing.assert_array_equal(a.truth(), b.truth())
+
+
+@pytest.mark.slow  # two 40 s runs of l24-ct
+def test_a_planar_scene_run_in_3d_gives_the_planar_runs_errors():
+    """l24-ct with the range-bearing-elevation sensor and CT in 3-D: target and UAVs stay at z = 0, the range and
+    bearing noise is the planar sensor's (its streams), the elevation's its own. The horizontal errors and the NEES
+    of [x, y, vx, vy] are the planar run's within 1 % (the noisy elevation moves the converted positions by
+    about ρ ε²/2), and the altitude is estimated at the scale of the horizontal error."""
+    from swarmtrack.analysis.metrics import summary
+    from swarmtrack.scenarios import load_scenario
+    from swarmtrack.sim.engine import simulate
+
+    planar = simulate(load_scenario("l24-ct", ["duration=40"]))
+    three_d = simulate(load_scenario("l24-ct", ["duration=40", "sensor.kind=range_bearing_elevation",
+                                                "estimator.model=ct3d"]))
+    s2, s3 = summary(planar), summary(three_d)
+    for c in ("x", "y", "vx", "vy"):
+        assert s3["rmse"]["total"][c] == pytest.approx(s2["rmse"]["total"][c], rel=0.01)
+    assert s3["consistency"]["total"]["nees"] == pytest.approx(s2["consistency"]["total"]["nees"], rel=0.01)
+    assert three_d.meta["altitude"] and all(not c.altitude.any() for c in three_d.chunks())  # all at z = 0
+    z = np.concatenate([c.probes["estimate"][..., 4] for c in three_d.chunks()])
+    assert np.sqrt(np.mean(z[100:] ** 2)) < 2 * max(s2["rmse"]["total"]["x"], s2["rmse"]["total"]["y"])

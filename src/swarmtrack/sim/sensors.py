@@ -77,9 +77,13 @@ class Scene:
         """(N,) the navigation heights stamped on a 3-D sensor's detections."""
         return self._world.stamped_heights(self.uav_heights)
 
-    def normal(self, width: int = 2) -> np.ndarray:
-        """(N, M, width) standard normal noise of every (UAV, sensed object) pair (a batch: (B, n, M_b, width))."""
-        return self._world.normal_noise(width)
+    def normal(self) -> np.ndarray:
+        """(N, M, 2) standard normal noise of every (UAV, sensed object) pair (a batch: (B, n, M_b, 2))."""
+        return self._world.normal_noise()
+
+    def extra_normal(self, purpose: str) -> np.ndarray:
+        """(N, M) standard normal noise of every pair for a further ``purpose``, from its own streams."""
+        return self._world.extra_normal(purpose)
 
     def uniforms(self) -> np.ndarray:
         """(N, M, 2) uniform noise in [0, 1) of every (UAV, sensed object) pair."""
@@ -101,6 +105,8 @@ class Sensor:
     name: ClassVar[str] = "sensor"
     #: Whether :meth:`sense` reads the scene's ``aim`` (a gimballed sensor; the estimates are then computed for it).
     aims: ClassVar[bool] = False
+    #: Whether it reads the heights (the world then has an altitude channel, every object at z = 0 by default).
+    three_d: ClassVar[bool] = False
     #: The groups it senses, in label order.
     sensed: tuple[str, ...] = ("targets", "decoys")
     #: Age of its reports, s (the world keeps that much history of the truth).
@@ -146,8 +152,10 @@ class RangeBearingSensor(Sensor):
 class RangeBearingElevationSensor(Sensor):
     """Truth side of the range-bearing-elevation sensor (:mod:`swarmtrack.sensors.elevation_bearing_range`, issue
     28): the range-bearing sensor of L24 Sec. 3.2 in a 3-D world, with the elevation angle; every UAV measures
-    every object of the ``sensed`` groups within ``max_range`` (3-D distance), ``latency`` s late, noise from each
-    object's stream (``sensor/range_bearing_elevation/<group>/<member>``). One world at a time."""
+    every object of the ``sensed`` groups within ``max_range`` (3-D distance), ``latency`` s late. The range and
+    bearing noise comes from the planar sensor's streams (``sensor/range_bearing/<group>/<member>``), the
+    elevation's from ``sensor/range_bearing/elevation/<group>/<member>``: a target level with its UAVs gives the
+    planar sensor's measurements, and a 3-D run of a planar scene the planar run's numbers. One world at a time."""
 
     sigma_range: float
     sigma_bearing: float
@@ -155,14 +163,16 @@ class RangeBearingElevationSensor(Sensor):
     max_range: float | None = None
     latency: float = 0.0
     sensed: tuple[str, ...] = ("targets", "decoys")
-    name: ClassVar[str] = "range_bearing_elevation"
+    name: ClassVar[str] = "range_bearing"  # its streams: the planar sensor's, and the elevation's
+    three_d: ClassVar[bool] = True
 
     def sense(self, scene: Scene) -> tuple[Detections, np.ndarray]:
         objects = np.column_stack([scene.objects, scene.object_heights])
         uavs = np.column_stack([scene.uavs, scene.uav_heights])
         stamped = np.column_stack([scene.stamped(), scene.stamped_heights()])
+        noise = np.concatenate([scene.normal(), scene.extra_normal("elevation")[..., None]], axis=-1)
         return elevation_bearing_range.sense(objects, uavs, stamped, self.sigma_range, self.sigma_bearing,
-                                             self.sigma_elevation, scene.normal(3), self.max_range, scene.taken)
+                                             self.sigma_elevation, noise, self.max_range, scene.taken)
 
 
 @dataclass(frozen=True)

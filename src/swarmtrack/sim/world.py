@@ -276,6 +276,10 @@ class World:
         self._sensed = sensed_objects(self.slices, sensor.sensed)
         self._sensor_rngs = [world_streams[self.world_of[o]]("sensor/{}/{}/{}".format(sensor.name, *local[o]))
                              for o in self._sensed]
+        # further noise of a sensor, each purpose its own stream per sensed object (extra_normal)
+        self._extra_rngs = {}
+        self._extra_stream = lambda purpose, o: world_streams[self.world_of[o]](
+            "sensor/{}/{}/{}/{}".format(sensor.name, purpose, *local[o]))
         self._uniforms: _Uniforms | None = None  # their uniforms, for a sensor that takes them (frame_uniforms)
         # a batch: each world's UAV rows (contiguous) and its sensed objects' labels (B, M)
         n = self.groups["uavs"].size // self.worlds
@@ -350,7 +354,7 @@ class World:
         self._history = np.repeat(starts[None], lag + 1, axis=0)
         # a 3-D world: every object's altitude, stepped beside the physics, and the UAVs' navigation heights' noise
         self._altitude = AltitudeChannel(groups, self.slices, self.n_objects, grid, lag) \
-            if any(g.altitude is not None for g in groups) else None
+            if sensor.three_d or any(g.altitude is not None for g in groups) else None
         self._nav_z_rngs = [s("navigation/altitude") for s in world_streams] if self._altitude is not None else []
         # where each group's commands go: a group is one vehicle kind, laid out contiguously in that kind's rows
         self._cmd_rows = {}
@@ -493,20 +497,32 @@ class World:
             stamped += self._draw(self._nav_rngs, 2) * self._nav_std[0]
         return stamped
 
-    def normal_noise(self, width: int = 2) -> np.ndarray:
-        """(N, M, width) standard normal draws of this frame, each sensed object's (N, width) from its own stream (a
-        batch: (B, n, M_b, width), each world's UAVs towards its own objects); width 3: a 3-D sensor's."""
+    def normal_noise(self) -> np.ndarray:
+        """(N, M, 2) standard normal draws of this frame, each sensed object's (N, 2) from its own stream (a batch:
+        (B, n, M_b, 2), each world's UAVs towards its own objects)."""
         if self.worlds > 1:
             labels, n = self._world_labels, self._world_uavs[0].stop
-            noise = np.empty((self.worlds, n, labels.shape[1], width))
+            noise = np.empty((self.worlds, n, labels.shape[1], 2))
             for b, row in enumerate(labels):
                 for j, label in enumerate(row):
-                    noise[b, :, j] = self._sensor_rngs[label].standard_normal((n, width))
+                    noise[b, :, j] = self._sensor_rngs[label].standard_normal((n, 2))
             return noise
         n = self.groups["uavs"].size
-        noise = np.empty((n, len(self._sensed), width))
+        noise = np.empty((n, len(self._sensed), 2))
         for j, rng in enumerate(self._sensor_rngs):
-            noise[:, j] = rng.standard_normal((n, width))
+            noise[:, j] = rng.standard_normal((n, 2))
+        return noise
+
+    def extra_normal(self, purpose: str) -> np.ndarray:
+        """(N, M) standard normal draws of this frame for a sensor's further noise ``purpose`` (the 3-D sensor's
+        elevation), each sensed object's (N,) from its own stream ``sensor/<name>/<purpose>/<group>/<member>``: the
+        draws of :meth:`normal_noise` are left as they are. One world at a time."""
+        if purpose not in self._extra_rngs:
+            self._extra_rngs[purpose] = [self._extra_stream(purpose, o) for o in self._sensed]
+        n = self.groups["uavs"].size
+        noise = np.empty((n, len(self._sensed)))
+        for j, rng in enumerate(self._extra_rngs[purpose]):
+            noise[:, j] = rng.standard_normal(n)
         return noise
 
     # --- physics -----------------------------------------------------------------------------------------

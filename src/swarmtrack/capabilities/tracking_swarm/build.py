@@ -8,6 +8,7 @@ from swarmtrack.capabilities.tracking_swarm.settings import (
     FilterSpec,
     FlockingSpec,
     IMMSpec,
+    RangeBearingElevationSpec,
     RangeBearingSpec,
     refiltered_steps,
 )
@@ -19,7 +20,6 @@ from swarmtrack.estimation.information import (
     InformationEstimator,
     InformationSharing,
     MeasurementSharing,
-    RangeBearingUpdate,
 )
 from swarmtrack.estimation.information_compiled import compiled_cycle
 from swarmtrack.estimation.refilter import RefilteringEstimator
@@ -27,7 +27,7 @@ from swarmtrack.estimation.sharing import Chi2Gate, CovarianceIntersection
 from swarmtrack.models import make_model
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sim.build import Context, occluders
-from swarmtrack.sim.sensors import RangeBearingSensor
+from swarmtrack.sim.sensors import RangeBearingElevationSensor, RangeBearingSensor
 
 
 def sharing(spec: FilterSpec, ctx: Context) -> InformationSharing:
@@ -55,7 +55,7 @@ def information(spec: FilterSpec, ctx: Context) -> InformationEstimator:
     window = refiltered_steps(ctx.scenario) if spec.delayed_data == "refilter" else 0
     own = ctx.scenario.swarm.nav_position_std if spec.own_position == "include" else 0.0
     model = make_model(spec.model, ctx.dt_estimation, spec.q)
-    update = RangeBearingUpdate(s.sigma_range, s.sigma_bearing, s.update, own_sigma=own)
+    update = s.update_rule(own)
     shared = sharing(spec, ctx)
     common = {"label": ctx.label_of("targets", spec.target - 1), "sharing": shared,
               "initial_info": spec.initial_information, "fake_vz_sigma": spec.fake_vz_sigma, "rows": ctx.rows}
@@ -71,7 +71,7 @@ def imm(spec: IMMSpec, ctx: Context) -> IMMInformationEstimator:
     qs = spec.q or [None] * len(spec.models)
     return IMMInformationEstimator(
         [make_model(m, ctx.dt_estimation, q) for m, q in zip(spec.models, qs, strict=True)],
-        RangeBearingUpdate(s.sigma_range, s.sigma_bearing, s.update), len(ctx.uavs),
+        s.update_rule(), len(ctx.uavs),
         label=ctx.label_of("targets", spec.target - 1), share=spec.share, markov=spec.markov,
         initial_info=spec.initial_information, fake_vz_sigma=spec.fake_vz_sigma, rows=ctx.rows, compiled=ctx.compiled)
 
@@ -90,3 +90,7 @@ def flocking(spec: FlockingSpec, ctx: Context) -> FlockingController:
 
 def range_bearing(s: RangeBearingSpec, scenario: Scenario) -> RangeBearingSensor:
     return RangeBearingSensor(s.sigma_range, s.sigma_bearing, s.max_range, s.latency, occluders(s))
+
+
+def range_bearing_elevation(s: RangeBearingElevationSpec, scenario: Scenario) -> RangeBearingElevationSensor:
+    return RangeBearingElevationSensor(s.sigma_range, s.sigma_bearing, s.sigma_elevation, s.max_range, s.latency)

@@ -39,13 +39,75 @@ class RangeBearingSpec(SensorSpec):
         "m (at most 1e6 m); a UAV farther from the target measures nothing"))
 
 
+    def update_rule(self, own_sigma: float = 0.0):
+        """How its measurements enter an information filter (:class:`~swarmtrack.estimation.information
+        .RangeBearingUpdate`); ``own_sigma``: the UAV's own navigation error, m."""
+        from swarmtrack.estimation.information import RangeBearingUpdate
+
+        return RangeBearingUpdate(self.sigma_range, self.sigma_bearing, self.update, own_sigma=own_sigma)
+
+
+class RangeBearingElevationSpec(SensorSpec):
+    """Range, bearing and relative elevation from each UAV to every object in a 3-D world: L24 Sec. 3.2's sensor
+    with the elevation angle its Sec. 6 names (docs/three-d.md); its estimators run 3-D models (cv3d, ca3d, ct3d,
+    fs3d)."""
+
+    kind: Literal["range_bearing_elevation"] = "range_bearing_elevation"
+    sigma_range: Length = Field(0.08, gt=0, description="m (L24: 0.08; at most 1e6 m)")
+    sigma_bearing: Angle = Field(0.02, gt=0, description="rad (L24: 0.02; at most 1e3 rad)")
+    sigma_elevation: Angle = Field(0.02, gt=0, description=(
+        "rad (chosen: the bearing's, L24's 0.02, read by the same sensor; at most 1e3 rad)"))
+    update: Literal["position", "spherical"] = Field("position", description=(
+        "position: the converted position, its covariance growing with distance across the line of sight; "
+        "spherical: EKF on [ρ, β, ε]"))
+    max_range: Length | None = Field(None, gt=0, description=(
+        "m (at most 1e6 m); a UAV farther from the target (3-D distance) measures nothing"))
+
+    @field_validator("occluders")
+    @classmethod
+    def _no_occluders(cls, v):
+        if v:
+            raise ValueError("are planar regions: the range_bearing_elevation sensor takes none")
+        return v
+
+    def check(self, scenario: Scenario) -> None:
+        super().check(scenario)
+        if scenario.estimator.kind not in ("information", "centralized", "imm"):
+            raise ValueError(f"sensor.kind range_bearing_elevation needs estimator.kind information, centralized or "
+                             f"imm (with 3-D models), not {scenario.estimator.kind}")
+
+    def update_rule(self, own_sigma: float = 0.0):
+        """:class:`~swarmtrack.estimation.elevation.RangeBearingElevationUpdate` of this sensor."""
+        from swarmtrack.estimation.elevation import RangeBearingElevationUpdate
+
+        return RangeBearingElevationUpdate(self.sigma_range, self.sigma_bearing, self.sigma_elevation, self.update,
+                                           own_sigma=own_sigma)
+
+
+#: The target models of a planar sensor and of the range-bearing-elevation sensor (models/three_d.py).
+PLANAR_MODELS = ("cv", "ca", "ct", "fs")
+MODELS_3D = ("cv3d", "ca3d", "ct3d", "fs3d")
+
+
+def check_dimensions(scenario: Scenario, models, field: str) -> None:
+    """A 3-D sensor needs 3-D models and a planar one planar models: refuse the mix, naming ``field``."""
+    three_d = scenario.sensor.kind == "range_bearing_elevation"
+    wrong = [m for m in models if (m in MODELS_3D) != three_d]
+    if wrong:
+        need = "3-D models (" + ", ".join(MODELS_3D) + ")" if three_d else "planar models (" + \
+            ", ".join(PLANAR_MODELS) + ")"
+        raise ValueError(f"{field} {', '.join(wrong)} does not match sensor.kind {scenario.sensor.kind}: it needs "
+                         f"{need}")
+
+
 class FilterSpec(EstimatorSpec):
     """An EKF over one target motion model, following the target ``target`` (1-based member of ``targets``,
     recognised onboard by the label its sensor reports)."""
 
     share: Literal["information", "measurements"] = Field(
         "information", description="information: neighbours send I_j, i_j (L24 eq. 6); measurements: z_j and pose")
-    model: Literal["cv", "ca", "ct", "fs"] = "ct"
+    model: Literal["cv", "ca", "ct", "fs", "cv3d", "ca3d", "ct3d", "fs3d"] = Field("ct", description=(
+        "the target model (L24 Sec. 3.1); the 3-D ones with the range_bearing_elevation sensor"))
     q: list[float] | None = Field(None, description=(
         "diagonal of Q; default: the paper's (L24 Sec. 4). Not bounded above: tests/sim drive the filter to "
         "divergence with q = 1.7e308"))
@@ -80,6 +142,10 @@ class FilterSpec(EstimatorSpec):
             raise ValueError(LIAR_NEEDS)
 
     def check(self, scenario: Scenario) -> None:
+        check_dimensions(scenario, [self.model], "estimator.model")
+        if self.gating != "none" and self.model in MODELS_3D:
+            raise ValueError("estimator.gating is built for planar measurements (a χ²(2) gate, 2 x 2 covariance "
+                             "intersection): use none with a 3-D model")
         if self.gating != "none" and (self.kind == "centralized" or self.share != "information"):
             raise ValueError("estimator.gating applies to neighbours' information contributions: it needs "
                              "kind information with share information")
@@ -144,8 +210,9 @@ class IMMSpec(EstimatorSpec):
     share: Literal["information", "measurements"] = Field("information", description=(
         "information: one I_j, i_j per UAV, linearised at its combined prediction; measurements: z_j and pose, "
         "each model linearises at its own prediction"))
-    models: Annotated[list[Literal["cv", "ct", "fs"]], CommaList] = Field(
-        ["cv", "ct", "fs"], min_length=1, description="the bank every UAV runs, one information filter per model")
+    models: Annotated[list[Literal["cv", "ct", "fs", "cv3d", "ca3d", "ct3d", "fs3d"]], CommaList] = Field(
+        ["cv", "ct", "fs"], min_length=1, description=(
+            "the bank every UAV runs, one information filter per model (3-D ones with range_bearing_elevation)"))
     markov: list[list[float]] | None = Field(None, description=(
         "M x M model-switching matrix over models (rows sum to 1); default 0.98 on the diagonal, the rest even"))
     q: list[list[float] | None] | None = Field(None, description=(
@@ -180,8 +247,10 @@ class IMMSpec(EstimatorSpec):
         return self.target
 
     def check(self, scenario: Scenario) -> None:
-        if scenario.sensor.kind != "range_bearing":
-            raise ValueError(f"estimator.kind imm needs a range_bearing sensor, not {scenario.sensor.kind!r}")
+        if scenario.sensor.kind not in ("range_bearing", "range_bearing_elevation"):
+            raise ValueError(f"estimator.kind imm needs a range_bearing or range_bearing_elevation sensor, not "
+                             f"{scenario.sensor.kind!r}")
+        check_dimensions(scenario, self.models, "estimator.models")
 
 
 class FlockingSpec(ControllerSpec):

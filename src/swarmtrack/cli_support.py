@@ -65,6 +65,10 @@ def report_run(metrics: dict, scn, out: Path) -> None:
         phases = metrics["consistency"].items()
         click.echo("NEES [x, y, vx, vy] per phase (95 % band of a consistent filter): " + ", ".join(
             f"{ph} {c['nees']:.2f} [{c['band'][0]:.2f}, {c['band'][1]:.2f}]" for ph, c in phases))
+    if "altitude" in metrics:  # a 3-D run (docs/three-d.md)
+        click.echo("altitude RMSE z / vz per phase, cm and cm/s, and NEES [x, y, vx, vy, z, vz] (95 % band): " +
+                   ", ".join(f"{ph} {100 * a['z']:.2f} / {100 * a['vz']:.2f}, {a['nees']:.2f} [{a['band'][0]:.2f}, "
+                             f"{a['band'][1]:.2f}]" for ph, a in metrics["altitude"].items()))
     facts = []
     if metrics.get("mean_error", {}).get("all") is not None:  # W20 eq. 4.41
         facts.append(f"mean error {100 * metrics['mean_error']['all']:.2f} cm")

@@ -480,6 +480,21 @@ class Recording:
         return self._gather("covariance", lambda c: c.probes["covariance"][..., :4, :4])
 
     @property
+    def target_altitude(self) -> np.ndarray:
+        """(K, 2) the tracked target's ``[z, vz]`` (a 3-D run)."""
+        return self._gather("target_altitude", lambda c: c.altitude[:, self.tracked])
+
+    @property
+    def uav_altitude(self) -> np.ndarray:
+        """(K, N, 2) the UAVs' ``[z, vz]`` (a 3-D run)."""
+        return self._gather("uav_altitude", lambda c: c.altitude[:, self.uav_slice])
+
+    @property
+    def altitude_estimate(self) -> np.ndarray:
+        """(K, N, 2) each UAV's estimate of the target's ``[z, vz]`` (a 3-D model's states 4 and 5)."""
+        return self._gather("altitude_estimate", lambda c: c.probes["estimate"][..., 4:6])
+
+    @property
     def d(self) -> float:
         return float(self.meta["d"])
 

@@ -26,6 +26,51 @@ from swarmtrack.analysis.plots import draw_pair_distances
 from swarmtrack.sim.recorder import Recording
 
 
+def plot_altitude(rec: Recording, path: str | Path) -> Path:
+    """A 3-D run (docs/three-d.md): the target's true height and each UAV's estimate of it over time, the UAVs'
+    own heights, and the altitude error; and the trajectories in 3-D (the target's, its estimate by UAV 1, the
+    UAVs')."""
+    n = rec.n_agents
+    shown = min(n, MAX_LINES)
+    fig = new_figure((15.0, 4.8))
+    t = rec.t
+    ax = fig.add_subplot(1, 3, 1)
+    ax.plot(t, rec.target_altitude[:, 0], color=TARGET_COLOR, lw=2.0, label="true target", zorder=4)
+    for i in range(shown):
+        ax.plot(t, rec.altitude_estimate[:, i, 0], color=agent_color(i), lw=0.9, alpha=0.85,
+                label=f"UAV {i + 1} estimate", zorder=3)
+        ax.plot(t, rec.uav_altitude[:, i, 0], color=agent_color(i), lw=0.8, ls=":", zorder=2)
+    mark_phases(ax, rec)
+    time_axis(ax, rec)
+    ax.set_ylabel("z [m]")
+    ax.set_title("target height (dotted: the UAVs' own)")
+    place_legend(ax, shown + 1)
+    ax = fig.add_subplot(1, 3, 2)
+    for i in range(shown):
+        ax.plot(t, rec.altitude_estimate[:, i, 0] - rec.target_altitude[:, 0], color=agent_color(i), lw=0.9,
+                label=f"UAV {i + 1}")
+    ax.axhline(0.0, color="0.3", lw=0.6)
+    mark_phases(ax, rec)
+    time_axis(ax, rec)
+    ax.set_ylabel("estimated − true z [m]")
+    ax.set_title("altitude error")
+    ax = fig.add_subplot(1, 3, 3, projection="3d")
+    ax.plot(rec.target[:, 0], rec.target[:, 1], rec.target_altitude[:, 0], color=TARGET_COLOR, lw=2.0,
+            label="true target")
+    ax.plot(rec.estimate[:, 0, 0], rec.estimate[:, 0, 1], rec.altitude_estimate[:, 0, 0], color=agent_color(0),
+            lw=0.9, label="UAV 1 estimate")
+    for i in range(shown):
+        ax.plot(rec.uav[:, i, 0], rec.uav[:, i, 1], rec.uav_altitude[:, i, 0], color=agent_color(i), lw=0.7,
+                ls=":", label=f"UAV {i + 1}" if i == 0 else None)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_zlabel("z [m]")
+    ax.set_title("trajectories in 3-D")
+    ax.legend(fontsize=7, loc="upper left")
+    fig.suptitle(figure_title(rec, "Altitude: estimated and true", shown, n, "UAVs"))
+    return save_figure(fig, path)
+
+
 def plot_estimates(rec: Recording, path: str | Path) -> Path:
     """L24 Figs. 2-4: x-velocity, y-velocity and trajectory; true target in green, each UAV's estimate."""
     n = rec.n_agents

@@ -6,7 +6,8 @@ record a point ``estimate`` of the followed target's ``[x, y, vx, vy, ...]`` wit
 Sections of ``metrics.json`` (judged over the chase window, :func:`swarmtrack.analysis.metrics.chase_window`):
 ``rmse`` per phase and component (L24 Tables 1-3) with the run-wide ``position_rmse_per_uav``, ``spread`` (L23
 Table 1), ``reported_std``, ``consistency`` (NEES and NIS per phase with their 95 % bands) with the run-wide ``nees``,
-``mean_error`` (W20 eq. 4.41 and Table 4.5's occlusions), ``network`` (:class:`~swarmtrack.analysis.health.
+``mean_error`` (W20 eq. 4.41 and Table 4.5's occlusions), ``altitude`` (a 3-D run's z and vz RMSE and the NEES of
+``[x, y, vx, vy, z, vz]``, docs/three-d.md), ``network`` (:class:`~swarmtrack.analysis.health.
 NetworkHealth`: gating and late data) and the time series ``position_error`` and ``nees``.
 
 Warnings (:class:`Health`, over every step, not only the chase window):
@@ -277,6 +278,50 @@ class _Consistency:
         return out
 
 
+def three_d(rec: Recording) -> bool:
+    """A 3-D run (the world's altitude recorded) whose estimate holds ``[x, y, vx, vy, z, vz]`` (3-D models)."""
+    return applies(rec) and bool(rec.meta.get("altitude")) and rec.meta["probes"]["estimate"][0] >= 6
+
+
+class _Altitude:
+    """A 3-D run's altitude (docs/three-d.md): per phase, the RMSE of ``z`` and ``vz`` (mean over UAVs, as
+    :class:`_Rmse`) and the NEES of the common block ``[x, y, vx, vy, z, vz]`` with its 95 % band (6 dof)."""
+
+    def __init__(self, rec: Recording):
+        self.rec = rec
+        self.names, self.group = phase_groups(rec)
+        k = len(self.names) + 1
+        self.sq, self.count = np.zeros((k, rec.n_agents, 2)), np.zeros(k)
+        self.nees, self.nees_count = np.zeros(k), np.zeros(k)
+
+    def add(self, c: Chunk, keep: np.ndarray, shared=None) -> None:
+        tracked = self.rec.tracked
+        truth = np.concatenate([c.truth[keep, tracked], c.altitude[keep, tracked]], axis=-1)  # (k, 6)
+        err = c.probes["estimate"][keep][..., :6] - truth[:, None, :]  # (k, N, 6)
+        nees = nees_per_uav(err, c.probes["covariance"][keep][..., :6, :6])
+        phase = self.group[c.phase[keep, tracked]]
+        for p in [*np.unique(phase), -1]:
+            sel = phase == p if p >= 0 else np.ones(len(phase), dtype=bool)
+            self.sq[p] += (err[sel][..., 4:6] ** 2).sum(axis=0)
+            self.count[p] += sel.sum()
+            self.nees[p] += nees[sel].sum()
+            self.nees_count[p] += nees[sel].size
+
+    def result(self) -> dict:
+        out = {}
+        for p, name in enumerate([*self.names, "total"]):
+            if self.count[p]:
+                z, vz = np.sqrt(self.sq[p] / self.count[p]).mean(axis=0)
+                n = self.nees_count[p]
+                out[name] = {"z": float(z), "vz": float(vz), "nees": self.nees[p] / n, "band": chi2_mean_band(6, n)}
+        return out
+
+
+def _altitude_scalars(altitude: dict) -> dict:
+    total = altitude.get("total", {})
+    return {"altitude_rmse_z": total.get("z"), "altitude_rmse_vz": total.get("vz"), "nees_3d": total.get("nees")}
+
+
 class _MeanError:
     """W20 eq. 4.41 (with the truth it omits): the mean distance between each UAV's estimate and the target's
     position, mean over UAVs; also over the steps where no UAV detected the target (W20 Table 4.5's occlusions)."""
@@ -414,13 +459,15 @@ METRICS = (Metric("rmse", _Rmse, applies, _rmse_scalars, tuple(f"rmse_total_{c}"
            Metric("spread", _Spread, applies, lambda section: {}),
            Metric("reported_std", _ReportedStd, applies, lambda section: {}),
            Metric("consistency", _Consistency, applies, _nees_scalar, ("nees",)),
-           Metric("mean_error", _MeanError, applies, _mean_error_scalars, ("mean_error_all",)), NETWORK,
+           Metric("mean_error", _MeanError, applies, _mean_error_scalars, ("mean_error_all",)),
+           Metric("altitude", _Altitude, three_d, _altitude_scalars, ("altitude_rmse_z",)), NETWORK,
            Metric(SERIES, GaussianSeries, applies))
 #: The health checks of a Gaussian estimator's runs.
 HEALTH = (Metric("warnings", Health, applies),)
 #: The figures of a run whose estimators follow one target (drawn by :mod:`.figures`).
 FIGURES = (Figure("estimates.png", _FIGURES + "plot_estimates", follows),
-           Figure("errors.png", _FIGURES + "plot_errors", follows))
+           Figure("errors.png", _FIGURES + "plot_errors", follows),
+           Figure("altitude.png", _FIGURES + "plot_altitude", three_d))
 #: The IMM model probabilities' figure (the IMM bank's and the multi-model IMM kinds', drawn by
 #: :func:`swarmtrack.capabilities.multi_model.figures.plot_model_probabilities`).
 PROBABILITIES = Figure("model_probabilities.png",

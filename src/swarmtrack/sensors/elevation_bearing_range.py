@@ -123,11 +123,8 @@ def position_covariance(
     Both levers are floored at ``min_range`` (``ρ`` and its horizontal part ``ρ cos ε``) so ``R`` stays positive
     definite on the sensor and straight above or below it; at ``ε = 0`` the horizontal block equals
     :func:`swarmtrack.sensors.range_bearing.position_covariance`."""
-    rho = np.maximum(np.abs(np.asarray(rng_dist, dtype=float)), min_range)
-    beta = np.asarray(bearing, dtype=float)
-    eps = np.asarray(elevation, dtype=float)
-    rho, beta, eps = np.broadcast_arrays(rho, beta, eps)
-    return _spectral(rho, beta, eps, sigma_range, sigma_bearing, sigma_elevation, min_range, lambda var: var)
+    return _spectral(rng_dist, bearing, elevation, sigma_range, sigma_bearing, sigma_elevation, min_range,
+                     lambda var: var)
 
 
 def position_information(
@@ -143,15 +140,17 @@ def position_information(
     """``(R + own_var·I)⁻¹`` (..., 3, 3) for ``R`` of :func:`position_covariance`, in closed form: ``R``'s
     eigenvectors are the three orthonormal directions, so the inverse is the same sum with each variance (plus
     ``own_var``, the UAV's own navigation variance per axis) inverted; nothing is factorised."""
-    rho = np.maximum(np.abs(np.asarray(rng_dist, dtype=float)), min_range)
-    rho, beta, eps = np.broadcast_arrays(rho, np.asarray(bearing, dtype=float), np.asarray(elevation, dtype=float))
-    return _spectral(rho, beta, eps, sigma_range, sigma_bearing, sigma_elevation, min_range,
+    return _spectral(rng_dist, bearing, elevation, sigma_range, sigma_bearing, sigma_elevation, min_range,
                      lambda var: 1.0 / (var + own_var))
 
 
-def _spectral(rho, beta, eps, sigma_range, sigma_bearing, sigma_elevation, min_range, weight) -> np.ndarray:
+def _spectral(rng_dist, bearing, elevation, sigma_range, sigma_bearing, sigma_elevation, min_range,
+              weight) -> np.ndarray:
     """``Σ weight(var_a) e_a e_aᵀ`` over the line of sight ``u``, the horizontal across it ``v`` and the vertical
-    across it ``w``, with their variances ``σr²``, ``max(ρ cos ε, min_range)² σβ²`` and ``ρ² σε²``."""
+    across it ``w``, with their variances ``σr²``, ``max(ρ cos ε, min_range)² σβ²`` and ``ρ² σε²`` (``ρ`` floored at
+    ``min_range``)."""
+    rho = np.maximum(np.abs(np.asarray(rng_dist, dtype=float)), min_range)
+    rho, beta, eps = np.broadcast_arrays(rho, np.asarray(bearing, dtype=float), np.asarray(elevation, dtype=float))
     cb, sb, ce, se = np.cos(beta), np.sin(beta), np.cos(eps), np.sin(eps)
     u = np.stack([ce * cb, ce * sb, se], axis=-1)  # along the line of sight
     v = np.stack([-sb, cb, np.zeros_like(sb)], axis=-1)  # horizontal, across it

@@ -25,8 +25,9 @@ RUNS = {
     "l23-full-fusion": ("l23-full-fusion", []),
     "l24-imm": ("l24-imm", []),
     "robust-5": ("robust-5", []),
-    "w20-switching": ("w20-switching", []),
-    "w20-evasive-imm": ("w20-evasive-imm", []),
+    # the clean camera of issue 26's runs (issue 27 put the error budget into w20-switching and w20-evasive-imm)
+    "w20-switching": ("w20-switching-ideal", ["name=w20-switching"]),
+    "w20-evasive-imm": ("w20-evasive-imm-ideal", ["name=w20-evasive-imm"]),
     "w20-mpc-formation": ("w20-mpc-formation", []),
     "ib21-fleet-6-polygons": ("ib21-fleet-6", ["estimator.sets=polygons"]),
     "ib21-fleet-6-raster": ("ib21-fleet-6", ["estimator.sets=raster"]),

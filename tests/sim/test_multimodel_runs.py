@@ -11,7 +11,7 @@ SHORT = ["duration=12", "estimator.solo_steps=30"]
 
 
 def test_the_switching_team_tracks_the_robot_to_centimetres_and_records_its_model_choice():
-    rec = simulate(load_scenario("w20-switching", SHORT, seed=1))
+    rec = simulate(load_scenario("w20-switching-ideal", SHORT, seed=1))
     s = summary(rec)
     assert s["mean_error"]["all"] < 0.03
     assert s["mean_error"]["occluded_steps"] == 0
@@ -25,8 +25,8 @@ def test_the_switching_team_tracks_the_robot_to_centimetres_and_records_its_mode
 def test_a_camera_whose_footprint_is_too_small_for_its_estimate_loses_the_robot():
     """The gimbal aims at the UAV's own estimate: with a 5 mm footprint at 1.5 m (the estimate errs by about as
     much) the robot leaves the view."""
-    narrow = simulate(load_scenario("w20-switching", [*SHORT, "sensor.footprint=[0.005, 0.005]"], seed=1))
-    wide = simulate(load_scenario("w20-switching", SHORT, seed=1))
+    narrow = simulate(load_scenario("w20-switching-ideal", [*SHORT, "sensor.footprint=[0.005, 0.005]"], seed=1))
+    wide = simulate(load_scenario("w20-switching-ideal", SHORT, seed=1))
     seen = {k: r.frame("uavs")["detected"].mean() for k, r in (("narrow", narrow), ("wide", wide))}
     assert seen["wide"] > 0.99
     assert seen["narrow"] < 0.9
@@ -34,7 +34,7 @@ def test_a_camera_whose_footprint_is_too_small_for_its_estimate_loses_the_robot(
 
 @pytest.mark.slow
 def test_an_occlusion_interval_is_measured_and_predicted_through():
-    rec = simulate(load_scenario("w20-occlusion", ["duration=26", "estimator.solo_steps=30"], seed=1))
+    rec = simulate(load_scenario("w20-occlusion-ideal", ["duration=26", "estimator.solo_steps=30"], seed=1))
     s = summary(rec)
     assert s["mean_error"]["occluded_steps"] >= 50  # the 2 s blackout from t = 22 s, at 30 Hz
     assert s["mean_error"]["occluded"] > s["mean_error"]["all"]
@@ -44,7 +44,7 @@ def test_an_occlusion_interval_is_measured_and_predicted_through():
 @pytest.mark.slow
 def test_every_fusion_runs_in_the_loop():
     for fusion in ("imm-thesis", "imm", "ml", "none"):
-        s = summary(simulate(load_scenario("w20-evasive", ["duration=6", "estimator.solo_steps=30",
+        s = summary(simulate(load_scenario("w20-evasive-ideal", ["duration=6", "estimator.solo_steps=30",
                                                            f"estimator.fusion={fusion}"], seed=2)))
         assert s["mean_error"]["all"] < 0.05, fusion
 
@@ -54,7 +54,7 @@ def test_lost_messages_leave_each_uav_with_what_arrived():
     """W20 Sec. 3.2.2.2: lossless communication is not assumed. With half the messages lost (both rounds) every
     fusion still tracks, from the candidates whose messages arrived."""
     for fusion in ("ttest", "imm", "ml"):
-        rec = simulate(load_scenario("w20-evasive", ["duration=6", "estimator.solo_steps=30",
+        rec = simulate(load_scenario("w20-evasive-ideal", ["duration=6", "estimator.solo_steps=30",
                                                      "network.loss_probability=0.5", f"estimator.fusion={fusion}"],
                                      seed=3))
         s = summary(rec)

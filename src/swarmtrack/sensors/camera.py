@@ -17,6 +17,8 @@ field of view. All functions broadcast over leading batch axes.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from swarmtrack.sensors.detections import Detections
@@ -34,9 +36,21 @@ def rotation(camera_xy: np.ndarray, height: float, aim: np.ndarray) -> np.ndarra
     is straight below, so the image's width then spans the world's y axis), tilt from the nadir
     ``θ = atan2(‖Δ‖, height)``. The footprint's height lies along the line of sight, its width across it.
     """
+    return rotation_of(*angles(camera_xy, height, aim))
+
+
+def angles(camera_xy: np.ndarray, height, aim: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The gimbal's yaw ``ψ`` (W20 eq. 3.32) and tilt from the nadir ``θ`` (the pan-tilt unit of eqs. 3.15, 3.21)
+    that put the ground point ``aim`` on the optical axis of a camera at ``(x, y, height)``."""
     d = np.asarray(aim, dtype=float) - np.asarray(camera_xy, dtype=float)
     psi = np.arctan2(d[..., 1], d[..., 0])
     theta = np.arctan2(np.hypot(d[..., 0], d[..., 1]), height)
+    return psi, theta
+
+
+def rotation_of(psi: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """World-to-camera rotation ``C`` (..., 3, 3) of a gimbal at yaw ``psi`` and tilt from the nadir ``theta``
+    (:func:`rotation`'s axes)."""
     cp, sp, ct, st = np.cos(psi), np.sin(psi), np.cos(theta), np.sin(theta)
     C = np.empty(cp.shape + (3, 3))
     C[..., 0, 0], C[..., 0, 1], C[..., 0, 2] = sp, -cp, 0.0  # right of the line of sight
@@ -114,3 +128,74 @@ def sense_worlds(objects: np.ndarray, uavs: np.ndarray, stamped: np.ndarray, hei
     frame = ground_affine(C, stamped, height)[world, uav]
     return Detections(world * n + uav, z, stamped[world, uav], source, uavs.shape[0] * n, frame=frame,
                       taken=taken), source
+
+
+# --- W20 Ch. 4's error budget (issue 27): the error sources of the thesis' hardware (Secs. 3.1-3.3, 4.6.1) ---
+
+
+def marker_sigma(pc: np.ndarray, drop: np.ndarray, sigma: float, reference_range: float, distance_power: float,
+                 angle_power: float) -> np.ndarray:
+    """Per-axis noise (...) of the marker detector's position (W20 Sec. 3.1.2.4, Aruco ROS) for camera-frame
+    points ``pc`` (..., 3) seen from ``drop`` (...) m above them: ``sigma (d / reference_range)^distance_power
+    (1 / cos α)^angle_power`` with ``d = ‖pc‖`` and ``α`` the angle between the line of sight and the marker's normal
+    (the marker lies flat, so ``cos α = drop / d``). A fixed error of the marker's corners in pixels becomes a lateral
+    error growing with ``d`` (pinhole camera: power 1), and a marker seen at ``α`` is foreshortened by ``cos α``."""
+    d = np.linalg.norm(pc, axis=-1)
+    return sigma * (d / reference_range) ** distance_power * (d / drop) ** angle_power
+
+
+def wrap(angle: np.ndarray) -> np.ndarray:
+    """Angles into [−π, π)."""
+    return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
+
+
+def servo_step(actual: np.ndarray, command: np.ndarray, dt: float, deadband: float, speed: float) -> np.ndarray:
+    """A hobby servo's angle (...) after ``dt`` s toward ``command`` (W20 Sec. 3.3: the pan-tilt unit's two servos).
+    It holds while the command stays within ``±deadband / 2`` of it (the servo ignores a change of its pulse width
+    smaller than its dead band) and otherwise turns toward the command at most ``speed`` rad/s (its rated speed) and
+    stops on it. ``speed = inf``: it reaches the command at once."""
+    e = wrap(command - actual)
+    move = np.clip(e, -speed * dt, speed * dt) if np.isfinite(speed) else e
+    return wrap(actual + np.where(np.abs(e) > 0.5 * deadband, move, 0.0))
+
+
+class Pointing(NamedTuple):
+    """How an imperfect gimbal points (each (B, n) per world and UAV): the angles (ψ, θ) its UAV ``commanded``, the
+    angles it ``pointed`` at (the servos' angles plus their zero offsets), the camera's gimbal-to-body translation
+    error ``offset`` (B, n, 3), and the marker noise's ``growth`` (reference range, distance power, angle power; see
+    :func:`marker_sigma`)."""
+
+    commanded: tuple[np.ndarray, np.ndarray]
+    pointed: tuple[np.ndarray, np.ndarray]
+    offset: np.ndarray
+    growth: tuple[float, float, float] = (1.5, 0.0, 0.0)
+
+
+def sense_imperfect(objects: np.ndarray, uavs: np.ndarray, stamped: np.ndarray, height: float, pointing: Pointing,
+                    tan_half: tuple[float, float], sigma: float, noise: np.ndarray, labels: np.ndarray,
+                    hidden: np.ndarray | None = None, taken: float | None = None):
+    """:func:`sense_worlds` with the hardware's errors (a run alone is the batch of one world, ``hidden`` (n, M) its
+    occluded pairs): the true camera sits at ``uavs`` plus its gimbal-to-body offset and points at the gimbal angles
+    ``pointing.pointed``, while the UAV stamps on its detection the frame of the angles it commanded from its
+    navigation position ``stamped`` at the nominal ``height`` (W20 eqs. 3.15, 3.21, 3.32: the pan-tilt unit is open
+    loop and the offsets are unknown to it). The detector's noise grows with distance and view angle
+    (:func:`marker_sigma`). Returns the detections and each one's label."""
+    commanded, pointed, offset, growth = pointing
+    n = uavs.shape[1]
+    C = rotation_of(*pointed)  # (B, n, 3, 3), the true pose
+    cam_xy = uavs + offset[..., :2]
+    drop = height + offset[..., 2]
+    rel = np.concatenate([objects[:, None, :, :] - cam_xy[:, :, None, :],
+                          np.broadcast_to(-drop[:, :, None, None], cam_xy.shape[:2] + (objects.shape[1], 1))],
+                         axis=-1)  # (B, n, M, 3)
+    pc = np.einsum("wnij,wnmj->wnmi", C, rel)
+    seen = in_view(pc, tan_half)
+    if hidden is not None:
+        seen &= ~hidden[None]
+    world, uav, obj = np.nonzero(seen)
+    scale = sigma if growth[1] == 0 and growth[2] == 0 else \
+        marker_sigma(pc[world, uav, obj], drop[world, uav], sigma, *growth)[:, None]
+    z = pc[world, uav, obj, :2] + scale * noise[world, uav, obj]
+    frame = ground_affine(rotation_of(*commanded), stamped, height)[world, uav]
+    return Detections(world * n + uav, z, stamped[world, uav], labels[world, obj], uavs.shape[0] * n, frame=frame,
+                      taken=taken), labels[world, obj]

@@ -2,7 +2,7 @@
 
 The papers assume a clean network. This study degrades one thing at a time and checks, as claims, what a user
 deciding whether to fly needs: that the filters degrade gracefully with message loss (the information filter of
-L24 on ``robust-5``, 5 UAVs in full topology, and W20's multi-model filter on ``w20-switching``), that time-stamp-
+L24 on ``robust-5``, 5 UAVs in full topology, and W20's multi-model filter on ``w20-switching-ideal``, its clean camera), that time-stamp-
 aware fusion (:mod:`swarmtrack.estimation.refilter`) removes the overconfidence a sensor latency or network delays
 cause, that a UAV that drops out and rejoins breaks nothing, and that χ²-gating contains a lying neighbour
 (:mod:`swarmtrack.estimation.gating`, :mod:`swarmtrack.network.faults`). Each setting is a variant of a built-in
@@ -46,12 +46,12 @@ def _dropout_overrides(k: int) -> tuple[str, ...]:
 
 VARIANTS: dict[str, tuple[str, tuple[str, ...]]] = {}
 VARIANTS.update({_name("loss", p): (BASE, (f"network.loss_probability={p}",)) for p in LOSS})
-VARIANTS.update({_name("mm-loss", p): ("w20-switching", (f"network.loss_probability={p}",)) for p in MM_LOSS})
+VARIANTS.update({_name("mm-loss", p): ("w20-switching-ideal", (f"network.loss_probability={p}",)) for p in MM_LOSS})
 VARIANTS.update({_name("delay", d): (BASE, (f"network.delay_max={d}",)) for d in DELAY})
 VARIANTS.update({_name("delay-as-current", d): (BASE, (f"network.delay_max={d}", "estimator.delayed_data=as_current"))
                  for d in DELAY[1:]})
 VARIANTS.update({_name("dropout", k): (BASE, _dropout_overrides(k)) for k in DROPOUTS})
-VARIANTS.update({_name("mm-dropout", k): ("w20-switching", _dropout_overrides(k)) for k in MM_DROPOUTS})
+VARIANTS.update({_name("mm-dropout", k): ("w20-switching-ideal", _dropout_overrides(k)) for k in MM_DROPOUTS})
 VARIANTS.update({_name("liar", g): (BASE, (LIAR, f"estimator.gating={g}")) for g in GATINGS})
 VARIANTS["robust-liar-random-chi2"] = (BASE, ("network.liar={uav: 3, mode: random, sigma: 2.0}",
                                               "estimator.gating=chi2"))

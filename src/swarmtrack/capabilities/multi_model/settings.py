@@ -30,6 +30,25 @@ class CameraSpec(SensorSpec):
         "m, field of view (width, height) at footprint_range (W20 Sec. 3.2.2.2: 1.2 x 0.9 at 1.5 m)"))
     footprint_range: Length = Field(1.5, gt=0, description="m, distance at which the footprint is measured")
     home: Position = Field((0.0, 0.0), description="m, where gimbals aim before their UAV has an estimate")
+    # W20 Ch. 4's error budget (issue 27, docs/multi-model.md "Error budget"): 0 (None) is the ideal camera
+    noise_distance_power: float = Field(0.0, ge=0, le=4, description=(
+        "marker noise grows as (distance / footprint_range)^power: 1 for a fixed error of the marker's corners in "
+        "pixels (pinhole camera; error budget: 1)"))
+    noise_angle_power: float = Field(0.0, ge=0, le=4, description=(
+        "marker noise grows as (1 / cos view angle)^power, the angle between the line of sight and the flat "
+        "marker's normal (foreshortening; error budget: 1)"))
+    servo_deadband: float = Field(0.0, ge=0, le=45, description=(
+        "deg, dead band of each pan-tilt servo (W20 Sec. 3.3: two hobby servos; error budget 0.45: a standard "
+        "servo's 5 µs dead band over its 1000 µs for about 90 degrees)"))
+    servo_speed: float | None = Field(None, gt=0, le=1e5, description=(
+        "deg/s, rated speed of each servo; None: instant (error budget 300: 0.2 s per 60 degrees, a standard servo "
+        "at 4.8 V)"))
+    servo_zero_std: float = Field(0.0, ge=0, le=45, description=(
+        "deg, std of each servo's zero offset, a constant per UAV and axis drawn once (error budget 1: chosen, a "
+        "horn levelled by eye; no figure in the thesis)"))
+    mount_offset_std: Length = Field(0.0, ge=0, description=(
+        "m, std of the error of the hand-measured gimbal-to-body translation (W20 eqs. 3.6, 3.13-3.14), a constant "
+        "per UAV and axis drawn once (error budget 0.005: chosen, a ruler to frame origins one cannot touch)"))
 
     @field_validator("footprint")
     @classmethod
@@ -37,6 +56,11 @@ class CameraSpec(SensorSpec):
         if min(v) <= 0:
             raise ValueError(f"{list(v)} must be positive")
         return v
+
+    def ideal(self) -> bool:
+        """Whether no error source of the budget is on (the camera points and knows its pose exactly)."""
+        return (self.noise_distance_power == 0 and self.noise_angle_power == 0 and self.servo_deadband == 0
+                and self.servo_speed is None and self.servo_zero_std == 0 and self.mount_offset_std == 0)
 
 
 W20_MODELS = ("cv", "ca", "ct")

@@ -1,8 +1,8 @@
 """Many worlds per process: seeds run as batched worlds (:mod:`swarmtrack.sim.batch`) against one process per seed,
 with one world at a time in one process as the same-run reference. Goals: 100 seeds as batched worlds ≥ 5× the
 throughput of one process per seed, for ``l24-cv`` (issue 10: the information filter and flocking) and for
-``w20-switching-ideal`` (issue 26: the clean camera and the multi-model EKF, 73.7 s at 30 Hz). One core; every figure is runs
-per second including the metrics of each run (what a study keeps).
+``w20-switching-ideal`` (issue 26: the clean camera and the multi-model EKF, 73.7 s at 30 Hz). One core; every
+figure is runs per second including the metrics of each run (what a study keeps).
 
 * one process per seed: a fresh interpreter per run (import, numba cache load, run, metrics), as a naive study
   script or a job array does; timed on a few seeds and taken per run;

@@ -6,15 +6,16 @@ Goals (issue 26; the goal is printed beside each figure), each figure with refer
 - ``swarmtrack --help`` <= 0.25 s wall (best of 10 fresh processes; ``--quick``: 3), beside the start-up of
   ``python -c pass`` and of ``python -c "import click"`` (what any click program pays);
 - the whole ``swarmtrack run l24-cv --no-plots`` process >= 150x real time and the whole ``swarmtrack run
-  w20-switching-ideal --no-plots`` process >= 100x (the scenario's simulated duration / the process's wall time, best of 3;
-  ``--quick``: 1), each beside its simulation core alone (``simulate`` timed inside a child process after a warm-up
-  run): the difference is what the process spends starting and ending.
+  w20-switching-ideal --no-plots`` process >= 100x (the scenario's simulated duration / the process's wall time,
+  best of 3; ``--quick``: 1), each beside its simulation core alone (``simulate`` timed inside a child process
+  after a warm-up run): the difference is what the process spends starting and ending.
 
 The commands run as the ``swarmtrack`` console script does (``from swarmtrack.cli import main; main()``) on the
 same sources as this process, on one core (the numba and BLAS thread settings below, as benchmarks/bench_sim.py).
 
 Run: ``.venv/bin/python benchmarks/bench_cli.py [--json] [--quick]``; about 1 min (20 s with ``--quick``) on the
-2-core development machine. ``--json`` keys of the W20 run are prefixed ``w20_switching_ideal_`` (the clean camera issue 26 measured).
+2-core development machine. ``--json`` keys of the W20 run are prefixed ``w20_switching_ideal_`` (the clean
+camera issue 26 measured).
 """
 
 from __future__ import annotations

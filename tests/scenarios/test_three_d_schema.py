@@ -19,6 +19,13 @@ THREE_D = ["sensor.kind=range_bearing_elevation", "estimator.model=ct3d"]
     ("l24-ct", [*THREE_D, "estimator.gating=chi2"], ["estimator.gating", "planar"]),
     ("l24-ct", [*THREE_D, "sensor.occluders=[{region: [0, 0, 1, 1]}]"], ["sensor.occluders", "planar regions"]),
     ("w20-mpc-single", ["sensor.kind=range_bearing_elevation"], ["range_bearing_elevation", "multimodel"]),
+    ("l24-3d-ct", ["target.altitude=-1"], ["target", "altitude", "greater than or equal to 0"]),
+    ("l24-3d-ct", ["target.profile=l24", "target.altitude=0", "sensor.kind=range_bearing",
+                   "sensor.sigma_elevation=0.02", "estimator.model=ct"], ["sensor.sigma_elevation"]),
+    ("l24-ct", ["swarm.altitude=5"], ["swarm.altitude is 5 m", "planar"]),
+    ("l24-ct", ["target.profile=l24-3d"], ["targets.members[0].profile", "planar"]),
+    ("l24-ct", ["target.altitude=2"], ["targets.members[0].altitude", "planar"]),
+    ("l24-ct", ["swarm.altitude=-3"], ["swarm.altitude"]),
 ])
 def test_bad_3d_settings_exit_2_naming_the_field(scenario, overrides, words, tmp_path):
     args = ["validate", scenario]
@@ -35,3 +42,13 @@ def test_a_3d_sensor_with_3d_models_is_accepted():
     s = load_scenario("l24-ct", THREE_D)
     assert s.sensor.sigma_elevation == s.sensor.sigma_bearing == 0.02
     assert load_scenario("l24-imm", ["sensor.kind=range_bearing_elevation", "estimator.models=cv3d,ct3d,fs3d"])
+
+
+def test_a_custom_phase_climbs_and_a_descent_below_the_ground_is_refused():
+    phases = ("target.phases=[{name: up, duration: 10, c: [0.5, 0], climb: {c: 0.2}}, "
+              "{name: down, duration: 10, climb: {c: -0.25}}]")
+    s = load_scenario("l24-ct", [*THREE_D, "target.profile=custom", "target.altitude=1.0", phases])
+    profile = s.targets.members[0].velocity_profile()
+    assert profile.height(10.0, 1.0) == pytest.approx(3.0) and profile.height(20.0, 1.0) == pytest.approx(0.5)
+    with pytest.raises(Exception, match=r"below the ground: z = -0\.30 m at t = 20\.00 s"):
+        load_scenario("l24-ct", [*THREE_D, "target.profile=custom", "target.altitude=0.2", phases])

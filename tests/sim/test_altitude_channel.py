@@ -103,3 +103,25 @@ def test_a_planar_scene_run_in_3d_gives_the_planar_runs_errors():
     assert three_d.meta["altitude"] and all(not c.altitude.any() for c in three_d.chunks())  # all at z = 0
     z = np.concatenate([c.probes["estimate"][..., 4] for c in three_d.chunks()])
     assert np.sqrt(np.mean(z[100:] ** 2)) < 2 * max(s2["rmse"]["total"]["x"], s2["rmse"]["total"]["y"])
+
+
+@pytest.mark.slow  # one 110 s run of l24-3d-ct
+def test_l24_3d_ct_tracks_a_climbing_target_with_an_altitude_error_of_the_horizontal_ones_order():
+    """The target flies L24's phases with a vertical sinusoid and a helix from 2 m, the UAVs hold 5 m; the CT
+    filter in 3-D (latency at its time stamps) keeps the altitude error of the order of the horizontal one (the same
+    angular noise at the same ranges) and is never overconfident (no warning, 6-dof NEES under its band's top)."""
+    from swarmtrack.analysis.metrics import summary
+    from swarmtrack.scenarios import load_scenario
+    from swarmtrack.sim.engine import simulate
+    from swarmtrack.vehicles.profile import l24_3d_profile
+
+    rec = simulate(load_scenario("l24-3d-ct", ["duration=110"]))
+    s = summary(rec)
+    assert s["warnings"] == []
+    a, r = s["altitude"]["total"], s["rmse"]["total"]
+    assert 0.5 < a["z"] / max(r["x"], r["y"]) < 2.0
+    assert a["nees"] <= a["band"][1] and s["consistency"]["total"]["nees"] <= s["consistency"]["total"]["band"][1]
+    z_target = rec.target_altitude[:, 0]
+    want = l24_3d_profile().height(rec.t, 2.0)
+    assert np.abs(z_target - want).max() < 0.1 and z_target.max() > 3.5  # it climbs as its profile says
+    np.testing.assert_allclose(rec.uav_altitude[-1, :, 0], 5.0, atol=0.01)

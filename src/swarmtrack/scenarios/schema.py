@@ -9,6 +9,7 @@ import math
 import typing
 from typing import Annotated, Literal
 
+import numpy as np
 from pydantic import (
     AfterValidator,
     BaseModel,
@@ -28,6 +29,7 @@ from swarmtrack.vehicles.profile import (
     evasive_segments,
     ground_robot_profile,
     l23_profile,
+    l24_3d_profile,
     l24_profile,
 )
 
@@ -133,6 +135,19 @@ CommaList = BeforeValidator(_split_commas)
 Velocity = tuple[Speed, Speed]
 
 
+class ClimbSpec(Strict):
+    """A 3-D target's climb rate in one phase, ``vz = c + accel·τ + amplitude·sin(omega·τ + phi)`` (issue 28)."""
+
+    c: Speed = Field(0.0, description="m/s, constant climb rate (at most 1e3 m/s)")
+    amplitude: Speed = Field(0.0, description="m/s, sinusoid amplitude (at most 1e3 m/s)")
+    omega: AngularRate = Field(0.0, description="rad/s, sinusoid angular frequency (at most 1e3 rad/s)")
+    phi: Angle = Field(0.0, description="rad, sinusoid phase (at most 1e3 rad)")
+    accel: Acceleration = Field(0.0, description="m/s², constant vertical acceleration (at most 1e3 m/s²)")
+
+    def law(self) -> tuple[float, float, float, float, float]:
+        return (self.c, self.amplitude, self.omega, self.phi, self.accel)
+
+
 class PhaseSpec(Strict):
     """One phase of the target's velocity profile; each axis flies ``c + A·sin(ω·τ + φ)``, τ from phase start."""
 
@@ -145,6 +160,8 @@ class PhaseSpec(Strict):
     phi: tuple[Angle, Angle] = Field((0.0, 0.0), description="sinusoid phase, rad (at most 1e3 rad)")
     accel: tuple[Acceleration, Acceleration] = Field((0.0, 0.0), description=(
         "constant acceleration term, m/s² (v = c + accel·τ + A·sin(ωτ + φ); at most 1e3 m/s²)"))
+    climb: ClimbSpec = Field(default_factory=ClimbSpec, description=(
+        "its climb rate in a 3-D world (sensor.kind range_bearing_elevation); level by default"))
 
 
 class SegmentSpec(Strict):
@@ -172,8 +189,9 @@ class EvasiveSpec(Strict):
 class MemberSpec(Strict):
     """One driven vehicle (a target or a decoy): where it starts and the velocity profile its autopilot flies."""
 
-    profile: Literal["l24", "l23", "hover", "custom", "ground", "evasive"] = Field(
-        "l24", description=("l24: linear, sinusoidal, circular (SPEC durations 40, 62.8, 50.3 s); l23: sinusoidal; "
+    profile: Literal["l24", "l24-3d", "l23", "hover", "custom", "ground", "evasive"] = Field(
+        "l24", description=("l24: linear, sinusoidal, circular (SPEC durations 40, 62.8, 50.3 s); l24-3d: the same "
+                            "with a vertical sinusoid and a helix (docs/three-d.md); l23: sinusoidal; "
                             "ground: a ground robot's cv/ca/ct segments; evasive: random ground-robot manoeuvres"))
     phases: list[PhaseSpec] = Field(default_factory=list, description="with profile: custom")
     hover_duration: Time = Field(60.0, gt=0, description="s, with profile: hover (at most 1e7 s)")
@@ -183,6 +201,9 @@ class MemberSpec(Strict):
     speed: Speed = Field(0.0, ge=0, description="m/s, initial speed of a ground or evasive profile")
     start: Position = Field((0.0, 0.0), description=(
         "initial position, m (at most 1e6 m from the origin per axis: 1000 km, beyond any radio range)"))
+    altitude: Length = Field(0.0, ge=0, description=(
+        "m above the ground at the start, in a 3-D world (sensor.kind range_bearing_elevation); its profile's climb "
+        "may not take it below the ground"))
 
     @field_validator("phases", "hover_duration", "segments", "evasive", "heading", "speed")
     @classmethod
@@ -202,11 +223,25 @@ class MemberSpec(Strict):
     def _phases_for_custom(self):
         if self.profile == "custom" and not self.phases:
             raise ValueError("phases must list at least one phase when profile is 'custom'")
+        if self.profile in ("l24-3d", "custom"):
+            self._above_ground()
         if self.profile == "ground":
             if not self.segments:
                 raise ValueError("segments must list at least one segment when profile is 'ground'")
             self.velocity_profile()  # a segment that would drive backwards is refused here, naming it
         return self
+
+    def _above_ground(self) -> None:
+        """Refuse a climbing profile that takes the member below the ground (its commanded height, every 0.05 s)."""
+        profile = self.velocity_profile()
+        if not profile.climbs:
+            return
+        t = np.arange(0.0, profile.total_duration + 0.05, 0.05)
+        z = profile.height(t, self.altitude)
+        if z.min() < 0.0:
+            k = int(np.argmin(z))
+            raise ValueError(f"altitude {self.altitude:g} m and the phases' climb take the target below the ground: "
+                             f"z = {z[k]:.2f} m at t = {t[k]:.2f} s")
 
     def duration(self) -> float:
         """Length of the profile, s (without drawing an evasive one)."""
@@ -217,6 +252,8 @@ class MemberSpec(Strict):
         manoeuvres from ``rng`` (a ``numpy.random.Generator``)."""
         if self.profile == "l24":
             return l24_profile()
+        if self.profile == "l24-3d":
+            return l24_3d_profile()
         if self.profile == "l23":
             return l23_profile()
         if self.profile == "hover":
@@ -234,7 +271,8 @@ class MemberSpec(Strict):
                                         accel_max=e.accel_max)
             return ground_robot_profile(segments, self.heading, self.speed)
         return VelocityProfile(tuple(Phase(p.name, p.duration, tuple(p.c), tuple(p.amplitude), tuple(p.omega),
-                                           tuple(p.phi), accel=tuple(p.accel)) for p in self.phases))
+                                           tuple(p.phi), accel=tuple(p.accel), vertical=p.climb.law())
+                                     for p in self.phases))
 
 
 class VehicleChoice:
@@ -335,6 +373,8 @@ class SwarmSpec(Strict):
         "m (chosen: the papers give no initial positions; at most 1e6 m per axis)"))
     spawn_half_width: Length = Field(3.0, gt=0, description="m (at most 1e6 m)")
     min_separation: Length = Field(1.0, ge=0, description="m, between spawned UAVs (at most 1e6 m)")
+    altitude: Length = Field(0.0, ge=0, description=(
+        "m, the height the UAVs start at and hold in a 3-D world (sensor.kind range_bearing_elevation)"))
     nav_position_std: Length = Field(0.02, ge=0, description="noise on a UAV's own position estimate, m (≤ 1e6 m)")
     nav_velocity_std: Speed = Field(0.02, ge=0, description=(
         "noise on a UAV's own velocity estimate, m/s (at most 1e3 m/s)"))
@@ -642,6 +682,22 @@ class Scenario(Strict):
     def _sensor_kind(cls, v):
         return _by_kind(v, "sensor")
 
+    def _heights_need_3d(self) -> None:
+        """Heights and climbs are flown in a 3-D world only (a sensor that reads them, ``three_d``): in a planar one
+        they would be silently ignored."""
+        if getattr(self.sensor, "three_d", False):
+            return
+        if self.swarm.altitude:
+            raise ValueError(f"swarm.altitude is {self.swarm.altitude:g} m, but sensor.kind {self.sensor.kind} is "
+                             "planar: heights are flown with range_bearing_elevation")
+        for group in ("targets", "decoys"):
+            for k, m in enumerate(getattr(self, group).members):
+                climbs = m.profile == "l24-3d" or any(any(p.climb.law()) for p in m.phases)
+                if m.altitude or climbs:
+                    what = "altitude" if m.altitude else "profile" if m.profile == "l24-3d" else "phases' climb"
+                    raise ValueError(f"{group}.members[{k}].{what} is given, but sensor.kind {self.sensor.kind} is "
+                                     "planar: heights are flown with range_bearing_elevation")
+
     def estimation_steps(self) -> int:
         """Estimation steps of the run: a whole number of physics ticks each, as the simulator's clock counts."""
         dt = round(self.rates.physics / self.rates.estimation) / self.rates.physics
@@ -693,6 +749,7 @@ class Scenario(Strict):
             raise ValueError(f"estimator.target is {followed}, but targets has {len(self.targets.members)} member(s)")
         if self.controller.follows_truth() and followed is None:
             raise ValueError("controller.follow: truth needs an estimator that follows one target")
+        self._heights_need_3d()
         self.estimator.check(self)
         self.sensor.check(self)
         self.controller.check(self)

@@ -26,6 +26,8 @@ from swarmtrack.sim.oracle import TruthOracle
 from swarmtrack.sim.sensors import Occluder, hidden_by
 from swarmtrack.sim.streams import stream
 from swarmtrack.sim.world import Group, ProfileDriver, World, vehicle
+from swarmtrack.vehicles.altitude import GroupAltitude
+from swarmtrack.vehicles.quadrotor import DEFAULT_PARAMS
 
 
 @dataclass(frozen=True)
@@ -127,7 +129,19 @@ def profiles(scenario: Scenario, group: str) -> tuple:
                  for k, m in enumerate(spec.members))
 
 
-def _group(name: str, spec: GroupSpec, flown: tuple, seed: int = 0) -> Group:
+def _altitude(scenario: Scenario, kind: str, z0, hold=None) -> GroupAltitude | None:
+    """A group's altitude channel in a 3-D world (a sensor that reads heights, ``three_d``), else None: quadrotors
+    climb through their thrust (:meth:`~swarmtrack.vehicles.altitude.GroupAltitude.quadrotor`, the default Iris's
+    mass and thrust), other vehicles as double integrators."""
+    if not getattr(scenario.sensor, "three_d", False):
+        return None
+    if vehicle(kind).physics == "quadrotor":
+        p = DEFAULT_PARAMS
+        return GroupAltitude.quadrotor(z0, p.mass, p.g, p.max_thrust, hold=hold)
+    return GroupAltitude(np.asarray(z0, dtype=float), hold=None if hold is None else np.asarray(hold, dtype=float))
+
+
+def _group(name: str, spec: GroupSpec, flown: tuple, seed: int = 0, scenario: Scenario | None = None) -> Group:
     starts = np.asarray([m.start for m in spec.members], dtype=float).reshape(-1, 2)
     kind = vehicle(spec.vehicle)
     if kind.is_kinematic:  # the listed members, then `count` at uniform places and headings (IB21 Sec. 6)
@@ -136,7 +150,9 @@ def _group(name: str, spec: GroupSpec, flown: tuple, seed: int = 0) -> Group:
         starts = np.concatenate([starts, rng.uniform((x0, y0), (x1, y1), size=(spec.count, 2))])
         heading = np.concatenate([[m.heading for m in spec.members], rng.uniform(-np.pi, np.pi, spec.count)])
         return Group(name, spec.vehicle, starts, params=kind.make_params(spec), heading=heading)
-    return Group(name, spec.vehicle, starts, ProfileDriver(flown, spec.velocity_gain, spec.wind_std))
+    altitude = None if scenario is None else _altitude(scenario, spec.vehicle, [m.altitude for m in spec.members])
+    return Group(name, spec.vehicle, starts, ProfileDriver(flown, spec.velocity_gain, spec.wind_std),
+                 altitude=altitude)
 
 
 def _uavs(scenario: Scenario) -> Group:
@@ -146,7 +162,8 @@ def _uavs(scenario: Scenario) -> Group:
     starts = spawn_positions(scenario, stream(scenario.seed, "spawn"))
     kind = vehicle(sw.vehicle)
     if not kind.is_kinematic:
-        return Group("uavs", sw.vehicle, starts)
+        heights = np.full(sw.n_uavs, sw.altitude)
+        return Group("uavs", sw.vehicle, starts, altitude=_altitude(scenario, sw.vehicle, heights, hold=heights))
     heading = stream(scenario.seed, "spawn/headings").uniform(-np.pi, np.pi, sw.n_uavs)
     return Group("uavs", sw.vehicle, starts, params=kind.make_params(sw), heading=heading)
 
@@ -187,8 +204,8 @@ def build(scenario: Scenario) -> Simulation:
     n = scenario.swarm.n_uavs
     seed = scenario.seed
     flown = {g: profiles(scenario, g) for g in ("targets", "decoys")}
-    groups = [_group("targets", scenario.targets, flown["targets"], seed),
-              _group("decoys", scenario.decoys, flown["decoys"], seed), _uavs(scenario)]
+    groups = [_group("targets", scenario.targets, flown["targets"], seed, scenario),
+              _group("decoys", scenario.decoys, flown["decoys"], seed, scenario), _uavs(scenario)]
     world = World(groups, build_component("sensor", scenario, scenario),
                   dt=dt_phys, ticks=clock.steps * clock.ticks_estimation,
                   nav_std=(scenario.swarm.nav_position_std, scenario.swarm.nav_velocity_std),

@@ -494,3 +494,16 @@ def evasive_segments(
             return segments
         position, heading, speed = path[-1], end_heading, end_speed
         elapsed += segment.duration
+
+
+#: The climb of the 3-D L24 target (ours, issue 28): level for the linear phase, a vertical sinusoid of the planar
+#: one's period in the sinusoidal phase (up 2 m and back), a steady climb making the circular phase a helix (2 m).
+L24_3D_CLIMB = ((0.0, 0.0, 0.0, 0.0, 0.0), (0.0, 0.1, 0.1, 0.0, 0.0), (0.04, 0.0, 0.0, 0.0, 0.0))
+
+
+def l24_3d_profile() -> VelocityProfile:
+    """L24's three phases (:func:`l24_profile`) with the altitude L24 Sec. 6 asks for: level, a vertical sinusoid
+    ``vz = 0.1 sin(0.1τ)`` m/s, then a helix climbing at 0.04 m/s (:data:`L24_3D_CLIMB`)."""
+    return VelocityProfile(tuple(
+        Phase(p.name, p.duration, p.c, p.amplitude, p.omega, p.phi, p.accel, vertical=climb)
+        for p, climb in zip(l24_profile(), L24_3D_CLIMB, strict=True)))

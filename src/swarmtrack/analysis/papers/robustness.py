@@ -1,10 +1,10 @@
 """Robustness of the estimators to an imperfect network and to time (issue 11): no paper, the project's own study.
 
-The papers assume a clean network. This study degrades one thing at a time and checks, as claims, what a user
-deciding whether to fly needs: that the filters degrade gracefully with message loss (the information filter of
-L24 on ``robust-5``, 5 UAVs in full topology, and W20's multi-model filter on ``w20-switching-ideal``, its clean camera), that time-stamp-
-aware fusion (:mod:`swarmtrack.estimation.refilter`) removes the overconfidence a sensor latency or network delays
-cause, that a UAV that drops out and rejoins breaks nothing, and that χ²-gating contains a lying neighbour
+The papers assume a clean network. This study degrades one thing at a time and checks, as claims, what a user deciding
+whether to fly needs: that the filters degrade gracefully with message loss (the information filter of L24 on
+``robust-5``, 5 UAVs in full topology, and W20's multi-model filter on ``w20-switching-ideal``, its clean camera), that
+time-stamp-aware fusion (:mod:`swarmtrack.estimation.refilter`) removes the overconfidence a sensor latency or network
+delays cause, that a UAV that drops out and rejoins breaks nothing, and that χ²-gating contains a lying neighbour
 (:mod:`swarmtrack.estimation.gating`, :mod:`swarmtrack.network.faults`). Each setting is a variant of a built-in
 scenario (:attr:`~swarmtrack.analysis.papers.base.Paper.variants`); figures are the degradation curves (mean, ±1 std
 over the runs).

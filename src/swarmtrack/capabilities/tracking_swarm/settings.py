@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Annotated, Literal
+from typing import Annotated, ClassVar, Literal
 
 from pydantic import Field, ValidationInfo, field_validator
 
@@ -53,6 +53,8 @@ class RangeBearingElevationSpec(SensorSpec):
     fs3d)."""
 
     kind: Literal["range_bearing_elevation"] = "range_bearing_elevation"
+    #: It reads heights: the world flies them (swarm.altitude, the targets' altitude and climb).
+    three_d: ClassVar[bool] = True
     sigma_range: Length = Field(0.08, gt=0, description="m (L24: 0.08; at most 1e6 m)")
     sigma_bearing: Angle = Field(0.02, gt=0, description="rad (L24: 0.02; at most 1e3 rad)")
     sigma_elevation: Angle = Field(0.02, gt=0, description=(

@@ -25,6 +25,8 @@ def _random_quads(rng, m):
     QuadrotorParams(),
     QuadrotorParams(max_thrust=1.2 * 1.5 * 9.81, max_tilt=0.9, max_moment=0.5),  # thrust and moment clips
     QuadrotorParams(Ixx=0.02, Iyy=0.04, max_moment=0.2),  # unequal inertias: per-axis moment limit
+    QuadrotorParams(max_roll_pitch=np.radians(5.0)),  # W20 Sec. 5.4.2: roll and pitch setpoints saturated at 5°
+    "rows",  # the driven quadrotor at the defaults, the commanded ones at 5°: a parameter set per row
 ])
 @pytest.mark.parametrize("vehicle", ["quadrotor", "double_integrator"])
 def test_advance_equals_reference_steps(params, vehicle):
@@ -34,6 +36,9 @@ def test_advance_equals_reference_steps(params, vehicle):
     n, ticks, lag = 7, 300, 4
     quad = vehicle == "quadrotor"
     quads = _random_quads(rng, 1 + n if quad else 1)
+    if params == "rows":
+        params = quadrotor.per_row([None] + [QuadrotorParams(max_roll_pitch=np.radians(5.0))] * (len(quads) - 1))
+        assert isinstance(params, quadrotor.RowParams) == quad
     points = np.ascontiguousarray(rng.normal(0, 3, (0 if quad else n + 1, 4)))
     drivers = 1 if quad else 2
     v_cmd, a_ff, wind = (rng.normal(0, s, (ticks + 5, drivers, 2)) for s in (2.0, 0.5, 0.3))
@@ -46,7 +51,7 @@ def test_advance_equals_reference_steps(params, vehicle):
     consts = kernels.params_tuple(params)
     ref_q, ref_p = quads.copy(order="F"), points.copy()
     ref_hist = history.copy()
-    tick = 0
+    tick, reached = 0, 0.0
     while tick < ticks:
         cmd = rng.normal(0, 8, (n, 2))  # up to well beyond g·tan(max_tilt): the tilt clip
         quad_cmd = np.zeros((len(quads), 2))
@@ -72,8 +77,10 @@ def test_advance_equals_reference_steps(params, vehicle):
         np.testing.assert_allclose(quads, ref_q, rtol=TOL, atol=TOL)
         np.testing.assert_allclose(points, ref_p, rtol=TOL, atol=TOL)
         np.testing.assert_allclose(history, ref_hist, rtol=TOL, atol=TOL)
-    if quad:
-        assert np.abs(quads[1:, 4:6]).max() > 0.3  # the UAVs did reach large tilts
+        reached = max(reached, np.abs(quads[1:, 4:6]).max() if quad else 0.0)
+    if quad:  # the UAVs did reach large tilts, or their per-axis limit
+        limit = params.sets[1].max_roll_pitch if isinstance(params, quadrotor.RowParams) else params.max_roll_pitch
+        assert reached > (0.3 if limit is None else 0.99 * limit)
 
 
 def test_advance_refuses_ticks_beyond_the_sampled_profile():

@@ -154,3 +154,62 @@ def test_unequal_inertias_limit_each_axis_by_its_own_moment():
     rates = new[:, 6:8]  # one step from hover: |rate| = dt·max_moment/I on each saturated axis
     np.testing.assert_allclose(np.abs(rates[:, 0]), 0.01 * 0.2 / 0.02)
     np.testing.assert_allclose(np.abs(rates[:, 1]), 0.01 * 0.2 / 0.04)
+
+
+# --- W20 Sec. 5.4.2: roll and pitch saturated at 5° per axis (``max_roll_pitch``) -------------------------------------
+LIMIT = np.radians(5.0)
+W20 = QuadrotorParams(max_roll_pitch=LIMIT)
+
+
+def test_roll_and_pitch_setpoints_are_saturated_each_at_max_roll_pitch():
+    rng = np.random.default_rng(5)
+    cmds = rng.normal(0.0, 3.0, (2000, 2))
+    ang = quadrotor.desired_attitude(cmds, W20)
+    assert np.abs(ang).max() == LIMIT  # reached, never exceeded
+    free = quadrotor.desired_attitude(cmds, P)
+    inside = np.all(np.abs(free) <= LIMIT, axis=1)
+    assert 0 < inside.sum() < len(cmds)
+    np.testing.assert_array_equal(ang[inside], free[inside])  # a command under the limit is not touched
+    np.testing.assert_array_equal(ang[~inside], np.clip(free[~inside], -LIMIT, LIMIT))
+
+
+def test_achieved_roll_and_pitch_stay_within_the_limit_plus_the_inner_loop_overshoot():
+    # the limit acts on the setpoints, as max_tilt does; the zeta = 0.8 attitude loop overshoots by < 2 %
+    rng = np.random.default_rng(0)
+    state = quadrotor.hover_state(np.zeros((32, 2)))
+    worst = 0.0
+    for k in range(1000):
+        if k % 25 == 0:
+            cmd = rng.normal(0.0, 3.0, (32, 2))
+        state = quadrotor.step(state, cmd, W20, DT)
+        worst = max(worst, np.abs(state[:, 4:6]).max())
+    assert LIMIT * 0.99 < worst <= LIMIT * 1.02
+
+
+def test_a_saturated_diagonal_command_holds_both_angles_at_the_limit():
+    # φ = −5°, θ = 5° with the altitude-hold thrust: ax = g·tan 5°/cos 5°, ay = g·tan 5° (0.86 m/s² per axis,
+    # against the 3 m/s² the position controller may ask for)
+    state = run(quadrotor.hover_state(np.zeros((1, 2))), np.array([[3.0, 3.0]]), 300, params=W20)
+    np.testing.assert_allclose(state[0, 4:6], [-LIMIT, LIMIT], atol=1e-9)
+    g_tan = W20.g * np.tan(LIMIT)
+    np.testing.assert_allclose(quadrotor.achieved_acceleration(state, W20)[0], [g_tan / np.cos(LIMIT), g_tan],
+                               rtol=1e-8)
+
+
+def test_a_limit_that_never_binds_changes_no_bit():
+    # the tilt-norm clip at 0.6 rad keeps each angle under 0.6 rad: a 0.61 rad per-axis limit never binds
+    rng = np.random.default_rng(4)
+    state = quadrotor.hover_state(rng.normal(0.0, 3.0, (8, 2)))
+    loose = QuadrotorParams(max_roll_pitch=0.61)
+    a = b = state
+    for _ in range(300):
+        cmd = rng.normal(0.0, 10.0, (8, 2))
+        a, b = quadrotor.step(a, cmd, P, DT), quadrotor.step(b, cmd, loose, DT)
+    np.testing.assert_array_equal(a, b)
+    assert P.max_roll_pitch is None and P._consts[-1] == np.inf  # the default: no per-axis limit
+
+
+@pytest.mark.parametrize("value", [0.0, -0.1, np.pi / 2, 3.0])
+def test_a_max_roll_pitch_outside_zero_to_a_right_angle_is_refused(value):
+    with pytest.raises(ValueError, match="max_roll_pitch"):
+        QuadrotorParams(max_roll_pitch=value)

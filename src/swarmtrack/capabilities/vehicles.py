@@ -1,7 +1,8 @@
 """The built-in vehicle kinds (:class:`~swarmtrack.vehicles.base.Vehicle`), registered once each.
 
 =====================  ==========================================================================================
-``quadrotor``          Iris-like quadrotor, attitude loop and tilt limits (L24 Sec. 3.1; L23), the default
+``quadrotor``          Iris-like quadrotor, attitude loop and tilt limits (L24 Sec. 3.1; L23), the default; the
+                       swarm's ``quadrotor`` section sets its attitude limits (W20 Sec. 5.4.2's 5° per axis)
 ``double_integrator``  planar double integrator, the flocking agents' model (L24 Sec. 2; L23 Sec. 2)
 ``walker``             IB21 Sec. 6's ground targets and decoys: constant speed, random-walk yaw rate, kept in the
                        area by reflection (:mod:`swarmtrack.vehicles.ground_walker`); groups only
@@ -33,7 +34,21 @@ def fixed_wing_params(spec):
     return FixedWingParams(f.speed, f.altitude, f.yaw_rate_max)
 
 
-registry.register_vehicle(Vehicle("quadrotor", "Iris-like, attitude loop and tilt limits (L24)", physics="quadrotor"))
+def quadrotor_params(spec):
+    """The swarm's :class:`~swarmtrack.vehicles.quadrotor.QuadrotorParams` from its ``quadrotor`` section (attitude
+    limits: ``max_tilt``, and W20 Sec. 5.4.2's per-axis ``max_roll_pitch``); a group's section has none: the defaults.
+    Returns None when every limit is at its default, so a world of default quadrotors is built as before."""
+    q = getattr(spec, "quadrotor", None)
+    if q is None:
+        return None
+    from swarmtrack.vehicles.quadrotor import DEFAULT_PARAMS, QuadrotorParams
+
+    params = QuadrotorParams(max_tilt=q.max_tilt, max_roll_pitch=q.max_roll_pitch)
+    return None if params == DEFAULT_PARAMS else params
+
+
+registry.register_vehicle(Vehicle("quadrotor", "Iris-like, attitude loop and tilt limits (L24)", physics="quadrotor",
+                                  params=quadrotor_params, keys=("quadrotor",)))
 registry.register_vehicle(Vehicle("double_integrator", "planar, the flocking agents' model (L24 Sec. 2)",
                                   physics="double_integrator"))
 registry.register_vehicle(Vehicle(

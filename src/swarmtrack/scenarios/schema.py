@@ -363,10 +363,21 @@ class FixedWingSpec(Strict):
     yaw_rate_max: AngularRate = Field(0.6, gt=0, description="rad/s (ours: ≈ 45° of bank; IB21 gives none)")
 
 
+class QuadrotorSpec(Strict):
+    """The swarm's quadrotors' attitude limits (:class:`~swarmtrack.vehicles.quadrotor.QuadrotorParams`)."""
+
+    max_tilt: float = Field(0.6, gt=0, lt=math.pi / 2, description=(
+        "rad, limit of the tilt setpoint's norm (ours, like PX4's MPC_TILTMAX_AIR: 0.6 rad ≈ 34°; < π/2)"))
+    max_roll_pitch: float | None = Field(None, gt=0, lt=math.pi / 2, description=(
+        "rad, saturation of the roll and of the pitch setpoint, each (W20 Sec. 5.4.2: 5° = 0.0873 rad; < π/2); "
+        "null: none"))
+
+
 class SwarmSpec(Strict):
     n_uavs: int = Field(3, ge=1, le=100_000, description="number of UAVs")
     vehicle: _vehicle("uav", "the swarm") = Field("quadrotor", description="a registered vehicle kind")
     fixed_wing: FixedWingSpec = Field(default_factory=FixedWingSpec, description="with vehicle: fixed_wing")
+    quadrotor: QuadrotorSpec = Field(default_factory=QuadrotorSpec, description="with vehicle: quadrotor")
     initial_positions: list[Position] | None = Field(None, description=(
         "m (at most 1e6 m per axis); default: seeded random in the spawn box"))
     spawn_center: Position = Field((-2.0, -6.0), description=(

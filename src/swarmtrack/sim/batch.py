@@ -122,7 +122,8 @@ def build_batch(scenarios: list[Scenario]) -> tuple[Simulation, list[dict]]:
     n, worlds = first.swarm.n_uavs, len(scenarios)
     flown = [{g: profiles(s, g) for g in ("targets", "decoys")} for s in scenarios]
     uavs = Group("uavs", first.swarm.vehicle,
-                 np.concatenate([spawn_positions(s, stream(s.seed, "spawn")) for s in scenarios]))
+                 np.concatenate([spawn_positions(s, stream(s.seed, "spawn")) for s in scenarios]),
+                 params=vehicle(first.swarm.vehicle).make_params(first.swarm))
     groups = [_concat_group("targets", scenarios, flown), _concat_group("decoys", scenarios, flown), uavs]
     world = World(groups, build_component("sensor", first, first), dt=clock.dt,
                   ticks=clock.steps * clock.ticks_estimation,

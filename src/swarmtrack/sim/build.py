@@ -163,7 +163,8 @@ def _uavs(scenario: Scenario) -> Group:
     kind = vehicle(sw.vehicle)
     if not kind.is_kinematic:
         heights = np.full(sw.n_uavs, sw.altitude)
-        return Group("uavs", sw.vehicle, starts, altitude=_altitude(scenario, sw.vehicle, heights, hold=heights))
+        return Group("uavs", sw.vehicle, starts, params=kind.make_params(sw),
+                     altitude=_altitude(scenario, sw.vehicle, heights, hold=heights))
     heading = stream(scenario.seed, "spawn/headings").uniform(-np.pi, np.pi, sw.n_uavs)
     return Group("uavs", sw.vehicle, starts, params=kind.make_params(sw), heading=heading)
 

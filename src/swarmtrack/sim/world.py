@@ -251,7 +251,6 @@ class World:
             raise ValueError(f"groups must be uniquely named and include 'uavs'; got {names}")
         self.groups = {g.name: g for g in groups}
         self.dt, self.sensor, self.compiled = dt, sensor, compiled
-        self.params = quadrotor.QuadrotorParams()
         world_streams = list(streams) if isinstance(streams, Sequence) else [streams]
         self.worlds = len(world_streams)
         if any(g.size % self.worlds for g in groups):
@@ -325,6 +324,9 @@ class World:
         self._wind = np.stack(winds, axis=1) if n_driven else np.zeros((ticks, 0, 2))
         self._gains = np.asarray(gains, dtype=float)
         self._quad_obj = np.asarray(lay.quad_obj, dtype=np.int64)
+        # each quadrotor row's parameters: its group's (the swarm's `quadrotor` section), the defaults without
+        self.params = quadrotor.per_row([g.params for g in groups if kinds[g.name].physics == "quadrotor"
+                                         for _ in range(g.size)])
         self._point_obj = np.asarray(lay.point_obj, dtype=np.int64)
         self._quad_driver = np.asarray(lay.quad_driver, dtype=np.int64)
         self._point_driver = np.asarray(lay.point_driver, dtype=np.int64)

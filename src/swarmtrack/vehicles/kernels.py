@@ -10,7 +10,9 @@ from a different math library), for ``ticks`` ticks in a row:
 * every driven vehicle's autopilot (targets, decoys): ``a = gain·(v_cmd[k] − v) + a_ff[k]`` (feed-forward + P,
   L24 Sec. 4) plus the wind gust ``wind[k]``; every commanded vehicle (UAVs) holds its command;
 * every quadrotor (L24 Sec. 3.1 FS model rows, see :mod:`~swarmtrack.vehicles.quadrotor`): tilt setpoint
-  from the norm-clipped command with the altitude-hold inversion, PD attitude law clipped to
+  from the norm-clipped command with the altitude-hold inversion, each angle saturated at ``±max_roll_pitch``
+  when that is set (W20 Sec. 5.4.2; the default kernel, one parameter set without it, is compiled without the
+  comparisons, as fast as before), PD attitude law clipped to
   ``±max_moment/I``, semi-implicit Euler (rates, angles, velocity from the achieved tilt, position);
 * every double integrator (L24 Sec. 2): ``p ← p + dt·u``, ``q ← q + dt·p``;
 * the ring buffer of past positions the world's delayed measurements read.
@@ -26,7 +28,7 @@ import math
 import numba
 import numpy as np
 
-from .quadrotor import QuadrotorParams
+from .quadrotor import QuadrotorParams, RowParams
 
 
 @numba.njit(cache=True, fastmath=False, inline="always")
@@ -40,14 +42,15 @@ def _clip(v, lim):
 
 
 @numba.njit(cache=True, fastmath=False, inline="always")
-def _quadrotor_step(S, m, ax, ay, dt, consts):
+def _quadrotor_step(S, m, ax, ay, dt, c, limited):
     """Vehicle ``m`` of the quadrotor states ``S`` (8, M) (one row per state component, the reference's internal
-    layout) advanced by ``dt`` under the command ``(ax, ay)``, in place; ``consts`` the vehicle parameters of
-    :func:`params_tuple`.
+    layout) advanced by ``dt`` under the command ``(ax, ay)``, in place; ``c`` the vehicle's constants, a row of
+    :func:`params_tuple`'s table as a tuple; ``limited`` (a constant of the calling kernel) whether to apply the
+    per-axis saturation ``angle_max``.
 
     Exactly the operations of :func:`swarmtrack.vehicles.quadrotor.step` for one vehicle, no disturbance.
     """
-    g, a_max, a_max_g, kp, kd, alpha_phi, alpha_theta, f_max = consts
+    g, a_max, a_max_g, kp, kd, alpha_phi, alpha_theta, f_max, angle_max = c
     phi = S[4, m]
     theta = S[5, m]
     phi_dot = S[6, m]
@@ -61,6 +64,15 @@ def _quadrotor_step(S, m, ax, ay, dt, consts):
     phi_d = -math.atan(t)
     sec = math.hypot(t, 1.0)  # 1/cos(phi_d)
     theta_d = math.atan(ax * scale / sec)
+    if limited:  # per-axis saturation of the setpoints (W20 Sec. 5.4.2); a NaN stays NaN
+        if phi_d > angle_max:
+            phi_d = angle_max
+        elif phi_d < -angle_max:
+            phi_d = -angle_max
+        if theta_d > angle_max:
+            theta_d = angle_max
+        elif theta_d < -angle_max:
+            theta_d = -angle_max
     # PD attitude law as an angular acceleration, times dt, clipped to ±dt·max_moment/I.
     kp_dt = kp * dt
     kd_dt = kd * dt
@@ -89,9 +101,19 @@ def _quadrotor_step(S, m, ax, ay, dt, consts):
     S[7, m] = theta_dot
 
 
-@numba.njit(cache=True, fastmath=False)
-def _advance(quads, points, profile, tick, ticks, dt, consts, history):
+@numba.njit(cache=True, fastmath=False, inline="always")
+def _row(table, k):
+    """Row ``k`` of the constants' table as a tuple of floats (kept in registers across the vehicle loop)."""
+    return (table[k, 0], table[k, 1], table[k, 2], table[k, 3], table[k, 4], table[k, 5], table[k, 6], table[k, 7],
+            table[k, 8])
+
+
+@numba.njit(cache=True, fastmath=False, inline="always")
+def _advance_body(quads, points, profile, tick, ticks, dt, consts, history, general):
     states, quad_cmd, quad_driver, quad_obj = quads
+    table, index = consts  # a row of constants per parameter set; each quadrotor's set (empty: all the first)
+    per_row = index.shape[0] > 0
+    c0 = _row(table, 0)
     S = states.T  # (8, Mq), C-contiguous for the Fortran-ordered states the reference returns
     P, point_cmd, point_driver, point_obj = points
     v_cmd, a_ff, wind, gains = profile
@@ -107,7 +129,10 @@ def _advance(quads, points, profile, tick, ticks, dt, consts, history):
             else:  # commanded onboard
                 ax = quad_cmd[m, 0]
                 ay = quad_cmd[m, 1]
-            _quadrotor_step(S, m, ax, ay, dt, consts)
+            if general:  # rows of several parameter sets, per-axis limits
+                _quadrotor_step(S, m, ax, ay, dt, _row(table, index[m]) if per_row else c0, True)
+            else:  # one set, no per-axis limit: the default, compiled without either
+                _quadrotor_step(S, m, ax, ay, dt, c0, False)
         for m in range(n_point):  # double integrators: velocity first, then position
             d = point_driver[m]
             if d >= 0:
@@ -133,15 +158,37 @@ def _advance(quads, points, profile, tick, ticks, dt, consts, history):
                 history[slot, point_obj[m], 1] = P[m, 1]
 
 
-def params_tuple(params: QuadrotorParams) -> tuple[float, ...]:
-    """The constants :func:`advance` takes: ``(g, a_max, a_max/g, kp, kd, α_max,φ, α_max,θ, f_max)``."""
-    g, a_max, a_max_g, kp, kd, alpha_max, f_max = params._consts
+@numba.njit(cache=True, fastmath=False)
+def _advance(quads, points, profile, tick, ticks, dt, consts, history):
+    """:func:`advance` for one parameter set without a per-axis limit (every scenario but W20 Ch. 5's)."""
+    _advance_body(quads, points, profile, tick, ticks, dt, consts, history, False)
+
+
+@numba.njit(cache=True, fastmath=False)
+def _advance_general(quads, points, profile, tick, ticks, dt, consts, history):
+    """:func:`advance` for rows of several parameter sets or a per-axis limit (``max_roll_pitch``)."""
+    _advance_body(quads, points, profile, tick, ticks, dt, consts, history, True)
+
+
+def _constants(params: QuadrotorParams) -> list[float]:
+    g, a_max, a_max_g, kp, kd, alpha_max, f_max, angle_max = params._consts
     alpha = np.broadcast_to(np.asarray(alpha_max, dtype=float).ravel(), (2,))
-    return (float(g), float(a_max), float(a_max_g), float(kp), float(kd), float(alpha[0]), float(alpha[1]),
-            float(f_max))
+    return [float(g), float(a_max), float(a_max_g), float(kp), float(kd), float(alpha[0]), float(alpha[1]),
+            float(f_max), float(angle_max)]
 
 
-def advance(quads: tuple, points: tuple, profile: tuple, tick: int, ticks: int, dt: float, consts: tuple[float, ...],
+def params_tuple(params: QuadrotorParams | RowParams) -> tuple[np.ndarray, np.ndarray]:
+    """The constants :func:`advance` takes: ``(table, index)``, ``table`` (K, 9) one row
+    ``(g, a_max, a_max/g, kp, kd, α_max,φ, α_max,θ, f_max, angle_max)`` per parameter set (``angle_max`` the per-axis
+    setpoint saturation ``max_roll_pitch``, ``inf`` when None) and ``index`` (M,) each quadrotor's row, empty for
+    one :class:`~swarmtrack.vehicles.quadrotor.QuadrotorParams` (every quadrotor on row 0)."""
+    if isinstance(params, RowParams):
+        return (np.array([_constants(p) for p in params.sets], dtype=float),
+                np.ascontiguousarray(params.index, dtype=np.int64))
+    return np.array([_constants(params)], dtype=float), np.zeros(0, dtype=np.int64)
+
+
+def advance(quads: tuple, points: tuple, profile: tuple, tick: int, ticks: int, dt: float, consts: tuple,
             history) -> None:
     """Advance every vehicle by ``ticks`` physics ticks from tick ``tick``, **in place**.
 
@@ -159,7 +206,12 @@ def advance(quads: tuple, points: tuple, profile: tuple, tick: int, ticks: int, 
     v_cmd, a_ff, wind, _ = profile
     if tick < 0 or tick + ticks > min(len(v_cmd), len(a_ff), len(wind)):
         raise IndexError(f"ticks {tick}..{tick + ticks - 1} are beyond the sampled profile ({len(v_cmd)} ticks)")
-    _advance(quads, points, profile, int(tick), int(ticks), float(dt), consts, history)
+    table, index = consts
+    if len(index) not in (0, len(quads[0])):
+        raise ValueError(f"{len(index)} parameter rows for {len(quads[0])} quadrotors")
+    general = len(index) > 0 or bool(np.isfinite(table[:, 8]).any())
+    (_advance_general if general else _advance)(quads, points, profile, int(tick), int(ticks), float(dt), consts,
+                                                history)
 
 
 

@@ -13,8 +13,12 @@ reproduces that with a small model, integrated for all ``M`` vehicles at once on
   zero while the thrust is not saturated; the altitude itself is not simulated;
 * attitude controller: the commanded planar acceleration is clipped in norm to ``g·tan(max_tilt)`` and
   inverted exactly for the altitude-hold thrust, ``φ_d = −atan(ay/g)``, ``θ_d = atan(ax·cos φ_d/g)``
-  (then ``tan(tilt_d) = ‖a‖/g`` with ``cos(tilt) = cos φ cos θ``); a PD on the angles gives
-  ``U = I·(ωn²(angle_d − angle) − 2ζωn·rate)``, clipped to ``±max_moment``.
+  (then ``tan(tilt_d) = ‖a‖/g`` with ``cos(tilt) = cos φ cos θ``); with ``max_roll_pitch`` set, each of
+  ``φ_d`` and ``θ_d`` is then saturated at ``±max_roll_pitch`` (W20 Sec. 5.4.2: "Saturation of the RPY angles is
+  set at 5°"); a PD on the angles gives ``U = I·(ωn²(angle_d − angle) − 2ζωn·rate)``, clipped to ``±max_moment``.
+
+The vehicle has no yaw: its heading does not enter the planar dynamics (the thrust direction is ``Rx(φ)·Ry(θ)·e3``)
+nor any sensor of the project, so a yaw saturation (W20 saturates roll, pitch *and* yaw) has nothing to act on.
 
 Integration is semi-implicit Euler: rates, then angles, then the velocity from the *achieved* (new) tilt,
 then the position from the new velocity.
@@ -41,6 +45,12 @@ class QuadrotorParams:
     * ``max_tilt`` = 0.6 rad (≈ 34°): limit of the *tilt setpoint*; PX4's ``MPC_TILTMAX_AIR`` defaults to
       45°; we chose a tighter limit (the papers' manoeuvres need < 15°). Not from the papers. Like the PX4
       parameter it limits the *setpoint*: the achieved tilt can exceed it by the inner-loop overshoot (< 2 %).
+    * ``max_roll_pitch`` = None: no per-axis limit (the default, the project's old behaviour). A number [rad]
+      saturates the roll and the pitch *setpoints* each at ``±max_roll_pitch`` after the tilt-norm clip, as W20's
+      V-REP quadrotor saturated its roll/pitch/yaw angles at 5° (W20 Sec. 5.4.2, beside Table 5.5). Per axis, not in
+      norm: with both axes saturated the tilt is ``acos(cos² max_roll_pitch)`` (7.07° for 5°) and the achieved
+      acceleration turns toward the diagonal. Like ``max_tilt`` it limits the setpoint; the achieved angles exceed
+      it by the inner-loop overshoot only (< 2 %).
     * ``max_thrust`` = 2·m·g when left as ``None`` (thrust-to-weight ratio 2, chosen).
     * ``attitude_wn`` = 12 rad/s and ``attitude_zeta`` = 0.8: inner-loop natural frequency and damping
       (chosen; ~0.35 s settling, ~1.5 % overshoot, an equivalent lag of 2ζ/ωn ≈ 0.13 s).
@@ -53,6 +63,7 @@ class QuadrotorParams:
     Iyy: float = 0.029
     g: float = 9.81
     max_tilt: float = 0.6
+    max_roll_pitch: float | None = None
     max_thrust: float | None = None
     attitude_wn: float = 12.0
     attitude_zeta: float = 0.8
@@ -70,6 +81,8 @@ class QuadrotorParams:
             object.__setattr__(self, "max_thrust", 2.0 * self.mass * self.g)
         if not 0.0 < self.max_tilt < math.pi / 2:
             raise ValueError("max_tilt must be in (0, π/2)")
+        if self.max_roll_pitch is not None and not 0.0 < self.max_roll_pitch < math.pi / 2:
+            raise ValueError("max_roll_pitch must be None or in (0, π/2)")
         if self.max_thrust <= self.mass * self.g:
             raise ValueError("max_thrust must exceed the weight m·g")
         wn, zeta = self.attitude_wn, self.attitude_zeta
@@ -88,7 +101,8 @@ class QuadrotorParams:
         }
         for name, val in derived.items():
             object.__setattr__(self, name, val)
-        consts = (self.g, a_max, a_max / self.g, wn * wn, 2.0 * zeta * wn, alpha_max, derived["_f_max"])
+        angle_max = math.inf if self.max_roll_pitch is None else float(self.max_roll_pitch)
+        consts = (self.g, a_max, a_max / self.g, wn * wn, 2.0 * zeta * wn, alpha_max, derived["_f_max"], angle_max)
         object.__setattr__(self, "_consts", consts)
 
     @property
@@ -98,6 +112,29 @@ class QuadrotorParams:
 
 
 DEFAULT_PARAMS = QuadrotorParams()
+
+
+@dataclass(frozen=True, eq=False)
+class RowParams:
+    """Different :class:`QuadrotorParams` for the rows of one batch of quadrotors (e.g. the swarm's 5° limit beside
+    quadrotor targets at the defaults): ``sets`` the distinct parameter sets, ``index`` (M,) each row's set.
+    :func:`step` steps each set's rows with its own parameters; the rows do not interact, so every row's numbers
+    are those of its set stepped alone."""
+
+    sets: tuple[QuadrotorParams, ...]
+    index: np.ndarray
+
+
+def per_row(params) -> QuadrotorParams | RowParams:
+    """The parameters of ``M`` quadrotor rows from each row's :class:`QuadrotorParams` (None: the defaults): one
+    ``QuadrotorParams`` when they are all equal (the path of a single set, bit for bit), else a :class:`RowParams`."""
+    rows = [DEFAULT_PARAMS if p is None else p for p in params]
+    sets = list(dict.fromkeys(rows))
+    if len(sets) <= 1:
+        return sets[0] if sets else DEFAULT_PARAMS
+    index = np.array([sets.index(p) for p in rows], dtype=np.int64)
+    index.setflags(write=False)
+    return RowParams(tuple(sets), index)
 
 
 def hover_state(positions) -> np.ndarray:
@@ -112,28 +149,35 @@ def desired_attitude(accel_cmd, params: QuadrotorParams = DEFAULT_PARAMS) -> np.
     """Tilt setpoints ``(M, 2)`` = ``[φ_d, θ_d]`` for commanded planar accelerations ``(M, 2)``.
 
     The command is clipped in norm to ``g·tan(max_tilt)`` and inverted exactly for the altitude-hold
-    thrust ``T = m g/(cos φ cos θ)``: ``tan φ_d = −ay/g``, ``tan θ_d = ax·cos φ_d/g``.
+    thrust ``T = m g/(cos φ cos θ)``: ``tan φ_d = −ay/g``, ``tan θ_d = ax·cos φ_d/g``; then each angle is
+    saturated at ``±max_roll_pitch`` when that is set (W20 Sec. 5.4.2).
     """
     a = np.asarray(accel_cmd, dtype=float)
     ax, ay = a[:, 0], a[:, 1]
     scale = np.minimum(1.0, params._a_max / np.maximum(np.hypot(ax, ay), 1e-300)) / params.g
     phi_d = -np.arctan(ay * scale)
     theta_d = np.arctan(ax * scale * np.cos(phi_d))
-    return np.stack((phi_d, theta_d), axis=-1)
+    out = np.stack((phi_d, theta_d), axis=-1)
+    if params.max_roll_pitch is not None:
+        np.clip(out, -params.max_roll_pitch, params.max_roll_pitch, out=out)
+    return out
 
 
-def step(state, accel_cmd, params: QuadrotorParams, dt: float, disturbance=None) -> np.ndarray:
+def step(state, accel_cmd, params: QuadrotorParams | RowParams, dt: float, disturbance=None) -> np.ndarray:
     """Advance ``M`` quadrotors by ``dt`` under commanded planar accelerations; returns a new ``(M, 8)``.
 
     ``accel_cmd`` ``(M, 2)`` [m/s²] is what the guidance (flocking, target-following) asks for; the
     vehicle achieves it only through its tilt (see the module docstring). ``disturbance`` ``(M, 2)`` is an
-    extra planar acceleration (e.g. wind) added to the achieved one. Pure: ``state`` is not modified.
+    extra planar acceleration (e.g. wind) added to the achieved one. Pure: ``state`` is not modified. ``params``
+    may be a :class:`RowParams` (rows with different parameters, :func:`per_row`).
 
     The returned array is Fortran-ordered (its transpose, one row per state component, is C-contiguous):
     feeding it back makes every per-component block contiguous, which cut the step from ~19 µs to ~13 µs
     for M = 4 in our measurement (about 30 tiny ufunc calls per step). Any layout is accepted as input.
     """
-    g, a_max, a_max_g, kp, kd, alpha_max, f_max = params._consts
+    if isinstance(params, RowParams):
+        return _step_rows(state, accel_cmd, params, dt, disturbance)
+    g, a_max, a_max_g, kp, kd, alpha_max, f_max, angle_max = params._consts
     S = np.asarray(state, dtype=float).T  # (8, M): one row per state component
     if not S.flags.c_contiguous:
         S = np.ascontiguousarray(S)
@@ -153,6 +197,9 @@ def step(state, accel_cmd, params: QuadrotorParams, dt: float, disturbance=None)
     np.multiply(ax, scale, out=t)
     t /= sec  # tan(theta_d)
     np.arctan(t, out=ang_d[1])
+    if angle_max != math.inf:  # per-axis saturation of the roll and pitch setpoints (W20 Sec. 5.4.2)
+        np.minimum(ang_d, angle_max, out=ang_d)
+        np.maximum(ang_d, -angle_max, out=ang_d)
     # PD attitude law as an angular acceleration, times dt, clipped to ±dt·max_moment/I.
     ang = S[4:6]
     rate = S[6:8]
@@ -187,6 +234,18 @@ def step(state, accel_cmd, params: QuadrotorParams, dt: float, disturbance=None)
     np.multiply(vel_new, dt, out=pos_new)
     pos_new += S[0:2]
     return O.T
+
+
+def _step_rows(state, accel_cmd, params: RowParams, dt: float, disturbance) -> np.ndarray:
+    """:func:`step` of each parameter set's rows with its own parameters, reassembled (Fortran-ordered)."""
+    state = np.asarray(state, dtype=float)
+    a = np.asarray(accel_cmd, dtype=float)
+    d = None if disturbance is None else np.asarray(disturbance, dtype=float)
+    out = np.empty(state.shape, order="F")
+    for k, p in enumerate(params.sets):
+        rows = params.index == k
+        out[rows] = step(state[rows], a[rows], p, dt, None if d is None else d[rows])
+    return out
 
 
 def _tilt_accel(ang, g, f_max):

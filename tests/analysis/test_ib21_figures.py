@@ -61,7 +61,7 @@ def _assert_png(path):
 @pytest.mark.slow
 def test_fig8_bands_are_the_mean_and_std_of_the_runs_series(tmp_path, bands):
     paths = ib21.figures(tmp_path, (), study(), "8")
-    assert [p.name for p in paths] == ["ib21-fig8-left.png", "ib21-fig8-right.png"]
+    assert [p.name for p in paths] == ["ib21-fig8-left.png", "ib21-fig8-left-std.png", "ib21-fig8-right.png"]
     for p in paths:
         _assert_png(p)
     left = bands[:5]  # Fig. 8 left: Φ̄ for 2..6 UAVs, in that order
@@ -80,11 +80,56 @@ def test_fig8_bands_are_the_mean_and_std_of_the_runs_series(tmp_path, bands):
 
 
 @pytest.mark.slow
-def test_fig11_right_draws_the_solve_time_of_each_fleet(tmp_path, bands):
-    ib21.draw_panel(ib21.FIGURES["11"][1], study(), tmp_path)
-    assert len(bands) == 5
-    for (_, _, mean, _), name in zip(bands, ib21.FLEET, strict=True):
-        assert mean == pytest.approx(np.mean([series_of(name, s)["solve_time"] for s in (1, 2, 3)], axis=0))
+def test_fig11_right_draws_the_solve_time_of_one_to_three_uavs_and_of_each_fleet(tmp_path, bands):
+    for panel, settings in zip(ib21.FIGURES["11"][1:], (ib21.COMPUTE, ib21.FLEET), strict=True):
+        bands.clear()
+        _assert_png(ib21.draw_panel(panel, study(), tmp_path))
+        assert len(bands) == len(settings)
+        for (_, _, mean, _), name in zip(bands, settings, strict=True):  # drawn in ms
+            assert mean == pytest.approx(1000 * np.mean([series_of(name, s)["solve_time"] for s in (1, 2, 3)], axis=0))
+
+
+@pytest.mark.slow
+def test_the_compute_figure_gives_each_uavs_time_and_the_ratio_to_one_uav(tmp_path, monkeypatch):
+    """Fig. 11 right's bars are each UAV's mean time over the runs; the legend's ratio is to one UAV's time."""
+    bars, labels = [], []
+    real_bar = sm_figures.Axes.bar
+
+    def spy(self, x, height, *args, **kwargs):
+        bars.append((kwargs.get("label"), np.asarray(height)))
+        return real_bar(self, x, height, *args, **kwargs)
+
+    monkeypatch.setattr(sm_figures.Axes, "bar", spy)
+    monkeypatch.setattr(sm_figures, "plot_band", lambda ax, t, m, s, label, color=None: labels.append(label)
+                        or ax.plot(t, m, label=label)[0])
+    data = study(runs=2)
+    for name, n in ib21.COMPUTE.items():
+        for seed, r in enumerate(data[name]):
+            r["set_membership"]["solve_time"] = {"fleet_mean": 0.0, "per_uav_mean": [0.001 * (i + 1) + 0.001 * seed
+                                                                                   for i in range(n)]}
+    ib21.draw_panel(ib21.FIGURES["11"][1], data, tmp_path)
+    assert [b[0] for b in bars] == [f"$N_u$ = {n}" for n in (1, 2, 3)]
+    assert bars[2][1] == pytest.approx([1.5, 2.5, 3.5])  # ms: UAV i's mean over the two seeds
+    # fleet time: 1 UAV 1.5 ms, 3 UAVs 7.5 ms: 5.00x, beside the paper's 5x
+    assert "1.50 ms, 1.00x" in labels[0] and "7.50 ms, 5.00x, paper 5x" in labels[2]
+
+
+@pytest.mark.slow
+def test_the_spread_figure_draws_the_std_over_the_runs(tmp_path, monkeypatch):
+    lines = []
+    real = sm_figures.Axes.plot
+
+    def spy(self, *args, **kwargs):
+        if "label" in kwargs:
+            lines.append((kwargs["label"], np.asarray(args[1], dtype=float)))
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(sm_figures.Axes, "plot", spy)
+    data = study()
+    ib21.draw_panel(ib21.FIGURES["8"][1], data, tmp_path)
+    assert len(lines) == 5
+    values = np.array([series_of("ib21-fleet-4", s)["phi_bar"] for s in (1, 2, 3)])
+    assert lines[2][1] == pytest.approx(values.std(axis=0)) and lines[2][0].startswith("$N_u$ = 4 (3 runs")
 
 
 def test_diverged_runs_are_left_out_of_the_bands(tmp_path, bands):
@@ -110,11 +155,12 @@ def test_every_figure_group_draws_its_panels_from_its_own_experiments(tmp_path):
 def test_a_real_runs_summary_draws_every_quantity(ib21_run, tmp_path, bands):
     """The summary `reproduce` caches carries what the figures read: Φ̄, its parts and the solve time."""
     summary = metrics.summary(ib21_run)
-    ib21.draw_panel(ib21.FIGURES["8"][1], {"ib21-fleet-6": [summary]}, tmp_path)
-    ib21.draw_panel(ib21.FIGURES["11"][1], {"ib21-fleet-6": [summary]}, tmp_path)
+    ib21.draw_panel(ib21.FIGURES["8"][2], {"ib21-fleet-6": [summary]}, tmp_path)
+    ib21.draw_panel(ib21.FIGURES["11"][2], {"ib21-fleet-6": [summary]}, tmp_path)
     assert len(bands) == 4
     for (_, _, mean, std), q in zip(bands, [*sm_metrics.PHI_PARTS.values(), "solve_time"], strict=True):
-        assert mean == pytest.approx(np.array(summary["series"][q], dtype=float), nan_ok=True)
+        scale = 1000 if q == "solve_time" else 1  # the control time is drawn in ms
+        assert mean == pytest.approx(scale * np.array(summary["series"][q], dtype=float), nan_ok=True)
         assert np.nanmax(std) == 0  # one run: no spread
 
 
@@ -128,7 +174,8 @@ def test_the_parts_figure_needs_a_setting(tmp_path):
 def test_analyse_keeps_only_the_claims_whose_experiments_ran():
     data = study()
     claims, md, numbers = ib21.analyse({e: data[e] for e in ib21.FIGURE_GROUPS["10"]})
-    assert {c.id for c in claims} == {"ib21-fig10-over-slowest", "ib21-fig10-under-lost", "ib21-guarantee"}
+    assert {c.id for c in claims} == {"ib21-fig10-over-slowest", "ib21-fig10-under-lost", "ib21-guarantee",
+                                      "ib21-fig10-twenty-above-five"}
     assert set(numbers["cleared"]) == set(ib21.NOISE) and "`ib21-fleet-6`" not in md
     everything, _, _ = ib21.analyse(data)
     assert {c.id for c in everything} == set(ib21.CLAIM_NEEDS)
@@ -155,7 +202,8 @@ def test_figure_8_runs_only_fig8s_experiments_and_draws_only_its_figures(tmp_pat
     report = rep.reproduce("ib21", tmp_path, runs=2, workers=1, quiet=True, figure="8", overrides=["duration=12"])
     assert sorted(fake_runs) == sorted((e, s, 12.0) for e in ib21.FLEET for s in (1, 2))
     assert report["figure"] == "8" and set(report["numbers"]["cleared"]) == set(ib21.FLEET)
-    assert sorted(p.name for p in tmp_path.glob("*.png")) == ["ib21-fig8-left.png", "ib21-fig8-right.png"]
+    assert sorted(p.name for p in tmp_path.glob("*.png")) == ["ib21-fig8-left-std.png", "ib21-fig8-left.png",
+                                                            "ib21-fig8-right.png"]
     assert json.loads((tmp_path / "reproduction-fig8.json").read_text()) == json.loads(json.dumps(report))
     assert not (tmp_path / "reproduction.json").exists()  # a part never replaces the full report
     md = (tmp_path / "reproduction-fig8.md").read_text()

@@ -218,6 +218,17 @@ def _draw_phi_bands(ax: Axes, results: Mapping[str, Sequence], quantities: Seque
     return entries
 
 
+def _mark_times(ax: Axes, marks: Sequence[tuple[float, str]] = (), window: tuple[float, float] | None = None) -> None:
+    """Dotted verticals at the times a statement names (``marks``: (t, text), e.g. IB21 Fig. 10's t = 100 s) and a
+    grey span over ``window`` (t0, t1) (e.g. Fig. 8 right's initial growth)."""
+    for t, text in marks:
+        ax.axvline(t, color="black", lw=0.9, ls=":", zorder=2)
+        ax.text(t, 0.98, f" {text}", transform=ax.get_xaxis_transform(), rotation=90, va="top", ha="left",
+                fontsize=7, zorder=5)
+    if window is not None:
+        ax.axvspan(*window, color="0.85", alpha=0.5, lw=0, zorder=0)
+
+
 def _band_axes(ax: Axes, quantities: Sequence[str], entries: int) -> None:
     """Axis labels, grid and legend of a panel of bands (:func:`_draw_phi_bands`)."""
     ax.set_xlabel("t [s]")
@@ -232,28 +243,32 @@ def _band_axes(ax: Axes, quantities: Sequence[str], entries: int) -> None:
 
 
 def plot_phi_bands(results: Mapping[str, Sequence], path: str | Path, quantities: Sequence[str] = ("phi_bar",),
-                   title: str | None = None) -> Path:
+                   title: str | None = None, marks: Sequence[tuple[float, str]] = ()) -> Path:
     """IB21 Figs. 8-11: per setting (``results``: label → runs, each a :class:`Recording`, its summary or its
     ``series``) the mean line and a ±1 std band over the runs (:func:`plot_band`) of each quantity of
     :func:`~swarmtrack.analysis.metrics.series`: ``phi_bar`` (Figs. 8 left, 9, 10 left, 11 left), the parts
     ``phi_unexplored``, ``phi_unidentified``, ``phi_identified`` (Figs. 8 right, 10 right) or ``solve_time``
-    (Fig. 11 right). One colour per setting, one line style per quantity."""
+    (Fig. 11 right). One colour per setting, one line style per quantity; ``marks``: (t, text) verticals (Fig. 10:
+    t = 100 s)."""
     if not results:
         raise ValueError("plot_phi_bands needs at least one setting")
     fig = new_figure((9.0, 5.0))
     ax = fig.subplots()
     entries = _draw_phi_bands(ax, results, quantities)
     _band_axes(ax, quantities, entries)
+    _mark_times(ax, marks)
     what = ", ".join(PHI_LABELS.get(q, q) for q in quantities)
     ax.set_title(title or f"{what}: mean, \u00b11 std over runs", fontsize=10)
     return save_figure(fig, path)
 
 
-def plot_phi_parts_bands(results: Mapping[str, Sequence], path: str | Path, title: str | None = None) -> Path:
+def plot_phi_parts_bands(results: Mapping[str, Sequence], path: str | Path, title: str | None = None,
+                         window: tuple[float, float] | None = None) -> Path:
     """IB21 Fig. 8 right / Fig. 10 right as bands: one panel per part of Φ̄, φ(X̄) (unexplored), φ(Xᵁ)
     (unidentified) and φ(X) (identified), each the mean over the UAVs (m²), with per setting (``results``: label →
     runs, as :func:`plot_phi_bands`) the mean line and ±1 std band over the runs; each panel has its own y scale
-    (φ(Xᵁ) and φ(X) are often a hundredth of φ(X̄))."""
+    (φ(Xᵁ) and φ(X) are often a hundredth of φ(X̄)). ``window``: a grey span (t0, t1), e.g. the initial growth of
+    IB21 Fig. 8 right's statement."""
     if not results:
         raise ValueError("plot_phi_parts_bands needs at least one setting")
     parts = tuple(PHI_PARTS.values())
@@ -262,7 +277,102 @@ def plot_phi_parts_bands(results: Mapping[str, Sequence], path: str | Path, titl
     for ax, q in zip(axes, parts, strict=True):
         entries = _draw_phi_bands(ax, results, (q,))
         _band_axes(ax, (q,), entries)
+        _mark_times(ax, (), window)
         ax.set_title(PHI_LABELS[q], fontsize=10)
     fig.suptitle(title or "Parts of the uncertainty: mean, \u00b11 std over runs", fontsize=10)
     return save_figure(fig, path)
 
+
+
+def plot_phi_spread(results: Mapping[str, Sequence], path: str | Path, title: str | None = None) -> Path:
+    """IB21 Fig. 8 left's shaded area on its own: per setting (``results``: label → runs, as :func:`plot_phi_bands`)
+    the std over the runs of Φ̄_k per time bin (the band's half width), the statement "the variance of Φ̄_k is the
+    largest for 4 UAVs" made visible; the legend gives each setting's time-mean std."""
+    if not results:
+        raise ValueError("plot_phi_spread needs at least one setting")
+    fig = new_figure((9.0, 5.0))
+    ax = fig.subplots()
+    entries = 0
+    for k, (label, runs) in enumerate(results.items()):
+        band = phi_bands(list(runs), "phi_bar")
+        if band is None:
+            continue
+        std = np.array([np.nan if v is None else v for v in band["std"]], dtype=float)
+        ok = np.array(band["n"]) >= 2
+        shown = np.where(ok, std, np.nan)
+        note = f"time-mean {float(np.nanmean(shown)):,.0f} m$^2$" if ok.any() else "no spread with one run"
+        ax.plot(band["t"], shown, color=agent_color(k), lw=1.3, label=f"{label} ({band['runs']} runs; {note})")
+        entries += 1
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel(r"std of $\bar\Phi$ over the runs [m$^2$]")
+    ax.set_ylim(bottom=0.0)
+    ax.grid(True, lw=0.4, alpha=0.5)
+    if entries:
+        place_legend(ax, entries)
+    else:
+        ax.text(0.5, 0.5, "no setting has 2 runs", transform=ax.transAxes, ha="center")
+    ax.set_title(title or r"std of $\bar\Phi$ over runs", fontsize=10)
+    return save_figure(fig, path)
+
+
+def _per_uav_times(runs: Sequence) -> np.ndarray | None:
+    """(runs, N) each run's mean control time per plan of each UAV, in decision order (s), from the runs'
+    summaries (``set_membership.solve_time.per_uav_mean``); None: no run has it."""
+    solves = [((r.get("set_membership") or {}).get("solve_time") or {}) for r in runs if isinstance(r, Mapping)]
+    rows = [s["per_uav_mean"] for s in solves if s.get("per_uav_mean")]
+    return np.array(rows, dtype=float) if rows else None
+
+
+def plot_compute_time(results: Mapping[str, Sequence], path: str | Path, title: str | None = None,
+                      paper_ratios: Mapping[int, float] | None = None) -> Path:
+    """IB21 Fig. 11 right: left, per setting (``results``: label → the runs' summaries) the mean line and ±1 std
+    band over the runs of the fleet's control time per plan (the sum over the UAVs, ms) against time; right, each
+    UAV's mean time per plan in decision order (bars: mean over the runs, whiskers: their std), where the paper's
+    explanation (each UAV evaluates the inputs of those before it) would show a rise with the index. The legend
+    gives each fleet's time and its ratio to the first setting's, beside ``paper_ratios`` (fleet size → ratio to
+    one UAV's; shown when the first setting has one UAV)."""
+    if not results:
+        raise ValueError("plot_compute_time needs at least one setting")
+    fig = new_figure((14.0, 5.0))
+    left, right = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.6, 1.0]})
+    per_uav = {label: _per_uav_times(runs) for label, runs in results.items()}
+    fleet = {label: None if v is None else float(v.sum(axis=1).mean()) for label, v in per_uav.items()}
+    first = next((label for label, v in fleet.items() if v), None)
+    base = None if first is None else fleet[first]
+    one = first is not None and per_uav[first].shape[1] == 1  # the paper's ratios are to one UAV's time
+    entries = 0
+    for k, (label, runs) in enumerate(results.items()):
+        band = phi_bands(list(runs), "solve_time")
+        if band is None:
+            continue
+        mean = 1000 * np.array([np.nan if v is None else v for v in band["mean"]], dtype=float)
+        std = 1000 * np.array([np.nan if v is None else v for v in band["std"]], dtype=float)
+        text = f"{label} ({band['runs']} runs"
+        if fleet[label] is not None and base:
+            n = per_uav[label].shape[1]
+            paper = (paper_ratios or {}).get(n) if one else None
+            text += f"; {1000 * fleet[label]:.2f} ms, {fleet[label] / base:.2f}x"
+            text += f", paper {paper:g}x" if paper else ""
+        plot_band(left, band["t"], mean, std, text + ")", color=agent_color(k))
+        entries += 1
+    left.set_xlabel("t [s]")
+    left.set_ylabel("fleet control time per plan, sum over the UAVs [ms]")
+    left.set_ylim(bottom=0.0)
+    left.grid(True, lw=0.4, alpha=0.5)
+    if entries:
+        place_legend(left, entries)
+    shown = [(label, v) for label, v in per_uav.items() if v is not None]
+    width = 0.8 / max(1, len(shown))
+    for k, (label, v) in enumerate(shown):
+        x = np.arange(1, v.shape[1] + 1) + (k - (len(shown) - 1) / 2) * width
+        right.bar(x, 1000 * v.mean(axis=0), width, yerr=1000 * v.std(axis=0), color=agent_color(k), alpha=0.8,
+                  capsize=2, label=label)
+    right.set_xlabel("UAV, in decision order")
+    right.set_ylabel("control time per plan [ms]")
+    right.set_xticks(np.arange(1, max((v.shape[1] for _, v in shown), default=1) + 1))
+    right.grid(True, axis="y", lw=0.4, alpha=0.5)
+    if shown:
+        place_legend(right, len(shown))
+    right.set_title("each UAV's time (mean, std over runs)", fontsize=10)
+    fig.suptitle(title or "Control time per plan: mean, \u00b11 std over runs", fontsize=10)
+    return save_figure(fig, path)

@@ -42,7 +42,7 @@ for _source in (_ldl_check_source("_positive_definite6", 6),
                 _predicted_covariance_source("_cv3d_predicted_covariance", 6, _CV3D_E)):
     exec(compile(_source, "<generated in swarmtrack.estimation.kernels_3d>", "exec"), _namespace)
 del _source
-_positive_definite6 = numba.njit(fastmath=False)(_namespace.pop("_positive_definite6"))
+_positive_definite6 = numba.njit(fastmath=False, inline="always")(_namespace.pop("_positive_definite6"))
 _cv3d_predicted_covariance = numba.njit(fastmath=False, inline="always")(
     _namespace.pop("_cv3d_predicted_covariance"))
 

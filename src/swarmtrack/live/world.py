@@ -36,6 +36,11 @@ if TYPE_CHECKING:
     import pandas as pd
 
 
+#: How long a world that refuses UAVs for another swarm key stays on the air before it exits, s (its heartbeats tell
+#: them; under load their subscriptions can take a moment to reach the router).
+REFUSED_LINGER = 2.0
+
+
 class LiveError(Exception):
     """The live run cannot go on (a UAV process that never came, a scenario mismatch): the message says which."""
 
@@ -224,6 +229,9 @@ class LockstepWorld:
             got.update(self.node.wait("hello", missing, 0, timeout=HELLO_EVERY, missing_ok=True))
             wrong = [i + 1 for i in missing if i not in got and ("uav", str(i), "hello") in self.node.forged]
             if wrong:
+                # stay on the air a moment: the refused UAVs learn of the mismatch from the world's heartbeats, which
+                # fail their key; a world gone before its first heartbeat reached them would leave them waiting
+                time.sleep(REFUSED_LINGER)
                 raise LiveError(f"the hellos of UAVs {wrong} fail the swarm key: their processes run with another "
                                 "--key (or without one)")
             if time.monotonic() > deadline:

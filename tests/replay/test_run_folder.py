@@ -45,7 +45,8 @@ def _round_trip(tmp_path, name: str, duration: float | None) -> None:
 
 
 @pytest.mark.parametrize("name, duration", [("l24-ct", 12), pytest.param("w20-switching", 8, marks=pytest.mark.slow),
-                                            pytest.param("ib21-fleet-2", 12, marks=pytest.mark.slow)])
+                                            pytest.param("ib21-fleet-2", 12, marks=pytest.mark.slow),
+                                            pytest.param("l24-3d-ct", 8, marks=pytest.mark.slow)])  # sensor_z kept
 def test_a_replayed_run_folder_gives_the_runs_estimates_bit_for_bit(tmp_path, name, duration):
     _round_trip(tmp_path, name, duration)
 

@@ -310,7 +310,7 @@ class LockstepWorld:
                   for name, shape in sim.stack.probes.items()}
         for role, telemetry in self.telemetries.items():  # the truth side's copy of the UAVs' components
             telemetry.mirror(self.components[role], _stacked([self.last[i].telemetry[role] for i in range(self.n)]))
-        self.recorder.record(t, truth, sim.world.phase_index(),
+        self.recorder.record(t, sim.world.recorded_truth(truth), sim.world.phase_index(),
                              {**probes, **{m: f() for m, f in sim.monitors.items()}})
         self.recorded = k + 1
         self._account(samples.values())

@@ -9,8 +9,8 @@ Parquet tables beside ``objects`` and ``uavs``:
   ``grid`` (−1: none; see :attr:`Detections.grid`), and ``footprint`` (4 corners, flattened) for a sensor that
   reports one;
 - ``detections.parquet``: one row per detection: ``step``, ``uav`` (1-based owner), ``label``, ``z``,
-  ``sensor_x``/``sensor_y`` (where the UAV's navigation put it) and ``frame`` (``[A | b]`` flattened) for a sensor
-  that stamps one.
+  ``sensor_x``/``sensor_y`` (where the UAV's navigation put it; ``sensor_z`` too for a 3-D sensor) and ``frame``
+  (``[A | b]`` flattened) for a sensor that stamps one.
 
 The values are stored as float64 as they were handed, so reading them back gives the same :class:`Detections`,
 bit for bit (the round trip of :mod:`swarmtrack.replay`).
@@ -33,6 +33,8 @@ FLUSH_STEPS = 1024
 #: The columns of whole numbers or few values, dictionary-encoded and compressed; the others, the measured floats,
 #: are written plain (:func:`writer_options`): a dictionary of noise-like values only costs time.
 _CODED = ("step", "t", "uav", "taken", "grid", "label")
+#: The columns of a detection's stamped sensor position (``sensor_z``: a 3-D sensor's height).
+SENSOR_COLUMNS = ("sensor_x", "sensor_y", "sensor_z")
 
 
 def arrow(values: np.ndarray, mask: np.ndarray | None = None):
@@ -124,6 +126,7 @@ class InputLog:
         """Step ``k`` at ``t``: every UAV's navigation (N, d) (copied) and the detections handed to the stack."""
         if self.meta is None:
             self.meta = {"navigation": int(nav.shape[1]), "z": int(det.z.shape[1]),
+                         "sensor": int(det.sensor_pos.shape[1]),  # 3: a 3-D sensor's stamped height too
                          "frame": det.frame is not None, "footprint": det.footprint is not None}
         (self.steps if self.path is None else self._pending).append((k, t, np.array(nav, dtype=float), det))
         if len(self._pending) >= FLUSH_STEPS:
@@ -179,8 +182,8 @@ class InputLog:
                 "uav": arrow(cat(lambda d: d.owner).astype(np.int32) + 1),
                 "label": arrow(cat(lambda d: d.label).astype(np.int32)),
                 "z": _fixed(cat(lambda d: d.z), self.meta["z"]),
-                "sensor_x": arrow(cat(lambda d: d.sensor_pos[:, 0])),
-                "sensor_y": arrow(cat(lambda d: d.sensor_pos[:, 1]))}
+                **{name: arrow(cat(lambda d, a=a: d.sensor_pos[:, a]))
+                   for a, name in enumerate(SENSOR_COLUMNS[:self.meta["sensor"]])}}
         if self.meta["frame"]:
             cols["frame"] = _fixed(cat(lambda d: d.frame), 6)
         return cols
@@ -226,6 +229,7 @@ def _flat(table, name: str, width: int) -> np.ndarray:
 
 
 def _steps(nav, dets, det_step, steps, n, d, m, meta):
+    width = meta.get("sensor", 2)  # logs written before 3-D sensors have x and y
     t = numpy_of(nav.column("t"))[::n]
     navigation = _flat(nav, "navigation", d).reshape(len(steps), n, d)
     taken = numpy_of(nav.column("taken"))[::n]
@@ -235,11 +239,11 @@ def _steps(nav, dets, det_step, steps, n, d, m, meta):
         owner = numpy_of(dets.column("uav")).astype(np.int64) - 1
         label = numpy_of(dets.column("label")).astype(np.int64)
         z = _flat(dets, "z", m)
-        pos = np.stack([numpy_of(dets.column("sensor_x")), numpy_of(dets.column("sensor_y"))], axis=1)
+        pos = np.stack([numpy_of(dets.column(name)) for name in SENSOR_COLUMNS[:width]], axis=1)
         frame = _flat(dets, "frame", 6).reshape(-1, 2, 3) if meta["frame"] else None
     else:
         owner = label = np.zeros(0, np.int64)
-        z, pos, frame = np.zeros((0, m)), np.zeros((0, 2)), (np.zeros((0, 2, 3)) if meta["frame"] else None)
+        z, pos, frame = np.zeros((0, m)), np.zeros((0, width)), (np.zeros((0, 2, 3)) if meta["frame"] else None)
     bounds = np.searchsorted(det_step, np.append(steps, steps[-1] + 1))
     for j, k in enumerate(steps):
         r = slice(bounds[j], bounds[j + 1])

@@ -26,7 +26,7 @@ from swarmtrack.analysis.metrics import SERIES as SERIES_SECTION
 from swarmtrack.analysis.metrics import summary
 from swarmtrack.analysis.report import markdown_table
 from swarmtrack.analysis.runs import batches, run_key, run_one, worker_signals
-from swarmtrack.analysis.statistics import mean_std_ci
+from swarmtrack.analysis.statistics import binned_band, mean_std_ci
 from swarmtrack.outputs import package_version
 from swarmtrack.scenarios import Scenario, load_scenario
 from swarmtrack.scenarios.loader import ScenarioError
@@ -394,40 +394,21 @@ def summarize(out: Path) -> tuple[str, dict]:
 
 def series_band(runs, quantity: str) -> dict | None:
     """Mean and ±1 std over the ``ok`` runs in ``runs`` of one time series, per bin, with the count of runs that
-    have the bin (None: no run has it). Runs align on the bins (all start at t = 0): a shorter run leaves its
-    missing bins out, and a run with finer bins than the coarsest of ``runs`` (a run too long for
-    :data:`~swarmtrack.analysis.metrics.SERIES_MAX_BINS` 1-s bins) is merged into those, each fine bin weighing the
-    same. The std is over the runs (ddof = 0, as the scalar table's)."""
-    import numpy as np
-
+    have the bin (None: no run has it), the runs aligned on their bins as
+    :func:`~swarmtrack.analysis.statistics.binned_band` aligns them; as lists, None where no run has the bin."""
     col = f"series.{quantity}"
     if col not in runs.columns:
         return None
     ok = runs[(runs["status"] == "ok") & runs[col].map(lambda v: hasattr(v, "__len__") and len(v) > 0)]
     if ok.empty:
         return None
-    width = float(ok["series.bin_s"].max())
-    rows = []
-    for fine, values in zip(ok["series.bin_s"], ok[col], strict=True):
-        v = np.asarray([np.nan if x is None else x for x in values], dtype=float)
-        factor = int(round(width / float(fine)))
-        if factor > 1:
-            v = np.concatenate([v, np.full(-len(v) % factor, np.nan)]).reshape(-1, factor)
-            counts = np.isfinite(v).sum(axis=1)
-            v = np.where(counts > 0, np.nansum(v, axis=1) / np.maximum(counts, 1), np.nan)
-        rows.append(v)
-    grid = np.full((len(rows), max(len(v) for v in rows)), np.nan)
-    for k, v in enumerate(rows):
-        grid[k, :len(v)] = v
-    n = np.isfinite(grid).sum(axis=0)
-    mean = np.nansum(grid, axis=0) / np.maximum(n, 1)
-    std = np.sqrt(np.nansum((grid - mean) ** 2, axis=0) / np.maximum(n, 1))
+    band = binned_band(list(ok[col]), list(ok["series.bin_s"]))
 
     def cells(a):
-        return [float(x) if k else None for x, k in zip(a, n, strict=True)]
+        return [float(x) if k else None for x, k in zip(a, band["n"], strict=True)]
 
-    return {"bin_s": width, "t": ((np.arange(grid.shape[1]) + 0.5) * width).tolist(), "mean": cells(mean),
-            "std": cells(std), "n": n.tolist(), "runs": len(ok)}
+    return {"bin_s": band["bin_s"], "t": band["t"].tolist(), "mean": cells(band["mean"]), "std": cells(band["std"]),
+            "n": band["n"].tolist(), "runs": band["runs"]}
 
 
 def _series_text(series: dict, table) -> str:

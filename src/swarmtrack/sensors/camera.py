@@ -22,6 +22,7 @@ from typing import NamedTuple
 import numpy as np
 
 from swarmtrack.sensors.detections import Detections
+from swarmtrack.sensors.range_bearing import wrap_angle
 
 #: W20 Sec. 3.2.2.2: the field of view is 1.2 m x 0.9 m at 1.5 m.
 W20_FOOTPRINT = (1.2, 0.9)
@@ -144,19 +145,14 @@ def marker_sigma(pc: np.ndarray, drop: np.ndarray, sigma: float, reference_range
     return sigma * (d / reference_range) ** distance_power * (d / drop) ** angle_power
 
 
-def wrap(angle: np.ndarray) -> np.ndarray:
-    """Angles into [−π, π)."""
-    return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
-
-
 def servo_step(actual: np.ndarray, command: np.ndarray, dt: float, deadband: float, speed: float) -> np.ndarray:
     """A hobby servo's angle (...) after ``dt`` s toward ``command`` (W20 Sec. 3.3: the pan-tilt unit's two servos).
     It holds while the command stays within ``±deadband / 2`` of it (the servo ignores a change of its pulse width
     smaller than its dead band) and otherwise turns toward the command at most ``speed`` rad/s (its rated speed) and
     stops on it. ``speed = inf``: it reaches the command at once."""
-    e = wrap(command - actual)
+    e = wrap_angle(command - actual)
     move = np.clip(e, -speed * dt, speed * dt) if np.isfinite(speed) else e
-    return wrap(actual + np.where(np.abs(e) > 0.5 * deadband, move, 0.0))
+    return wrap_angle(actual + np.where(np.abs(e) > 0.5 * deadband, move, 0.0))
 
 
 class Pointing(NamedTuple):

@@ -30,6 +30,7 @@ import numpy as np
 
 from swarmtrack.analysis.papers.base import Claim, Paper, converged, mean_std_ci
 from swarmtrack.analysis.report import markdown_table
+from swarmtrack.analysis.statistics import binned_band
 
 FLEET = {f"ib21-fleet-{n}": n for n in (2, 3, 4, 5, 6)}  # Fig. 8: 3 targets, 3 decoys, 1 m/s
 SPEED = {"ib21-speed-1.6": 1.6, "ib21-speed-1.8": 1.8}  # Fig. 9 left: 6 UAVs
@@ -100,33 +101,11 @@ def _values(series: dict, name: str) -> np.ndarray | None:
 
 
 def band(runs: list[dict], name: str) -> dict | None:
-    """IB21's line and shaded area: per time bin the mean and std (ddof 0) over the finished runs of their series
-    ``name`` (``t``: bin centres, ``n``: runs with data in the bin, ``bin_s``, ``runs``). Runs align on bins from
-    t = 0; a run with finer bins is merged into the coarsest's (as :func:`swarmtrack.analysis.sweep.series_band`).
-    None: no run has the series."""
-    rows, widths = [], []
-    for r in converged(runs):
-        v = _values(r.get("series") or {}, name)
-        if v is not None:
-            rows.append(v)
-            widths.append(float(r["series"]["bin_s"]))
-    if not rows:
-        return None
-    width = max(widths)
-    for k, (v, w) in enumerate(zip(rows, widths, strict=True)):
-        factor = int(round(width / w))
-        if factor > 1:
-            v = np.concatenate([v, np.full(-len(v) % factor, np.nan)]).reshape(-1, factor)
-            counts = np.isfinite(v).sum(axis=1)
-            rows[k] = np.where(counts > 0, np.nansum(v, axis=1) / np.maximum(counts, 1), np.nan)
-    grid = np.full((len(rows), max(len(v) for v in rows)), np.nan)
-    for k, v in enumerate(rows):
-        grid[k, :len(v)] = v
-    n = np.isfinite(grid).sum(axis=0)
-    mean = np.where(n > 0, np.nansum(grid, axis=0) / np.maximum(n, 1), np.nan)
-    std = np.where(n > 0, np.sqrt(np.nansum((grid - mean) ** 2, axis=0) / np.maximum(n, 1)), np.nan)
-    return {"t": (np.arange(grid.shape[1]) + 0.5) * width, "mean": mean, "std": std, "n": n, "bin_s": width,
-            "runs": len(rows)}
+    """IB21's line and shaded area: per time bin the mean and std over the finished runs of their series ``name``
+    (:func:`~swarmtrack.analysis.statistics.binned_band`: arrays ``t``, ``mean``, ``std``, ``n``, and ``bin_s``,
+    ``runs``). None: no run has the series."""
+    have = [r["series"] for r in converged(runs) if _values(r.get("series") or {}, name) is not None]
+    return binned_band([s[name] for s in have], [s["bin_s"] for s in have])
 
 
 def spread(runs: list[dict]) -> dict | None:

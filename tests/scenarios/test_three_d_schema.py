@@ -41,7 +41,8 @@ def test_bad_3d_settings_exit_2_naming_the_field(scenario, overrides, words, tmp
 def test_a_3d_sensor_with_3d_models_is_accepted():
     s = load_scenario("l24-ct", THREE_D)
     assert s.sensor.sigma_elevation == s.sensor.sigma_bearing == 0.02
-    assert load_scenario("l24-imm", ["sensor.kind=range_bearing_elevation", "estimator.models=cv3d,ct3d,fs3d"])
+    imm = load_scenario("l24-imm", ["sensor.kind=range_bearing_elevation", "estimator.models=cv3d,ct3d,fs3d"])
+    assert imm.estimator.models == ["cv3d", "ct3d", "fs3d"] and imm.sensor.three_d
 
 
 def test_a_custom_phase_climbs_and_a_descent_below_the_ground_is_refused():

@@ -26,9 +26,9 @@ class CompiledCycle:
 
     def share(self, est: InformationEstimator, z: np.ndarray, pos: np.ndarray, seen: np.ndarray) -> dict:
         u = est.update_rule
-        if est.model.name == "cv3d":  # the predicted position (the kernel's x_pred), as the numpy cycle's x_pred
-            x_pos = kernels_3d.cv3d_predicted_position(est.x, est.model.dt)
+        if est.model.name == "cv3d":  # the whole predicted state, as the numpy cycle's (the NIS reads its position)
             est.x_pred = est.model.f(est.x)
+            x_pos = np.ascontiguousarray(est.x_pred[:, est.index])
             I, i = kernels_3d.cv3d_position_contributions(x_pos, pos, z, u.sigma_range, u.sigma_bearing,
                                                           u.sigma_elevation, u.min_range, u.own_sigma**2)
             est.nis = est._own_nis(z, pos, I, est.x, est.P, est.x_pred)

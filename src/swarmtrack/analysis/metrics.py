@@ -39,6 +39,7 @@ import math
 import numpy as np
 
 from swarmtrack import registry
+from swarmtrack.analysis.coverage import Presence
 from swarmtrack.sim.recorder import Chunk, Recording
 
 COMPONENTS = ("x", "y", "vx", "vy")
@@ -84,8 +85,12 @@ class Moments:
     def __init__(self):
         self.n, self.mean, self.m2 = 0, 0.0, 0.0
 
-    def add(self, x: np.ndarray) -> None:
-        """Add samples along axis 0."""
+    def add(self, x: np.ndarray, mask: np.ndarray | None = None) -> None:
+        """Add samples along axis 0; ``mask`` (the leading axes of ``x``, axis 0 included): only the samples it
+        marks, so that each element counts its own samples (None or all True: every sample, one count for all)."""
+        if mask is not None and not mask.all():
+            self._add_masked(x, mask)
+            return
         k = len(x)
         if not k:
             return
@@ -97,9 +102,24 @@ class Moments:
         self.m2 = self.m2 + m2 + delta**2 * (self.n * k / n)
         self.n = n
 
+    def _add_masked(self, x: np.ndarray, mask: np.ndarray) -> None:
+        m = mask.reshape(mask.shape + (1,) * (x.ndim - mask.ndim))
+        k = np.broadcast_to(m, x.shape).sum(axis=0).astype(float)
+        xs = np.where(m, x, 0.0)
+        mean = np.divide(xs.sum(axis=0), k, out=np.zeros(k.shape), where=k > 0)
+        m2 = np.where(m, (x - mean) ** 2, 0.0).sum(axis=0)
+        n = self.n + k
+        delta = mean - self.mean
+        w = np.divide(k, n, out=np.zeros(k.shape), where=n > 0)
+        self.mean = self.mean + delta * w
+        self.m2 = self.m2 + m2 + delta**2 * self.n * w
+        self.n = n
+
     @property
     def std(self):
-        return np.sqrt(self.m2 / self.n)
+        """The standard deviation per element (NaN where no sample was added)."""
+        n = np.asarray(self.n, dtype=float)
+        return np.sqrt(np.divide(self.m2, n, out=np.full(np.broadcast(self.m2, n).shape, np.nan), where=n > 0))
 
 
 def phase_groups(rec: Recording) -> tuple[list[str], np.ndarray]:
@@ -178,11 +198,13 @@ class _PairSpacing:
         rec = self.rec
         if not len(c.t):
             return
-        dist = pairs_of(c.truth[:, rec.uav_slice, :2])
-        self.d_min = min(self.d_min, float(dist.min()))
-        tail = c.t >= self.tail_from
-        self.tail_sum = self.tail_sum + dist[tail].sum(axis=0)
-        self.tail_n += int(tail.sum())
+        dist = pairs_of(c.truth[:, rec.uav_slice, :2])  # NaN: a replayed UAV without navigation at that step
+        known = np.isfinite(dist)
+        if known.any():
+            self.d_min = min(self.d_min, float(dist[known].min()))
+        tail = (c.t >= self.tail_from)[:, None] & known
+        self.tail_sum = self.tail_sum + np.where(tail, dist, 0.0).sum(axis=0)
+        self.tail_n = self.tail_n + tail.sum(axis=0)
         dev = dist[chase_window(rec, c.t)] - rec.d
         if not len(dev):
             return
@@ -191,14 +213,15 @@ class _PairSpacing:
         before = sign[:1] if self.last_sign is None else self.last_sign[None]
         changed = np.concatenate([before, sign[:-1]]) != sign  # (k, P): changed at this step
         counted = self.crossed[None] | np.logical_or.accumulate(changed, axis=0)
-        self.over = np.maximum(self.over, np.where(counted, np.abs(dev), 0.0).max(axis=0))
+        self.over = np.maximum(self.over, np.where(counted & np.isfinite(dev), np.abs(dev), 0.0).max(axis=0))
         self.crossed, self.last_sign = counted[-1], sign[-1]
 
     def result(self) -> dict:
         rec = self.rec
-        mean = self.tail_sum / self.tail_n
+        mean = np.divide(self.tail_sum, self.tail_n, out=np.full(np.shape(self.tail_sum), np.inf),
+                         where=np.asarray(self.tail_n) > 0)
         near = mean < rec.r_comm
-        return {"min": self.d_min,
+        return {"min": self.d_min if np.isfinite(self.d_min) else None,
                 "offset": float(np.mean(np.abs(mean[near] - rec.d))) if near.any() else float("nan"),
                 "open_pairs": int(np.sum(~near)), "overshoot": float(self.over.max())}
 
@@ -422,12 +445,18 @@ class TargetDistance:
         truth = c.truth if keep.all() else c.truth[keep]
         off = truth[:, self.rec.uav_slice, :2] - truth[:, self.rec.tracked, None, :2]
         dist = np.sqrt(off[..., 0] ** 2 + off[..., 1] ** 2)  # np.linalg.norm(off, axis=-1), bit for bit
+        known = np.isfinite(dist)  # a replayed log: truth only where it holds ground truth
+        if not known.all():
+            dist = dist[known]
         self.total += float(dist.sum())
         self.n += dist.size
         self.far = max(self.far, float(dist.max())) if dist.size else self.far
 
     def result(self) -> dict:
-        return {"mean": self.total / self.n, "max": self.far}
+        return {"mean": self.total / self.n if self.n else None, "max": self.far if self.n else None}
+
+    def samples(self) -> int:
+        return self.n
 
 
 def series_bin_width(t_last: float) -> float:
@@ -500,13 +529,15 @@ def series_parts(rec: Recording, kinds: list[registry.Kind] | None = None) -> li
 
 
 def _scan(rec: Recording, accumulators: list) -> list:
-    """One pass over the recording's chunks feeding every accumulator."""
-    for c in rec.chunks():
-        keep = chase_window(rec, c.t)
-        shared = {}  # what several accumulators compute from this chunk, computed once (e.g. the errors)
-        for m in accumulators:
-            m.add(c, keep, shared)
-    return [m.result() for m in accumulators]
+    """One pass over the recording's chunks feeding every accumulator. A diverged filter's NaN and infinite numbers
+    stay in the sections and are named by the health checks, not by numpy's floating-point warnings."""
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+        for c in rec.chunks():
+            keep = chase_window(rec, c.t)
+            shared = {}  # what several accumulators compute from this chunk, computed once (e.g. the errors)
+            for m in accumulators:
+                m.add(c, keep, shared)
+        return [m.result() for m in accumulators]
 
 
 def section(rec: Recording, name: str):
@@ -550,8 +581,10 @@ def summary(rec: Recording) -> dict:
     estimator's ``rmse``, ``spread``, ``reported_std``, ``consistency``, ``mean_error``, a set-membership
     estimator's ``set_membership``, the formation MPC's ``formation``: see each capability's ``metrics`` module),
     the run's ``warnings`` (the kinds' health checks, then the warnings of their sections, in the order of the
-    kinds: sensor, estimator, controller) and its compact time series ``series`` (:func:`series`: at most
-    :data:`SERIES_MAX_BINS` values per quantity)."""
+    kinds: sensor, estimator, controller, then the samples that did not come) and its compact time series ``series``
+    (:func:`series`: at most :data:`SERIES_MAX_BINS` values per quantity). ``coverage``
+    (:class:`~swarmtrack.analysis.coverage.Presence`) says which samples the numbers cover: a sample that did not
+    come and a step without ground truth are left out of every section, never counted as errors."""
     kinds = run_kinds(rec)
     accs = {m.section: registry.resolve(m.make)(rec) for m in _applying(rec, kinds, "metrics")
             if m.section != SERIES}
@@ -559,18 +592,21 @@ def summary(rec: Recording) -> dict:
     if rec.tracked is not None:
         accs["target_distance"] = TargetDistance(rec)
     accs[SERIES] = Series(rec, series_parts(rec, kinds))
+    accs["coverage"] = presence = Presence(rec)
     results = _scan(rec, [*accs.values(), *checks, spacing_accumulator(rec)])
     sections, checked, spaced = results[:len(accs)], results[len(accs):-1], results[-1]
     out = {"warnings": [w for ws in checked for w in ws]}
     out.update(zip(accs, sections, strict=True))
     for acc in accs.values():
-        if hasattr(acc, "warnings"):
+        if hasattr(acc, "warnings") and acc is not presence:  # presence's last: it reads the sections
             out["warnings"] += acc.warnings()
         if hasattr(acc, "extras"):
             out.update(acc.extras())
     if rec.meta.get("liar") is not None:  # which UAV lied (network.liar), 1-based: the others are the honest ones
         out["liar_uav"] = rec.meta["liar"] + 1
     out["inter_agent_distance"] = spaced
+    out["coverage"]["sections"] = {name: acc.samples() for name, acc in accs.items() if hasattr(acc, "samples")}
+    out["warnings"] += presence.warnings(out)
     return out
 
 

@@ -34,7 +34,13 @@ ALTITUDE_COLUMNS = ("z", "vz")
 @dataclass(frozen=True)
 class Chunk:
     """Consecutive steps ``k0 .. k0 + k − 1``: ``t`` (k,), ``truth`` (k, M, 4), ``phase`` (k, M), ``probes``
-    ``name → (k, N, *shape)``; ``altitude`` (k, M, 2) every object's ``[z, vz]`` in a 3-D world, else None."""
+    ``name → (k, N, *shape)``; ``altitude`` (k, M, 2) every object's ``[z, vz]`` in a 3-D world, else None;
+    ``present`` (k, N) bool: whether each UAV's sample came (None: every sample came, as in the simulator).
+
+    A sample that did not come (a UAV whose process was lost, a sample late to a real-time world, a UAV under its
+    operator's control) is *absent*: its probes hold NaN, and it is left out of every metric. A present sample
+    whose numbers are NaN or infinite is a diverged filter, and the metrics say so. A truth that is not finite (a
+    replayed log without ground truth at that time) is absent too (:func:`swarmtrack.analysis.coverage.judged`)."""
 
     k0: int
     t: np.ndarray
@@ -42,6 +48,7 @@ class Chunk:
     phase: np.ndarray
     probes: dict[str, np.ndarray]
     altitude: np.ndarray | None = None
+    present: np.ndarray | None = None
 
 
 def _tables(meta: dict, c: Chunk) -> dict:
@@ -53,7 +60,7 @@ def _tables(meta: dict, c: Chunk) -> dict:
 
 #: Columns dictionary-encoded and compressed (whole numbers, few values); the others, the floats, are written plain
 #: and compressed only where they shrink (:func:`~swarmtrack.sim.inputs.writer_options`).
-_CODED = ("step", "t", "group", "member", "uav", "phase_index", "phase")
+_CODED = ("step", "t", "group", "member", "uav", "phase_index", "phase", "present")
 
 
 class _Layout:
@@ -107,6 +114,9 @@ class _Layout:
                    "phase_index": arrow(c.phase.ravel()),
                    "phase": pa.DictionaryArray.from_arrays(arrow(code, code < 0), self.phases)}
         uavs = {"step": arrow(np.repeat(step, n)), "t": arrow(np.repeat(c.t, n)), "uav": tiled["uav"]}
+        if self.meta.get("presence"):
+            came = np.ones(k * n, dtype=np.uint8) if c.present is None else c.present.ravel().astype(np.uint8)
+            uavs["present"] = arrow(came)
         for name, shape in self.meta["probes"].items():
             flat = c.probes[name].reshape(k * n, -1)
             uavs[name] = (arrow(flat[:, 0]) if not shape else
@@ -125,17 +135,20 @@ class _Block:
     ``np.array(·, dtype)`` would copy it; its arrays must have the shapes of the block's first step (as stacking the
     steps would require)."""
 
-    def __init__(self, t: np.ndarray, truth: np.ndarray, phase: np.ndarray, probes: dict[str, np.ndarray]):
-        self.t, self.truth, self.phase, self.probes = t, truth, phase, probes
+    def __init__(self, t: np.ndarray, truth: np.ndarray, phase: np.ndarray, probes: dict[str, np.ndarray],
+                 present: np.ndarray | None = None):
+        self.t, self.truth, self.phase, self.probes, self.present = t, truth, phase, probes, present
         self._arrays = [truth, phase, *probes.values()]  # in put's order: truth, phase, the probes'
         self._shapes = [a.shape[1:] for a in self._arrays]
         self.n = 0
 
     @classmethod
-    def like(cls, steps: int, truth, phase, probes: dict) -> _Block:
-        """An empty block of ``steps`` steps shaped as the step ``truth``, ``phase``, ``probes``."""
+    def like(cls, steps: int, truth, phase, probes: dict, presence: int | None = None) -> _Block:
+        """An empty block of ``steps`` steps shaped as the step ``truth``, ``phase``, ``probes`` (and a present
+        mask of ``presence`` UAVs, None: none)."""
         return cls(np.empty(steps), np.empty((steps, *np.shape(truth))), np.empty((steps, *np.shape(phase)), np.int16),
-                   {k: np.empty((steps, *np.shape(v))) for k, v in probes.items()})
+                   {k: np.empty((steps, *np.shape(v))) for k, v in probes.items()},
+                   None if presence is None else np.ones((steps, presence), dtype=bool))
 
     @property
     def full(self) -> bool:
@@ -146,9 +159,11 @@ class _Block:
         return (len(self.t) == steps and list(self.probes) == list(probes)
                 and self._shapes == [np.shape(v) for v in (truth, phase, *probes.values())])
 
-    def put(self, t: float, truth, phase, probes: dict) -> None:
-        """Copy one step into the next row."""
+    def put(self, t: float, truth, phase, probes: dict, present=None) -> None:
+        """Copy one step into the next row (``present``: the UAVs whose samples came, None: all)."""
         i = self.n
+        if self.present is not None:
+            self.present[i] = True if present is None else present
         values = (truth, phase, *map(probes.__getitem__, self.probes))
         for dst, shape, value in zip(self._arrays, self._shapes, values, strict=True):
             if getattr(value, "shape", None) != shape:
@@ -184,9 +199,13 @@ class Recorder:
     other is written, so memory holds two chunks at most and the writes come in the order of the steps."""
 
     def __init__(self, meta: dict, n_objects: int, n_uavs: int, probes: dict[str, tuple[int, ...]],
-                 path: Path | None = None, inputs: bool = False, max_chunk_steps: int | None = None):
+                 path: Path | None = None, inputs: bool = False, max_chunk_steps: int | None = None,
+                 presence: bool = False):
         self.meta = {**meta, "format": FORMAT, "n_objects": n_objects, "n_uavs": n_uavs,
                      "probes": {k: list(v) for k, v in probes.items()}}
+        if presence:  # a driver whose samples may not come (live, replay): each step says which came
+            self.meta["presence"] = True
+        self.presence = presence
         self.n_objects, self.n_uavs, self.probes = n_objects, n_uavs, probes
         self.chunk_steps = max(1, CHUNK_ROWS // max(n_objects, n_uavs, 1))
         if max_chunk_steps is not None:  # a long run of a small swarm: a chunk of that many steps at most
@@ -207,18 +226,23 @@ class Recorder:
         #: The onboard stack's inputs (:mod:`swarmtrack.sim.inputs`), kept when ``inputs`` (a run to replay).
         self.inputs = InputLog(self.path, None if self.path is None else self._submit) if inputs else None
 
-    def record(self, t: float, truth: np.ndarray, phase: np.ndarray, probes: dict[str, np.ndarray]) -> None:
+    def record(self, t: float, truth: np.ndarray, phase: np.ndarray, probes: dict[str, np.ndarray],
+               present: np.ndarray | None = None) -> None:
         """Append one step (arrays are copied). ``truth`` (M, 4) ``[x, y, vx, vy]``, or (M, 6) with a 3-D world's
-        ``[z, vz]`` after them (:meth:`~swarmtrack.sim.world.World.recorded_truth`)."""
+        ``[z, vz]`` after them (:meth:`~swarmtrack.sim.world.World.recorded_truth`). ``present`` (N,) bool: whose
+        samples came (a recorder made with ``presence``; None: all); an absent UAV's probes are recorded as given
+        (NaN) and left out of the metrics (:class:`Chunk`)."""
+        if present is not None and not self.presence:
+            raise ValueError("a present mask given to a recorder made without presence=True")
         self._altitude = np.shape(truth)[-1] > len(TRUTH_COLUMNS)
         block = self._blocks[-1] if self._blocks else None
         if block is None or block.full:
             steps, probes_now = min(BLOCK_STEPS, self.chunk_steps - self._pending), {k: probes[k] for k in self.probes}
             block = self._spare.pop() if self._spare else None  # a block of a chunk already on disk
             if block is None or not block.fits(steps, truth, phase, probes_now):
-                block = _Block.like(steps, truth, phase, probes_now)
+                block = _Block.like(steps, truth, phase, probes_now, self.n_uavs if self.presence else None)
             self._blocks.append(block)
-        block.put(t, truth, phase, probes)
+        block.put(t, truth, phase, probes, present)
         self._pending += 1
         if self._pending == self.chunk_steps:
             self._flush()
@@ -237,8 +261,9 @@ class Recorder:
         truth, altitude = join([b.truth[:b.n] for b in blocks]), None
         if truth.shape[-1] > len(TRUTH_COLUMNS):  # a 3-D world's rows are [x, y, vx, vy, z, vz]
             truth, altitude = np.ascontiguousarray(truth[..., :4]), np.ascontiguousarray(truth[..., 4:])
+        present = join([b.present[:b.n] for b in blocks]) if self.presence else None
         chunk = Chunk(self._steps, join([b.t[:b.n] for b in blocks]), truth, join([b.phase[:b.n] for b in blocks]),
-                      {k: join([b.probes[k][:b.n] for b in blocks]) for k in self.probes}, altitude)
+                      {k: join([b.probes[k][:b.n] for b in blocks]) for k in self.probes}, altitude, present)
         self._steps += self._pending
         self._t_last = float(chunk.t[-1])
         self._blocks, self._pending = [], 0
@@ -327,9 +352,10 @@ class Recording:
 
     @classmethod
     def from_arrays(cls, t, phase, phase_names, target, uav, estimate, covariance, d, r_comm, chase_start=0.0,
-                    meta: dict | None = None) -> Recording:
+                    meta: dict | None = None, present=None) -> Recording:
         """A one-target recording from whole arrays (capability 1's view above; for tests and external data):
-        object 0 is the target, objects 1..N the UAVs."""
+        object 0 is the target, objects 1..N the UAVs; ``present`` (K, N) bool: the samples that came (None:
+        all)."""
         t = np.asarray(t, dtype=float)
         n = np.shape(uav)[1]
         truth = np.concatenate([np.asarray(target, dtype=float)[:, None, :], np.asarray(uav, dtype=float)], axis=1)
@@ -340,9 +366,10 @@ class Recording:
                 "tracked": 0, "phase_names": list(phase_names), "d": d, "r_comm": r_comm, "chase_start": chase_start,
                 "format": FORMAT, "n_objects": n + 1, "n_uavs": n, "n_steps": len(t),
                 "t_last": float(t[-1]) if len(t) else 0.0, "probes": {"estimate": [4], "covariance": [4, 4]},
-                **(meta or {})}
+                **({} if present is None else {"presence": True}), **(meta or {})}
         chunk = Chunk(0, t, truth, phases, {"estimate": np.asarray(estimate, dtype=float),
-                                            "covariance": np.asarray(covariance, dtype=float)})
+                                            "covariance": np.asarray(covariance, dtype=float)},
+                      present=None if present is None else np.asarray(present, dtype=bool))
         return cls(full, [chunk])
 
     @classmethod
@@ -388,10 +415,12 @@ class Recording:
         k = o.num_rows // m
         truth = np.stack([numpy_of(o.column(c)) for c in TRUTH_COLUMNS], axis=-1).reshape(k, m, 4)
         altitude = np.stack([numpy_of(o.column(c)) for c in heights], axis=-1).reshape(k, m, 2) if heights else None
-        u = uavs.read_row_group(g, columns=wanted) if wanted else None
+        presence = ["present"] if self.meta.get("presence") else []
+        u = uavs.read_row_group(g, columns=wanted + presence) if wanted or presence else None
         probes = {name: numpy_of(u.column(name)).reshape(k, n, *self.meta["probes"][name]) for name in wanted}
+        present = numpy_of(u.column("present")).reshape(k, n).astype(bool) if presence else None
         return Chunk(k0, numpy_of(o.column("t"))[::m].copy(), truth, numpy_of(o.column("phase_index")).reshape(k, m),
-                     probes, altitude)
+                     probes, altitude, present)
 
     def inputs(self) -> Iterator[tuple[int, float, np.ndarray, Detections]]:
         """The onboard stack's inputs step by step, ``(k, t, navigation (N, d), detections)``, as they were handed

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from swarmtrack.analysis.coverage import came
 from swarmtrack.analysis.metrics import SERIES, min_separations, phase_groups
 from swarmtrack.registry import Figure, Metric
 from swarmtrack.sim.recorder import Chunk, Recording
@@ -57,7 +58,7 @@ class _Formation:
         self.sum, self.sum_axes, self.n = np.zeros(n), np.zeros((n, 2)), 0
         self.names, self.group = phase_groups(rec)
         self.phase_sum, self.phase_n = np.zeros(len(self.names)), np.zeros(len(self.names))
-        self.last = None
+        self.last = {k: np.zeros(n) for k in ("solves", "fallbacks", "solve_time", "iterations")}
         self.closest = np.inf  # the smallest distance of any two UAVs at any step (for the collision warning)
 
     def add(self, c: Chunk, keep, err) -> None:
@@ -72,8 +73,11 @@ class _Formation:
         phase = self.group[c.phase[after, self.rec.tracked]]
         np.add.at(self.phase_sum, phase, dist.mean(axis=1))
         np.add.at(self.phase_n, phase, 1)
-        if len(c.t):
-            self.last = {k: c.probes[k][-1] for k in ("solves", "fallbacks", "solve_time", "iterations")}
+        if len(c.t):  # the cumulative solver probes at each UAV's last sample that came
+            present = came(self.rec, c)
+            row, got = len(c.t) - 1 - np.argmax(present[::-1], axis=0), present.any(axis=0)
+            for k, before in self.last.items():
+                self.last[k] = np.where(got, c.probes[k][row, np.arange(self.rec.n_agents)], before)
 
     def result(self) -> dict:
         n = max(self.n, 1)

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from swarmtrack.analysis.coverage import came
 from swarmtrack.capabilities.tracking_swarm import metrics as gaussian
 from swarmtrack.registry import Figure, Metric
 from swarmtrack.sim.recorder import Chunk, Recording
@@ -32,19 +33,22 @@ class _ModelUse:
     probable filter): the share of steps per member and the count of switches per UAV (W20 Fig. 4.9 counts 36)."""
 
     def __init__(self, rec: Recording):
+        self.rec = rec
         self.counts = np.zeros(rec.n_agents)
-        self.switches = 0.0
+        self.switches = np.zeros(rec.n_agents)  # each UAV's cumulative count at its last sample that came
 
     def add(self, c: Chunk, keep: np.ndarray, err) -> None:
-        winner = c.probes["winner"][keep].astype(np.int64)  # 1-based, 0: none
+        present = came(self.rec, c)[keep]
+        winner = c.probes["winner"][keep][present].astype(np.int64)  # 1-based, 0: none
         self.counts += np.bincount(winner.ravel(), minlength=len(self.counts) + 1)[1:len(self.counts) + 1]
-        if len(winner):
-            self.switches = float(c.probes["switches"][keep][-1].mean())
+        switches = c.probes["switches"][keep]
+        for i in np.flatnonzero(present.any(axis=0)):
+            self.switches[i] = switches[np.flatnonzero(present[:, i])[-1], i]
 
     def result(self) -> dict:
         total = self.counts.sum()
         share = (self.counts / total).tolist() if total else []
-        return {"share": share, "switches": self.switches}
+        return {"share": share, "switches": float(self.switches.mean())}
 
 
 METRICS = (*gaussian.METRICS, Metric("model_use", _ModelUse, _model_use_applies,

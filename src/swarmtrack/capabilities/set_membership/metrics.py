@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from swarmtrack.analysis.coverage import came, mean_over_uavs
 from swarmtrack.analysis.health import NETWORK
 from swarmtrack.analysis.metrics import SERIES
 from swarmtrack.registry import Figure, Metric
@@ -81,16 +82,25 @@ class _SetMembership:
         self.health.add(c)
         if not len(c.t):
             return
-        bar = c.probes["phi"].mean(axis=1)  # Φ̄, eq. 11
-        self.phi_sum += float(bar.sum())
-        self.steps += len(bar)
-        self.final = {"phi_bar": float(bar[-1]), "n_identified": float(c.probes["n_identified"][-1].mean()),
-                      **{part: float(c.probes[p][-1].mean()) for part, p in PHI_PARTS.items()}}
+        present = came(self.rec, c)
+        bar, some = mean_over_uavs(c.probes["phi"], present)  # Φ̄, eq. 11, over the UAVs whose samples came
+        if not some.any():
+            return
+        self.phi_sum += float(bar[some].sum())
+        self.steps += int(some.sum())
+        last = np.flatnonzero(some)[-1]
+
+        def final(name: str) -> float:
+            return float(mean_over_uavs(c.probes[name][last:last + 1], present[last:last + 1])[0][0])
+
+        self.final = {"phi_bar": float(bar[last]), "n_identified": final("n_identified"),
+                      **{part: final(p) for part, p in PHI_PARTS.items()}}
         if self.cleared is None:
-            clear = np.flatnonzero(c.probes["phi_unexplored"].mean(axis=1) == 0)
+            clear = np.flatnonzero(some & (mean_over_uavs(c.probes["phi_unexplored"], present)[0] == 0))
             self.cleared = float(c.t[clear[0]]) if len(clear) else None
         if self.period:
-            solve = c.probes["solve_time"][plan_steps(c.t, self.rec.dt, self.period, self.start)]  # (plans, N)
+            plans = plan_steps(c.t, self.rec.dt, self.period, self.start)
+            solve = np.where(present, c.probes["solve_time"], 0.0)[plans]  # (plans, N): an absent UAV's counts 0
             if len(solve):
                 fleet = solve.sum(axis=1)
                 self.plans += len(solve)
@@ -154,19 +164,20 @@ class SetHealth:
         if not len(c.t):
             return
         if self.monitored:
-            per_step = c.probes["guarantee_violations"].sum(axis=1)
+            per_step = np.nansum(c.probes["guarantee_violations"], axis=1)
             self.violations += float(per_step.sum())
             self.worst = max(self.worst, float(per_step.max()))
             hit = np.flatnonzero(per_step > 0)
             if len(hit):
                 self.first = float(c.t[hit[0]]) if self.first is None else self.first
                 self.last = float(c.t[hit[-1]])
-        count = c.probes["alarm_all_empty"]
+        # cumulative counts: a sample that did not come (NaN) holds the count before it
+        count = np.fmax.accumulate(np.concatenate([self.empty_count[None], c.probes["alarm_all_empty"]]), axis=0)[1:]
         rose = count > np.concatenate([self.empty_count[None], count[:-1]])  # (k, N): the count went up at k
         new = np.isnan(self.empty_at) & rose.any(axis=0)
         self.empty_at[new] = c.t[rose.argmax(axis=0)[new]]
         self.empty_count = count[-1].copy()
-        self.unexplained = c.probes["alarm_unexplained"][-1].copy()
+        self.unexplained = np.fmax(self.unexplained, np.fmax.reduce(c.probes["alarm_unexplained"], axis=0))
 
     def counts(self) -> dict:
         """``guarantee_violations`` (total over steps and UAVs; None without a monitor), ``max_violations_per_step``,
@@ -223,12 +234,14 @@ class SetSeries:
             self.plan = (ctrl["period"], float(ctrl.get("start") or 0.0))
 
     def values(self, c: Chunk) -> dict:
-        out = {"phi_bar": (c.t, c.probes["phi"].mean(axis=1))}
+        present = came(self.rec, c)
+        bar, some = mean_over_uavs(c.probes["phi"], present)
+        out = {"phi_bar": (c.t[some], bar[some])}
         for p in PHI_PARTS.values():
-            out[p] = (c.t, c.probes[p].mean(axis=1))
+            out[p] = (c.t[some], mean_over_uavs(c.probes[p], present)[0][some])
         if self.plan is not None:
             plan = plan_steps(c.t, self.rec.dt, *self.plan)
-            out["solve_time"] = (c.t[plan], c.probes["solve_time"][plan].sum(axis=1))
+            out["solve_time"] = (c.t[plan], np.where(present, c.probes["solve_time"], 0.0)[plan].sum(axis=1))
         return out
 
 

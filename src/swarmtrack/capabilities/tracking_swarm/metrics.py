@@ -10,7 +10,13 @@ Table 1), ``reported_std``, ``consistency`` (NEES and NIS per phase with their 9
 ``[x, y, vx, vy, z, vz]``, docs/three-d.md), ``network`` (:class:`~swarmtrack.analysis.health.
 NetworkHealth`: gating and late data) and the time series ``position_error`` and ``nees``.
 
-Warnings (:class:`Health`, over every step, not only the chase window):
+Every section is over the judged samples (:func:`swarmtrack.analysis.coverage.judged`: the UAV's sample came and
+the target's truth is known), per UAV then averaged over the UAVs that have any, and says how many it covers
+(``samples``; the RMSE's in ``rmse_samples``). A judged sample whose estimate is NaN or infinite (a diverged filter)
+makes its sections NaN or infinite.
+
+Warnings (:class:`Health`, over every step, not only the chase window; each UAV's samples from its filter's first
+finite estimate on):
 
 * **No detection**: a UAV that did not detect its target for at least :data:`GAP_S` seconds (or never did).
 * **Inconsistent filter**: the NEES of ``[x, y, vx, vy]``, averaged over the UAVs and a sliding window of
@@ -25,6 +31,7 @@ import functools
 
 import numpy as np
 
+from swarmtrack.analysis.coverage import came, judged, masked, mean_over_uavs
 from swarmtrack.analysis.health import NETWORK, chi2_mean_band, spans
 from swarmtrack.analysis.metrics import COMPONENTS, SERIES, Moments, phase_groups
 from swarmtrack.registry import Figure, Metric
@@ -102,31 +109,40 @@ class _Rmse:
         self.rec = rec
         self.names, self.group = phase_groups(rec)
         self.sq = np.zeros((len(self.names) + 1, rec.n_agents, 4))
-        self.count = np.zeros(len(self.names) + 1)
+        self.count = np.zeros((len(self.names) + 1, rec.n_agents))  # judged samples per phase and UAV
 
     def add(self, c: Chunk, keep: np.ndarray, shared=None) -> None:
-        e2 = chase_errors(self.rec, c, keep, shared) ** 2
+        m = _kept(judged(self.rec, c, shared), keep)
+        e2 = masked(chase_errors(self.rec, c, keep, shared) ** 2, m)
         phase = self.group[c.phase[keep, self.rec.tracked]]
         for p in np.unique(phase):
             sel = phase == p
             self.sq[p] += _kept(e2, sel).sum(axis=0)
-            self.count[p] += sel.sum()
+            self.count[p] += _kept(m, sel).sum(axis=0)
         self.sq[-1] += e2.sum(axis=0)
-        self.count[-1] += len(e2)
+        self.count[-1] += m.sum(axis=0)
 
     def extras(self) -> dict:
         """``position_rmse_per_uav``: :meth:`per_uav_position`."""
         return {"position_rmse_per_uav": self.per_uav_position()}
 
-    def per_uav_position(self) -> list[float]:
-        """Each UAV's position RMSE over the whole judged run (m), e.g. to leave a faulty member out."""
-        return np.sqrt(self.sq[-1, :, :2].sum(axis=-1) / max(self.count[-1], 1)).tolist()
+    def samples(self) -> int:
+        """The judged samples the total covers (over the UAVs)."""
+        return int(self.count[-1].sum())
+
+    def per_uav_position(self) -> list[float | None]:
+        """Each UAV's position RMSE over its judged samples of the judged window (m; None: it has none), e.g. to
+        leave a faulty member out."""
+        n = self.count[-1]
+        rmse = np.sqrt(self.sq[-1, :, :2].sum(axis=-1) / np.maximum(n, 1))
+        return [float(v) if k else None for v, k in zip(rmse, n, strict=True)]
 
     def result(self) -> dict[str, dict[str, float]]:
         table = {}
         for p, name in enumerate([*self.names, "total"]):
-            if self.count[p]:
-                per_uav = np.sqrt(self.sq[p] / self.count[p])  # (N, 4)
+            some = self.count[p] > 0  # the UAVs with samples in this phase
+            if some.any():
+                per_uav = np.sqrt(self.sq[p][some] / self.count[p][some, None])  # (N', 4)
                 table[name] = dict(zip(COMPONENTS, per_uav.mean(axis=0).tolist(), strict=True))
         return table
 
@@ -138,10 +154,15 @@ class _Spread:
         self.rec, self.mom = rec, Moments()
 
     def add(self, c: Chunk, keep: np.ndarray, shared=None) -> None:
-        self.mom.add(chase_errors(self.rec, c, keep, shared))
+        self.mom.add(chase_errors(self.rec, c, keep, shared), _kept(judged(self.rec, c, shared), keep))
 
     def result(self) -> dict[str, float]:
-        return dict(zip(COMPONENTS, self.mom.std.mean(axis=0).tolist(), strict=True))
+        n = np.broadcast_to(np.asarray(self.mom.n, dtype=float), (self.rec.n_agents, 4))[:, 0]
+        std = np.broadcast_to(self.mom.std, (self.rec.n_agents, 4))[n > 0]  # the UAVs with samples
+        return dict(zip(COMPONENTS, std.mean(axis=0).tolist() if len(std) else [None] * 4, strict=True))
+
+    def samples(self) -> int:
+        return int(np.broadcast_to(np.asarray(self.mom.n), (self.rec.n_agents, 4))[:, 0].sum())
 
 
 class _ReportedStd:
@@ -151,12 +172,17 @@ class _ReportedStd:
         self.rec, self.total, self.n = rec, 0.0, 0
 
     def add(self, c: Chunk, keep: np.ndarray, shared=None) -> None:
+        m = _kept(came(self.rec, c), keep)  # the filters' own figure: no truth needed
         cov = _kept(c.probes["covariance"], keep)
-        self.total = self.total + np.sqrt(np.diagonal(cov[..., :4, :4], axis1=-2, axis2=-1)).sum(axis=(0, 1))
-        self.n += cov.shape[0] * cov.shape[1]
+        std = masked(np.sqrt(np.diagonal(cov[..., :4, :4], axis1=-2, axis2=-1)), m)
+        self.total = self.total + std.sum(axis=(0, 1))
+        self.n += int(m.sum())
 
     def result(self) -> dict[str, float]:
-        return dict(zip(COMPONENTS, (self.total / self.n).tolist(), strict=True))
+        return dict(zip(COMPONENTS, (self.total / self.n).tolist() if self.n else [None] * 4, strict=True))
+
+    def samples(self) -> int:
+        return self.n
 
 
 def nees_per_uav(err: np.ndarray, cov: np.ndarray) -> np.ndarray:
@@ -174,9 +200,9 @@ def nees_per_uav(err: np.ndarray, cov: np.ndarray) -> np.ndarray:
     return out.reshape(shape)
 
 
-def _nees_mean(rec: Recording, c: Chunk, shared: dict | None = None) -> np.ndarray:
-    """(k,) NEES of every step, mean over the UAVs."""
-    return _shared(shared, "gaussian.nees_mean", lambda: _nees(rec, c, shared).mean(axis=1))
+def _nees_mean(rec: Recording, c: Chunk, shared: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(k,) NEES of every step, mean over the judged UAVs, and (k,) the steps with any."""
+    return _shared(shared, "gaussian.nees_mean", lambda: mean_over_uavs(_nees(rec, c, shared), judged(rec, c, shared)))
 
 
 @functools.cache
@@ -245,24 +271,32 @@ class _Consistency:
         self.nis, self.nis_count = np.zeros(k), np.zeros(k)
 
     def add(self, c: Chunk, keep: np.ndarray, shared=None) -> None:
+        m = _kept(judged(self.rec, c, shared), keep)
         err = chase_errors(self.rec, c, keep, shared)
         cov = _kept(c.probes["covariance"], keep)[..., :4, :4]
-        full = _kept(_nees(self.rec, c, shared), keep)  # (k, N)
-        comp = err**2 / np.diagonal(cov, axis1=-2, axis2=-1)  # (k, N, 4)
+        full = masked(_kept(_nees(self.rec, c, shared), keep), m)  # (k, N)
+        comp = masked(err**2 / np.diagonal(cov, axis1=-2, axis2=-1), m)  # (k, N, 4)
+        nis_all = None
+        if "nis" in c.probes:  # each UAV's own measurement, where it had one (NaN: none), where its sample came
+            nis_all = _kept(c.probes["nis"], keep)
+            nis_all = np.where(_kept(came(self.rec, c), keep), nis_all, np.nan)
         phase = self.group[c.phase[keep, self.rec.tracked]]
         for p in [*np.unique(phase), -1]:
             sel = phase == p if p >= 0 else np.ones(len(phase), dtype=bool)
             self.full[p] += _kept(full, sel).sum()
             self.comp[p] += _kept(comp, sel).sum(axis=(0, 1))
-            self.count[p] += _kept(full, sel).size
-            if "nis" in c.probes:  # each UAV's own measurement, where it had one
-                nis = _kept(_kept(c.probes["nis"], keep), sel)
+            self.count[p] += int(_kept(m, sel).sum())
+            if nis_all is not None:
+                nis = _kept(nis_all, sel)
                 self.nis[p] += np.nansum(nis)
                 self.nis_count[p] += np.isfinite(nis).sum()
 
+    def samples(self) -> int:
+        return int(self.count[-1])
+
     def extras(self) -> dict:
         """``nees``: the run-wide figure (the total's), kept for comparison."""
-        return {"nees": self.result()["total"]["nees"]}
+        return {"nees": self.result().get("total", {}).get("nees")}
 
     def result(self) -> dict:
         out = {}
@@ -291,27 +325,33 @@ class _Altitude:
         self.rec = rec
         self.names, self.group = phase_groups(rec)
         k = len(self.names) + 1
-        self.sq, self.count = np.zeros((k, rec.n_agents, 2)), np.zeros(k)
+        self.sq, self.count = np.zeros((k, rec.n_agents, 2)), np.zeros((k, rec.n_agents))
         self.nees, self.nees_count = np.zeros(k), np.zeros(k)
 
     def add(self, c: Chunk, keep: np.ndarray, shared=None) -> None:
         tracked = self.rec.tracked
+        m = judged(self.rec, c)[keep]
         truth = np.concatenate([c.truth[keep, tracked], c.altitude[keep, tracked]], axis=-1)  # (k, 6)
         err = c.probes["estimate"][keep][..., :6] - truth[:, None, :]  # (k, N, 6)
-        nees = nees_per_uav(err, c.probes["covariance"][keep][..., :6, :6])
+        nees = masked(nees_per_uav(err, c.probes["covariance"][keep][..., :6, :6]), m)
+        sq = masked(err[..., 4:6] ** 2, m)
         phase = self.group[c.phase[keep, tracked]]
         for p in [*np.unique(phase), -1]:
             sel = phase == p if p >= 0 else np.ones(len(phase), dtype=bool)
-            self.sq[p] += (err[sel][..., 4:6] ** 2).sum(axis=0)
-            self.count[p] += sel.sum()
+            self.sq[p] += sq[sel].sum(axis=0)
+            self.count[p] += m[sel].sum(axis=0)
             self.nees[p] += nees[sel].sum()
-            self.nees_count[p] += nees[sel].size
+            self.nees_count[p] += int(m[sel].sum())
+
+    def samples(self) -> int:
+        return int(self.nees_count[-1])
 
     def result(self) -> dict:
         out = {}
         for p, name in enumerate([*self.names, "total"]):
-            if self.count[p]:
-                z, vz = np.sqrt(self.sq[p] / self.count[p]).mean(axis=0)
+            some = self.count[p] > 0
+            if some.any():
+                z, vz = np.sqrt(self.sq[p][some] / self.count[p][some, None]).mean(axis=0)
                 n = self.nees_count[p]
                 out[name] = {"z": float(z), "vz": float(vz), "nees": self.nees[p] / n, "band": chi2_mean_band(6, n)}
         return out
@@ -331,14 +371,16 @@ class _MeanError:
         self.total, self.n, self.occluded, self.n_occluded, self.steps_occluded = 0.0, 0, 0.0, 0, 0
 
     def add(self, c: Chunk, keep: np.ndarray, shared=None) -> None:
+        m = _kept(judged(self.rec, c, shared), keep)
         err = chase_errors(self.rec, c, keep, shared)
-        dist = np.hypot(err[..., 0], err[..., 1])  # (k, N)
+        dist = masked(np.hypot(err[..., 0], err[..., 1]), m)  # (k, N)
         self.total += float(dist.sum())
-        self.n += dist.size
+        self.n += int(m.sum())
         if "detected" in c.probes:
-            blind = ~(c.probes["detected"][keep] > 0).any(axis=1)
+            seen = (c.probes["detected"][keep] > 0) & _kept(came(self.rec, c), keep)
+            blind = ~seen.any(axis=1) & m.any(axis=1)  # steps judged where no UAV whose sample came detected it
             self.occluded += float(dist[blind].sum())
-            self.n_occluded += int(dist[blind].size)
+            self.n_occluded += int(m[blind].sum())
             self.steps_occluded += int(blind.sum())
 
     def result(self) -> dict:
@@ -346,28 +388,53 @@ class _MeanError:
                 "occluded": self.occluded / self.n_occluded if self.n_occluded else None,
                 "occluded_steps": self.steps_occluded}
 
+    def samples(self) -> int:
+        return self.n
+
 
 class Health:
     """Accumulator of the per-step series the warnings need (O(steps) scalars plus the (steps, N) detection
     flags), fed chunk by chunk: :func:`swarmtrack.analysis.metrics.summary` feeds it in its own pass over the
-    recording, :func:`check` on its own."""
+    recording, :func:`check` on its own.
+
+    A UAV's samples are judged from its filter's first finite estimate on (the NEES of its first judged sample
+    that has one): before it, a filter that has not detected anything has no estimate to judge. After it, a judged
+    sample whose NEES or error is not finite is a diverged filter: inconsistent and lost. Steps where no sample is
+    judged (every UAV absent, or no truth) count as neither consistent nor inconsistent, found nor lost."""
 
     def __init__(self, rec: Recording):
         self.rec = rec
-        self.t, self.nees, self.error, self.detected = [], [], [], []
+        self.t, self.nees_sum, self.nees_n, self.error, self.detected = [], [], [], [], []
+        self.started = np.zeros(rec.n_agents, dtype=bool)  # each UAV's filter has had a finite estimate
 
     def add(self, c, keep=None, shared=None) -> None:
         """Every step of chunk ``c`` (the warnings look at the whole run, not the chase window)."""
+        m = judged(self.rec, c, shared)
+        nees = _nees(self.rec, c, shared)
+        started = self.started[None] | np.logical_or.accumulate(m & np.isfinite(nees), axis=0)
+        if len(started):
+            self.started = started[-1]
+        use = m & started
         self.t.append(c.t)
-        self.nees.append(_nees_mean(self.rec, c, shared))
-        self.error.append(np.median(np.sqrt(_position_sq(self.rec, c, shared)), axis=1))
-        if "detected" in c.probes:
-            self.detected.append(c.probes["detected"] > 0.5)
+        self.nees_sum.append(masked(np.where(np.isfinite(nees), nees, np.inf), use).sum(axis=1))
+        self.nees_n.append(use.sum(axis=1))
+        error = np.sqrt(_position_sq(self.rec, c, shared))
+        if use.all():
+            median = np.median(error, axis=1)
+        else:  # the median over the judged UAVs; NaN (not judged) where there is none
+            some = use.any(axis=1)
+            median = np.full(len(c.t), np.nan)
+            if some.any():
+                rows = np.where(use, np.where(np.isnan(error), np.inf, error), np.nan)[some]
+                median[some] = np.nanmedian(rows, axis=1)
+        self.error.append(median)
+        if "detected" in c.probes:  # a sample that did not come is no gap in the detections
+            self.detected.append((c.probes["detected"] > 0.5) | ~came(self.rec, c))
 
     def result(self) -> list[dict]:
         if not self.t:
             return []
-        t, nees, error = np.concatenate(self.t), np.concatenate(self.nees), np.concatenate(self.error)
+        t, error = np.concatenate(self.t), np.concatenate(self.error)
         warnings = []
         if self.detected:
             seen = np.concatenate(self.detected)  # (K, N): O(steps × N) booleans, one byte each
@@ -376,11 +443,11 @@ class Health:
                                  "t_start": float(t[0]), "t_end": float(t[-1])})
             else:
                 warnings += _gaps(seen, t)
-        warnings += _inconsistent(self.rec, t, nees)
-        for a, b in spans(~(error <= LOST_M), t, GAP_S):  # NaN errors count as lost
+        warnings += _inconsistent(self.rec, t, np.concatenate(self.nees_sum), np.concatenate(self.nees_n))
+        for a, b in spans(error > LOST_M, t, GAP_S):  # a diverged filter's error is infinite: lost
             warnings.append({"kind": "lost_target", "t_start": a, "t_end": b,
-                             "message": f"the swarm lost the target at t = {a:.1f} s (median estimation error "
-                                        f"above {LOST_M:g} m until t = {b:.1f} s)"})
+                             "message": f"the swarm lost the target at t = {a:.1f} s (median estimation error over "
+                                        f"the UAVs whose samples came above {LOST_M:g} m until t = {b:.1f} s)"})
         return warnings
 
 
@@ -405,29 +472,44 @@ def _gaps(seen: np.ndarray, t: np.ndarray) -> list[dict]:
     return out
 
 
-def _inconsistent(rec: Recording, t: np.ndarray, nees: np.ndarray) -> list[dict]:
+def _inconsistent(rec: Recording, t: np.ndarray, total: np.ndarray, count: np.ndarray) -> list[dict]:
+    """The ``inconsistent`` warning: the NEES averaged over the judged samples of a sliding window of
+    :data:`WINDOW_S` s (``total`` and ``count`` per step: the sum of the judged UAVs' NEES and their number) above
+    :data:`FAR` times the upper end of the 95 % band of that many samples. Windows without samples are not judged;
+    an infinite sum (a diverged filter) is inconsistent."""
     steps = max(1, int(round(WINDOW_S / rec.dt))) if rec.dt > 0 else 1
-    if len(nees) < steps:
+    if len(total) < steps:
         return []
-    windowed = np.convolve(nees, np.ones(steps) / steps, mode="valid")  # mean of the window ending at k
-    samples = steps * rec.n_agents
-    upper = chi2_mean_band(4, samples)[1]
-    bad = ~(windowed <= FAR * upper)  # NaN (a diverged filter) is inconsistent too
+    ones = np.ones(steps)
+    n = np.convolve(count.astype(float), ones, mode="valid")  # samples of the window ending at k
+    some = n > 0
+    if not some.any():
+        return []
+    with np.errstate(invalid="ignore"):  # inf - inf in the running sum: still a diverged window
+        summed = np.convolve(np.where(np.isinf(total), 0.0, total), ones, mode="valid")
+    diverged = np.convolve(np.isinf(total).astype(float), ones, mode="valid") > 0
+    windowed = np.where(diverged, np.inf, np.divide(summed, n, out=np.zeros_like(summed), where=some))
+    upper = np.full(len(n), np.inf)
+    upper[some] = chi2_mean_band(4, n[some])[1]
+    bad = some & ~(windowed <= FAR * upper)
     found = spans(bad, t[steps - 1:], 0.0)
     if not found:
         return []
     a, b = found[0]
-    share = float(np.mean(bad))
+    share = float(bad.sum() / some.sum())
+    full = chi2_mean_band(4, steps * rec.n_agents)[1]
+    peak = float(windowed[bad].max())
     return [{"kind": "inconsistent", "t_start": a, "t_end": b,
              "message": f"the filters became inconsistent at t = {a:.1f} s: the {WINDOW_S:g} s NEES average "
-                        f"exceeds {FAR:g}x its 95 % band ({upper:.2f} for 4) during {100 * share:.0f} % of the run "
-                        f"(peak {np.nanmax(windowed):.3g})"}]
+                        f"exceeds {FAR:g}x its 95 % band ({full:.2f} for 4 with every UAV's samples) during "
+                        f"{100 * share:.0f} % of the windows judged (peak {peak:.3g}"
+                        + (": a filter diverged)" if np.isinf(peak) else ")")}]
 
 
 class GaussianSeries:
     """The time series of a Gaussian estimate, from t = 0 on: ``position_error``, the RMS over the UAVs of each
     UAV's estimated target position error, ``sqrt(mean_i |p̂_i − p|²)`` per step, and ``nees``, the NEES of
-    ``[x, y, vx, vy]``, mean over the UAVs per step."""
+    ``[x, y, vx, vy]``, mean over the UAVs per step; both over the judged samples (a step with none has none)."""
 
     quantities = ("position_error", "nees")
     shares = True  # values(chunk, shared): the errors and NEES computed once per chunk with the accumulators
@@ -437,9 +519,10 @@ class GaussianSeries:
         self.rec = rec
 
     def values(self, c: Chunk, shared: dict | None = None) -> dict:
-        # every step, not only the chase window
-        return {"position_error": (c.t, np.sqrt(np.mean(_position_sq(self.rec, c, shared), axis=1))),
-                "nees": (c.t, _nees_mean(self.rec, c, shared))}
+        # every step, not only the chase window; the steps with a judged sample, the mean over their judged UAVs
+        error, some = mean_over_uavs(_position_sq(self.rec, c, shared), judged(self.rec, c, shared))
+        nees, _ = _nees_mean(self.rec, c, shared)
+        return {"position_error": (c.t[some], np.sqrt(error[some])), "nees": (c.t[some], nees[some])}
 
 
 #: The sections a Gaussian estimator's runs get (and the network's, when they gate or fuse late data).

@@ -147,7 +147,7 @@ class LockstepWorld:
         self.alive = set(range(self.n))
         self.report = LiveReport()
         probes = {**sim.stack.probes, **dict.fromkeys(sim.monitors, ())}
-        self.recorder = Recorder(sim.meta, sim.world.n_objects, self.n, probes, record_to)
+        self.recorder = Recorder(sim.meta, sim.world.n_objects, self.n, probes, record_to, presence=True)
         self.telemetries = telemetry_of(scenario)
         self.components = {"estimator": sim.stack.estimator, "controller": sim.stack.controller}
         self.last: dict[int, wire.Sample] = {}  # each UAV's latest sample (its aim and telemetry when lost)
@@ -302,8 +302,8 @@ class LockstepWorld:
         self._fly(t, nav, {i: m.u for i, m in commands.items()}, until)
 
     def _record(self, k: int, t: float, truth: np.ndarray, samples: dict) -> None:
-        """Record step ``k``: the truth, the UAVs' probes (NaN for the UAVs without a sample) and the truth-side
-        monitors on the UAVs' telemetry."""
+        """Record step ``k``: the truth, the UAVs' probes (NaN for the UAVs without a sample, marked absent in the
+        recording's present mask) and the truth-side monitors on the UAVs' telemetry."""
         sim = self.sim
         self.last.update(samples)
         probes = {name: np.concatenate([self._probe(i, name, shape, samples) for i in range(self.n)])
@@ -311,7 +311,8 @@ class LockstepWorld:
         for role, telemetry in self.telemetries.items():  # the truth side's copy of the UAVs' components
             telemetry.mirror(self.components[role], _stacked([self.last[i].telemetry[role] for i in range(self.n)]))
         self.recorder.record(t, sim.world.recorded_truth(truth), sim.world.phase_index(),
-                             {**probes, **{m: f() for m, f in sim.monitors.items()}})
+                             {**probes, **{m: f() for m, f in sim.monitors.items()}},
+                             present=np.array([i in samples for i in range(self.n)]))
         self.recorded = k + 1
         self._account(samples.values())
 

@@ -16,6 +16,7 @@ import numpy as np
 from matplotlib.axes import Axes
 
 from swarmtrack.analysis import metrics
+from swarmtrack.analysis.coverage import came, mean_over_uavs
 from swarmtrack.analysis.figure_style import (
     DECOY_COLOR,
     MAX_LINES,
@@ -52,24 +53,26 @@ class _SetSeries:
         self.every = every = max(1, int(every)) if every is not None else max(1, -(-steps // MAX_POINTS))
         self.health = SetHealth(rec)
         groups = {name: slice(*span) for name, span in rec.meta["groups"].items() if span[1] > span[0]}
-        t, phi, parts, paths = [], [], {q: [] for q in PHI_PARTS.values()}, {g: [] for g in groups}
+        t, phi, bar, parts, paths = [], [], [], {q: [] for q in PHI_PARTS.values()}, {g: [] for g in groups}
         self.cleared = None
         for c in rec.chunks():
             self.health.add(c)
             if not len(c.t):
                 continue
             keep = (c.k0 + np.arange(len(c.t))) % every == 0
+            present = came(rec, c)[keep]  # the means over the UAVs whose samples came
             t.append(c.t[keep])
             phi.append(c.probes["phi"][keep])
+            bar.append(mean_over_uavs(c.probes["phi"][keep], present)[0])
             for q in parts:
-                parts[q].append(c.probes[q][keep].mean(axis=1))
+                parts[q].append(mean_over_uavs(c.probes[q][keep], present)[0])
             for g, sl in groups.items():
                 paths[g].append(c.truth[keep, sl, :2])
             if self.cleared is None:
-                clear = np.flatnonzero(c.probes["phi_unexplored"].mean(axis=1) == 0)
+                clear = np.flatnonzero(mean_over_uavs(c.probes["phi_unexplored"], came(rec, c))[0] == 0)
                 self.cleared = float(c.t[clear[0]]) if len(clear) else None
         n = rec.n_agents
-        self.t, self.phi = concat(t, ()), concat(phi, (n,))
+        self.t, self.phi, self.bar = concat(t, ()), concat(phi, (n,)), concat(bar, ())
         self.parts = {q: concat(v, ()) for q, v in parts.items()}
         self.paths = {g: concat(v, (groups[g].stop - groups[g].start, 2)) for g, v in paths.items()}
         box = ((rec.meta or {}).get("estimator") or {}).get("area")
@@ -111,8 +114,7 @@ def plot_uncertainty(rec: Recording, path: str | Path, every: int | None = None)
     s = _SetSeries(rec, every)
     fig = new_figure((9.0, 4.8))
     ax = fig.subplots()
-    bar = s.phi.mean(axis=1) if len(s.t) else np.zeros(0)
-    ax.plot(s.t, bar, color="black", lw=1.8, label=PHI_LABELS["phi_bar"], zorder=4)
+    ax.plot(s.t, s.bar, color="black", lw=1.8, label=PHI_LABELS["phi_bar"], zorder=4)
     for q, values in s.parts.items():
         ax.plot(s.t, values, color=_PART_COLORS[q], lw=1.1, label=PHI_LABELS[q], zorder=3)
     _mark_set_events(ax, s)
@@ -134,7 +136,7 @@ def plot_uncertainty_per_uav(rec: Recording, path: str | Path, every: int | None
     for i in range(shown):
         ax.plot(s.t, s.phi[:, i], color=agent_color(i), lw=1.0, label=f"UAV {i + 1}", zorder=3)
     if len(s.t):
-        ax.plot(s.t, s.phi.mean(axis=1), color="black", lw=1.4, ls="--", label=PHI_LABELS["phi_bar"], zorder=4)
+        ax.plot(s.t, s.bar, color="black", lw=1.4, ls="--", label=PHI_LABELS["phi_bar"], zorder=4)
     _mark_set_events(ax, s)
     _set_time_axis(ax, s)
     ax.set_ylabel(r"$\Phi_i$ [m$^2$]")

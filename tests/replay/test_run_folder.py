@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import json
+import shutil
+import time
 
 import numpy as np
 import pytest
+import yaml
 from click.testing import CliRunner
 
 import swarmtrack
@@ -111,3 +114,79 @@ def test_every_capabilitys_replay_writes_its_metrics_and_figures(tmp_path, name)
         assert "the guarantee not checked" in res.output and metrics["set_membership"]["guarantee_violations"] is None
         ran = json.loads((run / "metrics.json").read_text())
         assert metrics["set_membership"]["phi_bar_final"] == ran["set_membership"]["phi_bar_final"]
+
+
+def _damage(folder, how: str) -> str:
+    """Damage the run folder ``folder`` as ``how`` says; returns the file the refusal must name."""
+    rec = folder / "recording"
+    if how == "truncated":
+        table = rec / "objects.parquet"
+        table.write_bytes(table.read_bytes()[: table.stat().st_size // 2])
+        return str(table)
+    if how == "empty file":
+        (rec / "uavs.parquet").write_bytes(b"")
+        return str(rec / "uavs.parquet")
+    if how == "junk file":
+        (rec / "navigation.parquet").write_bytes(b"\xff\xfenot parquet" * 20)
+        (rec / "notes.txt").write_text("a file of the user's, left alone")
+        return str(rec / "navigation.parquet")
+    if how == "damaged inside":  # the footer whole, the pages not
+        table = rec / "objects.parquet"
+        data = bytearray(table.read_bytes())
+        data[8: len(data) // 2] = b"\xab" * (len(data) // 2 - 8)
+        table.write_bytes(bytes(data))
+        return str(rec)
+    for f in rec.iterdir():
+        if how == "empty recording" or f.name == "meta.json":
+            f.unlink()
+    return str(rec / "meta.json")
+
+
+@pytest.fixture(scope="module")
+def small_run(tmp_path_factory):
+    scenario = swarmtrack.load_scenario("l24-ct", ["duration=2"], seed=3)
+    folder = tmp_path_factory.mktemp("small") / "run"
+    simulate(scenario, record_to=folder / "recording")
+    (folder / "scenario.yaml").write_text(yaml.safe_dump(scenario.model_dump(mode="json")))
+    return folder
+
+
+@pytest.mark.parametrize("how", ["truncated", "empty file", "junk file", "damaged inside", "empty recording",
+                                 "no meta.json"])
+def test_replay_and_export_of_a_damaged_run_folder_name_the_file_exit_2_and_write_nothing(tmp_path, small_run, how):
+    folder = tmp_path / "run"
+    shutil.copytree(small_run, folder)
+    named = _damage(folder, how)
+    for args, out in ((["replay", str(folder), "--no-plots"], tmp_path / "replayed"),
+                      (["export", str(folder)], tmp_path / "run.mcap"),
+                      (["export", str(folder), "--format", "csv"], tmp_path / "run.csv")):
+        res = CliRunner().invoke(main, [*args, "--out", str(out)])
+        assert res.exit_code == 2, (args, res.output)
+        assert "Traceback" not in res.output and named in res.output and res.output.count("\n") == 1, res.output
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]  # nothing written, no staging left
+    if how == "junk file":
+        assert (folder / "recording" / "notes.txt").is_file()
+
+
+def test_opening_a_run_folder_reads_only_its_footers(small_run):
+    rec = run_folder.open_run(small_run)
+    assert rec.meta["n_steps"] > 0 and rec.path == small_run / "recording"
+    start = time.perf_counter()
+    for _ in range(20):
+        run_folder.open_run(small_run)
+    assert (time.perf_counter() - start) / 20 < 0.05  # about a millisecond each (the footers' few kB)
+
+
+def test_a_run_folder_without_inputs_is_refused_saying_which_command_wrote_it_and_what_to_do(tmp_path):
+    scenario = swarmtrack.load_scenario("l24-ct", ["duration=1"], seed=3)
+    live = tmp_path / "live"
+    simulate(scenario, record_to=live / "recording", inputs=False)
+    (live / "metrics.json").write_text(json.dumps({"live": {"rejected": 0}, "written_by": "swarmtrack 9.9"}))
+    (live / "scenario.yaml").write_text(yaml.safe_dump(scenario.model_dump(mode="json")))
+    res = CliRunner().invoke(main, ["replay", str(live), "--out", str(tmp_path / "x")])
+    assert res.exit_code == 2 and "Traceback" not in res.output and not (tmp_path / "x").exists()
+    assert "written by swarmtrack live (swarmtrack 9.9), which keeps no navigation and detections" in res.output
+    assert "swarmtrack run" in res.output and "before" not in res.output  # no old version blamed
+    simulate(scenario, record_to=tmp_path / "bare", inputs=False)  # no metrics.json: what may have made it
+    with pytest.raises(LogError, match=r"kept no navigation and detections .*inputs=False.*swarmtrack run"):
+        run_folder.steps([tmp_path / "bare"], scenario, None, {})

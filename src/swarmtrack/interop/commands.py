@@ -21,29 +21,36 @@ from swarmtrack.cli_support import UsageFailure
 def export_cmd(run: Path, fmt: str, out: Path | None) -> None:
     """Write the run in RUN (a swarmtrack run folder) as standard messages: the truth and every UAV's estimate with
     its covariance (docs/replay.md lists the topics)."""
-    from swarmtrack import load_run
+    from swarmtrack.replay.run_folder import open_run, reading
+    from swarmtrack.replay.steps import LogError
 
     if not (run / "recording").is_dir():
         raise UsageFailure(f"{run}: not a swarmtrack run folder (it has no recording/)")
     out = (out or run.parent / f"{run.name}.{fmt}").absolute()
     if out.exists():
         raise UsageFailure(f"--out {out}: something is already there (an export never replaces anything)")
-    rec = load_run(run)
+    try:
+        rec = open_run(run)  # meta.json and the tables' footers checked: a damaged folder named before writing
+    except LogError as exc:
+        raise UsageFailure(str(exc)) from None
     try:
         staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".partial", dir=out.parent))
     except OSError as exc:
         raise UsageFailure(f"--out {out}: {exc.strerror or exc}") from None
     try:  # written whole in a staging folder beside it, then moved into place
-        if fmt == "csv":
-            rec.write_csv(staging / "export")
-            counts = None
-        else:
-            from swarmtrack.interop.ros import export_ros
+        with reading(rec):  # a table damaged inside: one message naming the recording
+            if fmt == "csv":
+                rec.write_csv(staging / "export")
+                counts = None
+            else:
+                from swarmtrack.interop.ros import export_ros
 
-            counts = export_ros(rec, staging / "export", fmt)
+                counts = export_ros(rec, staging / "export", fmt)
         if out.exists():  # arrived meanwhile (a folder renamed onto an empty one would replace it)
             raise UsageFailure(f"--out {out}: something was put there meanwhile; nothing was written")
         os.rename(staging / "export", out)
+    except LogError as exc:
+        raise UsageFailure(str(exc)) from None
     finally:
         shutil.rmtree(staging, ignore_errors=True)
     if counts is None:

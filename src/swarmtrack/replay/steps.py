@@ -38,3 +38,17 @@ class StepInputs:
     positions: np.ndarray
     truth: np.ndarray
     phase: np.ndarray
+
+
+class Planned:
+    """A reader's steps with their number known before the first is read (``n_steps``; None: not known), so a
+    replay shows its length with the progress (:func:`swarmtrack.replay.engine.replay`)."""
+
+    def __init__(self, steps, n_steps: int | None):
+        self._steps, self.n_steps = iter(steps), n_steps
+
+    def __iter__(self):
+        return self
+
+    def __next__(self) -> StepInputs:
+        return next(self._steps)

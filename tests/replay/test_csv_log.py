@@ -132,12 +132,9 @@ def test_bad_csvs_are_refused_with_one_message_naming_the_file_and_line(tmp_path
     assert "line 2: a detection row needs columns x, y or range, bearing" in msg
     # a file cut inside its last row
     assert "line 41: 4 field(s) where the header has 9" in _refused(tmp_path, good[0] + "\n" + body + good[40][:20])
-    # a topic whose clock goes back by more than the window
-    back = [line.split(",") for line in good[1:]]
-    j = next(j for j, cells in enumerate(back) if cells[2] == "navigation" and cells[1] == "2" and float(cells[0]) > 8)
-    back[j][0] = repr(float(back[j][0]) - 5.0)
-    msg = _refused(tmp_path, good[0] + "\n" + "\n".join(",".join(c) for c in back) + "\n")
-    assert "navigation of UAV 2 in" in msg and "time stamps go backwards" in msg
+    # a gap longer than max_gap: the one row stamped 1e9 s is refused before any step, naming its times and file
+    msg = _refused(tmp_path, good[0] + "\n" + body + "1e9" + good[40][good[40].index(","):] + "\n")
+    assert "a gap of 1e+09 s, longer than the replay's max_gap of 60 s" in msg and "1000000000.000000 s" in msg
     res = CliRunner().invoke(main, ["replay", str(tmp_path / "gone.csv"), "--scenario", "l24-ct", "--out",
                                     str(tmp_path / "never")])
     assert res.exit_code == 2 and "gone.csv: no such file or folder" in res.output

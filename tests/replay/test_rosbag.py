@@ -236,3 +236,26 @@ def test_a_navigation_message_whose_covariance_is_not_positive_definite_is_skipp
                                           counts), phases=False)
     assert bad > 10 and counts == {"covariance not positive definite on /uav1/pose": bad}
     assert np.isfinite(again.estimate[-1]).all()
+
+
+@pytest.mark.parametrize("name", ["flight.bag", "flight.mcap", "flight.db3", "folder"])
+def test_a_bag_that_is_not_its_format_or_not_utf8_is_refused_naming_it(tmp_path, name):
+    junk = b"\xff\xfe\x00\x80 not a bag \x81" * 8
+    bag = tmp_path / name
+    if name == "folder":
+        bag.mkdir()
+        (bag / "metadata.yaml").write_bytes(junk)  # a ROS 2 bag folder whose metadata is not text
+    else:
+        bag.write_bytes(junk)
+    msg = _refused(tmp_path, bag, SIMPLE_MAP)
+    assert f"{bag}: not a readable ROS bag" in msg and msg.count("\n") == 1, msg
+
+
+def test_a_map_that_is_not_utf8_text_is_refused_naming_it(tmp_path):
+    log = tmp_path / "flight.csv"
+    log.write_text("t,uav,kind,x,y\n0.0,1,navigation,0.0,0.0\n")
+    (tmp_path / "map.yaml").write_bytes(b"uavs:\n  1: {navigation: /a\xff\xfe}\n")
+    res = CliRunner().invoke(main, ["replay", str(log), "--scenario", "l24-ct", "--map", str(tmp_path / "map.yaml"),
+                                    "--out", str(tmp_path / "never")])
+    assert res.exit_code == 2 and "Traceback" not in res.output and not (tmp_path / "never").exists()
+    assert f"--map {tmp_path / 'map.yaml'}: not a text (UTF-8) file" in res.output

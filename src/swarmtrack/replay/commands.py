@@ -36,7 +36,7 @@ def replay_cmd(logs: tuple[Path, ...], scenario: str | None, map_file: Path | No
     MCAP), PX4 ULog files or CSV files. The messages between UAVs are computed by the scenario's channel, as the
     simulator computes them. Writes the same run folder as swarmtrack run (errors only where the logs hold ground
     truth)."""
-    from rich.progress import Progress
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
     from swarmtrack.estimation.information import FilterDivergence
     from swarmtrack.outputs import OutputError, Terminated, run_folder
@@ -53,10 +53,18 @@ def replay_cmd(logs: tuple[Path, ...], scenario: str | None, map_file: Path | No
         scn = load_scenario(scenario, list(overrides), seed)
         out = out or Path("runs") / f"replay-{scn.name}-seed{scn.seed}"
         with run_folder(out, overwrite) as tmp:
-            with Progress(transient=True, disable=not sys.stderr.isatty()) as bar:
-                task = bar.add_task(f"replaying {len(logs)} log(s) through {scn.name}", total=1.0)
+            columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn())
+            with Progress(*columns, transient=True, disable=not sys.stderr.isatty()) as bar:
+                task = bar.add_task(f"reading {len(logs)} log(s)", total=None)
+                steps = [1]
+
+                def planned(n: int) -> None:  # the number of steps, known before the first (replay.grid.plan)
+                    steps[0] = n
+                    bar.update(task, total=n, description=f"replaying {n / scn.rates.estimation:g} s of log "
+                                                          f"through {scn.name}: steps")
+
                 rec = replay_logs(logs, scn, map_file, fmt, tmp / "recording",
-                                  lambda done: bar.update(task, completed=done))
+                                  lambda done: bar.update(task, completed=round(done * steps[0])), planned)
             source = rec.meta["replay"]
             metrics = write_run(rec, scn, tmp, no_plots=no_plots, extra={"replay": source},
                                 warnings=_warnings(source["skipped"]))
@@ -70,6 +78,10 @@ def replay_cmd(logs: tuple[Path, ...], scenario: str | None, map_file: Path | No
 
 
 def _warnings(counts: dict[str, int]) -> list[dict]:
-    """One warning per kind of message skipped mid-log (they are counted, not fatal)."""
+    """One warning per kind of message skipped mid-log (they are counted, not fatal), with what the user can do
+    about it (:data:`swarmtrack.replay.grid.SKIPS`)."""
+    from swarmtrack.replay.grid import remedy
+
     return [{"kind": "replay_skipped", "t_start": None, "t_end": None,
-             "message": f"replay: {n} message(s) skipped: {why}"} for why, n in sorted(counts.items()) if n]
+             "message": f"replay: {n} message(s) skipped: {why}: {remedy(why)}"}
+            for why, n in sorted(counts.items()) if n]

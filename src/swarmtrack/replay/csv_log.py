@@ -14,8 +14,9 @@
 =============  ===========================================================================================
 
 Columns come in those pairs, in any order; ``t``, ``uav`` and ``kind`` are required, and other column names are
-refused (a misspelt one would otherwise be ignored). Rows may come in any order within the map's ``window``
-(:mod:`swarmtrack.replay.grid`); a file is read row by row (the ``csv`` module), whatever its size.
+refused (a misspelt one would otherwise be ignored). Rows may come in any order: a CSV is a file, not a stream, so
+it is read whole, kept as columns (about 60 bytes a row), and its messages are given to the grid sorted by time
+stamp (stable; :class:`Table`), as if the file had been sorted.
 
 Refused, naming the file and line (the header is line 1): an unknown kind, a ``uav`` that is not a whole number
 from 1 (or not in the scenario), a truth row with a ``uav``, a row with more or fewer fields than the header (a
@@ -27,12 +28,14 @@ empty or ``nan`` cell makes the message unusable: it is skipped and counted. Wit
 from __future__ import annotations
 
 import csv
-import heapq
 import math
+from array import array
 from collections.abc import Iterator
 from pathlib import Path
 
-from swarmtrack.replay.grid import Detection, Message, Navigation, Truth
+import numpy as np
+
+from swarmtrack.replay.grid import Detection, Message, Navigation, Truth, skip
 from swarmtrack.replay.steps import LogError
 
 #: The header's columns: the required ones, then the optional pairs.
@@ -159,8 +162,7 @@ def _rows(path: Path, flown: set[int], counts: dict, n_uavs: int | None) -> Iter
                                    f"{len(columns)} (a truncated file?)")
                 msg = _message(_Row(cells, columns, path, reader.line_num), path, n_uavs)
                 if isinstance(msg, Navigation) and msg.uav in flown:
-                    why = f"navigation rows in {path} of a UAV whose navigation is its ULog's"
-                    counts[why] = counts.get(why, 0) + 1
+                    skip(counts, "navigation rows in", f" {path} of a UAV whose navigation is its ULog's")
                     continue
                 yield msg
     except OSError as exc:
@@ -171,9 +173,78 @@ def _rows(path: Path, flown: set[int], counts: dict, n_uavs: int | None) -> Iter
         raise LogError(f"{path}: not a readable CSV file ({exc})") from None
 
 
-def messages(paths: list[Path], mapping, counts: dict, n_uavs: int | None = None) -> Iterator[Message]:
-    """The messages of the CSV files ``paths``, merged in time-stamp order across files; ``n_uavs``: the scenario's
-    (a row of another UAV is refused naming its line). ``mapping`` (or None) only says which UAVs fly a ULog."""
+class Table:
+    """The messages of CSV files, read whole and kept as columns (about 60 bytes a row; a row's message object is
+    made when it is read back), given back sorted by time stamp: a CSV is a file, not a stream, so rows grouped by
+    kind (every truth row, then every detection row) replay as the sorted file does. The sort is stable (rows of one
+    stamp keep the files' order, the files the order given); a row whose stamp is not a finite number comes first,
+    to be skipped and counted as unusable."""
+
+    _KINDS = (Navigation, Detection, Detection, Truth)  # codes: navigation, relative, range-bearing, truth
+
+    def __init__(self, paths: list[Path]):
+        self.paths = list(paths)
+        self.stamp, self.code, self.uav, self.file = array("d"), array("b"), array("i"), array("i")
+        self.a, self.b, self.va, self.vb, self.has_v = array("d"), array("d"), array("d"), array("d"), array("b")
+
+    def add(self, msg: Message, file: int) -> None:
+        if isinstance(msg, Detection):
+            code, (a, b) = (1, msg.relative) if msg.relative is not None else (2, msg.range_bearing)
+        else:
+            code, (a, b) = (0 if isinstance(msg, Navigation) else 3), msg.position
+        v = getattr(msg, "velocity", None)
+        self.stamp.append(msg.stamp)
+        self.code.append(code)
+        self.uav.append(getattr(msg, "uav", -1))
+        self.file.append(file)
+        self.a.append(a)
+        self.b.append(b)
+        self.va.append(math.nan if v is None else v[0])
+        self.vb.append(math.nan if v is None else v[1])
+        self.has_v.append(v is not None)
+
+    def __len__(self) -> int:
+        return len(self.stamp)
+
+    def __iter__(self) -> Iterator[Message]:
+        stamp = np.frombuffer(self.stamp, dtype=np.float64) if len(self) else np.zeros(0)
+        order = np.argsort(np.where(np.isfinite(stamp), stamp, -np.inf), kind="stable")
+        topics: dict[tuple[int, int, int], str] = {}
+        for j in order.tolist():
+            code, uav, f = self.code[j], self.uav[j], self.file[j]
+            topic = topics.get((code, uav, f))
+            if topic is None:
+                topic = topics[code, uav, f] = _topic(code, uav, self.paths[f])
+            pair = (self.a[j], self.b[j])
+            v = (self.va[j], self.vb[j]) if self.has_v[j] else None
+            if code == 0:
+                yield Navigation(topic, uav, self.stamp[j], pair, v)
+            elif code == 3:
+                yield Truth(topic, self.stamp[j], pair, v)
+            elif code == 1:
+                yield Detection(topic, uav, self.stamp[j], relative=pair)
+            else:
+                yield Detection(topic, uav, self.stamp[j], range_bearing=pair)
+
+
+def _topic(code: int, uav: int, path: Path) -> str:
+    if code == 3:
+        return f"truth in {path}"
+    return f"{'navigation' if code == 0 else 'detections'} of UAV {uav + 1} in {path}"
+
+
+def read(paths: list[Path], mapping, counts: dict, n_uavs: int | None = None) -> Table:
+    """The messages of the CSV files ``paths``, read whole (errors name the file and line), to be given back in
+    time-stamp order (:class:`Table`); ``n_uavs``: the scenario's (a row of another UAV is refused naming its
+    line). ``mapping`` (or None) only says which UAVs fly a ULog."""
     flown = set() if mapping is None else {n - 1 for n, s in mapping.uavs.items() if s.log is not None}
-    streams = [_rows(Path(p), flown, counts, n_uavs) for p in paths]
-    return heapq.merge(*streams, key=lambda m: m.stamp)
+    table = Table([Path(p) for p in paths])
+    for f, path in enumerate(table.paths):
+        for msg in _rows(path, flown, counts, n_uavs):
+            table.add(msg, f)
+    return table
+
+
+def messages(paths: list[Path], mapping, counts: dict, n_uavs: int | None = None) -> Iterator[Message]:
+    """The messages of the CSV files ``paths`` in time-stamp order (:func:`read`)."""
+    return iter(read(paths, mapping, counts, n_uavs))

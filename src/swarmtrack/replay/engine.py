@@ -31,11 +31,13 @@ REPLAY_CHUNK_STEPS = 4096
 
 def replay(scenario: Scenario, steps: Iterable[StepInputs], record_to: Path | None = None,
            progress: Callable[[float], None] | None = None, source: dict | None = None,
-           phases: bool = True) -> Recording:
+           phases: bool = True, planned: Callable[[int], None] | None = None) -> Recording:
     """Run ``scenario``'s estimator on ``steps`` (in time order, on its estimation grid) and return the recording:
     the estimator's probes, and the log's ground truth where it has one. ``source`` (what was replayed) goes into the
-    recording's ``meta`` under ``replay``. ``phases=False``: the log does not know the scenario's profile phases;
-    the tracked target's steps are one phase, ``logged`` (phase 0 of the steps)."""
+    recording's ``meta`` under ``replay``, with ``truth``: the steps where the followed target's truth is known
+    (:func:`truth_coverage`). ``phases=False``: the log does not know the scenario's profile phases; the tracked
+    target's steps are one phase, ``logged`` (phase 0 of the steps). ``progress`` gets the fraction done; ``planned``
+    the number of steps before the first, when the reader knows it (:class:`~swarmtrack.replay.steps.Planned`)."""
     sim = build(scenario)
     estimator, channel, dt = sim.stack.estimator, sim.channel, sim.clock.dt_estimation
     n = scenario.swarm.n_uavs
@@ -50,8 +52,12 @@ def replay(scenario: Scenario, steps: Iterable[StepInputs], record_to: Path | No
     recorder = Recorder(meta, sim.world.n_objects, n, probes, record_to, inputs=record_to is not None,
                         max_chunk_steps=REPLAY_CHUNK_STEPS)
     publish = getattr(estimator, "publish", None)  # the optional second round (Estimator.publish)
-    duration = max(sim.clock.steps * dt, dt)
-    k_last = -1
+    n_steps = getattr(steps, "n_steps", None)
+    if n_steps is not None and planned is not None:
+        planned(n_steps)
+    total = max(n_steps if n_steps is not None else sim.clock.steps, 1)
+    tracked = meta["tracked"]
+    k_last, n_done, n_truth = -1, 0, 0
     for s in steps:
         if s.k <= k_last:
             raise LogError(f"replay: step {s.k} (t = {s.t:g} s) came after step {k_last}; steps must go forward")
@@ -65,18 +71,30 @@ def replay(scenario: Scenario, steps: Iterable[StepInputs], record_to: Path | No
                 estimator.combine(s.t, Inbox(links, posteriors))
         recorder.record_inputs(s.k, s.t, s.navigation, s.detections)
         recorder.record(s.t, s.truth, s.phase, estimator.sample())
+        n_done += 1
+        n_truth += tracked is not None and bool(np.isfinite(s.truth[tracked]).all())
         if progress is not None:
-            progress(min(1.0, (s.t + dt) / duration))
+            progress(min(1.0, n_done / total))
+    if source is not None and tracked is not None:
+        source["truth"] = truth_coverage(n_truth, n_done, dt)
     return recorder.close()
 
 
+def truth_coverage(with_truth: int, steps: int, dt: float) -> dict:
+    """Where a replay's errors are computed: the steps with the followed target's truth, their time and fraction of
+    the steps (``meta["replay"]["truth"]``; issue 35)."""
+    return {"steps": with_truth, "of_steps": steps, "seconds": with_truth * dt,
+            "fraction": with_truth / steps if steps else 0.0}
+
+
 def replay_logs(logs, scenario: Scenario, mapping=None, fmt: str | None = None, record_to: Path | None = None,
-                progress: Callable[[float], None] | None = None) -> Recording:
+                progress: Callable[[float], None] | None = None,
+                planned: Callable[[int], None] | None = None) -> Recording:
     """Replay ``logs`` (paths: a run folder, ROS bags, ULog or CSV files) through ``scenario``'s estimator:
     ``mapping`` is a map file's path, its contents as a dict, or None (a run folder needs none); ``fmt`` a registered
     reader's name (default: recognised from the first log). The recording's ``meta["replay"]`` says what was
-    replayed and, under ``skipped``, how many messages were skipped and why. Bad logs raise
-    :class:`~swarmtrack.replay.steps.LogError` naming the file, topic, field or row."""
+    replayed, under ``skipped`` how many messages were skipped and why, under ``truth`` where the truth was known.
+    Bad logs raise :class:`~swarmtrack.replay.steps.LogError` naming the file, topic, field or row."""
     from swarmtrack.replay.formats import reader_for
     from swarmtrack.replay.mapping import ReplayMap, load_map
 
@@ -92,4 +110,4 @@ def replay_logs(logs, scenario: Scenario, mapping=None, fmt: str | None = None, 
     skipped: dict[str, int] = {}
     source = {"format": reader.name, "logs": [str(p) for p in logs], "map": source_map, "skipped": skipped}
     return replay(scenario, reader.open(logs, scenario, mapping, skipped), record_to, progress, source,
-                  phases=reader.phases)
+                  phases=reader.phases, planned=planned)

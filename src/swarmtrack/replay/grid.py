@@ -17,16 +17,27 @@ messages in the order the log holds them; :func:`on_grid` turns them into estima
 - **Detections** go to the nearest step of their stamp, taken from where the UAV's navigation put it at the stamp.
   A relative position ``(dx, dy)`` along the map frame's axes or a range and bearing becomes the scenario sensor's
   measurement (:data:`MEASUREMENTS`).
-- **Truth** of the followed target at step k is interpolated the same way; NaN where the log holds none.
+- **Truth** of the followed target at step k is interpolated between the two truth samples around it when they
+  are at most ``truth_gap`` (:data:`TRUTH_GAP`) apart, and NaN (absent) elsewhere: before the first sample, after
+  the last, across a longer gap. A step waits (its inputs computed, not yet handed on) until the sample after it
+  has come or can no longer come within ``truth_gap``, so a sparse truth topic gives truth at every step between
+  its samples whatever the ``window``.
+- **Gaps and length.** :func:`plan` reads the messages' stamps once before the replay: t = 0, the number of steps
+  (shown with the progress), and a gap in the logs longer than ``max_gap`` (:data:`MAX_GAP`) refused naming its
+  times and the message after it (a row stamped 1e9 s would otherwise be 10¹⁰ steps).
+- **Skipped messages** are counted by cause (:func:`skip`); each cause says what the user can do (:data:`SKIPS`).
 
-Memory holds the messages of about ``window`` seconds of log, whatever the log's size.
+Memory holds the messages of about ``window`` seconds of log (``truth_gap`` seconds of steps while a truth sample
+is awaited), whatever the log's size, and 8 bytes per message's stamp for :func:`plan`.
 """
 
 from __future__ import annotations
 
 import heapq
 import math
+from array import array
 from bisect import bisect_right, insort
+from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 
@@ -71,6 +82,57 @@ class Truth:
 
 
 Message = Navigation | Detection | Truth
+
+#: The map's ``window`` by default (s): how long a message may come after later-stamped ones and still be placed.
+WINDOW = 1.0
+#: The map's ``truth_gap`` by default (s): truth is interpolated between two samples at most this far apart (a
+#: 0.5 Hz truth topic); across a longer gap it is absent (NaN), not a straight line through a turn.
+TRUTH_GAP = 2.0
+#: The map's ``max_gap`` by default (s): a longer stretch of the logs without any message is refused (a wrong
+#: stamp, or two flights in one log), never stepped through.
+MAX_GAP = 60.0
+
+#: Why a message can be skipped mid-log (the start of its count's key, :func:`skip`) → what the user can do.
+SKIPS = {
+    "NaN or infinite value in a message": "the message is left out; if the value should be there, fix the log (in "
+                                          "a CSV an empty or nan cell)",
+    "stamped before the replay's start": "the replay starts at the earliest stamp of the logs' first window: a log "
+                                         "on another clock? align a ULog with the map's uavs.N.time_offset, or "
+                                         "raise the map's window",
+    "came later than the replay window": "raise the map's window (s, default 1) to wait longer for late messages, "
+                                         "or sort the log by time stamp (a CSV is sorted when read)",
+    "detection with no navigation of its UAV at its time": "its UAV's navigation starts after it or pauses longer "
+                                                           "than the map's window: log navigation from before the "
+                                                           "first detection, or raise the map's window",
+    "a second detection of the target by one UAV in one estimation step": "the latest one is used; to use them "
+                                                                          "all, raise the scenario's "
+                                                                          "rates.estimation (it must divide "
+                                                                          "rates.physics)",
+    "covariance not positive definite": "the message's x-y covariance is not a covariance (an all-zero one is read "
+                                        "as not given): fix the logger, or map a topic without one",
+    "a damaged stretch of": "pyulog skipped it; copy the log from the vehicle again if you can",
+    "xy_valid false": "PX4 had no valid horizontal position then (EKF converging, GPS lost): nothing to do, or map "
+                      "another message in uavs.N.navigation",
+    "pose_frame not NED": "name a message in NED in uavs.N.navigation (e.g. vehicle_local_position)",
+    "local_frame not NED": "name a message in NED in uavs.N.navigation (e.g. vehicle_local_position)",
+    "navigation rows in": "that UAV's navigation is its ULog's (the map's uavs.N.log): drop log: from the map to "
+                          "use the CSV's rows instead",
+}
+
+
+def skip(counts: dict, cause: str, where: str = "", n: int = 1) -> None:
+    """Count ``n`` messages skipped for ``cause`` (a key of :data:`SKIPS`) under the key ``cause + where`` (``where``:
+    " on TOPIC", the file …)."""
+    if cause not in SKIPS:
+        raise KeyError(f"replay: skip cause {cause!r} has no remedy in replay.grid.SKIPS")
+    key = cause + where
+    counts[key] = counts.get(key, 0) + n
+
+
+def remedy(key: str) -> str:
+    """What the user can do about the skipped messages counted under ``key`` (:func:`skip`'s)."""
+    cause = max((c for c in SKIPS if key.startswith(c)), key=len, default=None)
+    return "" if cause is None else SKIPS[cause]
 
 
 def _range_bearing(rel: np.ndarray, pos: np.ndarray) -> tuple[np.ndarray, None]:
@@ -152,9 +214,52 @@ class _Track:
             del s[:keep - 1]
 
 
-def on_grid(messages: Iterable[Message], scenario, counts: dict, window: float = 1.0,
-            start: float | None = None) -> Iterator[StepInputs]:
-    """The estimation steps of ``messages`` (see the module's docstring); ``counts`` gets what was skipped."""
+def plan(messages: Iterable[Message], dt: float, window: float = WINDOW, max_gap: float = MAX_GAP,
+         logs: str = "the logs") -> tuple[float, int]:
+    """t = 0 and the number of steps of ``messages`` (their stamps are read; the grid's rules: t = 0 at the earliest
+    stamp of the first ``window`` seconds, the last step at the latest stamp), before the replay starts. A stretch
+    of more than ``max_gap`` seconds without a message (their finite stamps sorted) is a :class:`LogError` naming
+    its two stamps and topics and ``logs``."""
+    stamps, topic_of, topics = array("d"), array("i"), {}
+    first, newest, t0 = math.inf, -math.inf, None
+    for msg in messages:
+        stamp = msg.stamp
+        if not math.isfinite(stamp):
+            continue
+        stamps.append(stamp)
+        topic_of.append(topics.setdefault(msg.topic, len(topics)))
+        newest = max(newest, stamp)
+        if t0 is None:
+            first = min(first, stamp)
+            if newest - first >= window:
+                t0 = first
+    if not stamps:
+        raise LogError(f"{logs}: the logs hold no message of the map's topics (or none with a finite time stamp)")
+    t0 = first if t0 is None else t0
+    values = np.frombuffer(stamps, dtype=np.float64)
+    order = np.argsort(values, kind="stable")
+    gaps = np.diff(values[order])
+    if len(gaps) and gaps.max() > max_gap:
+        j = int(np.argmax(gaps > max_gap))
+        names = list(topics)
+        before, after = int(order[j]), int(order[j + 1])
+        raise LogError(f"{logs}: no message from {values[before]:.6f} s ({names[topic_of[before]]}) to "
+                       f"{values[after]:.6f} s ({names[topic_of[after]]}): a gap of {gaps[j]:.6g} s, longer than "
+                       f"the replay's max_gap of {max_gap:g} s. A message stamped wrong, or two flights in one log? "
+                       "Correct or remove it, or replay each flight alone, or raise max_gap in the map (--map)")
+    upto = newest + 0.5 * dt - t0 + 1e-9  # the grid's last step (_Grid.finish)
+    n = max(int((newest - t0) / dt) - 1, 0)
+    while (n + 0.5) * dt <= upto:
+        n += 1
+    return t0, n
+
+
+def on_grid(messages: Iterable[Message], scenario, counts: dict, window: float = WINDOW,
+            start: float | None = None, n_steps: int | None = None,
+            truth_gap: float = TRUTH_GAP) -> Iterator[StepInputs]:
+    """The estimation steps of ``messages`` (see the module's docstring); ``counts`` gets what was skipped. ``start``
+    and ``n_steps`` (from :func:`plan`): t = 0 and the number of steps, else found as the messages come. The
+    scenario is checked at once (its sensor makes measurements from relative positions; it follows one target)."""
     from swarmtrack.sim.build import build_component
     from swarmtrack.sim.world import sensed_objects
 
@@ -172,10 +277,8 @@ def on_grid(messages: Iterable[Message], scenario, counts: dict, window: float =
     if tracked not in sensed:
         raise LogError(f"sensor.kind {kind} does not see the followed target (estimator.target {followed})")
     grid = _Grid(scenario, counts, window, start, int(np.flatnonzero(sensed == tracked)[0]), MEASUREMENTS[kind][0],
-                 tracked)
-    for msg in messages:
-        yield from grid.put(msg)
-    yield from grid.finish()
+                 tracked, n_steps, truth_gap)
+    return grid.run(messages)
 
 
 def _finite(msg: Message) -> bool:
@@ -190,7 +293,10 @@ def _finite(msg: Message) -> bool:
 
 
 class _Grid:
-    def __init__(self, scenario, counts: dict, window: float, start: float | None, label: int, measure, tracked: int):
+    def __init__(self, scenario, counts: dict, window: float, start: float | None, label: int, measure, tracked: int,
+                 n_steps: int | None = None, truth_gap: float = TRUTH_GAP):
+        self.n_steps, self.truth_gap = n_steps, truth_gap
+        self.waiting: deque[StepInputs] = deque()  # steps whose truth awaits the truth sample after them
         self.n = scenario.swarm.n_uavs
         self.dt = 1.0 / scenario.rates.estimation
         self.rows = layout(scenario)
@@ -207,12 +313,14 @@ class _Grid:
         self.k = 0  # the next step to emit
         self._order = 0
 
-    def _skip(self, why: str, n: int = 1) -> None:
-        self.counts[why] = self.counts.get(why, 0) + n
+    def run(self, messages: Iterable[Message]) -> Iterator[StepInputs]:
+        for msg in messages:
+            yield from self.put(msg)
+        yield from self.finish()
 
     def put(self, msg: Message) -> Iterator[StepInputs]:
         if not _finite(msg):
-            self._skip(f"NaN or infinite value in a message on {msg.topic}")
+            skip(self.counts, "NaN or infinite value in a message", f" on {msg.topic}")
             return
         last = self.latest.get(msg.topic, -math.inf)
         if msg.stamp < last - self.window:
@@ -228,16 +336,19 @@ class _Grid:
             self._start()
         else:
             self._place(msg)
-        yield from self._emit(self.newest - self.window)
+        self._emit(self.newest - self.window)
+        yield from self._release()
 
     def _place(self, msg: Message) -> None:
         t = msg.stamp - self.t0
         if t < -0.5 * self.dt:
-            self._skip("stamped before the replay's start")
+            skip(self.counts, "stamped before the replay's start")
             return
         if t < (self.k - 0.5) * self.dt:  # its step was emitted: it came more than the window late
-            self._skip("came later than the replay window")
+            skip(self.counts, "came later than the replay window")
             return
+        if self.n_steps is not None and t >= (self.n_steps - 0.5) * self.dt and not isinstance(msg, Truth):
+            return  # past the planned last step (a message the plan read and this pass would not, e.g. a skip)
         if isinstance(msg, Navigation):
             self.navs[msg.uav].add(t, msg.position, msg.velocity)
         elif isinstance(msg, Truth):
@@ -246,10 +357,40 @@ class _Grid:
             heapq.heappush(self.pending, (t, self._order, msg))
             self._order += 1
 
-    def _emit(self, upto: float) -> Iterator[StepInputs]:
-        """Every step whose time (and whose detections' window) the log has gone past."""
+    def _emit(self, upto: float) -> None:
+        """Every step whose time (and whose detections' window) the log has gone past, to :attr:`waiting`."""
         while (self.k + 0.5) * self.dt <= upto - self.t0 + 1e-9:  # stamps in ns: a step's end is not rounded away
-            yield self._step()
+            if self.n_steps is not None and self.k >= self.n_steps:
+                return
+            self.waiting.append(self._step())
+
+    def _release(self, final: bool = False) -> Iterator[StepInputs]:
+        """The waiting steps whose truth is known (all of them when the log has ended: ``final``), in order."""
+        while self.waiting:
+            step = self.waiting[0]
+            got = self._truth_at(step.t, final)
+            if got is False:
+                return
+            if got is not None:
+                step.truth[self.tracked] = got
+            self.waiting.popleft()
+            yield step
+
+    def _truth_at(self, t: float, final: bool):
+        """The truth at ``t`` (between two samples at most ``truth_gap`` apart), None (absent), or False (not known
+        yet: the sample after ``t`` may still come)."""
+        s = self.truth.samples
+        i = bisect_right(s, t, key=_stamp) - 1  # the last sample at or before t: no other can come (it would be late)
+        if i < 0:
+            return None
+        gap = self.truth_gap
+        if i + 1 < len(s) and s[i + 1][0] - s[i][0] <= gap:
+            return self.truth.at(t, 0.0)
+        if s[i][0] == t and i > 0 and t - s[i - 1][0] <= gap:  # on a sample: the pair before it
+            return _Track(s[i - 1:i + 1]).at(t, 0.0)
+        if i + 1 < len(s) or final or (self.k - 0.5) * self.dt - s[i][0] > gap:
+            return None  # the next sample is (or will be) more than truth_gap after this one
+        return False
 
     def _start(self) -> None:
         """t = 0 at the first window's earliest stamp; its messages placed."""
@@ -262,7 +403,12 @@ class _Grid:
             self._start()
         if self.t0 is None:
             raise LogError("the logs hold no message of the map's topics")
-        yield from self._emit(self.newest + 0.5 * self.dt)  # up to the step of the log's last stamp
+        if self.n_steps is None:
+            self._emit(self.newest + 0.5 * self.dt)  # up to the step of the log's last stamp
+        else:
+            while self.k < self.n_steps:
+                self.waiting.append(self._step())
+        yield from self._release(final=True)
 
     def _step(self) -> StepInputs:
         k, dt = self.k, self.dt
@@ -277,7 +423,7 @@ class _Grid:
             stamp, _, det = heapq.heappop(self.pending)
             where = self.navs[det.uav].at(stamp, self.window)
             if where is None:
-                self._skip("detection with no navigation of its UAV at its time")
+                skip(self.counts, "detection with no navigation of its UAV at its time")
                 continue
             if det.relative is not None:
                 d = np.asarray(det.relative, dtype=float)
@@ -287,14 +433,12 @@ class _Grid:
             owners.append(det.uav)
             rel.append(d)
             pos.append(where[:2])
-        truth = np.full((self.m, 4), np.nan)
-        got = self.truth.at(t, self.window)
-        if got is not None:
-            truth[self.tracked] = got
+        truth = np.full((self.m, 4), np.nan)  # the followed target's when it is known (_release)
         uavs = self.rows["uavs"]
         truth[uavs] = nav
-        for track in (*self.navs, self.truth):
+        for track in self.navs:
             track.forget(t - self.window)
+        self.truth.forget(min(t - self.window, self.waiting[0].t if self.waiting else t))
         self.k += 1
         phase = np.full(self.m, -1, dtype=np.int16)
         phase[self.tracked] = 0  # the one phase of a log (replay.engine.LOGGED)
@@ -309,7 +453,8 @@ class _Grid:
         last = np.ones(len(owner), dtype=bool)
         last[:-1] = owner[1:] != owner[:-1]
         if not last.all():
-            self._skip("a second detection of the target by one UAV in one estimation step", int((~last).sum()))
+            skip(self.counts, "a second detection of the target by one UAV in one estimation step",
+                 n=int((~last).sum()))
             owner, rel, pos = owner[last], rel[last], pos[last]
         z, frame = self.measure(rel, pos)
         return Detections(owner, z, pos, np.full(len(owner), self.label, dtype=np.int64), self.n, frame=frame)

@@ -15,7 +15,9 @@ navigation's or the truth's ``position`` (a message with ``x``, ``y``). ``log`` 
 in when each UAV has its own (a PX4 ULog, :mod:`swarmtrack.replay.ulog`; its ``navigation`` is then the ULog message's
 name), resolved against the map file's folder or matched by file name to a log given on the command line, and
 ``time_offset`` (s) is added to that file's time stamps (a ULog's boot clock onto the other logs' clock). ``window``
-bounds how far (s) a message may come after later-stamped ones and still be placed at its own time stamp.
+bounds how far (s) a message may come after later-stamped ones and still be placed at its own time stamp;
+``truth_gap`` how far apart (s) two truth samples may be for the truth between them to be interpolated; ``max_gap``
+the longest stretch (s) of the logs without a message (:mod:`swarmtrack.replay.grid`).
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ from pathlib import Path
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+from swarmtrack.replay.grid import MAX_GAP, TRUTH_GAP, WINDOW
 from swarmtrack.replay.steps import LogError
 
 
@@ -74,7 +77,9 @@ class UavSources(_Strict):
 class ReplayMap(_Strict):
     uavs: dict[int, UavSources] = Field(min_length=1)
     truth: Source | None = None
-    window: float = Field(default=1.0, gt=0.0)
+    window: float = Field(default=WINDOW, gt=0.0, allow_inf_nan=False)
+    truth_gap: float = Field(default=TRUTH_GAP, ge=0.0, allow_inf_nan=False)
+    max_gap: float = Field(default=MAX_GAP, gt=0.0, allow_inf_nan=False)
 
     _truth = field_validator("truth", mode="before")(classmethod(lambda cls, v: _topic(v)))
 
@@ -107,9 +112,12 @@ class ReplayMap(_Strict):
 def load_map(path: Path, scenario) -> ReplayMap:
     """The map file at ``path``, checked against ``scenario`` (its UAVs exist); one readable error otherwise."""
     try:
-        data = yaml.safe_load(Path(path).read_text())
+        data = yaml.safe_load(Path(path).read_text(encoding="utf-8"))
     except OSError as exc:
         raise LogError(f"--map {path}: {exc.strerror or exc}") from None
+    except UnicodeDecodeError as exc:
+        raise LogError(f"--map {path}: not a text (UTF-8) file, so not a map (byte {exc.start}: "
+                       f"{exc.object[exc.start:exc.start + 1]!r}); a map is YAML (docs/replay.md)") from None
     except yaml.YAMLError as exc:
         raise LogError(f"--map {path}: not YAML ({str(exc).splitlines()[0]})") from None
     mapping = ReplayMap.checked(data, scenario, f"--map {path}")

@@ -25,7 +25,7 @@ import operator
 from collections.abc import Iterator
 from pathlib import Path
 
-from swarmtrack.replay.grid import Detection, Navigation, Truth, on_grid
+from swarmtrack.replay.grid import Detection, Navigation, Truth, on_grid, skip
 from swarmtrack.replay.steps import LogError, StepInputs
 
 #: Where the position is in the message types the reader knows, and where their covariance is.
@@ -122,8 +122,7 @@ class _Topics:
                 raise LogError(f"{topic}: {msgtype} is not a pose type the reader knows; name its position field "
                                "in the map")
             if not _covariance_ok(msg, msgtype):
-                why = f"covariance not positive definite on {topic}"
-                counts[why] = counts.get(why, 0) + 1
+                skip(counts, "covariance not positive definite", f" on {topic}")
                 continue
             position = _xy(msg, path, topic, msgtype)
             if role == "truth":
@@ -143,6 +142,10 @@ def messages(paths: list[Path], mapping, counts: dict) -> Iterator:
         reader.open()
     except (AnyReaderError, OSError) as exc:
         raise LogError(f"{', '.join(map(str, paths))}: not a readable ROS bag ({exc})") from None
+    except (UnicodeDecodeError, ValueError, KeyError) as exc:  # rosbags reads a .bag's or folder's header as text
+        raise LogError(f"{', '.join(map(str, paths))}: not a readable ROS bag, not the format its name says (a ROS 1 "
+                       f".bag starts with '#ROSBAG V2.0', a ROS 2 bag is a folder with metadata.yaml; "
+                       f"{type(exc).__name__}: {exc})") from None
     try:
         present = {c.topic for c in reader.connections}
         for topic in topics.roles:
@@ -158,7 +161,7 @@ def messages(paths: list[Path], mapping, counts: dict) -> Iterator:
                     raise LogError(f"{connection.topic}: a message logged at {logged * 1e-9:.6f} s cannot be "
                                    f"decoded ({exc})") from None
                 yield from topics.read(connection.topic, connection.msgtype, msg, logged, counts)
-        except AnyReaderError as exc:
+        except (AnyReaderError, UnicodeDecodeError) as exc:
             raise LogError(f"{', '.join(map(str, paths))}: the bag is damaged or truncated ({exc})") from None
     finally:
         reader.close()
@@ -168,6 +171,6 @@ def steps(paths: list[Path], scenario, mapping, counts: dict) -> Iterator[StepIn
     """The steps of the bags ``paths`` alone. The registered reader's are
     :func:`swarmtrack.replay.timestamped.steps`, which reads bags with ULogs and CSVs of the same flight too (it
     imports this module, so this one cannot go through it)."""
-    return on_grid(messages(paths, mapping, counts), scenario, counts, mapping.window)
+    return on_grid(messages(paths, mapping, counts), scenario, counts, mapping.window, truth_gap=mapping.truth_gap)
 
 

@@ -15,12 +15,11 @@ navigation of it is not read (a bag) or skipped and counted (a CSV).
 from __future__ import annotations
 
 import heapq
-from collections.abc import Iterator
 from pathlib import Path
 
 from swarmtrack.replay import csv_log, rosbag, ulog
-from swarmtrack.replay.grid import on_grid
-from swarmtrack.replay.steps import LogError, StepInputs
+from swarmtrack.replay.grid import MAX_GAP, TRUTH_GAP, WINDOW, on_grid, plan
+from swarmtrack.replay.steps import LogError, Planned
 
 #: The time-stamped readers, in the order they are asked whether they recognise a log.
 READERS = {"rosbag": rosbag, "ulog": ulog, "csv": csv_log}
@@ -40,19 +39,31 @@ def group(paths) -> dict[str, list[Path]]:
     return out
 
 
-def steps(paths, scenario, mapping, counts: dict) -> Iterator[StepInputs]:
+def steps(paths, scenario, mapping, counts: dict) -> Planned:
     """The estimation steps of the logs ``paths`` (any mix of bags, ULogs and CSVs) for ``scenario``, ``mapping``
     the map file (None: CSVs alone); ``counts`` gets what was skipped (a :class:`~swarmtrack.replay.formats.LogFormat`'s
-    ``steps``)."""
+    ``steps``). The logs are read twice: once for their stamps (:func:`~swarmtrack.replay.grid.plan`: t = 0, the
+    number of steps, the gaps; its skips are not counted), then for the replay; CSVs are read once, kept whole."""
     logs = group(paths)
-    streams = []
-    if logs["rosbag"]:
-        if mapping is None:
-            raise LogError(f"{logs['rosbag'][0]}: a ROS bag needs a map (--map) naming its topics (docs/replay.md)")
-        streams.append(rosbag.messages(logs["rosbag"], mapping, counts))
-    if logs["ulog"] or (mapping is not None and any(s.log is not None for s in mapping.uavs.values())):
-        streams.append(ulog.messages(logs["ulog"], mapping, counts))
-    if logs["csv"]:
-        streams.append(csv_log.messages(logs["csv"], mapping, counts, scenario.swarm.n_uavs))
-    window = 1.0 if mapping is None else mapping.window
-    return on_grid(heapq.merge(*streams, key=lambda m: m.stamp), scenario, counts, window)
+    if logs["rosbag"] and mapping is None:
+        raise LogError(f"{logs['rosbag'][0]}: a ROS bag needs a map (--map) naming its topics (docs/replay.md)")
+    table = csv_log.read(logs["csv"], mapping, counts, scenario.swarm.n_uavs) if logs["csv"] else None
+
+    def merged(counted: dict):
+        streams = []
+        if logs["rosbag"]:
+            streams.append(rosbag.messages(logs["rosbag"], mapping, counted))
+        if logs["ulog"] or (mapping is not None and any(s.log is not None for s in mapping.uavs.values())):
+            streams.append(ulog.messages(logs["ulog"], mapping, counted))
+        if table is not None:
+            streams.append(iter(table))
+        return heapq.merge(*streams, key=lambda m: m.stamp)
+
+    window = WINDOW if mapping is None else mapping.window
+    max_gap = MAX_GAP if mapping is None else mapping.max_gap
+    truth_gap = TRUTH_GAP if mapping is None else mapping.truth_gap
+    dt = 1.0 / scenario.rates.estimation
+    on_grid((), scenario, {}, window)  # the scenario checked before the logs are read
+    start, n = plan(merged({}), dt, window, max_gap, ", ".join(map(str, paths)))
+    grid = on_grid(merged(counts), scenario, counts, window, start, n, truth_gap)
+    return Planned(grid, n)

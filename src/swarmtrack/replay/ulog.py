@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from swarmtrack.autopilot.frames import ned_to_enu
-from swarmtrack.replay.grid import Navigation
+from swarmtrack.replay.grid import Navigation, skip
 from swarmtrack.replay.steps import LogError
 
 #: The first bytes of every ULog file (PX4's "ULog File Format": "ULog", then 0x01 0x12 0x35).
@@ -123,8 +123,7 @@ def _navigation(path: Path, uav: int, sources, counts: dict) -> Iterator[Navigat
     log = _load(path, [name])
     topic = f"{name} in {path}"
     if log.file_corruption:
-        why = f"a damaged stretch of {path} (pyulog's file_corruption)"
-        counts[why] = counts.get(why, 0) + 1
+        skip(counts, "a damaged stretch of", f" {path} (pyulog's file_corruption)")
     data = next((d for d in log.data_list if d.name == name and d.multi_id == 0), None)  # its first instance
     if data is None:
         formats = sorted(log.message_formats)
@@ -141,11 +140,10 @@ def _navigation(path: Path, uav: int, sources, counts: dict) -> Iterator[Navigat
     stamp = stamp * 1e-6 + sources.time_offset
     position = ned_to_enu(np.stack([fields[px], fields[py]], axis=1).astype(np.float64))
     ok = np.ones(len(stamp), dtype=bool)
-    for flag, good, why in _validity(fields):
+    for flag, good, cause, detail in _validity(fields):
         bad = ok & (fields[flag] != good)
         if bad.any():
-            key = f"{why} on {topic}"
-            counts[key] = counts.get(key, 0) + int(bad.sum())
+            skip(counts, cause, f"{detail} on {topic}", int(bad.sum()))
         ok &= ~bad
     velocity, has_velocity = _velocity(fields, path, name)
     for i in np.flatnonzero(ok):
@@ -153,13 +151,13 @@ def _navigation(path: Path, uav: int, sources, counts: dict) -> Iterator[Navigat
                          (float(velocity[i, 0]), float(velocity[i, 1])) if has_velocity[i] else None)
 
 
-def _validity(fields: dict) -> list[tuple[str, int, str]]:
-    """The flags a message's position must carry: (field, value it must have, why)."""
-    out = [("xy_valid", 1, "xy_valid false")] if "xy_valid" in fields else []
+def _validity(fields: dict) -> list[tuple[str, int, str, str]]:
+    """The flags a message's position must carry: (field, value it must have, why: its cause and detail)."""
+    out = [("xy_valid", 1, "xy_valid false", "")] if "xy_valid" in fields else []
     if "pose_frame" in fields:  # VehicleOdometry since PX4 v1.14: POSE_FRAME_NED = 1
-        out.append(("pose_frame", 1, "pose_frame not NED (1)"))
+        out.append(("pose_frame", 1, "pose_frame not NED", " (1)"))
     elif "local_frame" in fields:  # before: LOCAL_FRAME_NED = 0
-        out.append(("local_frame", 0, "local_frame not NED (0)"))
+        out.append(("local_frame", 0, "local_frame not NED", " (0)"))
     return out
 
 

@@ -157,7 +157,7 @@ def test_no_heartbeat_and_bad_urls_are_errors_naming_the_uav():
     with pytest.raises(AutopilotError, match=f"UAV 1: no heartbeat from the autopilot at udp://127.0.0.1:{port} "
                                              "within 0.5 s"):
         AutopilotLink(f"udp://127.0.0.1:{port}", 0, timeout=0.5)
-    assert time.monotonic() - t0 < 3
+    assert time.monotonic() - t0 < 10  # it gave up after its timeout, not never (load may move the figure)
     with pytest.raises(AutopilotError, match="UAV 2: --autopilot tcp://x: expected udp"):
         AutopilotLink("tcp://x", 1)
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:

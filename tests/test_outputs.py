@@ -1,11 +1,25 @@
 """Files written whole or not at all, never replacing what they must not (outputs.partial_files)."""
 
+import json
 import os
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
+from click.testing import CliRunner
 
-from swarmtrack.outputs import MANIFEST, OutputError, dump_json, partial_files, run_folder
+from swarmtrack.cli import main
+from swarmtrack.outputs import (
+    MANIFEST,
+    STAGING_MARKER,
+    OutputError,
+    check_destination,
+    check_new_destination,
+    dump_json,
+    partial_files,
+    run_folder,
+)
 
 
 def test_a_file_that_appeared_meanwhile_is_not_replaced_without_overwrite(tmp_path):
@@ -89,3 +103,76 @@ def test_a_file_another_run_puts_into_an_empty_out_during_the_move_is_kept_and_o
     assert sorted(p.name for p in out.iterdir()) == ["manifest.json", "metrics.json"]  # the other run's, whole
     assert "the other run" in (out / MANIFEST).read_text()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
+
+
+_STAGE_AND_WAIT = """
+import sys, time
+from pathlib import Path
+from swarmtrack.outputs import run_folder
+with run_folder(Path(sys.argv[1])) as tmp:
+    (tmp / "metrics.json").write_text("{}")
+    print(tmp, flush=True)
+    time.sleep(120)
+"""
+
+
+def _staging(out: Path) -> subprocess.Popen:
+    """A process staging a run into ``out`` (it waits there); its staging folder is its first line of output."""
+    return subprocess.Popen([sys.executable, "-c", _STAGE_AND_WAIT, str(out)], stdout=subprocess.PIPE, text=True)
+
+
+def test_the_staging_folder_a_killed_run_left_is_removed_by_the_next_run_into_that_folder_and_only_it(
+        tmp_path, capsys):
+    out = tmp_path / "run"
+    killed, running = _staging(out), _staging(out)
+    try:
+        left, live = Path(killed.stdout.readline().strip()), Path(running.stdout.readline().strip())
+        killed.kill()  # SIGKILL: no cleanup runs
+        killed.wait(timeout=30)
+        assert left.is_dir() and live.is_dir()
+        # staging folders this run cannot be sure of: another host's, one without a marker, another folder's
+        other_host = tmp_path / ".run.otherhost.partial"
+        other_host.mkdir()
+        marker = json.loads((left / STAGING_MARKER).read_text())
+        (other_host / STAGING_MARKER).write_text(json.dumps({**marker, "host": "elsewhere"}))
+        unmarked = tmp_path / ".run.unmarked.partial"
+        unmarked.mkdir()
+        other_out = tmp_path / ".run.b.xyz.partial"  # a run into run.b
+        other_out.mkdir()
+        (other_out / STAGING_MARKER).write_text(json.dumps({**marker, "out": str(tmp_path / "run.b")}))
+        capsys.readouterr()
+        with run_folder(out) as staged:
+            (staged / "metrics.json").write_text("{}")
+        notes = capsys.readouterr().err
+        assert not left.exists() and f"removed {left}" in notes  # the killed run's: gone, and said so
+        assert live.is_dir()  # the running one's: kept
+        assert other_host.is_dir() and unmarked.is_dir() and other_out.is_dir()  # kept
+        assert f"{other_host} is the staging folder of a run into {out} by process" in notes
+        assert f"{unmarked} looks like the staging folder" in notes and str(other_out) not in notes
+        assert sorted(p.name for p in out.iterdir()) == [MANIFEST, "metrics.json"]  # the marker is not kept
+    finally:
+        for p in (killed, running):
+            if p.poll() is None:
+                p.kill()
+                p.wait()
+
+
+def test_a_dangling_symbolic_link_as_destination_is_refused_naming_it(tmp_path):
+    link = tmp_path / "out"
+    link.symlink_to(tmp_path / "nowhere")
+    for check in (lambda: check_destination(link, overwrite=True), lambda: check_new_destination(link)):
+        with pytest.raises(OutputError, match="symbolic link to .*nowhere, which does not exist"):
+            check()
+    assert link.is_symlink() and not (tmp_path / "nowhere").exists()
+
+
+def test_export_onto_a_dangling_symbolic_link_is_one_message_and_exit_2(tmp_path):
+    run = tmp_path / "run"
+    ran = CliRunner().invoke(main, ["run", "l24-ct", "--set", "duration=1", "--no-plots", "--out", str(run)])
+    assert ran.exit_code == 0, ran.output
+    link = tmp_path / "run.mcap"
+    link.symlink_to(tmp_path / "nowhere")
+    res = CliRunner().invoke(main, ["export", str(run), "--out", str(link)])
+    assert res.exit_code == 2 and str(link) in res.output and "symbolic link" in res.output, res.output
+    assert not isinstance(res.exception, NotADirectoryError) and "Traceback" not in res.output
+    assert link.is_symlink() and sorted(p.name for p in tmp_path.iterdir()) == ["run", "run.mcap"]

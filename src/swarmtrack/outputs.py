@@ -8,6 +8,10 @@
   that another run filled meanwhile (two runs started together with the same ``--out``) is never replaced; the
   late run fails (:class:`OutputError`, exit 2 in the CLI) saying so, and its staged files are removed.
 * JSON is strict (``null``, never ``NaN``) and every output names the swarmtrack version that wrote it.
+* A staging folder carries a marker (:data:`STAGING_MARKER`: the process id, its start time and the host); one left
+  by a run that was killed (SIGKILL, a power cut) is removed by the next run into the same folder when the marker
+  says for sure that it was a swarmtrack run into that folder, on this host, whose process is gone
+  (:func:`clean_stale_staging`); any other is left as it is, and said so.
 """
 
 from __future__ import annotations
@@ -15,19 +19,25 @@ from __future__ import annotations
 import contextlib
 import errno
 import functools
+import glob
 import json
 import math
 import os
 import shutil
 import signal
+import socket
 import subprocess
+import sys
 import tempfile
+from collections.abc import Callable
 from contextlib import contextmanager
 from pathlib import Path
 
 from swarmtrack import __version__
 
 MANIFEST = "manifest.json"
+#: The marker file in a run's staging folder (never moved into the run folder): who stages there.
+STAGING_MARKER = ".swarmtrack-staging.json"
 
 
 class OutputError(ValueError):
@@ -177,9 +187,36 @@ def check_file_destination(path: Path, option: str, overwrite: bool) -> None:
         raise OutputError(f"{option} {path}: cannot write in {parent}")
 
 
+def _dangling(path: Path, option: str) -> OutputError | None:
+    """The refusal of ``path`` when it is a symbolic link that leads nowhere (None otherwise)."""
+    if path.is_symlink() and not path.exists():
+        return OutputError(f"{option} {path}: a symbolic link to {os.readlink(path)}, which does not exist, is "
+                           "there; remove the link or choose another place")
+    return None
+
+
+def check_new_destination(path: Path, option: str = "--out", rule: str = "what is there is never replaced") -> None:
+    """Refuse ``path`` when something is there already, a symbolic link that leads nowhere included, or when its
+    folder does not exist or cannot be written to (:class:`OutputError` naming it; ``rule`` says why something there
+    is refused)."""
+    dangling = _dangling(path, option)
+    if dangling is not None:
+        raise dangling
+    if os.path.lexists(path):
+        raise OutputError(f"{option} {path}: something is already there ({rule})")
+    parent = path.absolute().parent
+    if not parent.is_dir():
+        raise OutputError(f"{option} {path}: no folder {parent}")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise OutputError(f"{option} {path}: cannot write in {parent}")
+
+
 def check_destination(out: Path, overwrite: bool) -> None:
-    """Refuse ``out`` when it cannot receive a run: a file, a non-empty folder that is not an earlier run (or
-    is one and ``overwrite`` is off), or a place the user cannot write to."""
+    """Refuse ``out`` when it cannot receive a run: a file, a symbolic link that leads nowhere, a non-empty folder
+    that is not an earlier run (or is one and ``overwrite`` is off), or a place the user cannot write to."""
+    dangling = _dangling(out, "--out")
+    if dangling is not None:
+        raise dangling
     if out.exists() and not out.is_dir():
         raise OutputError(f"--out {out}: a file is there, not a folder")
     if out.is_dir() and any(out.iterdir()):
@@ -230,24 +267,97 @@ def _existing_parent(path: Path) -> Path:
     return path
 
 
+def _process_start(pid: int) -> int | None:
+    """When process ``pid`` started (clock ticks after boot, ``/proc/<pid>/stat``), None where it cannot be read."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+        return int(stat[stat.rindex(")") + 2:].split()[19])  # field 22, after the command name in parentheses
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def _running(pid: int, started: int | None) -> bool:
+    """Whether process ``pid`` (started at ``started``, when known) still runs on this host."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        pass  # another user's process: running
+    now = _process_start(pid)
+    return started is None or now is None or now == started  # another start time: the id was given again
+
+
+def _staging_marker(out: Path) -> dict:
+    return {"written_by": version(), "out": str(out), "host": socket.gethostname(), "pid": os.getpid(),
+            "started": _process_start(os.getpid())}
+
+
+def clean_stale_staging(out: Path, note: Callable[[str], None] | None = None) -> list[Path]:
+    """Remove the staging folders beside ``out`` that earlier runs into ``out`` left when they were killed, and
+    only those: a hidden ``.<name>.*.partial`` folder (not a link) whose marker (:data:`STAGING_MARKER`) names
+    ``out`` and this host, and a process that no longer runs. Any other staging folder of ``out`` (another host's,
+    one without a marker, one that cannot be removed) is left as it is and ``note`` says so (default: a line on
+    stderr); one of a run still going is left silently. Returns the folders removed."""
+    note = note or (lambda text: print(text, file=sys.stderr))
+    removed = []
+    for path in sorted(out.parent.glob(f".{glob.escape(out.name)}.*.partial")):
+        if path.is_symlink() or not path.is_dir():
+            continue
+        try:
+            marker = json.loads((path / STAGING_MARKER).read_text())
+            pid, host, started = int(marker["pid"]), str(marker["host"]), marker.get("started")
+            mine = marker["out"] == str(out)
+        except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError):
+            note(f"note: {path} looks like the staging folder of a run into {out} but holds no marker of "
+                 "swarmtrack's; it was left as it is (remove it once no run writes there)")
+            continue
+        if not mine:
+            continue  # another folder's, whose name begins as this one's
+        if host != socket.gethostname():
+            note(f"note: {path} is the staging folder of a run into {out} by process {pid} on {host}; it was left "
+                 "as it is (remove it once that run is over)")
+            continue
+        if _running(pid, started if isinstance(started, int) else None):
+            continue
+        try:
+            shutil.rmtree(path)
+        except OSError as exc:
+            note(f"note: {path}, left by an earlier run into {out} (process {pid}, gone), could not be removed: "
+                 f"{exc.strerror or exc}")
+            continue
+        removed.append(path)
+        note(f"removed {path}: the staging folder an earlier run into {out} left when it was stopped (process {pid}, "
+             "gone)")
+    return removed
+
+
 @contextmanager
 def run_folder(out: Path, overwrite: bool = False):
     """Stage a run's files in a hidden sibling of ``out`` and move them into ``out`` when the block ends
-    normally; on any interruption the staging folder is removed. Yields the staging folder; files written
-    there are listed in ``out/manifest.json``."""
+    normally; on any interruption the staging folder is removed (a run that is killed leaves it, marked; the next
+    run into ``out`` removes it: :func:`clean_stale_staging`). Yields the staging folder; files written there are
+    listed in ``out/manifest.json``."""
     out = out.absolute()
     check_destination(out, overwrite)
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
+        clean_stale_staging(out)
         tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".partial", dir=out.parent))
     except OSError as exc:
         raise OutputError(f"--out {out}: {exc.strerror or exc}") from None
     try:
+        try:
+            (tmp / STAGING_MARKER).write_text(dump_json(_staging_marker(out)))
+        except OSError as exc:
+            raise OutputError(f"--out {out}: {exc.strerror or exc}") from None
         with terminate_as_exception():
             yield tmp
-            files = sorted(str(p.relative_to(tmp)) for p in tmp.rglob("*") if p.is_file())
+            marker = tmp / STAGING_MARKER
+            files = sorted(str(p.relative_to(tmp)) for p in tmp.rglob("*") if p.is_file() and p != marker)
             (tmp / MANIFEST).write_text(dump_json({"written_by": version(), "files": files}))
             with signals_held():  # the move is not interrupted halfway
+                marker.unlink()  # the run's folder does not keep it
                 _move_into_place(tmp, out, files, overwrite)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)

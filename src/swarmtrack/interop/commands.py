@@ -10,6 +10,7 @@ from pathlib import Path
 import click
 
 from swarmtrack.cli_support import UsageFailure
+from swarmtrack.outputs import OutputError, check_new_destination
 
 
 @click.command("export")
@@ -27,8 +28,10 @@ def export_cmd(run: Path, fmt: str, out: Path | None) -> None:
     if not (run / "recording").is_dir():
         raise UsageFailure(f"{run}: not a swarmtrack run folder (it has no recording/)")
     out = (out or run.parent / f"{run.name}.{fmt}").absolute()
-    if out.exists():
-        raise UsageFailure(f"--out {out}: something is already there (an export never replaces anything)")
+    try:  # a dangling symbolic link too: a folder is never renamed onto it
+        check_new_destination(out, rule="an export never replaces anything")
+    except OutputError as exc:
+        raise UsageFailure(str(exc)) from None
     try:
         rec = open_run(run)  # meta.json and the tables' footers checked: a damaged folder named before writing
     except LogError as exc:
@@ -46,7 +49,7 @@ def export_cmd(run: Path, fmt: str, out: Path | None) -> None:
                 from swarmtrack.interop.ros import export_ros
 
                 counts = export_ros(rec, staging / "export", fmt)
-        if out.exists():  # arrived meanwhile (a folder renamed onto an empty one would replace it)
+        if os.path.lexists(out):  # arrived meanwhile (a folder renamed onto an empty one would replace it)
             raise UsageFailure(f"--out {out}: something was put there meanwhile; nothing was written")
         os.rename(staging / "export", out)
     except LogError as exc:

@@ -101,6 +101,8 @@ def plot_model_selection(rec: Recording, path: str | Path) -> Path:
     shown = min(n, MAX_LINES)
     winner = whole_probe(rec, "winner")
     switches = whole_probe(rec, "switches")
+    # each UAV's cumulative count at its last sample that came (an absent sample is NaN; NaN: none came)
+    last = None if switches is None or not len(switches) else np.fmax.reduce(switches, axis=0)
     t = np.asarray(rec.t, dtype=float)
     fig = new_figure((10.0, 1.2 + 1.4 * shown))
     axes = fig.subplots(shown, 1, sharex=True, squeeze=False)[:, 0]
@@ -112,12 +114,12 @@ def plot_model_selection(rec: Recording, path: str | Path) -> Path:
         ax.set_ylim(0.5, n + 0.5)
         maybe_mark_phases(ax, rec)
         time_axis(ax, rec)
-        count = "" if switches is None or not len(switches) else f": {int(switches[-1, i])} switches"
+        count = "" if last is None or np.isnan(last[i]) else f": {int(last[i])} switches"
         ax.set_title(f"UAV {i + 1} ({names[i]}) output{count}", fontsize=8, loc="left")
         if ax is not axes[-1]:
             ax.set_xlabel("")
-    total = "" if switches is None or not len(switches) else \
-        f"\nmean output-model switches per UAV: {float(switches[-1].mean()):.1f}"
+    total = "" if last is None or np.isnan(last).all() else \
+        f"\nmean output-model switches per UAV: {float(np.nanmean(last)):.1f}"
     if winner is None:
         total += "\n(no winner probe recorded)"
     fig.suptitle(figure_title(rec, "Model whose estimate each UAV's output used", shown, n, "UAVs") + total,

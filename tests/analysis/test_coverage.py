@@ -158,3 +158,13 @@ def test_the_present_mask_round_trips_through_parquet(tmp_path):
     loaded = Recording.load(tmp_path)
     assert np.array_equal(np.concatenate([c.present for c in loaded.chunks()]), present)
     assert metrics.summary(loaded)["coverage"]["samples"] == present.sum()
+
+
+def test_every_figure_of_a_run_with_a_lost_uav_is_drawn(tmp_path):
+    from swarmtrack.analysis.plots import save_run_figures
+
+    est, present = _lost_uav()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        paths = save_run_figures(_recording(present, est), tmp_path)
+    assert paths and all(p.stat().st_size > 0 for p in paths)

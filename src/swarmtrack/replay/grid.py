@@ -88,6 +88,9 @@ WINDOW = 1.0
 #: The map's ``truth_gap`` by default (s): truth is interpolated between two samples at most this far apart (a
 #: 0.5 Hz truth topic); across a longer gap it is absent (NaN), not a straight line through a turn.
 TRUTH_GAP = 2.0
+#: A step this close (s) after a truth sample is on it (stamps in ns, steps at k·dt: the last step of a log lands
+#: on its last sample to rounding).
+ON_SAMPLE = 1e-6
 #: The map's ``max_gap`` by default (s): a longer stretch of the logs without any message is refused (a wrong
 #: stamp, or two flights in one log), never stepped through.
 MAX_GAP = 60.0
@@ -386,8 +389,8 @@ class _Grid:
         gap = self.truth_gap
         if i + 1 < len(s) and s[i + 1][0] - s[i][0] <= gap:
             return self.truth.at(t, 0.0)
-        if s[i][0] == t and i > 0 and t - s[i - 1][0] <= gap:  # on a sample: the pair before it
-            return _Track(s[i - 1:i + 1]).at(t, 0.0)
+        if t - s[i][0] <= ON_SAMPLE and i > 0 and s[i][0] - s[i - 1][0] <= gap:  # on a sample: the pair before it
+            return _Track(s[i - 1:i + 1]).at(t, ON_SAMPLE)
         if i + 1 < len(s) or final or (self.k - 0.5) * self.dt - s[i][0] > gap:
             return None  # the next sample is (or will be) more than truth_gap after this one
         return False

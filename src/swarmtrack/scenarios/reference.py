@@ -23,6 +23,7 @@ from pydantic import BaseModel
 from pydantic_core import PydanticUndefined, to_jsonable_python
 
 from swarmtrack import registry
+from swarmtrack.scenarios import contract
 from swarmtrack.scenarios.schema import _GROUP_KEYS, ROLE_BASES, Scenario, VehicleChoice
 
 #: Marker comments around the generated part of ``docs/scenarios.md``.
@@ -60,7 +61,9 @@ def keys() -> list[Key]:
             default_kind = getattr(defaults, name).kind
             for kind, cls in kinds.items():
                 section = f"{name} (kind: {kind})"
-                note = f"kind {kind}{' (default)' if kind == default_kind else ''}"
+                # the default, and what it gives, reads or commands (swarmtrack.scenarios.contract)
+                notes = [n for n in ("default" if kind == default_kind else "", contract.describe(cls)) if n]
+                note = f"kind {kind}" + (f" ({'; '.join(notes)})" if notes else "")
                 out.append(Key(section, name, "section", "", "", ": ".join(filter(None, (note, _doc(cls))))))
                 out.extend(_walk(cls, name, section, cls(), kinds=tuple(kinds)))
         elif model is not None:

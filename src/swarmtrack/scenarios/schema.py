@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 import typing
-from typing import Annotated, Literal
+from typing import Annotated, ClassVar, Literal
 
 import numpy as np
 from pydantic import (
@@ -23,6 +23,7 @@ from pydantic import (
 )
 
 from swarmtrack import registry
+from swarmtrack.scenarios import contract
 from swarmtrack.vehicles.profile import (
     Phase,
     VelocityProfile,
@@ -435,11 +436,22 @@ class SensorSpec(Strict):
     """Base of every sensor's settings; ``kind`` picks the sensor (a registered kind, :mod:`swarmtrack.registry`)."""
 
     kind: str
+    #: What its measurements give an estimator (names of :data:`~swarmtrack.scenarios.contract.MEASUREMENTS`); a
+    #: sensor that gives ``information_update`` builds it with :meth:`update_rule`.
+    gives: ClassVar[frozenset[str]] = frozenset()
+    #: Whether it reads heights: the world flies them (``swarm.altitude``, the targets' altitude and climb) and its
+    #: estimators run 3-D models; a planar sensor's estimators run planar ones.
+    three_d: ClassVar[bool] = False
     latency: float = Field(0.0, ge=0, le=5.0, description=(
         "s, age of a measurement when the filter uses it as current (sensing and middleware delay; "
         "rounded to the physics step)"))
     occluders: list[OccluderSpec] = Field(default_factory=list, description=(
         "what hides the target from some UAVs (a region, a time window or both)"))
+
+    def update_rule(self, own_sigma: float = 0.0):
+        """How its measurements enter an information filter, for a sensor that gives ``information_update``
+        (``own_sigma``: the UAV's own navigation error, m)."""
+        raise NotImplementedError(f"sensor.kind {self.kind} gives no information_update")
 
     def check(self, scenario: Scenario) -> None:
         """Checks against the rest of the scenario (raise ValueError naming the field)."""
@@ -448,10 +460,6 @@ class SensorSpec(Strict):
             for u in occ.uavs:
                 if not 1 <= u <= n:
                     raise ValueError(f"sensor.occluders[{k}].uavs names UAV {u}, but the swarm has UAVs 1..{n}")
-
-
-
-
 
 
 class OutageSpec(Strict):
@@ -466,8 +474,6 @@ class OutageSpec(Strict):
         if not 0 <= self.window[0] < self.window[1]:
             raise ValueError(f"window {list(self.window)} must be [t0, t1) with 0 <= t0 < t1")
         return self
-
-
 
 
 class LiarSpec(Strict):
@@ -522,6 +528,9 @@ class EstimatorSpec(Strict):
     :mod:`swarmtrack.registry`)."""
 
     kind: str
+    #: The measurements it can fuse (names of :data:`~swarmtrack.scenarios.contract.MEASUREMENTS`): the scenario's
+    #: sensor must give one of them. Empty: it declares none, and any sensor is let through.
+    reads: ClassVar[frozenset[str]] = frozenset()
 
     def followed_target(self) -> int | None:
         """The member of ``targets`` (1-based) this estimator follows, which the recording's capability-1 metrics
@@ -559,6 +568,9 @@ class ControllerSpec(Strict):
     :mod:`swarmtrack.registry`)."""
 
     kind: str
+    #: Numbers it commands per UAV, which the swarm's vehicle kind must take (its ``command_width``: 2, a planar
+    #: acceleration; 1, a fixed wing's yaw acceleration); None: as many as the vehicle takes.
+    commands: ClassVar[int | None] = None
 
     def follows_truth(self) -> bool:
         """Whether the controller follows the truth (an oracle the simulator wires, never onboard) instead of the
@@ -696,18 +708,19 @@ class Scenario(Strict):
     def _heights_need_3d(self) -> None:
         """Heights and climbs are flown in a 3-D world only (a sensor that reads them, ``three_d``): in a planar one
         they would be silently ignored."""
-        if getattr(self.sensor, "three_d", False):
+        if self.sensor.three_d:
             return
+        with_heights = ", ".join(n for n, k in registry.kinds("sensor").items() if k.settings.three_d)
         if self.swarm.altitude:
             raise ValueError(f"swarm.altitude is {self.swarm.altitude:g} m, but sensor.kind {self.sensor.kind} is "
-                             "planar: heights are flown with range_bearing_elevation")
+                             f"planar: heights are flown with {with_heights}")
         for group in ("targets", "decoys"):
             for k, m in enumerate(getattr(self, group).members):
                 climbs = m.profile == "l24-3d" or any(any(p.climb.law()) for p in m.phases)
                 if m.altitude or climbs:
                     what = "altitude" if m.altitude else "profile" if m.profile == "l24-3d" else "phases' climb"
                     raise ValueError(f"{group}.members[{k}].{what} is given, but sensor.kind {self.sensor.kind} is "
-                                     "planar: heights are flown with range_bearing_elevation")
+                                     f"planar: heights are flown with {with_heights}")
 
     def estimation_steps(self) -> int:
         """Estimation steps of the run: a whole number of physics ticks each, as the simulator's clock counts."""
@@ -760,8 +773,11 @@ class Scenario(Strict):
             raise ValueError(f"estimator.target is {followed}, but targets has {len(self.targets.members)} member(s)")
         if self.controller.follows_truth() and followed is None:
             raise ValueError("controller.follow: truth needs an estimator that follows one target")
+        contract.truth_has_a_profile(self)
         self._heights_need_3d()
+        contract.sensor_feeds_estimator(self)
         self.estimator.check(self)
         self.sensor.check(self)
         self.controller.check(self)
+        contract.controller_drives_vehicle(self)
         return self

@@ -3,7 +3,7 @@ position controller."""
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import ClassVar, Literal
 
 import numpy as np
 from pydantic import Field, field_validator, model_validator
@@ -40,6 +40,7 @@ class MPCSpec(ControllerSpec):
     closer than ``r_s``; its position controller flies them."""
 
     kind: Literal["mpc"] = "mpc"
+    commands: ClassVar[int | None] = 2  # a planar acceleration (its position controller's)
     model: str | UAVModelSpec = Field("swarmtrack-quadrotor", description=(
         "the UAVs' identified model: a name (swarmtrack-quadrotor: the project's quadrotor, identified by swarmtrack "
         "identify --simulator; w20-simulator, w20-pelican: W20 eq. 5.32 and Sec. 5.4.1.2 as printed) or {T, A, B}"))

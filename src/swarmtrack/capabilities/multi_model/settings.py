@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, ClassVar, Literal
 
 from pydantic import Field, field_validator
 
@@ -23,6 +23,7 @@ class CameraSpec(SensorSpec):
     UAV's latest estimate; the target is on flat ground."""
 
     kind: Literal["camera"] = "camera"
+    gives: ClassVar[frozenset[str]] = frozenset({"camera_position"})
     sigma: Length = Field(0.0316, gt=0, description=(
         "m, camera-frame noise per axis (chosen: √(10 cm²), W20 Table 4.1's R = 10 read in cm²; at most 1e6 m)"))
     height: Length = Field(1.5, gt=0, description="m, camera height above the ground (W20 Sec. 3.2.2.2: at most 1.5)")
@@ -72,6 +73,8 @@ class MultiModelSpec(EstimatorSpec):
     read in centimetre units (see docs/multi-model.md)."""
 
     kind: Literal["multimodel"] = "multimodel"
+    #: Planar: a camera's positions (CameraFrameMeasurement) or range and bearing (RangeBearingMeasurement).
+    reads: ClassVar[frozenset[str]] = frozenset({"camera_position", "range_bearing"})
     models: Annotated[list[Literal["cv", "ca", "ct"]], CommaList] = Field(["cv", "ca", "ct"], description=(
         "one target model per UAV, in UAV order (W20 Table 4.1: cv, ca, ct); also 'cv,ca,ct'"))
     fusion: Literal["ttest", "imm-thesis", "imm", "ml", "none"] = Field("ttest", description=(

@@ -3,7 +3,7 @@ set-membership MPC."""
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import ClassVar, Literal
 
 from pydantic import Field
 
@@ -29,6 +29,7 @@ class FootprintSpec(SensorSpec):
     only from inside a narrow cone (Sec. 3.2, Sec. 6, eqs. 50-54; our readings in docs/set-membership.md)."""
 
     kind: Literal["footprint"] = "footprint"
+    gives: ClassVar[frozenset[str]] = frozenset({"bounded_detections"})
     opening: Angle = Field(0.7853981633974483, gt=0, description="rad, in azimuth and elevation (IB21: π/4)")
     convention: Literal["full", "half"] = Field("full", description=(
         "full: the opening is the full angle (82.8 m square at 100 m); half: the half angle (200 m)"))
@@ -54,6 +55,7 @@ class SetMembershipSpec(EstimatorSpec):
     identified target, each unidentified object and anything unexplored can be, shares them every ``period``."""
 
     kind: Literal["setmembership"] = "setmembership"
+    reads: ClassVar[frozenset[str]] = frozenset({"bounded_detections"})
     area: Box = Field((0.0, 0.0, 400.0, 400.0), description="X0 = [x0, y0, x1, y1], m")
     target_speed: Speed | None = Field(None, gt=0, description=(
         "m/s, the speed bound V^t the sets grow with; default: the targets' speed"))
@@ -93,8 +95,6 @@ class SetMembershipSpec(EstimatorSpec):
             raise ValueError(LIAR_NEEDS)
 
     def check(self, scenario: Scenario) -> None:
-        if scenario.sensor.kind != "footprint":
-            raise ValueError("estimator.kind setmembership needs sensor.kind: footprint")
         if scenario.swarm.nav_position_std or scenario.swarm.nav_velocity_std:
             raise ValueError("swarm.nav_position_std and nav_velocity_std must be 0 with estimator.kind "
                              "setmembership: a Gaussian pose error has no bound, so no footprint is guaranteed")
@@ -109,6 +109,7 @@ class SMMPCSpec(ControllerSpec):
     its lower-indexed neighbours; ``baseline``: the paper's SimpleBaselineMPC."""
 
     kind: Literal["sm_mpc"] = "sm_mpc"
+    commands: ClassVar[int | None] = 1  # a fixed wing's yaw acceleration
     inputs: list[AngularRate] = Field([0.0, 0.25, -0.25, 0.5, -0.5], min_length=1, description=(
         "rad/s², the yaw accelerations tried, in tie order (ours: IB21 gives none)"))
     horizon: int = Field(2, ge=1, le=6, description="steps of the control period (IB21: 2)")

@@ -31,13 +31,13 @@ class RangeBearingSpec(SensorSpec):
     """Range and bearing from each UAV to every object (L24 Sec. 3.2)."""
 
     kind: Literal["range_bearing"] = "range_bearing"
+    gives: ClassVar[frozenset[str]] = frozenset({"information_update", "range_bearing"})
     sigma_range: Length = Field(0.08, gt=0, description="m (L24: 0.08, L23: 0.4; at most 1e6 m)")
     sigma_bearing: Angle = Field(0.02, gt=0, description="rad (L24: 0.02, L23: 0.1; at most 1e3 rad)")
     update: Literal["position", "polar"] = Field(
         "position", description="position: converted measurement with the paper's R_i; polar: EKF on [ρ, β]")
     max_range: Length | None = Field(None, gt=0, description=(
         "m (at most 1e6 m); a UAV farther from the target measures nothing"))
-
 
     def update_rule(self, own_sigma: float = 0.0):
         """How its measurements enter an information filter (:class:`~swarmtrack.estimation.information
@@ -53,6 +53,7 @@ class RangeBearingElevationSpec(SensorSpec):
     fs3d)."""
 
     kind: Literal["range_bearing_elevation"] = "range_bearing_elevation"
+    gives: ClassVar[frozenset[str]] = frozenset({"information_update"})
     #: It reads heights: the world flies them (swarm.altitude, the targets' altitude and climb).
     three_d: ClassVar[bool] = True
     sigma_range: Length = Field(0.08, gt=0, description="m (L24: 0.08; at most 1e6 m)")
@@ -72,12 +73,6 @@ class RangeBearingElevationSpec(SensorSpec):
             raise ValueError("are planar regions: the range_bearing_elevation sensor takes none")
         return v
 
-    def check(self, scenario: Scenario) -> None:
-        super().check(scenario)
-        if scenario.estimator.kind not in ("information", "centralized", "imm"):
-            raise ValueError(f"sensor.kind range_bearing_elevation needs estimator.kind information, centralized or "
-                             f"imm (with 3-D models), not {scenario.estimator.kind}")
-
     def update_rule(self, own_sigma: float = 0.0):
         """:class:`~swarmtrack.estimation.elevation.RangeBearingElevationUpdate` of this sensor."""
         from swarmtrack.estimation.elevation import RangeBearingElevationUpdate
@@ -86,14 +81,14 @@ class RangeBearingElevationSpec(SensorSpec):
                                            own_sigma=own_sigma)
 
 
-#: The target models of a planar sensor and of the range-bearing-elevation sensor (models/three_d.py).
+#: The target models of a planar sensor and of a 3-D one (``three_d``: range_bearing_elevation; models/three_d.py).
 PLANAR_MODELS = ("cv", "ca", "ct", "fs")
 MODELS_3D = ("cv3d", "ca3d", "ct3d", "fs3d")
 
 
 def check_dimensions(scenario: Scenario, models, field: str) -> None:
     """A 3-D sensor needs 3-D models and a planar one planar models: refuse the mix, naming ``field``."""
-    three_d = scenario.sensor.kind == "range_bearing_elevation"
+    three_d = scenario.sensor.three_d
     wrong = [m for m in models if (m in MODELS_3D) != three_d]
     if wrong:
         need = "3-D models (" + ", ".join(MODELS_3D) + ")" if three_d else "planar models (" + \
@@ -106,6 +101,7 @@ class FilterSpec(EstimatorSpec):
     """An EKF over one target motion model, following the target ``target`` (1-based member of ``targets``,
     recognised onboard by the label its sensor reports)."""
 
+    reads: ClassVar[frozenset[str]] = frozenset({"information_update"})
     share: Literal["information", "measurements"] = Field(
         "information", description="information: neighbours send I_j, i_j (L24 eq. 6); measurements: z_j and pose")
     model: Literal["cv", "ca", "ct", "fs", "cv3d", "ca3d", "ct3d", "fs3d"] = Field("ct", description=(
@@ -209,6 +205,7 @@ class IMMSpec(EstimatorSpec):
     [x, y, vx, vy] (L24's future work; swarmtrack.estimation.imm). Other keys as in the information estimator."""
 
     kind: Literal["imm"] = "imm"
+    reads: ClassVar[frozenset[str]] = frozenset({"information_update"})
     share: Literal["information", "measurements"] = Field("information", description=(
         "information: one I_j, i_j per UAV, linearised at its combined prediction; measurements: z_j and pose, "
         "each model linearises at its own prediction"))
@@ -249,14 +246,12 @@ class IMMSpec(EstimatorSpec):
         return self.target
 
     def check(self, scenario: Scenario) -> None:
-        if scenario.sensor.kind not in ("range_bearing", "range_bearing_elevation"):
-            raise ValueError(f"estimator.kind imm needs a range_bearing or range_bearing_elevation sensor, not "
-                             f"{scenario.sensor.kind!r}")
         check_dimensions(scenario, self.models, "estimator.models")
 
 
 class FlockingSpec(ControllerSpec):
     kind: Literal["flocking"] = "flocking"
+    commands: ClassVar[int | None] = 2  # a planar acceleration
     variant: Literal["standard", "integral", "tailored"] = "tailored"
     d: Length = Field(4.0, gt=0, description="desired inter-agent distance, m (at most 1e6 m)")
     chase_after_steps: int = Field(20, ge=0, le=10**12, description=(

@@ -138,7 +138,7 @@ def agent_cmd(scenario: str, seed, overrides, uav: int, connect, listen, connect
     finally:
         if agent.link is not None:
             agent.link.close()
-        transport.close()
+        node.close()  # its heartbeat stopped and joined, then the transport: nothing of Zenoh runs at exit
 
 
 def _live_options(f):
@@ -187,24 +187,29 @@ def _serve(o: SimpleNamespace, spawn: bool) -> None:
     from swarmtrack.live.transport import TransportError, ZenohTransport, free_port
     from swarmtrack.live.wire import WORLD, Seal
     from swarmtrack.live.world import LiveError
-    from swarmtrack.outputs import OutputError, Terminated, check_destination, run_folder
+    from swarmtrack.outputs import OutputError, Terminated, check_destination, run_folder, terminate_as_exception
     from swarmtrack.sim.build import command_width
 
-    scn = _load(o.scenario, o.overrides, o.seed)
-    if o.mavlink and command_width(scn) != 2:
-        raise UsageFailure(f"--mavlink flies planar acceleration setpoints: swarm.vehicle {scn.swarm.vehicle} is "
-                           "commanded otherwise")
-    key = read_key(o.key_file, o.insecure)
-    out = o.out or Path("runs") / f"{scn.name}-seed{scn.seed}-{run_key(scn)[:8]}-live"
     try:
-        check_destination(out.absolute(), o.overwrite)
-    except OutputError as exc:
-        raise UsageFailure(str(exc)) from None
-    endpoints = list(o.listen) or [f"tcp/127.0.0.1:{free_port()}"]
-    try:
-        transport = ZenohTransport(listen=endpoints)
-    except TransportError as exc:
-        raise UsageFailure(str(exc)) from None
+        with terminate_as_exception():  # Ctrl-C or SIGTERM while it starts: one message, exit 130
+            scn = _load(o.scenario, o.overrides, o.seed)
+            if o.mavlink and command_width(scn) != 2:
+                raise UsageFailure(f"--mavlink flies planar acceleration setpoints: swarm.vehicle "
+                                   f"{scn.swarm.vehicle} is commanded otherwise")
+            key = read_key(o.key_file, o.insecure)
+            out = o.out or Path("runs") / f"{scn.name}-seed{scn.seed}-{run_key(scn)[:8]}-live"
+            try:
+                check_destination(out.absolute(), o.overwrite)
+            except OutputError as exc:
+                raise UsageFailure(str(exc)) from None
+            endpoints = list(o.listen) or [f"tcp/127.0.0.1:{free_port()}"]
+            try:
+                transport = ZenohTransport(listen=endpoints)
+            except TransportError as exc:
+                raise UsageFailure(str(exc)) from None
+    except (KeyboardInterrupt, Terminated):
+        click.echo("interrupted; nothing was written", err=True)
+        sys.exit(130)
     swarm = o.swarm or (f"{scn.name}-{os.getpid()}" if spawn else scn.name)
     node = Node(transport, Seal(key, scn.swarm.n_uavs), swarm, WORLD)
     procs: list[subprocess.Popen] = []
@@ -219,6 +224,8 @@ def _serve(o: SimpleNamespace, spawn: bool) -> None:
             rec, live, tables = run_live(scn, node, record_to=tmp / "recording", realtime=o.realtime,
                                          mavlink=(o.mavlink_port, "127.0.0.1") if o.mavlink else None)
             stop_agents(procs)  # within GRACE s of the end (or of Ctrl-C), before the files are written
+            if live.interrupted is not None and not rec.meta["n_steps"]:
+                raise _NothingRecorded()  # stopped before its first step: there is no run to write
             if tables:
                 (tmp / "live").mkdir()
                 for name, table in tables.items():
@@ -229,12 +236,13 @@ def _serve(o: SimpleNamespace, spawn: bool) -> None:
         raise UsageFailure(str(exc)) from None
     except TimeoutError as exc:
         raise UsageFailure(f"the live run stopped: {exc}") from None
-    except (KeyboardInterrupt, Terminated):
-        click.echo("interrupted; nothing was written", err=True)
+    except (KeyboardInterrupt, Terminated, _NothingRecorded) as exc:
+        when = " before the first step" if isinstance(exc, _NothingRecorded) else ""
+        click.echo(f"interrupted{when}; nothing was written", err=True)
         sys.exit(130)
     finally:
         stop_agents(procs)
-        transport.close()
+        node.close()  # its heartbeat stopped and joined, then the transport: nothing of Zenoh runs at exit
     report_run(metrics, scn, out)
     rejected = metrics["live"]["rejected"]
     click.echo(f"live ({scn.swarm.n_uavs} UAV processes, {live.mode}): " + _facts(live) + (
@@ -245,6 +253,10 @@ def _serve(o: SimpleNamespace, spawn: bool) -> None:
         click.echo(f"interrupted at t = {live.interrupted:.2f} s; the steps completed were written to {out}", err=True)
         sys.exit(130)
     warn_run(metrics, o.strict)
+
+
+class _NothingRecorded(Exception):
+    """Ctrl-C or SIGTERM stopped the live run before its first step was recorded."""
 
 
 def _facts(live) -> str:

@@ -39,6 +39,8 @@ class Node:
         self.seen: dict[int, float] = {}  # when each sender was last heard (monotonic s)
         self.forged: set[tuple[str, str, str]] = set()  # (origin, to, channel) of the keys forged messages came on
         self.heard: list[tuple] | None = None  # with a list, every step's message is logged with its latency
+        self._quiet = threading.Event()  # set by close: the heartbeat stops
+        self._beating: threading.Thread | None = None
 
     def listen(self, *patterns: tuple[str, str, str]) -> None:
         """Subscribe to ``(origin, to, channel)`` key patterns of the swarm's space (``*`` wildcards)."""
@@ -124,18 +126,31 @@ class Node:
 
     def heartbeat(self) -> None:
         """Send :class:`~swarmtrack.live.wire.Alive` (a UAV to the world, the world to every UAV) every
-        :data:`HEARTBEAT` s from a daemon thread, until the transport closes."""
+        :data:`HEARTBEAT` s from a thread of its own, until :meth:`close` (or, on a UAV, until the world says stop)."""
         to = "all" if self.me == WORLD else WORLD
 
         def beat() -> None:
-            while self.stopped is None:
+            while self.stopped is None and not self._quiet.is_set():
                 try:
                     self.send(to, Alive())
-                except Exception:  # the transport closed: the process is ending
+                except Exception:  # the transport closed under it: the process is ending
                     return
-                time.sleep(HEARTBEAT)
+                self._quiet.wait(HEARTBEAT)
 
-        threading.Thread(target=beat, name="heartbeat", daemon=True).start()
+        # a daemon, so that a process that never reaches close still ends; close joins it before the transport closes
+        self._beating = threading.Thread(target=beat, name="heartbeat", daemon=True)
+        self._beating.start()
+
+    def close(self, timeout: float = 5.0) -> None:
+        """Stop the heartbeat and wait for its thread, then close the transport (idempotent). Call it before the
+        process ends: a thread still inside the transport's native code when the interpreter shuts down aborts the
+        process (:class:`~swarmtrack.live.transport.ZenohTransport`)."""
+        self._quiet.set()
+        if self._beating is not None and self._beating is not threading.current_thread():
+            self._beating.join(timeout)  # a send blocked longer than this ends when the transport closes below
+        self.transport.close()
+        if self._beating is not None and self._beating is not threading.current_thread():
+            self._beating.join(timeout)
 
     def log(self) -> list[tuple]:
         """The messages received since the last call, ``(channel, sender, k, c, sent, latency)`` (wall-clock s;

@@ -8,8 +8,10 @@ Key space (:func:`key`): ``swarmtrack/<swarm>/uav/<i>/<channel>`` for what UAV i
 
 from __future__ import annotations
 
+import contextlib
 import json
 import socket
+import threading
 from collections.abc import Callable
 from typing import Protocol
 
@@ -29,7 +31,7 @@ class Transport(Protocol):
         threads; keep the returned handle alive."""
 
     def close(self) -> None:
-        """Stop (idempotent)."""
+        """Stop (idempotent): no callback runs once it has returned."""
 
 
 def key(swarm: str, origin: str, to: int | str, channel: str) -> str:
@@ -53,10 +55,22 @@ def free_port(host: str = "127.0.0.1") -> int:
         return s.getsockname()[1]
 
 
+#: Seconds :meth:`ZenohTransport.close` waits for each subscription's callback thread to finish what it has queued.
+DRAIN = 5.0
+
+
 class ZenohTransport:
     """Eclipse Zenoh in peer mode: ``listen`` and ``connect`` endpoint lists (``tcp/127.0.0.1:7447``), multicast
     scouting off (peers meet through the endpoints given, and gossip); a ``connect`` endpoint that cannot be reached
-    within ``timeout`` s is an error."""
+    within ``timeout`` s is an error.
+
+    Callbacks run on the Python thread zenoh-python starts for each subscription (its default, indirect callbacks:
+    never on Zenoh's own threads). :meth:`close` undeclares the subscriptions, joins those threads and closes the
+    session, so that nothing of Zenoh calls into Python once it has returned: a call
+    that re-enters the interpreter while it shuts down ends its thread by ``pthread_exit``, which aborts the process
+    when the thread is inside Zenoh's Rust code (``FATAL: exception not rethrown``, exit −6; docs/live.md).
+    Close it before the interpreter exits, from the thread that made it, after every thread that sends through it
+    has stopped."""
 
     def __init__(self, listen: list[str] = (), connect: list[str] = (), timeout: float = 5.0):
         import zenoh
@@ -90,14 +104,26 @@ class ZenohTransport:
         def handler(sample) -> None:
             callback(str(sample.key_expr), sample.payload.to_bytes())
 
+        before = set(threading.enumerate())
         sub = self.session.declare_subscriber(key_expr, handler)
-        self._subscribers.append(sub)
+        # the thread zenoh-python started for this subscription's callbacks (joined by close)
+        self._subscribers.append((sub, [t for t in threading.enumerate() if t not in before
+                                        and "pyo3-closure" in t.name]))
         return sub
 
     def close(self) -> None:
-        if not self._closed:
-            self._closed = True
-            self.session.close()
+        if self._closed:
+            return
+        self._closed = True
+        for sub, _ in self._subscribers:
+            with contextlib.suppress(self._zenoh.ZError):
+                sub.undeclare()
+        for _sub, threads in self._subscribers:  # undeclared: each ends once it has run what was queued
+            for thread in threads:
+                if thread is not threading.current_thread():
+                    thread.join(DRAIN)
+        self.session.close()  # and with it the publishers
+        self._subscribers, self._publishers = [], {}
 
 
 def _cause(text: str, listen, connect) -> str:

@@ -51,7 +51,8 @@ class RealtimeWorld(LockstepWorld):
         self.steps: list[tuple[int, int, float, float]] = []  # (UAV, k, done after its time (s), CPU (s))
         self.messages: list[tuple] = []  # (channel, sender, receiver, k, c, sent after the epoch (s), latency (s))
         self.world_late: list[float] = []  # how late the world began each step (s)
-        self._late: dict[int, dict] = {}  # each UAV's latest counts of the messages that missed its deadlines
+        # each UAV process's latest counts of the messages that missed its deadlines, by (UAV, its process)
+        self._late: dict[tuple, dict] = {}
         self._tables: dict[str, pd.DataFrame] = {}
 
     def _begin(self) -> None:
@@ -98,7 +99,7 @@ class RealtimeWorld(LockstepWorld):
         dt = self.sim.clock.dt_estimation
         for sample in samples:
             i = sample.sender
-            self._late[i] = sample.late
+            self._late[self._process_of(i)] = sample.late
             if sample.k >= 0:
                 self.steps.append((i, sample.k, sample.sent - self.epoch - sample.k * dt, sample.cpu))
             self.messages += [(ch, s, i, k, c, sent - self.epoch, lat) for ch, s, k, c, sent, lat in sample.heard]

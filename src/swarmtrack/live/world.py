@@ -147,12 +147,16 @@ class LockstepWorld:
         self.alive = set(range(self.n))
         self.report = LiveReport()
         probes = {**sim.stack.probes, **dict.fromkeys(sim.monitors, ())}
-        self.recorder = Recorder(sim.meta, sim.world.n_objects, self.n, probes, record_to, presence=True)
+        # a run folder keeps the UAVs' inputs (navigation, detections) as swarmtrack run's does: it can be replayed
+        self.recorder = Recorder(sim.meta, sim.world.n_objects, self.n, probes, record_to, presence=True,
+                                 inputs=record_to is not None)
         self.telemetries = telemetry_of(scenario)
         self.components = {"estimator": sim.stack.estimator, "controller": sim.stack.controller}
         self.last: dict[int, wire.Sample] = {}  # each UAV's latest sample (its aim and telemetry when lost)
         self.u = np.zeros((self.n, command_width(scenario)))
-        self._rejected: dict[int, dict] = {}  # each UAV's process's latest counts of the messages it dropped
+        # each UAV process's latest counts of the messages it dropped, by (UAV, its process): a process lost and
+        # started again counts afresh, and the counts of its earlier life stay in the total
+        self._rejected: dict[tuple, dict] = {}
         self._stop = False  # Ctrl-C or SIGTERM arrived (:meth:`_interruptible`)
         self.recorded = 0  # estimation steps recorded
         self.processes: dict[int, tuple[int, int]] = {}  # each UAV's process the world knows: (pid, start time)
@@ -276,6 +280,7 @@ class LockstepWorld:
             self.fleet.publish(t, nav, self._listeners())
         until = self._until(due, clock.dt_estimation)
         samples = self._gather("sample", k, -1, t, until)
+        self.recorder.record_inputs(k, t, nav, detections)  # what the UAVs were sent (the simulator's order)
         self._record(k, t, truth, samples)
         offset = 0
         for c, (control_now, ticks) in enumerate(segments):
@@ -319,9 +324,13 @@ class LockstepWorld:
     def _account(self, samples) -> None:
         """What the samples say of their processes: the messages they dropped, their CPU per step."""
         for sample in samples:
-            self._rejected[sample.sender] = sample.rejected
+            self._rejected[self._process_of(sample.sender)] = sample.rejected
             if sample.k >= 0:  # the first sample's CPU is the process's start-up
                 self.cpu.append(sample.cpu)
+
+    def _process_of(self, i: int) -> tuple:
+        """Which process of UAV ``i`` the world knows now: ``(i, pid, start time)`` (a rejoined UAV's is another)."""
+        return (i, *self.processes.get(i, ()))
 
     def _own_nav(self, nav: np.ndarray, i: int):
         """UAV i's navigation for its message: packed, or None when its autopilot gives it (``--mavlink``)."""

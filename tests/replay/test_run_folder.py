@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import shutil
-import time
 
 import numpy as np
 import pytest
@@ -168,13 +167,18 @@ def test_replay_and_export_of_a_damaged_run_folder_name_the_file_exit_2_and_writ
         assert (folder / "recording" / "notes.txt").is_file()
 
 
-def test_opening_a_run_folder_reads_only_its_footers(small_run):
+def test_opening_a_run_folder_reads_only_its_footers(small_run, monkeypatch):
+    """No row is read when a run folder is opened (judged by what it reads, not by a time a busy machine moves)."""
+    import pyarrow.parquet as pq
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("open_run read rows, not only the footers")
+
+    for name in ("read", "read_row_group", "read_row_groups", "iter_batches"):
+        monkeypatch.setattr(pq.ParquetFile, name, refuse)
+    monkeypatch.setattr(pq, "read_table", refuse)
     rec = run_folder.open_run(small_run)
     assert rec.meta["n_steps"] > 0 and rec.path == small_run / "recording"
-    start = time.perf_counter()
-    for _ in range(20):
-        run_folder.open_run(small_run)
-    assert (time.perf_counter() - start) / 20 < 0.05  # about a millisecond each (the footers' few kB)
 
 
 def test_a_run_folder_without_inputs_is_refused_saying_which_command_wrote_it_and_what_to_do(tmp_path):

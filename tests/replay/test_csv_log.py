@@ -140,3 +140,22 @@ def test_bad_csvs_are_refused_with_one_message_naming_the_file_and_line(tmp_path
     assert res.exit_code == 2 and "gone.csv: no such file or folder" in res.output
     with pytest.raises(LogError, match="gone.csv: no such file or folder"):
         timestamped.steps([tmp_path / "gone.csv"], scenario, None, {})
+
+
+@pytest.mark.slow
+def test_a_csv_with_truth_for_part_of_the_flight_gives_errors_over_that_part(tmp_path, flown):
+    """Truth for the first 10 of 30 s, then none: the errors are over those steps (the issue's 889 s bag with 120 s
+    of truth gave null RMSE and 'lost the target' to the end), its coverage stated, no lost target."""
+    scenario, rec = flown
+    rows = [r for r in flight(rec, drop=0.0, reorder=0.0) if r["kind"] != "truth" or r["t"] < 10.0]
+    log = write_csv(tmp_path / "partial.csv", rows)
+    out = tmp_path / "replayed"
+    res = CliRunner().invoke(main, ["replay", str(log), "--scenario", "l24-ct", "--set", "duration=30", "--set",
+                                    "sensor.latency=0", "--seed", "3", "--no-plots", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert all(np.isfinite(v) and v < 0.5 for v in metrics["rmse"]["total"].values()), metrics["rmse"]
+    assert np.isfinite(metrics["nees"]) and np.isfinite(metrics["mean_error"]["all"])
+    assert metrics["coverage"]["truth_fraction"] == pytest.approx(1 / 3, abs=0.02)
+    kinds = [w.get("kind") for w in metrics["warnings"]]
+    assert "lost_target" not in kinds and "partial_truth" in kinds

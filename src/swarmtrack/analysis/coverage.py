@@ -65,7 +65,7 @@ def mean_over_uavs(x: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndar
     return np.divide(total, count, out=np.full(len(x), np.nan), where=some), some
 
 
-def _spans(flags: np.ndarray, t: np.ndarray, shortest: float) -> list[tuple[int, int]]:
+def runs(flags: np.ndarray, t: np.ndarray, shortest: float) -> list[tuple[int, int]]:
     """Maximal runs of True in ``flags`` (k,) lasting at least ``shortest`` s, as index pairs ``[a, b)``."""
     edges = np.diff(np.concatenate([[0], flags.astype(np.int8), [0]]))
     dt = t[1] - t[0] if len(t) > 1 else 0.0
@@ -122,10 +122,10 @@ class Presence:
         if not self.rows:
             return out
         present, t = np.concatenate(self.rows), np.concatenate(self.t)
-        absent = [i for i in range(self.rec.n_agents) if _spans(~present[:, i], t, GAP_S)]
+        absent = [i for i in range(self.rec.n_agents) if runs(~present[:, i], t, GAP_S)]
         rmse = (summary or {}).get("position_rmse_per_uav")
         for i in absent[:LISTED]:
-            gaps = _spans(~present[:, i], t, GAP_S)
+            gaps = runs(~present[:, i], t, GAP_S)
             when = "; ".join(f"from t = {t[a]:.1f} s " + ("to the end" if b == len(t) else f"to {t[b - 1]:.1f} s")
                              for a, b in gaps)
             others = [j for j in range(self.rec.n_agents) if j != i and self.came[j]]

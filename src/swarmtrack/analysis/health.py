@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from swarmtrack.analysis import metrics
+from swarmtrack.analysis.coverage import runs
 from swarmtrack.registry import Metric
 from swarmtrack.sim.recorder import Recording
 
@@ -39,13 +40,7 @@ def chi2_mean_band(dim: int, n: float) -> list[float]:
 
 def spans(flags: np.ndarray, t: np.ndarray, shortest: float) -> list[tuple[float, float]]:
     """Maximal runs of True in ``flags`` lasting at least ``shortest`` seconds, as ``(t_start, t_end)``."""
-    out = []
-    edges = np.diff(np.concatenate([[0], flags.astype(np.int8), [0]]))
-    dt = t[1] - t[0] if len(t) > 1 else 0.0
-    for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True):
-        if (b - a) * dt >= shortest - 1e-9:
-            out.append((float(t[a]), float(t[b - 1])))
-    return out
+    return [(float(t[a]), float(t[b - 1])) for a, b in runs(flags, t, shortest)]
 
 
 #: The fraction of a UAV's delivered contributions gated beyond which it is named a suspect.

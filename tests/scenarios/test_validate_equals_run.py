@@ -33,11 +33,7 @@ from swarmtrack.scenarios.loader import ScenarioError, apply_override, builtin_n
 DURATION = "duration=2"
 #: Combinations that validate accepts and run still fails on, outside the validation's reach: each with what it fails
 #: with. A fixed one fails the slow test until it is removed here.
-KNOWN_DEFECTS = {
-    # capabilities/mpc/metrics.py: the formation's per-phase error indexes the target's phases, and a walker target
-    # (kinematic: no velocity profile) has none once the MPC has started
-    ("w20-mpc-indoor", ("targets.vehicle=walker", "controller={kind: mpc}")): "IndexError",
-}
+KNOWN_DEFECTS: dict = {}
 
 
 def _kind(role: str, name: str) -> str:

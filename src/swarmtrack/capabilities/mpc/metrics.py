@@ -70,9 +70,10 @@ class _Formation:
         self.sum += dist.sum(axis=0)
         self.sum_axes += np.abs(off).sum(axis=0)
         self.n += int(after.sum())
-        phase = self.group[c.phase[after, self.rec.tracked]]
-        np.add.at(self.phase_sum, phase, dist.mean(axis=1))
-        np.add.at(self.phase_n, phase, 1)
+        if self.names:  # a target without profile phases (a walker) has no per-phase rows
+            phase = self.group[c.phase[after, self.rec.tracked]]
+            np.add.at(self.phase_sum, phase, dist.mean(axis=1))
+            np.add.at(self.phase_n, phase, 1)
         if len(c.t):  # the cumulative solver probes at each UAV's last sample that came
             present = came(self.rec, c)
             row, got = len(c.t) - 1 - np.argmax(present[::-1], axis=0), present.any(axis=0)

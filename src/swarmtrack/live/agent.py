@@ -135,8 +135,10 @@ class Agent:
             raise Mismatch("the world flies its UAVs through MAVLink autopilots (--mavlink): give --autopilot URL"
                            if start.mavlink else "--autopilot: the world does not fly its UAVs through MAVLink "
                            "(start it with --mavlink)")
+        # the kernels loaded (compiled, when numba's cache is cold) before it says it is ready, in lockstep too: the
+        # world waits for that as long as the process is heard, but for a step only its patience
+        warm_up(self.scenario)
         if start.realtime:
-            warm_up(self.scenario)
             node.heard = []  # every message's latency is logged and reported
         self.estimator, self.controller = build_onboard(self.scenario, self.i, start.labels)
         self._sequential = isinstance(self.controller, SequentialPlanner)

@@ -173,7 +173,7 @@ class LockstepWorld:
         self.processes = {i: (m.pid, m.started) for i, m in hello.items()}
         node.send("all", wire.Start(labels=labels_of(self.sim.world), realtime=self.realtime,
                                     mavlink=self.fleet is not None))
-        self.last = node.wait("sample", range(self.n), -1, timeout=self.patience)
+        self.last = self._ready()
         self._begin()
         report_every = max(1, clock.steps // 100)
         with self._interruptible():
@@ -240,6 +240,21 @@ class LockstepWorld:
                                 "--key (or without one)")
             if time.monotonic() > deadline:
                 raise TimeoutError(f"no hello from UAVs {[i + 1 for i in range(self.n) if i not in got]}")
+        return got
+
+    def _ready(self) -> dict[int, wire.Sample]:
+        """Every UAV's first sample (its stack built and its kernels loaded: compiling them, with numba's cache cold
+        and the machine busy, may take minutes), waited for as long as its process is heard; a UAV not heard for
+        :data:`~swarmtrack.live.node.LOST_AFTER` s before it is ready stops the run (``TimeoutError`` naming it)."""
+        got: dict = {}
+        while len(got) < self.n:
+            missing = [i for i in range(self.n) if i not in got]
+            got.update(self.node.wait("sample", missing, -1, timeout=HELLO_EVERY, missing_ok=True))
+            now = time.monotonic()
+            silent = [i + 1 for i in missing if i not in got and now - self.node.seen.get(i, now) > LOST_AFTER]
+            if silent:
+                raise TimeoutError(f"UAVs {silent} stopped answering before their first step (not heard for "
+                                   f"{LOST_AFTER:g} s)")
         return got
 
     def _check(self, hello: dict) -> None:

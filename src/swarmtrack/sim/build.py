@@ -18,8 +18,8 @@ from swarmtrack.network.channel import Channel
 from swarmtrack.network.faults import Liar
 from swarmtrack.network.links import edge_list, proximity_links
 from swarmtrack.network.rows import Rows, subset_of
-from swarmtrack.scenarios.loader import ScenarioError
 from swarmtrack.scenarios.schema import GroupSpec, Scenario, SensorSpec
+from swarmtrack.scenarios.spawn import on_lattice
 from swarmtrack.sim.agent import OnboardStack
 from swarmtrack.sim.clock import Clock
 from swarmtrack.sim.oracle import TruthOracle
@@ -91,7 +91,9 @@ def build_component(role: str, scenario: Scenario, ctx: Context | Scenario):
 
 
 def spawn_positions(scenario: Scenario, rng: np.random.Generator) -> np.ndarray:
-    """Initial UAV positions: the scenario's, or seeded uniform draws in the spawn box, kept apart."""
+    """Initial UAV positions: the scenario's, or seeded uniform draws in the spawn box, kept apart; a swarm too
+    dense to be drawn so (random placement jams) on the hexagonal lattice of the box
+    (:func:`swarmtrack.scenarios.spawn.on_lattice`), which validation has checked holds it."""
     sw = scenario.swarm
     if sw.initial_positions is not None:
         return np.asarray(sw.initial_positions, dtype=float)
@@ -103,9 +105,7 @@ def spawn_positions(scenario: Scenario, rng: np.random.Generator) -> np.ndarray:
             break
         pos[close] = center + rng.uniform(-sw.spawn_half_width, sw.spawn_half_width, size=(close.sum(), 2))
     else:
-        raise ScenarioError(f"swarm: cannot place {sw.n_uavs} UAVs {sw.min_separation} m apart in a spawn box of "
-                            f"half-width {sw.spawn_half_width} m; enlarge swarm.spawn_half_width or lower "
-                            "swarm.min_separation")
+        return on_lattice(sw.n_uavs, center, sw.spawn_half_width, sw.min_separation, rng)
     return pos
 
 

@@ -1,6 +1,14 @@
 """The middleware under the live swarm: a small :class:`Transport` interface (put bytes on a key, subscribe to a key
 expression), implemented over Eclipse Zenoh (:class:`ZenohTransport`: peer mode, no daemon, multicast scouting off;
-loopback unless endpoints are given). Another middleware is one more class with these three methods.
+loopback unless endpoints are given; TLS with mutual authentication as an option). Another middleware is one more
+class with these three methods.
+
+No peer can block a put (docs/live.md, "Congestion"): every message is published with Zenoh's ``DROP`` congestion
+control, express (not batched), on a priority per channel (:data:`PRIORITY`). Zenoh keeps one transmission queue
+per peer and per priority; when the queue towards one peer stays full for ``wait_before_drop`` (1 ms), that message
+is dropped *towards that peer only* and the queue is marked congested (later messages to it are dropped at once until
+it drains); the other peers get theirs as before. With ``BLOCK`` the put waited for the slowest subscriber, up to
+5 s, then Zenoh closed its link.
 
 Key space (:func:`key`): ``swarmtrack/<swarm>/uav/<i>/<channel>`` for what UAV i sends, and
 ``swarmtrack/<swarm>/world/<i>/<channel>`` for what the world sends UAV i (``.../world/all/<channel>`` to every UAV).
@@ -12,10 +20,35 @@ import contextlib
 import json
 import socket
 import threading
+import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import Protocol
 
 PREFIX = "swarmtrack"
+
+#: Zenoh's priority of each channel (the last chunk of a key): what says who is alive and when the run ends travels
+#: on a queue of its own, never behind the data (a peer's link congested by data still hears the heartbeats).
+#: Every other channel (``navigation``, ``share``, ``publish``, ``beacon``, ``plan``, ``command``, ``sample``) is
+#: ``DATA``. Each UAV's mailbox is keyed by (channel, sender, step), so what comes first does not matter.
+PRIORITY = {"alive": "INTERACTIVE_HIGH", "roster": "INTERACTIVE_HIGH", "stop": "INTERACTIVE_HIGH",
+            "hello": "INTERACTIVE_HIGH", "start": "INTERACTIVE_HIGH"}
+
+#: Zenoh's transmission queue per peer and priority, in batches (express: one message each; Zenoh's default is 2,
+#: its maximum 16): a member's burst (a rejoined UAV's catch-up, a busy machine's scheduler) fits before a drop.
+QUEUE_BATCHES = 16
+
+#: Microseconds Zenoh waits for room in a full queue before it drops a message towards that peer (its default), and
+#: before it closes the link of a peer that does not take Zenoh's own reliable messages (declarations; 5 s by
+#: default): a frozen stranger is cut off within a second instead of holding the close of every session.
+WAIT_BEFORE_DROP_US, WAIT_BEFORE_CLOSE_US = 1000, 1_000_000
+
+#: The files of a TLS folder (``--tls DIR``): the swarm's certificate authority, this process's certificate (signed
+#: by it) and its private key. Every process presents its certificate and accepts only peers signed by the CA.
+TLS_FILES = ("ca.pem", "cert.pem", "key.pem")
+
+#: The endpoint protocols the live commands take.
+PROTOCOLS = ("tcp", "tls")
 
 
 class TransportError(Exception):
@@ -55,7 +88,44 @@ def free_port(host: str = "127.0.0.1") -> int:
         return s.getsockname()[1]
 
 
-#: Seconds :meth:`ZenohTransport.close` waits for each subscription's callback thread to finish what it has queued.
+def endpoint_problem(endpoint: str, tls: bool) -> str | None:
+    """Why ``endpoint`` is not one the live commands take (``tcp/HOST:PORT``, or ``tls/HOST:PORT`` with TLS), or
+    None; Zenoh's own parser has the last word (:func:`zenoh_problem`)."""
+    proto, sep, rest = endpoint.partition("/")
+    address = rest.split("?")[0].split("#")[0]
+    host, _, port = address.rpartition(":")
+    if not sep or proto not in PROTOCOLS or not host or not port.isdigit() or not 0 < int(port) < 65536:
+        return f"{endpoint!r} is not an endpoint: expected {'tls' if tls else 'tcp'}/HOST:PORT (PORT 1..65535)"
+    if tls and proto != "tls":
+        return f"{endpoint!r}: with --tls every endpoint is tls/HOST:PORT"
+    if not tls and proto == "tls":
+        return f"{endpoint!r}: a tls/ endpoint needs --tls DIR (the certificates)"
+    return zenoh_problem(endpoint)
+
+
+def zenoh_problem(endpoint: str) -> str | None:
+    """What Zenoh's configuration says of ``endpoint`` (None: it takes it), without opening anything."""
+    import zenoh
+
+    try:
+        zenoh.Config().insert_json5("listen/endpoints", json.dumps([endpoint]))
+    except zenoh.ZError as exc:
+        return f"{endpoint!r} is not an endpoint Zenoh takes: {_short(str(exc))}"
+    return None
+
+
+def tls_problem(folder: Path) -> str | None:
+    """What is missing from a TLS folder (:data:`TLS_FILES`), or None."""
+    if not folder.is_dir():
+        return f"{folder}: not a folder (expected {', '.join(TLS_FILES)}; docs/live.md, \"TLS\")"
+    missing = [name for name in TLS_FILES if not (folder / name).is_file()]
+    if missing:
+        return f"{folder}: {', '.join(missing)} missing (docs/live.md, \"TLS\", makes them)"
+    return None
+
+
+#: Seconds :meth:`ZenohTransport.close` waits for the subscriptions' callback threads to finish what they have queued
+#: (all of them together).
 DRAIN = 5.0
 
 
@@ -70,21 +140,22 @@ class ZenohTransport:
     that re-enters the interpreter while it shuts down ends its thread by ``pthread_exit``, which aborts the process
     when the thread is inside Zenoh's Rust code (``FATAL: exception not rethrown``, exit −6; docs/live.md).
     Close it before the interpreter exits, from the thread that made it, after every thread that sends through it
-    has stopped."""
+    has stopped. The close is bounded: the callback threads get :data:`DRAIN` s together, and Zenoh's own close
+    gives up after 10 s (``close operation timed out``), which :meth:`close` notes (:attr:`close_timed_out`) instead
+    of raising.
 
-    def __init__(self, listen: list[str] = (), connect: list[str] = (), timeout: float = 5.0):
+    ``tls``: a folder of :data:`TLS_FILES`; the endpoints are then ``tls/HOST:PORT``, every link is TLS 1.3 with
+    both sides' certificates checked against the swarm's CA (mutual TLS), and a peer's certificate must name the
+    host it is reached at (``HOST``: an IP address or DNS name in its subjectAltName)."""
+
+    def __init__(self, listen: list[str] = (), connect: list[str] = (), timeout: float = 5.0,
+                 tls: Path | None = None):
         import zenoh
 
         conf = zenoh.Config()
-        conf.insert_json5("mode", '"peer"')
-        conf.insert_json5("scouting/multicast/enabled", "false")
-        if listen:
-            conf.insert_json5("listen/endpoints", json.dumps(list(listen)))
-        if connect:
-            conf.insert_json5("connect/endpoints", json.dumps(list(connect)))
-            conf.insert_json5("connect/timeout_ms", str(int(timeout * 1000)))
-            conf.insert_json5("connect/exit_on_failure", "true")
         try:
+            for path, value in _settings(listen, connect, timeout, tls):
+                conf.insert_json5(path, value)
             self.session = zenoh.open(conf)
         except zenoh.ZError as exc:
             raise TransportError(_cause(str(exc), listen, connect)) from None
@@ -92,12 +163,14 @@ class ZenohTransport:
         self._publishers: dict[str, object] = {}
         self._subscribers: list = []
         self._closed = False
+        self.close_timed_out = False
 
     def put(self, key: str, data: bytes) -> None:
         pub = self._publishers.get(key)
         if pub is None:
+            priority = getattr(self._zenoh.Priority, PRIORITY.get(key.rsplit("/", 1)[-1], "DATA"))
             pub = self._publishers[key] = self.session.declare_publisher(
-                key, express=True, congestion_control=self._zenoh.CongestionControl.BLOCK)
+                key, express=True, congestion_control=self._zenoh.CongestionControl.DROP, priority=priority)
         pub.put(data)
 
     def subscribe(self, key_expr: str, callback: Callable[[str, bytes], None]) -> object:
@@ -118,12 +191,46 @@ class ZenohTransport:
         for sub, _ in self._subscribers:
             with contextlib.suppress(self._zenoh.ZError):
                 sub.undeclare()
+        deadline = time.monotonic() + DRAIN
         for _sub, threads in self._subscribers:  # undeclared: each ends once it has run what was queued
             for thread in threads:
                 if thread is not threading.current_thread():
-                    thread.join(DRAIN)
-        self.session.close()  # and with it the publishers
+                    thread.join(max(0.0, deadline - time.monotonic()))
+        try:
+            self.session.close()  # and with it the publishers; Zenoh gives up after 10 s
+        except self._zenoh.ZError:
+            self.close_timed_out = True  # a peer that did not let the links close: the process ends all the same
         self._subscribers, self._publishers = [], {}
+
+
+def _settings(listen, connect, timeout: float, tls: Path | None) -> list[tuple[str, str]]:
+    """The Zenoh configuration of a live process: ``(path, JSON5 value)``."""
+    queue = "transport/link/tx/queue"
+    out = [("mode", '"peer"'), ("scouting/multicast/enabled", "false"),
+           (f"{queue}/congestion_control/drop/wait_before_drop", str(WAIT_BEFORE_DROP_US)),
+           (f"{queue}/congestion_control/block/wait_before_close", str(WAIT_BEFORE_CLOSE_US))]
+    out += [(f"{queue}/size/{priority}", str(QUEUE_BATCHES)) for priority in ("interactive_high", "data")]
+    if listen:
+        out.append(("listen/endpoints", json.dumps(list(listen))))
+    if connect:
+        out += [("connect/endpoints", json.dumps(list(connect))), ("connect/timeout_ms", str(int(timeout * 1000))),
+                ("connect/exit_on_failure", "true")]
+    if tls is not None:
+        ca, cert, private = (str(Path(tls, name).absolute()) for name in TLS_FILES)
+        link = "transport/link/tls"
+        out += [(f"{link}/root_ca_certificate", json.dumps(ca)), (f"{link}/enable_mtls", "true"),
+                (f"{link}/listen_certificate", json.dumps(cert)), (f"{link}/listen_private_key", json.dumps(private)),
+                (f"{link}/connect_certificate", json.dumps(cert)),
+                (f"{link}/connect_private_key", json.dumps(private))]
+    return out
+
+
+def _short(text: str) -> str:
+    """A Zenoh error's message without its Rust source locations and wrappers."""
+    text = text.split(" at /")[0]
+    if "msg: \"" in text:
+        text = text.split("msg: \"", 1)[1].split("\"")[0]
+    return text.rstrip(".:")
 
 
 def _cause(text: str, listen, connect) -> str:
@@ -131,4 +238,4 @@ def _cause(text: str, listen, connect) -> str:
         return f"cannot listen on {', '.join(listen)}: the address is in use"
     if "Unable to connect" in text:
         return f"cannot reach {', '.join(connect)} (nothing answers there)"
-    return f"Zenoh could not start: {text.split(' at ')[0]}"
+    return f"Zenoh could not start: {_short(text)}"

@@ -23,7 +23,7 @@ import swarmtrack
 from swarmtrack.cli import main
 from swarmtrack.live import wire
 from swarmtrack.live.agent import scenario_hash
-from swarmtrack.live.commands import GRACE, stop_agents
+from swarmtrack.live.commands import GRACE, stop_agents, swarm_processes
 from swarmtrack.live.node import LOST_AFTER, Node
 from swarmtrack.live.transport import free_port, key
 
@@ -31,8 +31,7 @@ pytestmark = pytest.mark.xdist_group("live")  # one worker runs these (each star
 
 
 def _processes_of(swarm: str) -> list[str]:
-    out = subprocess.run(["ps", "-ww", "-eo", "pid,args"], capture_output=True, text=True).stdout
-    return [line for line in out.splitlines() if f"--swarm {swarm}" in line and "agent" in line]
+    return [line for line in swarm_processes(swarm) if "agent" in line]
 
 
 def start_live(out, scenario: str, overrides: list[str]) -> tuple[subprocess.Popen, str]:

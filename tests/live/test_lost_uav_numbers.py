@@ -13,6 +13,7 @@ import uuid
 
 import pytest
 
+from swarmtrack.live.commands import swarm_processes
 from swarmtrack.live.node import LOST_AFTER
 from swarmtrack.live.transport import free_port
 
@@ -20,9 +21,7 @@ pytestmark = pytest.mark.xdist_group("live")  # one worker runs the live tests (
 
 
 def _agents(swarm: str, uav: int) -> list[int]:
-    out = subprocess.run(["ps", "-ww", "-eo", "pid,args"], capture_output=True, text=True).stdout
-    return [int(line.split()[0]) for line in out.splitlines()
-            if f"--swarm {swarm}" in line and "agent" in line and f"--uav {uav} " in line]
+    return [int(line.split()[0]) for line in swarm_processes(swarm) if "agent" in line and f"--uav {uav} " in line]
 
 
 @pytest.mark.slow

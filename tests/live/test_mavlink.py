@@ -19,6 +19,7 @@ from pymavlink.dialects.v20 import common as mavlink
 import swarmtrack
 from swarmtrack.analysis.metrics import summary
 from swarmtrack.autopilot.vehicle import MavlinkVehicle
+from swarmtrack.live.commands import swarm_processes
 from swarmtrack.live.transport import ZenohTransport, free_port
 
 pytestmark = pytest.mark.xdist_group("live")
@@ -97,8 +98,8 @@ def test_a_killed_agent_is_held_by_its_vehicles_failsafe(tmp_path, peer):
     proc, swarm, zenoh_port = _live(tmp_path, duration=20)
     try:
         peer.flown(zenoh_port, swarm, 1, 100)  # 5 s flown
-        lines = subprocess.run(["ps", "-eo", "pid,args", "-ww"], capture_output=True, text=True).stdout.splitlines()
-        victim = [ln.split()[0] for ln in lines if "agent --uav 2 " in ln and f"--swarm {swarm}" in ln]
+        lines = swarm_processes(swarm)
+        victim = [ln.split()[0] for ln in lines if "agent --uav 2 " in ln]
         assert len(victim) == 1, lines
         os.kill(int(victim[0]), 9)
         out, err = proc.communicate(timeout=240)

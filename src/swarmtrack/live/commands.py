@@ -4,6 +4,9 @@
 ``swarmtrack agent --uav I`` process per UAV; ``world`` is the same without starting them (agents join from elsewhere);
 ``agent`` is one UAV's onboard stack; ``keygen`` writes a swarm key. Every process of a swarm must be given the same
 scenario, seed and overrides (the world refuses a UAV whose resolved scenario differs) and the same key.
+
+What ``ps`` must not show is taken from the environment too (:data:`ENV`): ``live`` gives its UAV processes the key
+file, the swarm's name and the TLS folder that way, never on their command lines.
 """
 
 from __future__ import annotations
@@ -25,6 +28,10 @@ from swarmtrack.scenarios.loader import ScenarioError, load_scenario
 #: Seconds the processes a run started get to end after SIGTERM before they are killed.
 GRACE = 2.0
 
+#: The environment variables the options below are read from when not given (``live`` starts its UAV processes so):
+#: a command line is visible to every local user (``ps``), a process's environment to its owner only.
+ENV = {"key": "SWARMTRACK_KEY_FILE", "swarm": "SWARMTRACK_SWARM", "tls": "SWARMTRACK_TLS"}
+
 
 def _scenario_options(f):
     f = click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
@@ -34,10 +41,47 @@ def _scenario_options(f):
 
 
 def _security_options(f):
+    f = click.option("--tls", "tls", type=click.Path(path_type=Path), default=None, envvar=ENV["tls"],
+                     metavar="DIR", help=(
+                         "encrypt every link with Zenoh's mutual TLS: DIR holds ca.pem, cert.pem and key.pem "
+                         f"(docs/live.md, \"TLS\"); endpoints are then tls/HOST:PORT [env {ENV['tls']}]"))(f)
     f = click.option("--insecure", is_flag=True, help="run without a swarm key: messages are not authenticated")(f)
     f = click.option("--key", "key_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
-                     help="the swarm key (swarmtrack keygen FILE): messages are sealed and checked with it")(f)
-    return click.option("--swarm", default=None, help="the swarm's name in the key space (default: the scenario's)")(f)
+                     envvar=ENV["key"], help=(
+                         "the swarm key (swarmtrack keygen FILE): messages are sealed and checked with it "
+                         f"[env {ENV['key']}]"))(f)
+    return click.option("--swarm", default=None, envvar=ENV["swarm"],
+                        help=f"the swarm's name in the key space (default: the scenario's) [env {ENV['swarm']}]")(f)
+
+
+def check_wire(tls: Path | None, **endpoints) -> None:
+    """Refuse, naming the flag, a TLS folder without its files and an endpoint Zenoh would not take
+    (``endpoints``: each flag's name, without its dashes, and the endpoints given to it)."""
+    from swarmtrack.live.transport import endpoint_problem, tls_problem
+
+    if tls is not None and (problem := tls_problem(tls)):
+        raise UsageFailure(f"--tls {problem}")
+    for flag, given in endpoints.items():
+        for endpoint in given:
+            if problem := endpoint_problem(endpoint, tls is not None):
+                raise UsageFailure(f"--{flag.replace('_', '-')} {problem}")
+
+
+def check_autopilot(url: str | None) -> None:
+    """Refuse, naming the flag, an ``--autopilot`` URL the link could not open as written."""
+    if url is None:
+        return
+    from swarmtrack.autopilot.link import device_of
+
+    try:
+        device, baud = device_of(url)
+    except ValueError as exc:
+        raise UsageFailure(f"--autopilot {exc}") from None
+    port = device.rpartition(":")[2] if url.startswith("udp://") else None
+    if port is not None and not 0 < int(port) < 65536:
+        raise UsageFailure(f"--autopilot {url}: port {port} is not a UDP port (1..65535)")
+    if port is None and (not device or baud <= 0):
+        raise UsageFailure(f"--autopilot {url}: expected serial://DEVICE[:BAUD] with a positive BAUD")
 
 
 def read_key(key_file: Path | None, insecure: bool) -> bytes | None:
@@ -99,7 +143,7 @@ def keygen_cmd(file: Path) -> None:
     "serial://DEVICE[:BAUD]; its navigation comes from it and its commands go to it as setpoints"))
 @_security_options
 def agent_cmd(scenario: str, seed, overrides, uav: int, connect, listen, connect_timeout, rejoin, autopilot, swarm,
-              key_file, insecure) -> None:
+              key_file, insecure, tls) -> None:
     """Run UAV --uav's onboard stack (estimator, controller) of SCENARIO, as on its companion computer: its
     navigation, detections and radio from the world (or its navigation from its autopilot, --autopilot), its
     neighbours' messages over Zenoh."""
@@ -109,12 +153,14 @@ def agent_cmd(scenario: str, seed, overrides, uav: int, connect, listen, connect
     from swarmtrack.live.transport import TransportError, ZenohTransport
     from swarmtrack.live.wire import Seal
 
+    check_wire(tls, connect=connect, listen=listen)
+    check_autopilot(autopilot)
     scn = _load(scenario, overrides, seed)
     if not 1 <= uav <= scn.swarm.n_uavs:
         raise UsageFailure(f"--uav {uav}: the swarm of {scn.name} has UAVs 1..{scn.swarm.n_uavs}")
     key = read_key(key_file, insecure)
     try:
-        transport = ZenohTransport(listen=list(listen), connect=list(connect), timeout=connect_timeout)
+        transport = ZenohTransport(listen=list(listen), connect=list(connect), timeout=connect_timeout, tls=tls)
     except TransportError as exc:
         raise UsageFailure(str(exc)) from None
     node = Node(transport, Seal(key, scn.swarm.n_uavs), swarm or scn.name, uav - 1)
@@ -190,6 +236,7 @@ def _serve(o: SimpleNamespace, spawn: bool) -> None:
     from swarmtrack.outputs import OutputError, Terminated, check_destination, run_folder, terminate_as_exception
     from swarmtrack.sim.build import command_width
 
+    check_wire(o.tls, listen=o.listen)
     try:
         with terminate_as_exception():  # Ctrl-C or SIGTERM while it starts: one message, exit 130
             scn = _load(o.scenario, o.overrides, o.seed)
@@ -202,9 +249,9 @@ def _serve(o: SimpleNamespace, spawn: bool) -> None:
                 check_destination(out.absolute(), o.overwrite)
             except OutputError as exc:
                 raise UsageFailure(str(exc)) from None
-            endpoints = list(o.listen) or [f"tcp/127.0.0.1:{free_port()}"]
+            endpoints = list(o.listen) or [f"{'tcp' if o.tls is None else 'tls'}/127.0.0.1:{free_port()}"]
             try:
-                transport = ZenohTransport(listen=endpoints)
+                transport = ZenohTransport(listen=endpoints, tls=o.tls)
             except TransportError as exc:
                 raise UsageFailure(str(exc)) from None
     except (KeyboardInterrupt, Terminated):
@@ -217,7 +264,7 @@ def _serve(o: SimpleNamespace, spawn: bool) -> None:
         with run_folder(out, o.overwrite) as tmp:
             if spawn:
                 procs = start_agents(scn, o.scenario, o.seed, o.overrides, endpoints, swarm, o.key_file,
-                                     o.mavlink_port if o.mavlink else None)
+                                     o.mavlink_port if o.mavlink else None, tls=o.tls)
             else:
                 click.echo(f"world of {scn.name} listening on {', '.join(endpoints)} (swarm {swarm}); waiting for "
                            f"UAVs 1..{scn.swarm.n_uavs}", err=True)
@@ -276,20 +323,28 @@ def _facts(live) -> str:
 
 
 def start_agents(scn, scenario: str, seed, overrides, endpoints: list[str], swarm: str, key_file,
-                 mavlink_port: int | None = None) -> list:
+                 mavlink_port: int | None = None, tls: Path | None = None) -> list:
     """One ``swarmtrack agent --uav I`` process per UAV, connecting to the world's first endpoint (and with
-    ``mavlink_port``, to its autopilot at ``udp://127.0.0.1:mavlink_port + I - 1``)."""
+    ``mavlink_port``, to its autopilot at ``udp://127.0.0.1:mavlink_port + I - 1``). The key file, the swarm's name
+    and the TLS folder go in their environment (:data:`ENV`), not on their command lines."""
     connect = endpoints[0].replace("0.0.0.0", "127.0.0.1")
-    common = [scenario, "--connect", connect, "--swarm", swarm]
+    common = [scenario, "--connect", connect]
     common += ["--seed", str(seed)] if seed is not None else []
     for o in overrides:
         common += ["--set", o]
-    common += ["--key", str(key_file)] if key_file is not None else ["--insecure"]
+    common += [] if key_file is not None else ["--insecure"]
+    env = {name: value for name, value in os.environ.items() if name not in ENV.values()}
+    env[ENV["swarm"]] = swarm
+    if key_file is not None:
+        env[ENV["key"]] = str(Path(key_file).absolute())
+    if tls is not None:
+        env[ENV["tls"]] = str(Path(tls).absolute())
+
     def autopilot(i: int) -> list[str]:
         return [] if mavlink_port is None else ["--autopilot", f"udp://127.0.0.1:{mavlink_port + i}"]
 
-    return [subprocess.Popen([sys.executable, "-m", "swarmtrack", "agent", "--uav", str(i + 1), *common, *autopilot(i)])
-            for i in range(scn.swarm.n_uavs)]
+    return [subprocess.Popen([sys.executable, "-m", "swarmtrack", "agent", "--uav", str(i + 1), *common, *autopilot(i)],
+                             env=env) for i in range(scn.swarm.n_uavs)]
 
 
 def stop_agents(procs: list) -> None:
@@ -304,3 +359,19 @@ def stop_agents(procs: list) -> None:
         except subprocess.TimeoutExpired:
             p.kill()
             p.wait()
+
+
+def swarm_processes(swarm: str) -> list[str]:
+    """``"PID ARGS"`` of this user's processes of ``swarm`` (Linux): those given ``--swarm SWARM`` on their command
+    line or ``SWARMTRACK_SWARM=SWARM`` in their environment (the UAV processes ``live`` started)."""
+    out = []
+    for proc in Path("/proc").glob("[0-9]*"):
+        try:
+            args = proc.joinpath("cmdline").read_bytes().decode(errors="replace").split("\0")[:-1]
+            env = proc.joinpath("environ").read_bytes().decode(errors="replace").split("\0")
+        except OSError:  # another user's, or gone
+            continue
+        flagged = any(a == "--swarm" and b == swarm for a, b in zip(args, args[1:], strict=False))
+        if flagged or f"{ENV['swarm']}={swarm}" in env:
+            out.append(f"{proc.name} {' '.join(args)}")
+    return out

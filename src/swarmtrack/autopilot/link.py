@@ -23,6 +23,7 @@ MAVLink's fields are float32: a position of 100 m travels with a resolution of a
 
 from __future__ import annotations
 
+import socket
 import threading
 import time
 
@@ -52,8 +53,8 @@ def device_of(url: str) -> tuple[str, int]:
     """pymavlink's device string and baud rate of a link ``url`` (module docstring); ValueError for another form."""
     if url.startswith("udp://"):
         host, _, port = url[len("udp://"):].rpartition(":")
-        if not port.isdigit():
-            raise ValueError(f"{url}: expected udp://[HOST]:PORT")
+        if not port.isdigit() or not 0 < int(port) < 65536:
+            raise ValueError(f"{url}: expected udp://[HOST]:PORT, PORT 1..65535")
         return f"udpin:{host or '0.0.0.0'}:{port}", 0
     if url.startswith("serial://"):
         device, _, baud = url[len("serial://"):].rpartition(":")
@@ -63,6 +64,19 @@ def device_of(url: str) -> tuple[str, int]:
     raise ValueError(f"{url}: expected udp://[HOST]:PORT or serial://DEVICE[:BAUD]")
 
 
+def check_free(device: str) -> None:
+    """Refuse a UDP port another process listens on (``OSError``): pymavlink binds with ``SO_REUSEADDR``, which on
+    Linux lets a second link bind a port where another one (pymavlink's too) listens, and then hear nothing (its
+    autopilot's messages go to the other): the link would wait for a heartbeat that never comes. Bound here without
+    it, the port is refused at once, naming it."""
+    host, _, port = device[len("udpin:"):].rpartition(":")
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+        try:
+            probe.bind((host, int(port)))
+        except OSError as exc:
+            raise OSError(exc.errno, f"UDP port {port} is in use by another process") from None
+
+
 class AutopilotLink:
     """UAV ``uav``'s autopilot at ``url`` (module docstring)."""
 
@@ -70,6 +84,8 @@ class AutopilotLink:
         self.url, self.uav = url, uav
         try:
             device, baud = device_of(url)
+            if device.startswith("udpin:"):
+                check_free(device)
             self.conn = px4.connect(device, baud=baud or 115200, source_component=mavlink.MAV_COMP_ID_ONBOARD_COMPUTER)
         except ValueError as exc:
             raise AutopilotError(f"UAV {uav + 1}: --autopilot {exc}") from None

@@ -25,11 +25,11 @@ import numpy as np
 from swarmtrack import registry
 from swarmtrack.analysis.sweep import warm
 from swarmtrack.autopilot import px4
-from swarmtrack.autopilot.link import AutopilotLink
+from swarmtrack.autopilot.link import AutopilotError, AutopilotLink, AutopilotRefused
 from swarmtrack.control.base import SequentialPlanner
 from swarmtrack.estimation.base import TargetView
 from swarmtrack.live import wire
-from swarmtrack.live.node import Mismatch, Node
+from swarmtrack.live.node import EVIDENCE, EVIDENCE_SPAN, LOST_AFTER, Mismatch, Node, Refused, Stopped
 from swarmtrack.network.messages import Inbox
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sensors.detections import Detections
@@ -40,6 +40,8 @@ from swarmtrack.sim.clock import Clock
 PATIENCE = 60.0
 #: Seconds between a starting UAV's hellos.
 HELLO_EVERY = 0.5
+#: Seconds a UAV that cannot fly (its autopilot link) says so to the world before it exits, at most.
+FAREWELL = 10.0
 #: In real time, when a UAV stops waiting for its neighbours' messages of a step, as fractions of the step's period
 #: after the wall-clock time the step is due: their estimation broadcasts (then it fuses what came; what comes later
 #: is fused at its time stamp within the scenario's delay bound), their second broadcasts, their plans (IB21 Sec. 5.3).
@@ -109,28 +111,26 @@ class Agent:
 
     def run(self, rejoin: bool = False) -> None:
         """Say hello, build the stack when the world says start, and follow its steps to the end. ``rejoin``: the
-        UAV's earlier process was lost; this one starts afresh at the step the world gives it."""
+        UAV's earlier process was lost (or is to be replaced); this one starts afresh at the step the world gives
+        it."""
         node = self.node
+        node.greeting = True  # until its start, it takes only what binds to its hello (the run is not known yet)
         node.listen(("world", str(self.i), "*"), ("world", "all", "*"), ("uav", "*", "share"),
                     ("uav", "*", "publish"), ("uav", "*", "beacon"), ("uav", "*", "plan"))
         node.heartbeat()
+        hello = wire.Hello(pid=os.getpid(), started=node.seal.started, scenario=scenario_hash(self.scenario),
+                           autopilot=self.autopilot is not None, rejoin=rejoin)
         if self.autopilot is not None:  # its autopilot first, as a companion computer does: armed, in offboard mode
-            self.link = AutopilotLink(self.autopilot, self.i)
-            self.link.engage()
-        hello = wire.Hello(pid=os.getpid(), started=node.seal.started, scenario=scenario_hash(self.scenario))
-        start, deadline = None, time.monotonic() + PATIENCE
-        while start is None:  # said again until the world answers: it may not listen yet
-            node.send(wire.WORLD, hello)
             try:
-                start = node.first("start", wire.WORLD, timeout=min(HELLO_EVERY, deadline - time.monotonic()))
-            except TimeoutError:
-                if any(origin == "world" for origin, _, _ in node.forged):
-                    raise Mismatch("the world's messages fail this UAV's swarm key: the world runs with another "
-                                   "--key (or without one)") from None
-                if time.monotonic() >= deadline:
-                    raise TimeoutError(f"no start from the world within {PATIENCE:g} s") from None
+                self.link = AutopilotLink(self.autopilot, self.i)
+                self.link.engage()
+            except (AutopilotError, AutopilotRefused) as exc:
+                hello.error = str(exc)
+                self._farewell(hello)  # the world learns why this UAV will not fly, at once
+                raise
+        start = self._greet(hello)
         if not rejoin and start.k:
-            raise RuntimeError(f"the swarm is at step {start.k} already: start this UAV with --rejoin")
+            raise Mismatch(f"the swarm is at step {start.k} already: start this UAV with --rejoin")
         if start.mavlink != (self.autopilot is not None):
             raise Mismatch("the world flies its UAVs through MAVLink autopilots (--mavlink): give --autopilot URL"
                            if start.mavlink else "--autopilot: the world does not fly its UAVs through MAVLink "
@@ -143,8 +143,61 @@ class Agent:
         self.estimator, self.controller = build_onboard(self.scenario, self.i, start.labels)
         self._sequential = isinstance(self.controller, SequentialPlanner)
         node.send(wire.WORLD, self._sample(-1)[0])  # ready: its stack is built
-        for k in range(start.k, self.clock.steps):
-            self.step(k)
+        try:
+            for k in range(start.k, self.clock.steps):
+                self.step(k)
+        except Stopped as exc:
+            if str(exc) == "done" and node.seal.key is None:
+                print(f"UAV {self.i + 1}: warning: a stop came before the run's end, unsealed: this run is --insecure, "
+                      "so anyone on the network can send one (the world flies this UAV safely from now)",
+                      file=sys.stderr, flush=True)
+            raise
+
+    def _greet(self, hello: wire.Hello) -> wire.Start:
+        """Say ``hello`` until the world starts this process (a ``start`` bound to its hello); said again at once when
+        a new world is heard, every :data:`HELLO_EVERY` s otherwise. Ends on the world's refusal (bound to its
+        hello: :class:`~swarmtrack.live.node.Refused`), on evidence that the world runs with another key
+        (:class:`Mismatch`), when the world that heard it is no longer heard (:class:`Stopped`), or after
+        :data:`PATIENCE` s (``TimeoutError``)."""
+        node, deadline = self.node, time.monotonic() + PATIENCE
+        said, first_said, worlds, told = -np.inf, np.inf, set(), 0
+        while True:
+            if node.stopped is not None:
+                raise Refused(node.stopped) if node.refused else Stopped(node.stopped)
+            if set(node.heard_worlds()) != worlds or time.monotonic() - said >= HELLO_EVERY:
+                node.send(wire.WORLD, hello)
+                said, worlds, told = time.monotonic(), set(hello.worlds), told + 1
+                first_said = min(first_said, said)
+            try:
+                return node.first("start", wire.WORLD, timeout=0.1)
+            except TimeoutError:
+                pass
+            wrong = node.evidence(wire.WORLD)
+            if wrong is not None and not node.heard_worlds():
+                # its hellos go on until the world too has its evidence (they fail its key): both sides name the key
+                while told < EVIDENCE + 1 or time.monotonic() - first_said < EVIDENCE_SPAN + HELLO_EVERY:
+                    time.sleep(max(0.0, said + HELLO_EVERY - time.monotonic()))
+                    node.send(wire.WORLD, hello)
+                    said, told = time.monotonic(), told + 1
+                raise Mismatch(f"the world's messages (process {getattr(wrong, 'pid', '?')}) fail this UAV's swarm "
+                               "key: the world runs with another --key (or without one)")
+            knowing, there = node.known_by()
+            if knowing and not there:
+                raise Stopped(f"the world (process {knowing[0]}) that heard this UAV stopped answering before it "
+                              f"started it (not heard for {LOST_AFTER:g} s)")
+            if time.monotonic() >= deadline:
+                raise TimeoutError(f"no start from the world within {PATIENCE:g} s")
+
+    def _farewell(self, hello: wire.Hello) -> None:
+        """Say ``hello`` (with its error) until the world has heard it (it answers with a stop, or lists this process
+        among those it heard), for up to :data:`FAREWELL` s."""
+        node, deadline = self.node, time.monotonic() + FAREWELL
+        while time.monotonic() < deadline and node.stopped is None:
+            node.send(wire.WORLD, hello)
+            if node.known_by()[0]:
+                time.sleep(HELLO_EVERY)  # its answer, the stop, on its way
+                return
+            time.sleep(0.1 if node.heard_worlds() else HELLO_EVERY)
 
     def step(self, k: int) -> None:
         node, est, dt = self.node, self.estimator, self.clock.dt_estimation

@@ -10,12 +10,20 @@ from __future__ import annotations
 
 import threading
 import time
+from collections import deque
 
 from swarmtrack.live.transport import Transport, key, parse
-from swarmtrack.live.wire import WORLD, Alive, Message, Rejected, Seal, channel_of
+from swarmtrack.live.wire import WORLD, Alive, Hello, Message, Rejected, Seal, channel_of, peek
 
 #: Seconds between a process's heartbeats, and without a message after which the world takes a UAV for lost.
 HEARTBEAT, LOST_AFTER = 0.2, 3.0
+#: Evidence that a process runs with another key: this many consecutive messages of one process identity that fail
+#: the seal (and decode, as what they claim to be), spanning at least this many seconds, from a sender none of whose
+#: messages passed the seal meanwhile. Random bytes never count; a stranger who wants a refusal must forge such a
+#: stream (and is named by the process identity it made up).
+EVIDENCE, EVIDENCE_SPAN = 3, 0.8
+#: How many messages a UAV's process keeps before it knows its run (checked against the run at its start).
+EARLY = 4096
 
 
 class Stopped(Exception):
@@ -25,6 +33,10 @@ class Stopped(Exception):
 class Mismatch(Exception):
     """The world and this UAV's process are set up otherwise (another swarm key; a flight through MAVLink on one
     side only): the message says how."""
+
+
+class Refused(Mismatch):
+    """The world refused this UAV's process, or stopped the run on an error: the message says why (exit 2)."""
 
 
 class Node:
@@ -37,10 +49,22 @@ class Node:
         self.stopped: str | None = None
         self.absent: set[int] = set()  # UAVs the world said are lost: nobody waits for their messages
         self.seen: dict[int, float] = {}  # when each sender was last heard (monotonic s)
-        self.forged: set[tuple[str, str, str]] = set()  # (origin, to, channel) of the keys forged messages came on
         self.heard: list[tuple] | None = None  # with a list, every step's message is logged with its latency
         self._quiet = threading.Event()  # set by close: the heartbeat stops
         self._beating: threading.Thread | None = None
+        self.refused = False  # the stop that came is the world's refusal (or a stop of the run on error)
+        # the messages that fail the seal, by the sender and process identity they claim: [first, last, count, msg]
+        self.failing: dict[tuple[int, int], list] = {}
+        self.hellos: dict[tuple[int, int], list] = {}  # the world: bound hellos by (UAV, proc): [msg, first, last]
+        self.current: dict[int, int] = {}  # the world: each UAV's process it flies (its proc)
+        self.foreign_stops: list[tuple[str, float]] = []  # the world: stops on its keys it did not send
+        self.stopping = False  # the world: it sends its stop (what comes on its stop keys afterwards is its own)
+        self._own_stops: set[int] = set()  # the world: the sequence numbers of the stops it sent
+        # a UAV's process before its start: the worlds it heard ({run: [last heard, pid, whether it heard me]}) and
+        # the messages that came (their run checked at the start)
+        self.worlds: dict[bytes, list] = {}
+        self._early: deque = deque(maxlen=EARLY)
+        self.greeting = False  # a UAV's process has said hello: until its start it takes only what binds to it
 
     def listen(self, *patterns: tuple[str, str, str]) -> None:
         """Subscribe to ``(origin, to, channel)`` key patterns of the swarm's space (``*`` wildcards)."""
@@ -51,37 +75,146 @@ class Node:
         parts = parse(self.swarm, key_expr)
         if parts is None or (parts[0] == "uav" and parts[1] == str(self.me)):  # not the swarm's, or its own
             return
+        unbound = self.me != WORLD and self.seal.run is None and self.greeting  # its run known at its start
         try:
-            msg = self.seal.open(key_expr, data)
+            msg = self.seal.open(key_expr, data, fresh=not unbound)
         except Rejected as exc:
             if exc.cause == "forged":
-                with self._cond:
-                    self.forged.add(parts)
+                self._failed(parts, data)
             return
         origin, to, channel = parts
         sender = WORLD if origin == "world" else int(to) if to.isdigit() else None
         if msg.sender != sender or channel_of(msg) != channel:  # a member speaking for another, or a wrong key
-            with self._cond:
-                self.seal.rejected["impersonated"] += 1
+            self.seal.count("impersonated")
             return
         with self._cond:
-            self.seen[msg.sender] = time.monotonic()
-            if self.heard is not None and msg.sender != self.me and channel not in ("alive", "roster", "stop"):
-                self.heard.append((channel, msg.sender, msg.k, msg.c, msg.sent, time.time() - msg.sent))
-            if channel == "stop":
-                self.stopped = getattr(msg, "reason", "done")
-            elif channel == "roster":
-                self.absent = set(range(self.seal.n)) - set(msg.alive)
-            elif channel != "alive":
-                self._box[(channel, msg.sender, msg.k, msg.c)] = msg
+            self.failing = {who: v for who, v in self.failing.items() if who[0] != msg.sender}  # it passes now
+            if self.me == WORLD:
+                self._at_world(msg, channel)
+            elif unbound and self.seal.run is None:
+                self._before_start(msg, channel)
+            elif unbound and msg.run != self.seal.run:  # it came as the start bound the process to another run
+                self.seal.count("other_run")
+            elif unbound and not self.seal.fresh(msg):
+                pass
+            else:
+                self._take(msg, channel)
             self._cond.notify_all()
 
+    def _failed(self, parts: tuple[str, str, str], data: bytes) -> None:
+        """A message that failed the seal: evidence of who sent it when it decodes as what its key says, with a
+        process identity (:data:`EVIDENCE`)."""
+        origin, to, channel = parts
+        msg = peek(data)
+        sender = WORLD if origin == "world" else int(to) if to.isdigit() else None
+        if msg is None or msg.sender != sender or channel_of(msg) != channel or not msg.proc:
+            return
+        now = time.monotonic()
+        with self._cond:
+            entry = self.failing.setdefault((msg.sender, msg.proc), [now, now, 0, msg])
+            entry[1], entry[2], entry[3] = now, entry[2] + 1, msg
+
+    def evidence(self, sender: int) -> Message | None:
+        """A message of a process claiming ``sender`` whose messages have failed the seal :data:`EVIDENCE` times in a
+        row over :data:`EVIDENCE_SPAN` s or more (a process with another key), or None."""
+        with self._cond:
+            for (s, _), (first, last, count, msg) in self.failing.items():
+                if s == sender and count >= EVIDENCE and last - first >= EVIDENCE_SPAN:
+                    return msg
+        return None
+
+    def _at_world(self, msg: Message, channel: str) -> None:
+        now = time.monotonic()
+        if channel == "hello":
+            if self.seal.run in msg.worlds:  # fresh: it answers this run's world (else a hello before it heard it)
+                entry = self.hellos.setdefault((msg.sender, msg.proc), [msg, now, now])
+                entry[0], entry[2] = msg, now
+            return
+        if channel == "stop":  # on the world's own keys: its own, or another's (passing the seal: --insecure)
+            if not self.stopping and not (msg.proc == self.seal.proc and msg.seq in self._own_stops):
+                self.foreign_stops.append((msg.reason, time.time()))
+            return
+        if not msg.run:  # a UAV's process not started yet: its heartbeat says nothing of the run
+            return
+        if self.current.get(msg.sender, msg.proc) != msg.proc:  # a process of the UAV the world does not fly
+            self.seal.count("other_process")
+            return
+        self._take(msg, channel)
+
+    def _before_start(self, msg: Message, channel: str) -> None:
+        """A UAV's process before its start: a world's heartbeat (which runs are there, which heard it), its own start
+        (bound to its hello: then the run is its own), a stop bound to its hello; the rest is kept until the run is
+        known."""
+        if channel == "alive" and msg.sender == WORLD:
+            if not self.seal.fresh(msg):
+                return
+            entry = self.worlds.setdefault(msg.run, [0.0, msg.pid, False])
+            entry[0], entry[1] = time.monotonic(), msg.pid
+            entry[2] = entry[2] or self.seal.proc in msg.heard
+        elif channel in ("start", "stop"):
+            if msg.to != self.seal.proc:  # another process's, or another run's
+                self.seal.count("other_run")
+            elif not self.seal.fresh(msg):
+                return
+            elif channel == "start":
+                self._bind(msg.run)
+                self._take(msg, channel)
+            else:
+                self.stopped, self.refused = msg.reason, msg.refused
+        elif channel != "alive":
+            self._early.append((msg, channel))
+
+    def _bind(self, run: bytes) -> None:
+        """This UAV's process belongs to ``run`` from now: what came before of another run is dropped and counted."""
+        self.seal.run = run
+        self.seen[WORLD] = time.monotonic()
+        early, self._early = list(self._early), deque()
+        other = 0
+        for msg, channel in early:
+            if msg.run == run:
+                if self.seal.fresh(msg):
+                    self._take(msg, channel)
+            else:
+                other += 1
+        if other:
+            self.seal.count("other_run", other)
+
+    def _take(self, msg: Message, channel: str) -> None:
+        """A message of this process's run (under the lock)."""
+        if channel in ("start", "stop") and msg.to not in (0, self.seal.proc):  # bound to another process
+            return
+        self.seen[msg.sender] = time.monotonic()
+        if self.heard is not None and msg.sender != self.me and channel not in ("alive", "roster", "stop"):
+            self.heard.append((channel, msg.sender, msg.k, msg.c, msg.sent, time.time() - msg.sent))
+        if channel == "stop":
+            self.stopped, self.refused = msg.reason, msg.refused
+        elif channel == "roster":
+            self.absent = set(range(self.seal.n)) - set(msg.alive)
+        elif channel != "alive":
+            self._box[(channel, msg.sender, msg.k, msg.c)] = msg
+
+    def heard_worlds(self, within: float = LOST_AFTER) -> list[bytes]:
+        """The runs of the worlds this process heard within ``within`` s, latest first (at most 4)."""
+        now = time.monotonic()
+        with self._cond:
+            recent = sorted(((last, run) for run, (last, _, _) in self.worlds.items() if now - last <= within),
+                            reverse=True)
+        return [run for _, run in recent[:4]]
+
     def send(self, to: int | str, msg: Message) -> None:
-        """Seal and put ``msg`` on this process's key for ``to`` (a UAV's own keys take their sender as ``to``)."""
+        """Seal and put ``msg`` on this process's key for ``to`` (a UAV's own keys take their sender as ``to``); a
+        hello answers the worlds heard (:meth:`heard_worlds`)."""
         msg.sender = self.me
+        if isinstance(msg, Hello):
+            msg.worlds = self.heard_worlds()
+            self.greeting = True
         origin, who = ("world", to) if self.me == WORLD else ("uav", self.me)
         k = key(self.swarm, origin, who, channel_of(msg))
-        self.transport.put(k, self.seal.seal(k, msg))
+        data = self.seal.seal(k, msg)
+        if self.me == WORLD and channel_of(msg) == "stop":
+            with self._cond:
+                self._own_stops.add(msg.seq)
+        self.transport.put(k, data)
 
     def wait(self, channel: str, senders, k: int, c: int = -1, timeout: float | None = None,
              missing_ok: bool = False, take: bool = True) -> dict[int, Message]:
@@ -100,7 +233,7 @@ class Node:
                     if self.stopped is None and time.monotonic() - self.seen.get(WORLD, time.monotonic()) > LOST_AFTER:
                         self.stopped = f"the world stopped answering (not heard for {LOST_AFTER:g} s)"
                     if self.stopped is not None:
-                        raise Stopped(self.stopped)
+                        raise Refused(self.stopped) if self.refused else Stopped(self.stopped)
                 left = None if deadline is None else deadline - time.monotonic()
                 if left is not None and left <= 0:
                     if missing_ok:
@@ -132,7 +265,7 @@ class Node:
         def beat() -> None:
             while self.stopped is None and not self._quiet.is_set():
                 try:
-                    self.send(to, Alive())
+                    self.send(to, Alive(pid=self.seal.pid, started=self.seal.started, heard=self.greeted()))
                 except Exception:  # the transport closed under it: the process is ending
                     return
                 self._quiet.wait(HEARTBEAT)
@@ -140,6 +273,22 @@ class Node:
         # a daemon, so that a process that never reaches close still ends; close joins it before the transport closes
         self._beating = threading.Thread(target=beat, name="heartbeat", daemon=True)
         self._beating.start()
+
+    def known_by(self) -> tuple[list[int], bool]:
+        """A UAV's process before its start: the pids of the worlds that heard its hello, and whether one of them is
+        still heard (within :data:`LOST_AFTER` s)."""
+        now = time.monotonic()
+        with self._cond:
+            knowing = [(last, pid) for last, pid, knows in self.worlds.values() if knows]
+        return [pid for _, pid in knowing], any(now - last <= LOST_AFTER for last, _ in knowing)
+
+    def greeted(self) -> list[int]:
+        """The world: the processes whose hellos it heard within :data:`LOST_AFTER` s (its heartbeat tells them)."""
+        if self.me != WORLD:
+            return []
+        now = time.monotonic()
+        with self._cond:
+            return sorted(proc for (_, proc), (_, _, last) in self.hellos.items() if now - last <= LOST_AFTER)
 
     def close(self, timeout: float = 5.0) -> None:
         """Stop the heartbeat and wait for its thread, then close the transport (idempotent). Call it before the

@@ -29,7 +29,7 @@ import pandas as pd
 
 from swarmtrack.live import wire
 from swarmtrack.live.agent import warm_up
-from swarmtrack.live.world import LockstepWorld, _percentiles, labels_of, safe_command
+from swarmtrack.live.world import LockstepWorld, _percentiles, safe_command
 
 #: Seconds between the UAVs' stacks being built and the first step.
 LEAD = 0.5
@@ -121,16 +121,11 @@ class RealtimeWorld(LockstepWorld):
         super().control_step(k, c, nav, beacons)
 
     def _rejoin(self, k: int) -> None:
-        """A lost UAV whose process said hello again is sent its start and the steps from ``k`` on; it is back when
-        its first sample comes (:meth:`_record`)."""
-        for i in sorted(set(range(self.n)) - self.alive - self.joining):
-            hello = self._newcomer(i)
-            if hello is None:
-                continue
-            self._check({i: hello})
-            self.processes[i] = (hello.pid, hello.started)
-            self.node.send(i, wire.Start(k=k, labels=labels_of(self.sim.world), realtime=True,
-                                         mavlink=self.fleet is not None))
+        """A lost UAV whose new process said hello (with ``--rejoin``) is sent its start and the steps from ``k`` on;
+        it is back when its first sample comes (:meth:`_record`)."""
+        self._screen(k)
+        for i in sorted(set(self._joiners) - self.alive - self.joining):
+            self._start(i, self._joiners[i], k)
             self.joining.add(i)
 
     def _finish(self) -> None:

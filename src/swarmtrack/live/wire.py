@@ -33,16 +33,19 @@ Payloads (outbox rows, probes, detections) are dictionaries of values in a small
 (:func:`pack`): numeric arrays as dtype, shape and raw bytes (bit for bit), object arrays element by element,
 shapely geometries as WKB (coordinates bit for bit), raster fields (IB21) as their window and data.
 
-**Seal** (:class:`Seal`): ``HMAC-SHA256(key, key expression ‖ body)`` (standard library) prefixed to the body. A
-message whose tag does not verify (outside the swarm, tampered), whose sender is not one the swarm has, whose
-sequence number is not above the last accepted one of its sender and channel (a replay), or whose body does not
-decode is dropped and counted by cause, never raised.
+**Seal** (:class:`Seal`): ``HMAC-SHA256(key, key expression ‖ body)`` (standard library) prefixed to the body; the
+body holds the sender, the run (:func:`new_run`), the sending process (``proc``) and the sequence number, so the tag
+covers them with the channel (in the key expression). A message whose tag does not verify (outside the swarm,
+tampered), whose sender is not one the swarm has, of another run (``other_run``), whose sequence number is not above
+the last accepted one of its sending process and channel (a replay), or whose body does not decode is dropped and
+counted by cause, never raised.
 """
 
 from __future__ import annotations
 
 import hashlib
 import hmac
+import os
 import secrets
 import threading
 import time
@@ -62,6 +65,11 @@ TAG_BYTES = 32
 class Message(msgspec.Struct, tag_field="channel", kw_only=True):
     version: int = VERSION
     sender: int = WORLD
+    run: bytes = b""
+    """The run the message belongs to (:attr:`Seal.run`: drawn by the world at its start); empty in what a UAV's
+    process says before it is started (``hello``, ``alive``)."""
+    proc: int = 0
+    """The sending process's random identity (:attr:`Seal.proc`): replays are judged per process."""
     seq: int = 0
     sent: float = 0.0
     taken: float = 0.0
@@ -71,12 +79,19 @@ class Message(msgspec.Struct, tag_field="channel", kw_only=True):
 
 class Hello(Message, tag="hello"):
     """Said until the world answers with ``start`` (a process that joins before the world listens is heard at the next
-    one): its process id and start time (µs; the two tell a restarted process from a repeated hello), and the hash
-    of its resolved scenario."""
+    one): its process id and start time (µs), the hash of its resolved scenario, and ``worlds``: the runs of the
+    worlds it has heard (latest first): the world takes a hello only when its own run is among them, so a hello is
+    fresh (an earlier run's, replayed, is not). ``autopilot``: it flies through an autopilot (``--autopilot``);
+    ``rejoin``: it replaces the UAV's earlier process (``--rejoin``); ``error``: it cannot fly, and says why before
+    it exits (its autopilot link does not open, or refused)."""
 
     pid: int
     started: int
     scenario: str
+    worlds: list[bytes] = []
+    autopilot: bool = False
+    rejoin: bool = False
+    error: str = ""
 
 
 class Start(Message, tag="start"):
@@ -86,6 +101,8 @@ class Start(Message, tag="start"):
     (its navigation comes from it, not in ``navigation``; its command goes to it as a setpoint)."""
 
     labels: dict[str, list[int]]
+    to: int = 0
+    """The process it starts (its hello's ``proc``): a process takes only the start bound to its own hello."""
     realtime: bool = False
     mavlink: bool = False
 
@@ -168,7 +185,13 @@ class Sample(Message, tag="sample"):
 
 
 class Alive(Message, tag="alive"):
-    """A process's heartbeat (every :data:`~swarmtrack.live.node.HEARTBEAT` s, from a thread of its own)."""
+    """A process's heartbeat (every :data:`~swarmtrack.live.node.HEARTBEAT` s, from a thread of its own): its process
+    id and start time (µs); from the world also ``heard``: the processes whose hellos it heard in the last
+    :data:`~swarmtrack.live.node.LOST_AFTER` s (a waiting UAV knows the world has heard it)."""
+
+    pid: int = 0
+    started: int = 0
+    heard: list[int] = []
 
 
 class Roster(Message, tag="roster"):
@@ -178,7 +201,13 @@ class Roster(Message, tag="roster"):
 
 
 class Stop(Message, tag="stop"):
+    """The run is over (``reason`` ``done``), or the world refuses (``refused``) or stops: ``to`` 0 for every process
+    of the run, else the one process it is bound to (its hello's ``proc``: a process not started yet takes only a
+    stop bound to its own hello)."""
+
     reason: str = "done"
+    to: int = 0
+    refused: bool = False
 
 
 ANY = Hello | Start | Navigation | Share | Publish | Beacon | Plan | Command | Sample | Alive | Roster | Stop
@@ -248,27 +277,43 @@ class Rejected(Exception):
         self.cause = cause
 
 
-CAUSES = ("forged", "replayed", "unknown_sender", "impersonated", "undecodable", "wrong_version")
+CAUSES = ("forged", "replayed", "unknown_sender", "impersonated", "undecodable", "wrong_version", "other_run",
+          "other_process")
+#: What a UAV's process says before it knows the run (its ``run`` empty).
+UNBOUND = ("hello", "alive")
 
 
 class Seal:
     """Seals outgoing messages and opens incoming ones for one swarm: ``key`` (bytes; None: no tag, for
     ``--insecure``), ``n_uavs`` the senders it accepts (0..n−1 and the world). Thread-safe; counts what it drops
-    (:attr:`rejected`, by cause)."""
+    (:attr:`rejected`, by cause).
 
-    def __init__(self, key: bytes | None, n_uavs: int):
-        self.key, self.n = key, n_uavs
+    ``proc``: this process's identity, 63 random bits drawn at its start (every message carries it; replays are
+    judged per sending process, so a second process of a sender does not make the first one's messages look
+    replayed). ``run``: the run this process belongs to (the world draws it, :func:`new_run`; a UAV's process takes
+    it from the ``start`` bound to its hello; None until then): every message carries it, and once it is set a
+    message of another run is dropped (``other_run``), but for what a UAV says before it is started (``hello`` and
+    ``alive`` with an empty run, :data:`UNBOUND`; a hello answering other worlds than this run's is another run's)."""
+
+    def __init__(self, key: bytes | None, n_uavs: int, run: bytes | None = None):
+        self.key, self.n, self.run = key, n_uavs, run
+        self.proc = secrets.randbits(63) or 1
+        self.pid = os.getpid()
         # sequence numbers start at the process's start time in µs: a process restarted (--rejoin) continues above
-        # what its earlier life sent, so its receivers do not take its new messages for replays
+        # what its earlier life sent
         self.started = time.time_ns() // 1000
         self._seq: dict[str, int] = {}
-        self._last: dict[tuple[int, str], int] = {}
+        self._last: dict[tuple[int, str, int], int] = {}
         self.rejected: Counter = Counter()
         self._lock = threading.Lock()
 
     def seal(self, key_expr: str, msg: Message) -> bytes:
+        channel = type(msg).__struct_config__.tag  # one sequence per channel: what a receiver checks
         with self._lock:
-            msg.seq = self._seq[key_expr] = self._seq.get(key_expr, self.started) + 1
+            msg.seq = self._seq[channel] = self._seq.get(channel, self.started) + 1
+        msg.proc = self.proc
+        if self.run is not None:
+            msg.run = self.run
         msg.sent = time.time()
         body = _encoder.encode(msg)
         return self._tag(key_expr, body) + body
@@ -278,14 +323,40 @@ class Seal:
             return bytes(TAG_BYTES)
         return hmac.new(self.key, key_expr.encode() + b"\0" + body, hashlib.sha256).digest()
 
-    def open(self, key_expr: str, data: bytes) -> Message:
-        """The message in ``data`` received on ``key_expr``, or :class:`Rejected` (counted)."""
+    def count(self, cause: str, n: int = 1) -> None:
+        """Count ``n`` messages dropped for ``cause`` (by the caller, after :meth:`open` accepted them)."""
+        with self._lock:
+            self.rejected[cause] += n
+
+    def open(self, key_expr: str, data: bytes, fresh: bool = True) -> Message:
+        """The message in ``data`` received on ``key_expr``, or :class:`Rejected` (counted). ``fresh=False``: not
+        checked for a replay yet (:meth:`fresh`: a process before its start knows which messages are its run's only
+        then)."""
         try:
-            return self._open(key_expr, data)
+            msg = self._open(key_expr, data)
+            if fresh:
+                self._fresh(msg)
+            return msg
         except Rejected as exc:
-            with self._lock:
-                self.rejected[exc.cause] += 1
+            self.count(exc.cause)
             raise
+
+    def fresh(self, msg: Message) -> bool:
+        """Whether ``msg`` is not a replay (counted if it is)."""
+        try:
+            self._fresh(msg)
+        except Rejected as exc:
+            self.count(exc.cause)
+            return False
+        return True
+
+    def _fresh(self, msg: Message) -> None:
+        channel = type(msg).__struct_config__.tag
+        with self._lock:
+            last = self._last.get((msg.sender, channel, msg.proc), 0)
+            if msg.seq <= last:
+                raise Rejected("replayed")
+            self._last[(msg.sender, channel, msg.proc)] = msg.seq
 
     def _open(self, key_expr: str, data: bytes) -> Message:
         tag, body = data[:TAG_BYTES], data[TAG_BYTES:]
@@ -300,12 +371,24 @@ class Seal:
         if msg.sender != WORLD and not 0 <= msg.sender < self.n:
             raise Rejected("unknown_sender")
         channel = type(msg).__struct_config__.tag
-        with self._lock:
-            last = self._last.get((msg.sender, channel), 0)
-            if msg.seq <= last:
-                raise Rejected("replayed")
-            self._last[(msg.sender, channel)] = msg.seq
+        if self.run is not None and msg.run != self.run:
+            if msg.run or channel not in UNBOUND or (channel == "hello" and msg.worlds and self.run not in msg.worlds):
+                raise Rejected("other_run")
         return msg
+
+
+def new_run() -> bytes:
+    """A run's identity: 16 random bytes (a nonce, not a simulation draw), drawn by the world at its start."""
+    return os.urandom(16)
+
+
+def peek(data: bytes) -> Message | None:
+    """The message in ``data`` as it claims to be, its seal not checked (None: it does not decode): what a message
+    that fails the seal says of its sender, as evidence of who sent it (a process with another key)."""
+    try:
+        return _decoder.decode(data[TAG_BYTES:])
+    except (msgspec.DecodeError, msgspec.ValidationError):
+        return None
 
 
 def channel_of(msg: Message) -> str:

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import signal
+import sys
 import time
 from collections import Counter
 from collections.abc import Callable
@@ -39,6 +40,8 @@ if TYPE_CHECKING:
 #: How long a world that refuses UAVs for another swarm key stays on the air before it exits, s (its heartbeats tell
 #: them; under load their subscriptions can take a moment to reach the router).
 REFUSED_LINGER = 2.0
+#: How long a world that stops on an error stays on the air after telling the UAVs' processes, s.
+LEAVE_LINGER = 0.5
 
 
 class LiveError(Exception):
@@ -85,6 +88,11 @@ class LiveReport:
     rejected: dict[str, int] = field(default_factory=dict)
     interrupted: float | None = None
     """The simulated time at which Ctrl-C or SIGTERM stopped the run (the recording holds the steps before it)."""
+    refused: list[dict] = field(default_factory=list)
+    """Processes refused during the run (1-based UAV, its pid, simulated time, why): a second process for a UAV that
+    is flown, one of another scenario, one without ``--rejoin`` for a lost UAV."""
+    unsealed_stops: list[float] = field(default_factory=list)
+    """Simulated times at which a stop the world did not send came on its keys (an ``--insecure`` run)."""
     cpu_per_step_ms: dict | None = None
     """A UAV's process's CPU time per estimation step (ms, over UAVs and steps; its start-up left out)."""
     latency_ms: dict[str, dict] = field(default_factory=dict)
@@ -108,6 +116,11 @@ class LiveReport:
         if self.interrupted is not None:
             out.append({"check": "live", "message": f"interrupted at t = {self.interrupted:.2f} s: the recording "
                         "holds the steps completed before"})
+        out += [{"check": "live", "message": f"UAV {e['uav']}: process {e['pid']} refused at t = {e['t']:.2f} s: "
+                 f"{e['reason']}"} for e in self.refused]
+        out += [{"check": "live", "message": f"a stop the world did not send came at t = {t:.2f} s, unsealed: this run "
+                 "is --insecure, so anyone on the network can stop its UAVs (those that obeyed were lost and flown "
+                 "safely)"} for t in self.unsealed_stops]
         return out
 
     def _back(self, uav: int) -> str:
@@ -163,17 +176,23 @@ class LockstepWorld:
         self.cpu: list[float] = []  # the CPU time (s) of a UAV's process per estimation step, over UAVs and steps
         # --mavlink (base port, host): each UAV flies through a simulated autopilot its process talks MAVLink to
         self.fleet = None if mavlink is None else Fleet(self.n, self._now, *mavlink)
+        self.node.seal.run = self.node.seal.run or wire.new_run()  # this run's identity: every message carries it
+        self._joiners: dict[int, wire.Hello] = {}  # UAVs whose new process (--rejoin) starts at the next step
+        self._refused: dict[int, float] = {}  # processes refused (their proc), and when they were last told
 
     def run(self) -> tuple[Recording, LiveReport]:
         node, clock = self.node, self.sim.clock
-        node.listen(("uav", "*", "hello"), ("uav", "*", "sample"), ("uav", "*", "command"), ("uav", "*", "alive"))
+        node.listen(("uav", "*", "hello"), ("uav", "*", "sample"), ("uav", "*", "command"), ("uav", "*", "alive"),
+                    ("world", "*", "stop"))  # a stop it did not send (an --insecure run): said in the report
         node.heartbeat()
-        hello = self._hellos()
-        self._check(hello)
-        self.processes = {i: (m.pid, m.started) for i, m in hello.items()}
-        node.send("all", wire.Start(labels=labels_of(self.sim.world), realtime=self.realtime,
-                                    mavlink=self.fleet is not None))
-        self.last = self._ready()
+        try:
+            hello = self._hellos()
+            for i, m in sorted(hello.items()):
+                self._start(i, m, 0)
+            self.last = self._ready()
+        except BaseException as exc:
+            self._leave(exc, hello=True)
+            raise
         self._begin()
         report_every = max(1, clock.steps // 100)
         with self._interruptible():
@@ -184,8 +203,12 @@ class LockstepWorld:
                 except _Interrupted:  # the steps recorded so far are kept: the run stopped at the next one's time
                     self.report.interrupted = round(self.recorded * clock.dt_estimation, 9)
                     break
+                except BaseException as exc:
+                    self._leave(exc)
+                    raise
                 if self.progress is not None and (k % report_every == 0 or k == clock.steps - 1):
                     self.progress((k + 1) / clock.steps)
+        node.stopping = True
         node.send("all", wire.Stop())
         total = Counter(node.seal.rejected)
         for counts in self._rejected.values():
@@ -194,6 +217,34 @@ class LockstepWorld:
         self.report.cpu_per_step_ms = _percentiles(1e3 * np.asarray(self.cpu))
         self._finish()
         return self.recorder.close(), self.report
+
+    def _start(self, i: int, hello: wire.Hello, k: int) -> None:
+        """Start UAV ``i``'s process of ``hello`` at step ``k`` (the start bound to its hello): it is the one the world
+        flies from now (what another process of the UAV sends is dropped)."""
+        self.processes[i] = (hello.pid, hello.started)
+        self.node.current[i] = hello.proc
+        self._joiners.pop(i, None)
+        self.node.send(i, wire.Start(k=k, to=hello.proc, labels=labels_of(self.sim.world), realtime=self.realtime,
+                                     mavlink=self.fleet is not None))
+
+    def _leave(self, exc: BaseException, hello: bool = False) -> None:
+        """The world stops on ``exc``: every UAV process of the run is told (a stop to all), and with ``hello``
+        (before or while it starts them) every process whose hello it heard, each by a stop bound to its hello, so
+        that none waits for a world that is gone."""
+        interrupted = isinstance(exc, KeyboardInterrupt) or type(exc).__name__ == "Terminated"
+        reason = "the world was interrupted" if interrupted else f"the world stopped the run: {exc}"
+        node = self.node
+        node.stopping = True
+        try:
+            node.send("all", wire.Stop(reason=reason, refused=not interrupted))
+            if hello:
+                with node._cond:
+                    heard = list(node.hellos)
+                for i, proc in heard:
+                    node.send(i, wire.Stop(reason=reason, to=proc, refused=not interrupted))
+        except Exception:  # noqa: BLE001 - the transport is gone: nobody to tell
+            return
+        time.sleep(LEAVE_LINGER)  # on their way before the transport closes
 
     def _begin(self) -> None:
         """Every UAV's stack is built: the first step comes next."""
@@ -224,23 +275,126 @@ class LockstepWorld:
                 signal.signal(sig, old)
 
     def _hellos(self) -> dict[int, wire.Hello]:
-        """Every UAV's hello, waited for up to ``patience`` s; a UAV whose hellos fail the swarm key is refused as
-        soon as they come (:class:`LiveError` naming it)."""
-        got: dict = {}
+        """Every UAV's process, by its hello (fresh: it answers this world's run), waited for up to ``patience`` s.
+        The run is refused (:class:`LiveError` naming the UAVs) as soon as a hello says its process cannot fly or runs
+        another scenario, or flies otherwise (``--autopilot`` against ``--mavlink``), or when a UAV none of whose hellos
+        passed the seal has sent hellos that fail it with one process identity, :data:`~swarmtrack.live.node.EVIDENCE`
+        in a row over :data:`~swarmtrack.live.node.EVIDENCE_SPAN` s (a process with another key; random bytes from a
+        stranger never count). Of two live processes for one UAV, the first heard is started and the other refused
+        (the later one with ``--rejoin`` replaces it)."""
         deadline = time.monotonic() + self.patience
-        while len(got) < self.n:
-            missing = [i for i in range(self.n) if i not in got]
-            got.update(self.node.wait("hello", missing, 0, timeout=HELLO_EVERY, missing_ok=True))
-            wrong = [i + 1 for i in missing if i not in got and ("uav", str(i), "hello") in self.node.forged]
-            if wrong:
-                # stay on the air a moment: the refused UAVs learn of the mismatch from the world's heartbeats, which
-                # fail their key; a world gone before its first heartbeat reached them would leave them waiting
-                time.sleep(REFUSED_LINGER)
-                raise LiveError(f"the hellos of UAVs {wrong} fail the swarm key: their processes run with another "
-                                "--key (or without one)")
+        while True:
+            heard = self._heard_hellos()
+            self._refuse_run(heard)
+            if len(heard) == self.n:
+                chosen = {}
+                for i, entries in heard.items():
+                    first = entries[0][0]
+                    rejoining = [m for m, _ in entries[1:] if m.rejoin]
+                    chosen[i] = rejoining[-1] if rejoining else first
+                    for m, _ in entries:
+                        if m is not chosen[i]:
+                            self._refuse(i, m, f"UAV {i + 1} is flown by process {chosen[i].pid}; this process is "
+                                         "a second one for it (--rejoin replaces the process that flies a UAV)")
+                return chosen
             if time.monotonic() > deadline:
-                raise TimeoutError(f"no hello from UAVs {[i + 1 for i in range(self.n) if i not in got]}")
-        return got
+                raise TimeoutError(f"no hello from UAVs {[i + 1 for i in range(self.n) if i not in heard]}")
+            time.sleep(0.05)
+
+    def _heard_hellos(self, refused: bool = False) -> dict[int, list[tuple[wire.Hello, float]]]:
+        """Each UAV's processes whose hellos came within :data:`~swarmtrack.live.node.LOST_AFTER` s (those refused
+        too with ``refused``), ``[(latest hello, first heard)]`` in the order they were first heard."""
+        now = time.monotonic()
+        with self.node._cond:
+            entries = [(i, msg, first) for (i, proc), (msg, first, last) in self.node.hellos.items()
+                       if now - last <= LOST_AFTER and (refused or proc not in self._refused)]
+        out: dict = {}
+        for i, msg, first in sorted(entries, key=lambda e: e[2]):
+            out.setdefault(i, []).append((msg, first))
+        return out
+
+    def _refuse_run(self, heard: dict) -> None:
+        """Refuse the run (:class:`LiveError`) on what the hellos heard say, or on evidence of another key."""
+        problems = {}
+        for i, entries in sorted(heard.items()):
+            for m, _ in entries:
+                problem = self._mismatch(m)
+                if problem is not None:
+                    problems.setdefault(problem, []).append(i + 1)
+        if problems:
+            raise LiveError("; ".join(f"UAVs {uavs}: {problem}" for problem, uavs in problems.items()))
+        wrong = {i + 1: m for i in range(self.n) if i not in heard and (m := self.node.evidence(i)) is not None}
+        if wrong:
+            # stay on the air a moment: the refused UAVs learn of the mismatch from the world's heartbeats, which
+            # fail their key; a world gone before its first heartbeat reached them would leave them waiting
+            time.sleep(REFUSED_LINGER)
+            pids = ", ".join(str(m.pid) for m in wrong.values() if isinstance(m, wire.Hello))
+            raise LiveError(f"the hellos of UAVs {sorted(wrong)} fail the swarm key: their processes ({pids}) run "
+                            "with another --key (or without one)")
+
+    def _mismatch(self, hello: wire.Hello) -> str | None:
+        """Why the process of ``hello`` cannot fly in this run (None: it can)."""
+        if hello.error:
+            return f"process {hello.pid} cannot fly: {hello.error}"
+        if hello.scenario != scenario_hash(self.scenario):
+            return f"process {hello.pid} runs another scenario (or seed, or overrides)"
+        if self.fleet is not None and not hello.autopilot:
+            return (f"process {hello.pid} runs without --autopilot, and this world flies its UAVs through MAVLink "
+                    "autopilots (--mavlink)")
+        if self.fleet is None and hello.autopilot:
+            return (f"process {hello.pid} flies through an autopilot (--autopilot), and this world does not fly "
+                    "through MAVLink (start it with --mavlink)")
+        return None
+
+    def _refuse(self, i: int, hello: wire.Hello, reason: str) -> None:
+        """Refuse UAV ``i``'s process of ``hello``: a stop bound to its hello says why (said again while it says
+        hello); the first time, the world says so on its console and in the report."""
+        now = time.monotonic()
+        if now - self._refused.get(hello.proc, -np.inf) < HELLO_EVERY:
+            return
+        first = hello.proc not in self._refused
+        self._refused[hello.proc] = now
+        self.node.send(i, wire.Stop(reason=reason, to=hello.proc, refused=True))
+        if first:
+            t = round(self.sim.world.t, 9)
+            self.report.refused.append({"uav": i + 1, "pid": hello.pid, "t": t, "reason": reason})
+            print(f"UAV {i + 1}: process {hello.pid} refused at t = {t:.2f} s: {reason}", file=sys.stderr, flush=True)
+
+    def _screen(self, k: int) -> None:
+        """The hellos of processes the world does not fly, during the run: one that may rejoin (``--rejoin``, the
+        UAV's scenario and flight) is kept to start at the next step (:meth:`_rejoin`; a process still flying the UAV
+        is told it is replaced, and the UAV lost); any other is refused (a second process for a UAV that is flown,
+        one without ``--rejoin`` for a lost UAV, one that cannot fly here)."""
+        self._say_unsealed_stops()
+        for i, entries in self._heard_hellos(refused=True).items():
+            for hello, _ in entries:
+                joiner = self._joiners.get(i)
+                if hello.proc == self.node.current.get(i) or (joiner is not None and joiner.proc == hello.proc):
+                    continue
+                flown = i in self.alive and i not in self._joiners
+                reason = self._mismatch(hello)
+                if reason is None and not hello.rejoin:
+                    reason = (f"UAV {i + 1} is flown by process {self.processes[i][0]}; this process is a second one "
+                              "for it (--rejoin replaces the process that flies a UAV)" if flown else
+                              f"the swarm is at step {k} already: start this UAV with --rejoin")
+                if reason is not None:
+                    self._refuse(i, hello, reason)
+                    continue
+                if flown and i in self.node.current:  # --rejoin while its process flies it: that one is replaced
+                    self.node.send(i, wire.Stop(reason=f"replaced by process {hello.pid} (--rejoin)",
+                                                to=self.node.current[i]))
+                self._joiners[i] = hello
+
+    def _say_unsealed_stops(self) -> None:
+        """A stop the world did not send came on its keys (it passed the seal: an ``--insecure`` run): said at once on
+        the console, and in the report."""
+        with self.node._cond:
+            came, self.node.foreign_stops = self.node.foreign_stops, []
+        for _ in came:
+            t = round(self.sim.world.t, 9)
+            self.report.unsealed_stops.append(t)
+            print(f"warning: at t = {t:.2f} s a stop the world did not send came on its keys, unsealed: this run is "
+                  "--insecure, so anyone on the network can stop its UAVs", file=sys.stderr, flush=True)
 
     def _ready(self) -> dict[int, wire.Sample]:
         """Every UAV's first sample (its stack built and its kernels loaded: compiling them, with numba's cache cold
@@ -250,17 +404,13 @@ class LockstepWorld:
         while len(got) < self.n:
             missing = [i for i in range(self.n) if i not in got]
             got.update(self.node.wait("sample", missing, -1, timeout=HELLO_EVERY, missing_ok=True))
+            self._screen(0)
             now = time.monotonic()
             silent = [i + 1 for i in missing if i not in got and now - self.node.seen.get(i, now) > LOST_AFTER]
             if silent:
                 raise TimeoutError(f"UAVs {silent} stopped answering before their first step (not heard for "
                                    f"{LOST_AFTER:g} s)")
         return got
-
-    def _check(self, hello: dict) -> None:
-        wrong = [i + 1 for i, m in hello.items() if m.scenario != scenario_hash(self.scenario)]
-        if wrong:
-            raise LiveError(f"UAV processes {wrong} run another scenario (or seed, or overrides)")
 
     def estimation_step(self, k: int) -> None:
         """Step ``k`` of :func:`~swarmtrack.sim.engine.step_loop` by messages. Each UAV gets one message (its
@@ -404,10 +554,11 @@ class LockstepWorld:
                 raise _Interrupted()
             wait = 0.1 if until is None else min(0.1, max(0.0, until - time.monotonic()))
             got.update(self.node.wait(channel, sorted(self.alive - set(got)), k, c, timeout=wait, missing_ok=True))
+            self._screen(k)
             missing = self.alive - set(got)
             now = time.monotonic()
-            silent = {i for i in missing if now - self.node.seen.get(i, 0.0) > LOST_AFTER
-                      or self._newcomer(i) is not None}  # not heard, or a new process says hello
+            silent = {i for i in missing if now - self.node.seen.get(i, 0.0) > LOST_AFTER}  # not heard: it died
+            silent |= {i for i in self.alive if i in self._joiners}  # replaced by a new process (--rejoin)
             if silent:
                 self.alive -= silent
                 self.report.lost += [{"uav": i + 1, "t": round(t, 9)} for i in sorted(silent)]
@@ -419,29 +570,17 @@ class LockstepWorld:
                                    f"processes are alive")
 
     def _rejoin(self, k: int) -> None:
-        """A lost UAV whose process said hello again starts at step ``k``."""
-        for i in sorted(set(range(self.n)) - self.alive):
-            hello = self._newcomer(i)
-            if hello is None:
-                continue
-            self._check({i: hello})
-            self.processes[i] = (hello.pid, hello.started)
-            self.node.send(i, wire.Start(k=k, labels=labels_of(self.sim.world), mavlink=self.fleet is not None))
+        """A lost UAV whose new process said hello (with ``--rejoin``: :meth:`_screen`) starts at step ``k``."""
+        self._screen(k)
+        for i in sorted(set(self._joiners) - self.alive):
+            hello = self._joiners[i]
+            self._start(i, hello, k)
             got = self.node.wait("sample", [i], -1, timeout=self.patience, missing_ok=True)  # its stack is built
             if got:
                 self.last.update(got)
                 self.alive.add(i)
                 self.report.rejoined.append({"uav": i + 1, "t": round(k * self.sim.clock.dt_estimation, 9)})
                 self.node.send("all", wire.Roster(alive=sorted(self.alive)))
-
-    def _newcomer(self, i: int) -> wire.Hello | None:
-        """The hello of a process of UAV ``i`` other than the one the world knows (a restarted one), or None; what
-        the known process says again (it says hello until it hears ``start``) is discarded."""
-        hello = self.node.peek("hello", i, 0)
-        if hello is not None and (hello.pid, hello.started) == self.processes.get(i):
-            self.node.wait("hello", [i], 0, timeout=0, missing_ok=True)
-            return None
-        return hello
 
     def _heard(self, links) -> list[list[int]]:
         """Each UAV's living senders in ``links`` (itself left out)."""

@@ -14,8 +14,11 @@
   figure, the messages that missed their deadlines, and the CPU time of a UAV's process per estimation step (median,
   from each process's own accounting; start-up apart): what a companion computer must afford.
 
+With ``--tls DIR`` (a folder of ``ca.pem``, ``cert.pem``, ``key.pem``, made as docs/live.md says) every Zenoh link
+of the figures above is mutual TLS (``tls/127.0.0.1:PORT``): the cost of confidentiality.
+
 Usage: ``python benchmarks/bench_live.py [--uavs 5] [--duration 30] [--realtime-uavs 10] [--realtime-duration 60]
-[--hops 2000] [--quick] [--json]``.
+[--hops 2000] [--quick] [--tls DIR] [--json]``.
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ import subprocess
 import sys
 import threading
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -36,10 +40,17 @@ from swarmtrack.live.transport import ZenohTransport, free_port, key
 
 SWARM = "bench"
 
+#: The TLS folder (``--tls``), or None: plain TCP.
+TLS: Path | None = None
+
+
+def _endpoint(port: int) -> str:
+    return f"{'tcp' if TLS is None else 'tls'}/127.0.0.1:{port}"
+
 
 def _echo(port: int, raw: bool) -> None:
     """The far side of the ping-pong (a process of its own): echo raw bytes, or answer each sealed ping."""
-    transport = ZenohTransport(connect=[f"tcp/127.0.0.1:{port}"])
+    transport = ZenohTransport(connect=[_endpoint(port)], tls=TLS)
     if raw:
         transport.subscribe("bench/ping", lambda k, data: transport.put("bench/pong", data))
     else:
@@ -103,8 +114,9 @@ def ping_pong(hops: int) -> dict:
     out = {}
     for raw in (True, False):
         port = free_port()
-        transport = ZenohTransport(listen=[f"tcp/127.0.0.1:{port}"])
-        far = subprocess.Popen([sys.executable, __file__, "--echo", str(port), "--raw" if raw else "--sealed"])
+        transport = ZenohTransport(listen=[_endpoint(port)], tls=TLS)
+        far = subprocess.Popen([sys.executable, __file__, "--echo", str(port), "--raw" if raw else "--sealed",
+                                *(["--tls", str(TLS)] if TLS is not None else [])])
         try:
             rtt = _rounds(transport, raw, hops)
         finally:
@@ -159,11 +171,12 @@ def _live(uavs: int, duration: float, realtime: bool, progress=None, mavlink: bo
     overrides = [f"duration={duration}", f"swarm.n_uavs={uavs}"]
     scenario = load_scenario("l24-ct", overrides)
     port = free_port()
-    endpoints = [f"tcp/127.0.0.1:{port}"]
-    transport = ZenohTransport(listen=endpoints)
+    endpoints = [_endpoint(port)]
+    transport = ZenohTransport(listen=endpoints, tls=TLS)
     node = Node(transport, wire.Seal(None, uavs), f"{SWARM}-{port}", wire.WORLD)
     mavlink_port = _udp_base(uavs) if mavlink else None
-    procs = start_agents(scenario, "l24-ct", None, overrides, endpoints, f"{SWARM}-{port}", None, mavlink_port)
+    procs = start_agents(scenario, "l24-ct", None, overrides, endpoints, f"{SWARM}-{port}", None, mavlink_port,
+                         tls=TLS)
     try:
         cpu = time.process_time()
         _rec, report, _tables = run_live(scenario, node, progress=progress, realtime=realtime,
@@ -229,12 +242,16 @@ def main() -> int:
     ap.add_argument("--realtime-duration", type=float, default=60.0, help="s of the real-time run")
     ap.add_argument("--hops", type=int, default=2000)
     ap.add_argument("--quick", action="store_true", help="short runs (10 s each, 500 hops)")
+    ap.add_argument("--tls", type=Path, default=None, metavar="DIR",
+                    help="every Zenoh link mutual TLS with the certificates in DIR (ca.pem, cert.pem, key.pem)")
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--echo", type=int, help=argparse.SUPPRESS)
     ap.add_argument("--raw", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--sealed", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--vehicle-echo", type=int, help=argparse.SUPPRESS)
     args = ap.parse_args()
+    global TLS
+    TLS = args.tls
     if args.echo:
         _echo(args.echo, args.raw)
         return 0
@@ -249,8 +266,8 @@ def main() -> int:
     flown = lockstep(args.uavs, args.duration, mavlink=True)
     live = realtime(args.realtime_uavs, args.realtime_duration)
     if args.json:
-        print(json.dumps({"hop": hop, "lockstep": run, "mavlink_round_trip": trip, "lockstep_mavlink": flown,
-                          "realtime": live}, indent=1))
+        print(json.dumps({"tls": TLS is not None, "hop": hop, "lockstep": run, "mavlink_round_trip": trip,
+                          "lockstep_mavlink": flown, "realtime": live}, indent=1))
         return 0
     raw, ours = hop["raw_zenoh"], hop["swarmtrack"]
     print(f"one hop, median / p99: swarmtrack {ours['median_us']:.0f} / {ours['p99_us']:.0f} µs; raw Zenoh "

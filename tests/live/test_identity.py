@@ -398,3 +398,27 @@ def test_an_outsiders_stop_in_an_insecure_run_is_said_to_have_come_unsealed(tmp_
     metrics = _metrics(tmp_path / "live")
     assert len(metrics["live"]["unsealed_stops"]) == 1 and metrics["live"]["lost"]
     assert any("unsealed" in w["message"] for w in metrics["warnings"])
+
+
+@pytest.mark.slow
+def test_a_process_started_with_rejoin_replaces_the_one_that_flies_its_uav(tmp_path, peer):
+    """``swarmtrack agent --uav 2 --rejoin`` while UAV 2's process flies it (as docs/live.md says): the old process is
+    told it is replaced (it stops, naming the newcomer), the UAV is lost and rejoins with the new process, and the
+    run completes (exit 0), the newcomer's process with it."""
+    key_file, port, swarm = _keyfile(tmp_path), free_port(), f"test-{uuid.uuid4().hex[:8]}"
+    overrides = ["duration=60"]
+    world = _live(tmp_path, "live", key_file, swarm, port, overrides)
+    newcomer = None
+    try:
+        assert peer.flown(port, swarm, 1, 20) >= 20
+        newcomer = _agent(2, port, swarm, key_file, overrides, "--rejoin")
+        _, err = world.communicate(timeout=240)
+        newcomer_out, newcomer_err = newcomer.communicate(timeout=60)
+    finally:
+        _end(world, newcomer)
+    assert world.returncode == 0, err[-3000:]
+    assert newcomer.returncode == 0, newcomer_err[-3000:]
+    assert f"UAV 2: replaced by process {newcomer.pid} (--rejoin)" in err, err[-3000:]  # the old one, told
+    live = _metrics(tmp_path / "live")["live"]
+    assert [e["uav"] for e in live["lost"]] == [2] and [e["uav"] for e in live["rejoined"]] == [2], live
+    assert not live["refused"]

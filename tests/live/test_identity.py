@@ -125,7 +125,7 @@ def test_random_bytes_are_never_evidence_of_another_key_and_a_steady_stream_of_o
     for _ in range(EVIDENCE):
         node._arrive(hello_key, other.seal(hello_key, wire.Hello(sender=1, pid=77, started=1, scenario="x")))
     assert node.evidence(1) is None  # three at once: not over a second
-    for entry in node.failing.values():
+    for entry in node.failing[1].values():
         entry[0] -= 1.0  # as if the first came a second ago
     assert node.evidence(1).pid == 77
 

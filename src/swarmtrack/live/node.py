@@ -22,6 +22,8 @@ HEARTBEAT, LOST_AFTER = 0.2, 3.0
 #: messages passed the seal meanwhile. Random bytes never count; a stranger who wants a refusal must forge such a
 #: stream (and is named by the process identity it made up).
 EVIDENCE, EVIDENCE_SPAN = 3, 0.8
+#: How many process identities whose messages fail the seal are followed per sender (the latest).
+SUSPECTS = 16
 #: How many messages a UAV's process keeps before it knows its run (checked against the run at its start).
 EARLY = 4096
 
@@ -54,7 +56,7 @@ class Node:
         self._beating: threading.Thread | None = None
         self.refused = False  # the stop that came is the world's refusal (or a stop of the run on error)
         # the messages that fail the seal, by the sender and process identity they claim: [first, last, count, msg]
-        self.failing: dict[tuple[int, int], list] = {}
+        self.failing: dict[int, dict[int, list]] = {}  # by sender, then proc (at most SUSPECTS per sender)
         self.hellos: dict[tuple[int, int], list] = {}  # the world: bound hellos by (UAV, proc): [msg, first, last]
         self.current: dict[int, int] = {}  # the world: each UAV's process it flies (its proc)
         self.foreign_stops: list[tuple[str, float]] = []  # the world: stops on its keys it did not send
@@ -88,7 +90,7 @@ class Node:
             self.seal.count("impersonated")
             return
         with self._cond:
-            self.failing = {who: v for who, v in self.failing.items() if who[0] != msg.sender}  # it passes now
+            self.failing.pop(msg.sender, None)  # its messages pass now: what failed was not its
             if self.me == WORLD:
                 self._at_world(msg, channel)
             elif unbound and self.seal.run is None:
@@ -111,15 +113,18 @@ class Node:
             return
         now = time.monotonic()
         with self._cond:
-            entry = self.failing.setdefault((msg.sender, msg.proc), [now, now, 0, msg])
+            suspects = self.failing.setdefault(msg.sender, {})
+            if msg.proc not in suspects and len(suspects) >= SUSPECTS:  # a flood of made-up identities: bounded
+                del suspects[min(suspects, key=lambda proc: (suspects[proc][2], suspects[proc][1]))]  # the least seen
+            entry = suspects.setdefault(msg.proc, [now, now, 0, msg])
             entry[1], entry[2], entry[3] = now, entry[2] + 1, msg
 
     def evidence(self, sender: int) -> Message | None:
         """A message of a process claiming ``sender`` whose messages have failed the seal :data:`EVIDENCE` times in a
         row over :data:`EVIDENCE_SPAN` s or more (a process with another key), or None."""
         with self._cond:
-            for (s, _), (first, last, count, msg) in self.failing.items():
-                if s == sender and count >= EVIDENCE and last - first >= EVIDENCE_SPAN:
+            for first, last, count, msg in self.failing.get(sender, {}).values():
+                if count >= EVIDENCE and last - first >= EVIDENCE_SPAN:
                     return msg
         return None
 

@@ -422,3 +422,31 @@ def test_a_process_started_with_rejoin_replaces_the_one_that_flies_its_uav(tmp_p
     live = _metrics(tmp_path / "live")["live"]
     assert [e["uav"] for e in live["lost"]] == [2] and [e["uav"] for e in live["rejoined"]] == [2], live
     assert not live["refused"]
+
+
+@pytest.mark.slow
+def test_a_waiting_uav_heard_by_a_world_that_dies_before_starting_it_stops_naming_it(tmp_path, peer):
+    """The world heard UAV 1's hello (its heartbeat lists the process) and is killed (SIGKILL) before UAV 2 comes:
+    UAV 1's process stops (exit 1) saying the world that heard it stopped answering, not after its 60 s."""
+    key_file, port, swarm, overrides = _keyfile(tmp_path), free_port(), f"test-{uuid.uuid4().hex[:8]}", \
+        ["swarm.n_uavs=2", "duration=3"]
+    world = _world(tmp_path, port, swarm, key_file, overrides)
+    agent = None
+    try:
+        listener, heard = peer.join(port), []
+        reader = wire.Seal(bytes.fromhex(key_file.read_text()), 2)
+        listener.subscribe(key(swarm, "world", "all", "alive"),
+                           lambda k, data: heard.extend(reader.open(str(k), data).heard))
+        agent = _agent(1, port, swarm, key_file, overrides)
+        deadline = time.monotonic() + 90
+        while not heard and time.monotonic() < deadline:
+            time.sleep(0.05)
+        listener.close()
+        assert heard, "the world never heard UAV 1"
+        world.kill()
+        world.wait()
+        _, err = agent.communicate(timeout=50)  # its own patience is 60 s
+    finally:
+        _end(world, agent)
+    assert agent.returncode == 1, err[-2000:]
+    assert f"the world (process {world.pid}) that heard this UAV stopped answering" in err, err[-2000:]

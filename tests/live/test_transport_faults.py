@@ -126,3 +126,44 @@ def _count(tally: Path) -> int:
         return int(tally.read_text() or 0)
     except (OSError, ValueError):  # not written yet, or being written
         return 0
+
+
+#: A publisher's whole life beside a frozen stranger: it listens, waits for the stranger's subscription, publishes
+#: 20 000 messages of 300 bytes (megabytes: beyond the stranger's queues and sockets) on a data and a heartbeat key,
+#: closes its transport and says whether Zenoh's close timed out.
+PUBLISHER = r"""
+import sys, time
+from swarmtrack.live.transport import ZenohTransport
+port = int(sys.argv[1])
+t = ZenohTransport(listen=[f"tcp/127.0.0.1:{port}"])
+print("listening", flush=True)
+sys.stdin.readline()  # the stranger is subscribed and stopped
+for i in range(20000):
+    t.put("swarmtrack/s/world/all/navigation" if i % 10 else "swarmtrack/s/world/all/alive", b"x" * 300)
+t.close()
+print("closed", t.close_timed_out, flush=True)
+"""
+
+
+@pytest.mark.slow
+def test_a_process_beside_a_frozen_stranger_publishes_and_closes_and_exits_cleanly(tmp_path):
+    port, tally = free_port(), tmp_path / "tally"
+    publisher = subprocess.Popen([sys.executable, "-c", PUBLISHER, str(port)], stdin=subprocess.PIPE,
+                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    stranger = None
+    try:
+        assert publisher.stdout.readline().strip() == "listening", publisher.stderr.read()[-2000:]
+        stranger = subprocess.Popen([sys.executable, "-c", STRANGER, str(port), str(tally)],
+                                    stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        assert stranger.stdout.readline().strip() == "subscribed", stranger.stderr.read()[-2000:]
+        stranger.send_signal(signal.SIGSTOP)
+        out, err = publisher.communicate("go\n", timeout=120)  # a bound against a hang, not a time judged
+    finally:
+        for p in (publisher, stranger):
+            if p is not None and p.poll() is None:
+                p.kill()
+                p.wait()
+    assert publisher.returncode == 0 and "Traceback" not in err, err[-3000:]
+    # the close returned: at once, or after Zenoh's 10 s when the frozen peer held its link (1 run in 3: noted as
+    # close_timed_out, not raised; it crashed live at exit with "zenoh.ZError: close operation timed out")
+    assert out.split()[-2] == "closed", out

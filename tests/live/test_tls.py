@@ -190,3 +190,38 @@ def _join(endpoint: str, tls: Path) -> ZenohTransport:
             if time.monotonic() > deadline:
                 raise
             time.sleep(0.2)
+
+
+@pytest.mark.slow
+def test_live_with_tls_and_a_key_starts_its_uavs_with_neither_path_on_their_command_lines(tmp_path):
+    """``live --tls DIR --key FILE``: the run equals the simulator's bit for bit, and what ``ps`` shows of its UAV
+    processes names neither the key file, nor the TLS folder, nor the swarm (they read them from their
+    environment)."""
+    from click.testing import CliRunner
+
+    from swarmtrack.cli import main
+    from swarmtrack.live.commands import swarm_processes
+
+    tls, key = make_certificates(tmp_path / "tls"), tmp_path / "swarm.key"
+    assert CliRunner().invoke(main, ["keygen", str(key)]).exit_code == 0
+    swarm = f"test-{uuid.uuid4().hex[:8]}"
+    proc = subprocess.Popen([sys.executable, "-m", "swarmtrack", "live", "l24-ct", "--key", str(key), "--tls", str(tls),
+                             "--swarm", swarm, "--no-plots", "--out", str(tmp_path / "run"),
+                             *[a for o in OVERRIDES for a in ("--set", o)]],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline, agents = time.monotonic() + 120, []  # bounds against a hang, not figures judged
+        while len(agents) < 3 and proc.poll() is None and time.monotonic() < deadline:
+            agents = [line for line in swarm_processes(swarm) if " agent " in line]
+            time.sleep(0.05)
+        _, err = proc.communicate(timeout=240)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 0, err[-3000:]
+    assert len(agents) == 3, agents
+    for line in agents:
+        assert str(key) not in line and str(tls) not in line and swarm not in line and "--key" not in line, line
+    ran = swarmtrack.simulate(swarmtrack.load_scenario("l24-ct", OVERRIDES))
+    assert_same_recording(swarmtrack.load_run(tmp_path / "run"), ran)

@@ -142,8 +142,7 @@ def keygen_cmd(file: Path) -> None:
     "fly through this UAV's autopilot over MAVLink: udp://[HOST]:PORT (listen there, as PX4 SITL's 14540 + i) or "
     "serial://DEVICE[:BAUD]; its navigation comes from it and its commands go to it as setpoints"))
 @_security_options
-def agent_cmd(scenario: str, seed, overrides, uav: int, connect, listen, connect_timeout, rejoin, autopilot, swarm,
-              key_file, insecure, tls) -> None:
+def agent_cmd(**options) -> None:
     """Run UAV --uav's onboard stack (estimator, controller) of SCENARIO, as on its companion computer: its
     navigation, detections and radio from the world (or its navigation from its autopilot, --autopilot), its
     neighbours' messages over Zenoh."""
@@ -153,20 +152,23 @@ def agent_cmd(scenario: str, seed, overrides, uav: int, connect, listen, connect
     from swarmtrack.live.transport import TransportError, ZenohTransport
     from swarmtrack.live.wire import Seal
 
-    check_wire(tls, connect=connect, listen=listen)
-    check_autopilot(autopilot)
-    scn = _load(scenario, overrides, seed)
+    o = SimpleNamespace(**options)
+    uav = o.uav
+    check_wire(o.tls, connect=o.connect, listen=o.listen)
+    check_autopilot(o.autopilot)
+    scn = _load(o.scenario, o.overrides, o.seed)
     if not 1 <= uav <= scn.swarm.n_uavs:
         raise UsageFailure(f"--uav {uav}: the swarm of {scn.name} has UAVs 1..{scn.swarm.n_uavs}")
-    key = read_key(key_file, insecure)
+    key = read_key(o.key_file, o.insecure)
     try:
-        transport = ZenohTransport(listen=list(listen), connect=list(connect), timeout=connect_timeout, tls=tls)
+        transport = ZenohTransport(listen=list(o.listen), connect=list(o.connect), timeout=o.connect_timeout,
+                                   tls=o.tls)
     except TransportError as exc:
         raise UsageFailure(str(exc)) from None
-    node = Node(transport, Seal(key, scn.swarm.n_uavs), swarm or scn.name, uav - 1)
-    agent = Agent(scn, uav - 1, node, autopilot)
+    node = Node(transport, Seal(key, scn.swarm.n_uavs), o.swarm or scn.name, uav - 1)
+    agent = Agent(scn, uav - 1, node, o.autopilot)
     try:
-        agent.run(rejoin)
+        agent.run(o.rejoin)
     except Stopped as exc:
         if str(exc) != "done":
             click.echo(f"UAV {uav}: {exc}; stopping", err=True)

@@ -180,6 +180,11 @@ def check_file_destination(path: Path, option: str, overwrite: bool) -> None:
         raise OutputError(f"{option} {path}: is a folder, not a file")
     if (path.exists() or path.is_symlink()) and not overwrite:
         raise OutputError(f"{option} {path}: the file exists; add --overwrite to replace it")
+    _check_parent(path, option)
+
+
+def _check_parent(path: Path, option: str) -> None:
+    """Refuse ``path`` whose folder does not exist (none is created) or cannot be written to."""
     parent = path.absolute().parent
     if not parent.is_dir():
         raise OutputError(f"{option} {path}: no folder {parent}")
@@ -204,11 +209,7 @@ def check_new_destination(path: Path, option: str = "--out", rule: str = "what i
         raise dangling
     if os.path.lexists(path):
         raise OutputError(f"{option} {path}: something is already there ({rule})")
-    parent = path.absolute().parent
-    if not parent.is_dir():
-        raise OutputError(f"{option} {path}: no folder {parent}")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise OutputError(f"{option} {path}: cannot write in {parent}")
+    _check_parent(path, option)
 
 
 def check_destination(out: Path, overwrite: bool) -> None:

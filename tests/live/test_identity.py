@@ -38,7 +38,7 @@ def _sibling(name: str):
 
 assert_same_recording = _sibling("test_lockstep").assert_same_recording
 
-pytestmark = pytest.mark.xdist_group("live-lockstep")  # lockstep only: beside the real-time group, on the other worker
+pytestmark = pytest.mark.xdist_group("live")
 
 BASE = [sys.executable, "-m", "swarmtrack"]
 

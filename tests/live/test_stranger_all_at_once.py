@@ -36,7 +36,7 @@ def _sibling(name: str):
 
 _identity, _faults = _sibling("test_identity"), _sibling("test_transport_faults")
 
-pytestmark = pytest.mark.xdist_group("live-lockstep")  # lockstep only: beside the real-time group, on the other worker
+pytestmark = pytest.mark.xdist_group("live")
 
 
 def _earlier_run(tmp_path, peer, key_file, swarm: str) -> list[tuple[str, bytes]]:

@@ -33,7 +33,7 @@ def _sibling(name: str):
 _lockstep = _sibling("test_lockstep")  # its recording check and its finder of a swarm's UAV processes
 assert_same_recording, _processes_of = _lockstep.assert_same_recording, _lockstep._processes_of
 
-pytestmark = pytest.mark.xdist_group("live-lockstep")  # lockstep only: beside the real-time group, on the other worker
+pytestmark = pytest.mark.xdist_group("live")
 
 #: The stranger: a Zenoh peer of its own making (a receive buffer of 4 KiB, as a slow link's: the world's socket
 #: towards it fills after a few messages) joins the world's endpoint (retrying until it listens), subscribes to

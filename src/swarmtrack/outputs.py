@@ -358,7 +358,7 @@ def run_folder(out: Path, overwrite: bool = False):
             files = sorted(str(p.relative_to(tmp)) for p in tmp.rglob("*") if p.is_file() and p != marker)
             (tmp / MANIFEST).write_text(dump_json({"written_by": version(), "files": files}))
             with signals_held():  # the move is not interrupted halfway
-                marker.unlink()  # the run's folder does not keep it
+                marker.unlink(missing_ok=True)  # the run's folder does not keep it (the run may have removed it)
                 _move_into_place(tmp, out, files, overwrite)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)

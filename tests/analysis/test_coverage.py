@@ -168,3 +168,11 @@ def test_every_figure_of_a_run_with_a_lost_uav_is_drawn(tmp_path):
         warnings.simplefilter("error", RuntimeWarning)
         paths = save_run_figures(_recording(present, est), tmp_path)
     assert paths and all(p.stat().st_size > 0 for p in paths)
+
+
+def test_a_uavs_last_value_is_taken_at_its_last_sample_that_came():
+    from swarmtrack.analysis.coverage import at_last_came
+
+    x = np.arange(12.0).reshape(4, 3)  # 4 steps, 3 UAVs: a cumulative count
+    present = np.array([[1, 1, 0], [1, 0, 0], [1, 1, 0], [1, 0, 0]], dtype=bool)
+    assert at_last_came(present, x, np.array([-1.0, -1.0, -7.0])).tolist() == [9.0, 7.0, -7.0]

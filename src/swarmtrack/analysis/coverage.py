@@ -65,6 +65,14 @@ def mean_over_uavs(x: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndar
     return np.divide(total, count, out=np.full(len(x), np.nan), where=some), some
 
 
+def at_last_came(present: np.ndarray, x: np.ndarray, before: np.ndarray) -> np.ndarray:
+    """(N, ...) each UAV's row of ``x`` (k, N, ...) at its last sample that came (``present`` (k, N)), ``before``
+    for a UAV none of whose samples came (e.g. a cumulative count carried across chunks)."""
+    row, got = len(present) - 1 - np.argmax(present[::-1], axis=0), present.any(axis=0)
+    got = got.reshape(got.shape + (1,) * (x.ndim - 2))
+    return np.where(got, x[row, np.arange(present.shape[1])], before)
+
+
 def runs(flags: np.ndarray, t: np.ndarray, shortest: float) -> list[tuple[int, int]]:
     """Maximal runs of True in ``flags`` (k,) lasting at least ``shortest`` s, as index pairs ``[a, b)``."""
     edges = np.diff(np.concatenate([[0], flags.astype(np.int8), [0]]))

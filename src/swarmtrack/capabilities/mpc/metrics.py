@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from swarmtrack.analysis.coverage import came
+from swarmtrack.analysis.coverage import at_last_came, came
 from swarmtrack.analysis.metrics import SERIES, min_separations, phase_groups
 from swarmtrack.registry import Figure, Metric
 from swarmtrack.sim.recorder import Chunk, Recording
@@ -75,10 +75,8 @@ class _Formation:
             np.add.at(self.phase_sum, phase, dist.mean(axis=1))
             np.add.at(self.phase_n, phase, 1)
         if len(c.t):  # the cumulative solver probes at each UAV's last sample that came
-            present = came(self.rec, c)
-            row, got = len(c.t) - 1 - np.argmax(present[::-1], axis=0), present.any(axis=0)
             for k, before in self.last.items():
-                self.last[k] = np.where(got, c.probes[k][row, np.arange(self.rec.n_agents)], before)
+                self.last[k] = at_last_came(came(self.rec, c), c.probes[k], before)
 
     def result(self) -> dict:
         n = max(self.n, 1)

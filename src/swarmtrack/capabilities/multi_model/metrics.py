@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from swarmtrack.analysis.coverage import came
+from swarmtrack.analysis.coverage import at_last_came, came
 from swarmtrack.capabilities.tracking_swarm import metrics as gaussian
 from swarmtrack.registry import Figure, Metric
 from swarmtrack.sim.recorder import Chunk, Recording
@@ -41,9 +41,8 @@ class _ModelUse:
         present = came(self.rec, c)[keep]
         winner = c.probes["winner"][keep][present].astype(np.int64)  # 1-based, 0: none
         self.counts += np.bincount(winner.ravel(), minlength=len(self.counts) + 1)[1:len(self.counts) + 1]
-        switches = c.probes["switches"][keep]
-        for i in np.flatnonzero(present.any(axis=0)):
-            self.switches[i] = switches[np.flatnonzero(present[:, i])[-1], i]
+        if keep.any():
+            self.switches = at_last_came(present, c.probes["switches"][keep], self.switches)
 
     def result(self) -> dict:
         total = self.counts.sum()

@@ -28,6 +28,7 @@ from swarmtrack.live import wire
 from swarmtrack.live.agent import HELLO_EVERY, PATIENCE, scenario_hash, telemetry_of
 from swarmtrack.live.node import LOST_AFTER, Node
 from swarmtrack.network.links import neighbour_lists
+from swarmtrack.outputs import Terminated
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sensors.detections import Detections
 from swarmtrack.sim.build import build, command_width
@@ -231,7 +232,7 @@ class LockstepWorld:
         """The world stops on ``exc``: every UAV process of the run is told (a stop to all), and with ``hello``
         (before or while it starts them) every process whose hello it heard, each by a stop bound to its hello, so
         that none waits for a world that is gone."""
-        interrupted = isinstance(exc, KeyboardInterrupt) or type(exc).__name__ == "Terminated"
+        interrupted = isinstance(exc, KeyboardInterrupt | Terminated)
         reason = "the world was interrupted" if interrupted else f"the world stopped the run: {exc}"
         node = self.node
         node.stopping = True

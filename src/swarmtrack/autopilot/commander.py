@@ -154,6 +154,7 @@ class Commander:
             result = self.refuse.get("arm", ACCEPTED)
             if result == ACCEPTED and not self.armed:
                 self.armed, self.changed, self.armed_at, self.flew = True, True, now, not on_ground
+                self.landed_at = now if on_ground else None
                 if on_ground or self.home is None:
                     self.home = np.array([position[0], position[1], position[2] if on_ground else 0.0])
             return result
@@ -216,12 +217,13 @@ class Commander:
             self.landed_at = now
         if self.main == px4.AUTO and self.sub == px4.AUTO_TAKEOFF and self.target_z is not None \
                 and z <= self.target_z + REACHED_Z and not on_ground:
+            takeoff = None if self.anchor is None else np.array([self.anchor[0], self.anchor[1], self.target_z])
             self.set_mode(px4.AUTO, px4.AUTO_LOITER)
+            self.anchor = takeoff  # Hold keeps the takeoff's point and altitude
         if on_ground and self.landed_at is not None:
             wait = self.p("COM_DISARM_LAND") if self.flew else self.p("COM_DISARM_PRFLT")
-            since = self.landed_at if self.flew else max(self.landed_at, self.armed_at if self.armed_at is not None
-                                                         else self.landed_at)
-            if wait > 0 and now - since >= wait and not (self.main == px4.AUTO and self.sub == px4.AUTO_TAKEOFF):
+            taking_off = self.main == px4.AUTO and self.sub == px4.AUTO_TAKEOFF
+            if wait > 0 and now - self.landed_at >= wait and not taking_off:
                 self._disarm()
 
     def landed_state(self, on_ground: bool, vz: float) -> int:

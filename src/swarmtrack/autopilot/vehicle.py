@@ -132,6 +132,7 @@ class MavlinkVehicle:
         self._acc = np.zeros(2)  # the latest horizontal acceleration flown (NED)
         self._az = 0.0  # the latest vertical acceleration flown (NED)
         self.forwarded = {"to_companion": 0, "to_gcs": 0}
+        self._text_id = 0  # the id of the latest STATUSTEXT sent in chunks
 
     # -- what the others read ---------------------------------------------------------------------------------------
 
@@ -174,9 +175,19 @@ class MavlinkVehicle:
     # -- the links --------------------------------------------------------------------------------------------------
 
     def _say(self, severity: int, text: str) -> None:
-        """``STATUSTEXT`` on every link (PX4's ``mavlink_log`` goes to all its instances)."""
+        """``STATUSTEXT`` on every link (PX4's ``mavlink_log`` goes to all its instances); a text over 50 bytes in
+        chunks of one ``id`` (``chunk_seq`` 0, 1, ..., the last one shorter than 50 bytes), as MAVLink 2 and PX4's
+        ``MavlinkStreamStatustext`` send it."""
+        raw = text.encode()
+        if len(raw) <= 50:
+            chunks, ident = [raw], 0
+        else:
+            self._text_id = self._text_id % 65535 + 1
+            ident = self._text_id
+            chunks = [raw[k:k + 50] for k in range(0, len(raw) + 1, 50)]  # ends with a chunk under 50 bytes
         for link in self.links:
-            link.mav.statustext_send(severity, text.encode()[:50])
+            for seq, chunk in enumerate(chunks):
+                link.mav.statustext_send(severity, chunk, ident, seq)
 
     def heartbeat(self, force: bool = False) -> None:
         """``HEARTBEAT`` on every link, at most once a second of wall-clock time (``force``: now)."""

@@ -1,0 +1,139 @@
+"""The simulated vehicle's commander (autopilot/commander.py): PX4's arming rules, modes, commands and the offboard
+setpoint stream's failsafe, without sockets."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from pymavlink.dialects.v20 import common as mavlink
+
+from swarmtrack.autopilot import px4
+from swarmtrack.autopilot.commander import ACCEPTED, DENIED, REJECTED, UNSUPPORTED, Commander
+from swarmtrack.autopilot.params import Parameters
+
+ARM, MODE = mavlink.MAV_CMD_COMPONENT_ARM_DISARM, mavlink.MAV_CMD_DO_SET_MODE
+CUSTOM = float(mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED)
+NAN = math.nan
+
+
+def _commander(airborne=True, **values):
+    said = []
+    c = Commander(Parameters(values), lambda severity, text: said.append((severity, text)), airborne=airborne)
+    return c, said
+
+
+def _p(*params):
+    return (*params, *[0.0] * (7 - len(params)))
+
+
+def _setpoint(time_boot_ms=0, mask=px4.ACCELERATION, frame=mavlink.MAV_FRAME_LOCAL_NED):
+    return mavlink.MAVLink_set_position_target_local_ned_message(time_boot_ms, 1, 1, frame, mask, 0, 0, 0, 0, 0, 0,
+                                                                 0.5, 0.25, 0, 0, 0)
+
+
+def _offboard(c, now=0.0):
+    assert c.take_setpoint(_setpoint(), now)
+    assert c.command(MODE, _p(CUSTOM, px4.OFFBOARD), now, False, np.zeros(3)) == ACCEPTED and c.offboard()
+
+
+def test_a_disarm_in_flight_is_refused_as_px4_refuses_it_unless_forced():
+    c, said = _commander()
+    assert c.command(ARM, _p(0.0), 0.0, False, np.zeros(3)) == REJECTED and c.armed
+    assert said == [(mavlink.MAV_SEVERITY_CRITICAL, "Disarming denied: not landed")]
+    assert c.command(ARM, _p(0.0, px4.FORCE_MAGIC), 0.0, False, np.zeros(3)) == ACCEPTED and not c.armed
+    c, _ = _commander()
+    assert c.command(ARM, _p(0.0), 0.0, True, np.zeros(3)) == ACCEPTED and not c.armed  # landed: no force needed
+
+
+def test_arming_on_the_ground_sets_home_there():
+    c, _ = _commander(airborne=False)
+    assert not c.armed and c.home is None
+    assert c.command(ARM, _p(1.0), 0.0, True, np.array([3.0, 4.0, 0.0])) == ACCEPTED and c.armed
+    assert np.array_equal(c.home, [3.0, 4.0, 0.0])
+
+
+@pytest.mark.parametrize("main, sub, result, mode", [
+    (px4.AUTO, px4.AUTO_LOITER, ACCEPTED, (px4.AUTO, px4.AUTO_LOITER)),  # Hold keeps its sub mode
+    (px4.AUTO, px4.AUTO_LAND, ACCEPTED, (px4.AUTO, px4.AUTO_LAND)),
+    (px4.AUTO, px4.AUTO_RTL, ACCEPTED, (px4.AUTO, px4.AUTO_RTL)),
+    (px4.AUTO, 0, REJECTED, (px4.POSCTL, 0)),  # Mission (Auto without sub mode): nothing to fly
+    (px4.AUTO, 42, DENIED, (px4.POSCTL, 0)),  # "Unsupported auto mode"
+    (px4.ACRO, 0, REJECTED, (px4.POSCTL, 0)),
+    (px4.OFFBOARD, 0, REJECTED, (px4.POSCTL, 0)),  # no offboard signal
+])
+def test_do_set_mode_with_main_and_sub_modes(main, sub, result, mode):
+    c, said = _commander()
+    c.home = np.zeros(3)
+    assert c.command(MODE, _p(CUSTOM, main, sub), 0.0, False, np.zeros(3)) == result
+    assert (c.main, c.sub) == mode
+    if result == REJECTED:
+        assert said[-1][1] == f"Switching to {px4.mode_name(main, sub or px4.AUTO_MISSION)} is currently not possible"
+
+
+def test_return_needs_a_home_and_an_unknown_command_is_unsupported():
+    c, _ = _commander(airborne=False)
+    assert c.command(mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, _p(), 0.0, True, np.zeros(3)) == REJECTED
+    assert c.command(mavlink.MAV_CMD_DO_REPOSITION, _p(), 0.0, True, np.zeros(3)) == UNSUPPORTED
+    assert c.command(MODE, _p(0.0, px4.POSCTL), 0.0, True, np.zeros(3)) == DENIED  # base mode switching
+
+
+def test_offboard_needs_a_fresh_stream_and_its_loss_after_com_of_loss_t_is_the_failsafe():
+    c, said = _commander()
+    assert c.take_setpoint(_setpoint(), 0.0)
+    assert c.command(MODE, _p(CUSTOM, px4.OFFBOARD), 1.5, False, np.zeros(3)) == REJECTED  # 1.5 s old
+    _offboard(c, now=2.0)
+    c.update(2.99, False, -3.0)  # 0.99 s after the setpoint: still fresh (COM_OF_LOSS_T = 1 s)
+    assert c.main == px4.OFFBOARD and not [t for _, t in said if "Failsafe" in t]
+    c.update(3.01, False, -3.0)
+    assert (c.main, c.sub) == (px4.POSCTL, 0) and c.armed  # COM_OBL_RC_ACT 0: Position
+    assert said[-1] == (mavlink.MAV_SEVERITY_CRITICAL, "Failsafe activated") and c.failsafes == [(3.01, "Position")]
+    c.update(5.0, False, -3.0)
+    assert [t for _, t in said].count("Failsafe activated") == 1
+
+
+@pytest.mark.parametrize("action, mode, armed", [
+    (5, (px4.AUTO, px4.AUTO_LOITER), True), (3, (px4.AUTO, px4.AUTO_RTL), True), (4, (px4.AUTO, px4.AUTO_LAND), True),
+    (1, (px4.ALTCTL, 0), True), (7, (px4.POSCTL, 0), False),
+])
+def test_the_offboard_loss_action_is_com_obl_rc_act(action, mode, armed):
+    c, _ = _commander(COM_OBL_RC_ACT=action, COM_OF_LOSS_T=0.5)
+    _offboard(c)
+    c.update(0.6, False, -3.0)
+    assert (c.main, c.sub) == mode and c.armed == armed
+
+
+def test_setpoints_px4_drops_are_counted_and_said_once_a_second():
+    c, said = _commander()
+    for k in range(10):
+        assert not c.take_setpoint(_setpoint(frame=mavlink.MAV_FRAME_LOCAL_OFFSET_NED), 0.05 * k)
+    assert c.refused == {"SET_POSITION_TARGET_LOCAL_NED coordinate frame 7 unsupported": 10}
+    assert [t for _, t in said] == ["SET_POSITION_TARGET_LOCAL_NED coordinate frame 7 unsupported"]
+    assert c.setpoint is None and c.setpoint_ms == -1  # no offboard signal
+
+
+def test_auto_disarm_after_landing_and_before_takeoff():
+    c, _ = _commander(COM_DISARM_LAND=2.0)
+    c.update(0.0, False, -3.0)
+    c.update(1.0, True, 0.0)  # touched down
+    c.update(2.9, True, 0.0)
+    assert c.armed
+    c.update(3.0, True, 0.0)
+    assert not c.armed
+    c, _ = _commander(airborne=False, COM_DISARM_PRFLT=10.0)
+    c.command(ARM, _p(1.0), 5.0, True, np.zeros(3))
+    c.update(14.9, True, 0.0)
+    assert c.armed
+    c.update(15.0, True, 0.0)
+    assert not c.armed
+
+
+def test_takeoff_climbs_to_mis_takeoff_alt_then_holds_there():
+    c, _ = _commander(airborne=False)
+    c.command(ARM, _p(1.0), 0.0, True, np.zeros(3))
+    assert c.command(mavlink.MAV_CMD_NAV_TAKEOFF, _p(0, 0, 0, NAN, NAN, NAN, NAN), 0.0, True, np.zeros(3)) == ACCEPTED
+    _, az = c.fly(0.0, np.zeros(3), np.zeros(3), True)
+    assert az < 0 and c.target_z == -2.5  # up, to 2.5 m above home
+    c.update(1.0, False, -2.45)
+    assert (c.main, c.sub) == (px4.AUTO, px4.AUTO_LOITER) and c.anchor[2] == -2.5

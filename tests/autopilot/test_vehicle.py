@@ -44,7 +44,6 @@ class Client:
                  component: int = COMPANION):
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.bind(("127.0.0.1", port))
-        self.sock.settimeout(0.02)
         self.to = to
         self.mav = mavlink.MAVLink(self, system, component)
         self.rx = mavlink.MAVLink(None)
@@ -55,16 +54,16 @@ class Client:
         self.sock.sendto(buf, self.to)
 
     def pump(self, seconds: float = 0.0) -> None:
+        """Take what came, and what comes for ``seconds``."""
         deadline = time.monotonic() + seconds
         while True:
+            left = deadline - time.monotonic()
+            self.sock.settimeout(left if left > 0 else 0.0)  # 0: what is there, without waiting
             try:
                 data, _ = self.sock.recvfrom(65536)
-                self.got += [m for m in self.rx.parse_buffer(data) or [] if m.get_type() != "BAD_DATA"]
-                continue
-            except TimeoutError:
-                pass
-            if time.monotonic() >= deadline:
+            except (TimeoutError, BlockingIOError):
                 return
+            self.got += [m for m in self.rx.parse_buffer(data) or [] if m.get_type() != "BAD_DATA"]
 
     def wait(self, kind: str, cond=lambda m: True, timeout: float = 3.0):
         """The first ``kind`` message that holds ``cond`` (from what came and what comes), None after ``timeout``."""

@@ -137,3 +137,13 @@ def test_takeoff_climbs_to_mis_takeoff_alt_then_holds_there():
     assert az < 0 and c.target_z == -2.5  # up, to 2.5 m above home
     c.update(1.0, False, -2.45)
     assert (c.main, c.sub) == (px4.AUTO, px4.AUTO_LOITER) and c.anchor[2] == -2.5
+
+
+def test_nan_parameters_are_unset_as_px4_reads_mavsdks_commands():
+    c, _ = _commander(airborne=False)
+    nans = (NAN,) * 6
+    assert c.command(ARM, (1.0, *nans), 0.0, True, np.zeros(3)) == ACCEPTED and c.armed  # MAVSDK's arm()
+    c.command(mavlink.MAV_CMD_NAV_TAKEOFF, _p(0, 0, 0, NAN, NAN, NAN, NAN), 0.0, True, np.zeros(3))
+    c.update(5.0, False, -2.5)
+    assert c.command(ARM, (0.0, *nans), 5.0, False, np.zeros(3)) == REJECTED and c.armed  # NaN is no force
+    assert c.command(MODE, (CUSTOM, px4.AUTO, px4.AUTO_LAND, NAN, NAN, NAN, NAN), 5.0, False, np.zeros(3)) == ACCEPTED

@@ -11,7 +11,7 @@ import pytest
 from pymavlink.dialects.v20 import common as mavlink
 
 from swarmtrack.autopilot import px4
-from swarmtrack.autopilot.fleet import Fleet, gcs_port_of
+from swarmtrack.autopilot.fleet import Fleet, check_ports, gcs_port_of
 from swarmtrack.autopilot.vehicle import MavlinkVehicle, VehicleError, hold
 
 COMPANION, GCS = mavlink.MAV_COMP_ID_ONBOARD_COMPUTER, 190
@@ -181,6 +181,14 @@ def test_a_taken_port_stops_the_fleet_naming_it_and_leaves_nothing_open():
             Fleet(3, lambda: 0.0, base)
     finally:
         taken.close()
+    taken = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    taken.bind(("127.0.0.1", base + 4030 + 2))  # UAV 3's ground-station link's (18572)
+    try:
+        with pytest.raises(VehicleError, match=f"UAV 3's autopilot's ground-station link: UDP port {base + 4032}"):
+            check_ports(3, base)
+    finally:
+        taken.close()
+    check_ports(3, base)  # all free: nothing raised, nothing kept
     f = Fleet(3, lambda: 0.0, base)  # UAV 1's ports were closed
     try:
         with pytest.raises(VehicleError, match=f"UDP port {base + 40}"):
@@ -283,6 +291,8 @@ def test_a_lone_vehicle_starts_landed_and_disarmed_and_refuses_as_configured():
         time.sleep(0.05)
         v.poll(0.0)
         assert agent.wait("COMMAND_ACK").result == mavlink.MAV_RESULT_DENIED and not v.armed
+        v.publish(0.1, np.array([3.0, 4.0, 0.0, 0.0]))
+        assert np.array_equal(v.state.home, [4.0, 3.0, 0.0])  # home before arming, as PX4 sets it on the ground
     finally:
         v.close()
         agent.close()

@@ -127,15 +127,18 @@ class Commander:
 
     def command(self, cmd: int, params: tuple, now: float, on_ground: bool, position: np.ndarray) -> int:
         """The result of command ``cmd`` with ``params`` (param1..param7) at ``now``; ``on_ground``: the vehicle is
-        landed; ``position``: its NED position (3,)."""
+        landed; ``position``: its NED position (3,). A non-finite parameter is unset (0), as PX4's ``lroundf`` reads
+        MAVSDK's NaN, except Takeoff's altitude (NaN: ``MIS_TAKEOFF_ALT``)."""
+        raw = tuple(float(x) for x in params)
+        params = tuple(x if math.isfinite(x) else 0.0 for x in raw)
         if cmd == mavlink.MAV_CMD_COMPONENT_ARM_DISARM:
             return self._arm_disarm(params, now, on_ground, position)
         if cmd == mavlink.MAV_CMD_DO_SET_MODE:
             return self._set_mode_command(params, now)
         if cmd == mavlink.MAV_CMD_NAV_TAKEOFF:
             self.set_mode(px4.AUTO, px4.AUTO_TAKEOFF)
-            if math.isfinite(params[6]):
-                self.target_z = -(float(params[6]) - self.home_amsl)
+            if math.isfinite(raw[6]):
+                self.target_z = -(raw[6] - self.home_amsl)
             return ACCEPTED
         if cmd == mavlink.MAV_CMD_NAV_LAND:
             self.set_mode(px4.AUTO, px4.AUTO_LAND)

@@ -43,6 +43,11 @@ def gcs_local_port(base: int, i: int) -> int:
     return base + (GCS_LOCAL - OFFBOARD_REMOTE) + i
 
 
+def check_free(host: str, port: int, what: str) -> None:
+    """Bind ``host:port`` without ``SO_REUSEADDR`` and release it: :class:`VehicleError` naming it when it is taken."""
+    Endpoint(host, port, None, 0, 0, what).close()
+
+
 class Endpoint:
     """A link bound to ``host:port`` sending to ``remote`` (``(host, port)``; None: claimable, module docstring), as
     MAVLink system ``system``, component ``component``; ``what`` names it in errors (``"UAV 1's offboard link"``)."""

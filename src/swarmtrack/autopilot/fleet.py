@@ -22,10 +22,10 @@ from collections.abc import Callable
 
 import numpy as np
 
-from swarmtrack.autopilot.endpoint import VehicleError, gcs_local_port, offboard_ports
+from swarmtrack.autopilot.endpoint import VehicleError, check_free, gcs_local_port, offboard_ports
 from swarmtrack.autopilot.vehicle import MavlinkVehicle
 
-__all__ = ["BASE_PORT", "Fleet", "VehicleError", "gcs_port_of"]
+__all__ = ["BASE_PORT", "Fleet", "VehicleError", "check_ports", "gcs_port_of"]
 
 #: The first UDP port the vehicles send to (PX4 SITL's offboard port of instance 0).
 BASE_PORT = 14540
@@ -35,6 +35,15 @@ def gcs_port_of(base_port: int, i: int) -> int:
     """The local port of UAV ``i``'s ground-station link (18570 + i for base 14540): a ground station sends there to
     claim it."""
     return gcs_local_port(base_port, i)
+
+
+def check_ports(n: int, base_port: int = BASE_PORT, host: str = "127.0.0.1") -> None:
+    """Refuse, before anything is started, the ports ``n`` vehicles would bind (each UAV's offboard and ground-station
+    local ports) when one is taken: :class:`VehicleError` naming the first (the ports are bound without
+    ``SO_REUSEADDR`` and released at once; :class:`Fleet` still refuses one taken in between)."""
+    for i in range(n):
+        check_free(host, offboard_ports(base_port, i)[0], f"UAV {i + 1}'s autopilot's offboard link")
+        check_free(host, gcs_port_of(base_port, i), f"UAV {i + 1}'s autopilot's ground-station link")
 
 
 class Fleet:

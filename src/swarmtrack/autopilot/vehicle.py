@@ -15,7 +15,8 @@ tests and demos (the world's side). It composes:
 - ``HEARTBEAT`` on each link every second of wall-clock time, and at once when the mode or arming changes (a
   quadrotor, PX4, the armed flag and PX4's main and sub mode);
 - ``LOCAL_POSITION_NED`` on the offboard link each time the world publishes the UAV's navigation, stamped with the
-  world's time (in lockstep the link matches it to the step), and ``ATTITUDE`` then when the world gives one;
+  world's time (in lockstep the link matches it to the step); its streams send ``ATTITUDE`` (the world's when it gives
+  one, else derived from the acceleration it flies) at their rates;
 - forwarding, as PX4's ``MAV_x_FORWARD``: a ``COMMAND_LONG``/``COMMAND_INT`` from the ground station addressed to
   another component of this system (the companion computer, ``MAV_COMP_ID_ONBOARD_COMPUTER``) goes to the offboard
   link, and the companion's ``COMMAND_ACK``, ``STATUSTEXT`` and ``HEARTBEAT`` go to the ground station.
@@ -123,9 +124,9 @@ class MavlinkVehicle:
         self.vertical = Vertical(-start)
         self.state = VehicleState(system=self.system)
         self.state.position[2] = -start
-        if airborne:
-            self.commander.home = np.zeros(3)  # set at the first navigation: below where it starts
-        self._home_pending = airborne
+        self._home_pending = True  # home: below its first navigation (PX4 sets it once its position is valid)
+        self._world_attitude = False  # the world gives its attitude (else derived from what it flies)
+        self.faults: list[str] = []  # messages whose handling failed (the vehicle goes on)
         self.world_altitude: float | None = None  # the 3-D world's altitude, when it gives one
         self._beat = -math.inf
         self._flown_at: float | None = None  # the caller's time of the latest command
@@ -206,7 +207,11 @@ class MavlinkVehicle:
         self._state(now)
         for link in self.links:
             for msg in link.receive():
-                self._take(msg, link, now)
+                try:
+                    self._take(msg, link, now)
+                except Exception as exc:  # noqa: BLE001 - one bad message must not stop the vehicle
+                    self.faults.append(f"{msg.get_type()}: {type(exc).__name__}: {exc}")
+                    del self.faults[:-20]
         self._update(now)
         if self.commander.changed:
             self.commander.changed = False
@@ -277,8 +282,8 @@ class MavlinkVehicle:
                 altitude: float | None = None) -> None:
         """Send the UAV's navigation ``[x, y, vx, vy]`` (ENU) at time ``t`` (s) as ``LOCAL_POSITION_NED`` on the
         offboard link, its altitude the world's ``altitude`` (m up) when given, else the vehicle's own; and its
-        ``attitude`` ``[roll, pitch, yaw]`` (ENU yaw) as ``ATTITUDE`` when given (else the streams send one derived
-        from the acceleration it flies)."""
+        ``attitude`` ``[roll, pitch, yaw]`` (ENU yaw) when given, which its streams send as ``ATTITUDE`` (else one
+        derived from the acceleration it flies)."""
         if altitude is not None and self.world_altitude is None:
             self.vertical.z = -float(altitude)  # its own channel starts at the world's altitude
         self.world_altitude = None if altitude is None else float(altitude)
@@ -291,10 +296,9 @@ class MavlinkVehicle:
         self._state(t)
         if attitude is not None:
             s.attitude = np.array([attitude[0], attitude[1], float(yaw_enu_to_ned(attitude[2]))])
-        ms = int(round(t * 1000))
-        self.offboard_link.mav.local_position_ned_send(ms, *s.position.tolist(), *s.velocity.tolist())
-        if attitude is not None:
-            self.offboard_link.mav.attitude_send(ms, *s.attitude.tolist(), 0.0, 0.0, 0.0)
+            self._world_attitude = True
+        self.offboard_link.mav.local_position_ned_send(int(round(t * 1000)), *s.position.tolist(),
+                                                       *s.velocity.tolist())
 
     def command(self, nav: np.ndarray, now: float) -> np.ndarray:
         """The horizontal acceleration (2,) (ENU) it flies now from the navigation ``nav`` ``[x, y, vx, vy]``
@@ -309,7 +313,8 @@ class MavlinkVehicle:
         self._update(now)
         acc, self._az = self.commander.fly(now, p, v, self.vertical.on_ground)
         self._acc = acc
-        self.state.attitude = attitude_of(acc if np.isfinite(acc).all() else np.zeros(2), self.commander.yaw)
+        if not self._world_attitude:
+            self.state.attitude = attitude_of(acc if np.isfinite(acc).all() else np.zeros(2), self.commander.yaw)
         return np.array([acc[1], acc[0]])
 
     def close(self) -> None:

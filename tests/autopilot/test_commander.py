@@ -147,3 +147,39 @@ def test_nan_parameters_are_unset_as_px4_reads_mavsdks_commands():
     c.update(5.0, False, -2.5)
     assert c.command(ARM, (0.0, *nans), 5.0, False, np.zeros(3)) == REJECTED and c.armed  # NaN is no force
     assert c.command(MODE, (CUSTOM, px4.AUTO, px4.AUTO_LAND, NAN, NAN, NAN, NAN), 5.0, False, np.zeros(3)) == ACCEPTED
+
+
+def _simulate(c: Commander, p, v, seconds: float, t0: float = 0.0, dt: float = 0.02):
+    """The commander flying a point mass and its own vertical channel for ``seconds``: (t, p, v, modes seen)."""
+    from swarmtrack.autopilot.flight import Vertical
+
+    ch, p, v, seen, t = Vertical(p[2]), np.array(p[:2], float), np.array(v[:2], float), [], t0
+    for _ in range(int(seconds / dt)):
+        c.update(t, ch.on_ground, ch.z)
+        acc, az = c.fly(t, np.array([*p, ch.z]), np.array([*v, ch.vz]), ch.on_ground)
+        ch.advance(dt, az, c.armed)
+        if ch.on_ground:
+            v[:] = 0.0
+        else:
+            p, v = p + dt * v + 0.5 * dt * dt * acc, v + dt * acc
+        t += dt
+        if not seen or seen[-1] != (c.main, c.sub, c.phase, c.armed):
+            seen.append((c.main, c.sub, c.phase, c.armed))
+    return t, np.array([*p, ch.z]), v, seen
+
+
+def test_hold_brakes_at_mpc_acc_hor_and_holds_where_it_stops():
+    c, _ = _commander()
+    assert c.command(MODE, _p(CUSTOM, px4.AUTO, px4.AUTO_LOITER), 0.0, False, np.zeros(3)) == ACCEPTED
+    _, p, v, _ = _simulate(c, (0.0, 0.0, -10.0), (6.0, 0.0), 20.0)
+    assert np.linalg.norm(v) < 0.01 and abs(p[0] - 6.0) < 0.05 and abs(p[1]) < 1e-9 and abs(p[2] + 10) < 0.01
+
+
+def test_return_climbs_flies_home_descends_and_lands_then_disarms():
+    c, _ = _commander(RTL_RETURN_ALT=8.0, RTL_DESCEND_ALT=4.0, COM_DISARM_LAND=1.0)
+    c.home = np.array([0.0, 0.0, 0.0])
+    assert c.command(mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, _p(), 0.0, False, np.zeros(3)) == ACCEPTED
+    _, p, _, seen = _simulate(c, (30.0, -40.0, -3.0), (0.0, 0.0), 60.0)
+    phases = [s[2] for s in seen if s[3]]
+    assert phases == ["climb", "return", "descend", "land"] and seen[-1][3] is False  # disarmed on the ground
+    assert np.linalg.norm(p[:2]) < 0.6 and p[2] == 0.0

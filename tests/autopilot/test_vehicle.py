@@ -15,6 +15,7 @@ from swarmtrack.autopilot.fleet import Fleet, check_ports, gcs_port_of
 from swarmtrack.autopilot.vehicle import MavlinkVehicle, VehicleError, hold
 
 COMPANION, GCS = mavlink.MAV_COMP_ID_ONBOARD_COMPUTER, 190
+NAN = float("nan")
 
 
 def free_base(n: int, spread=(0, 40, 4030)) -> int:
@@ -105,7 +106,7 @@ class Client:
         if kind == "long":
             self.mav.command_long_send(*target, cmd, 0, *p)
         else:
-            self.mav.command_int_send(*target, mavlink.MAV_FRAME_GLOBAL, cmd, 0, 0, *p[:4], int(p[4]), int(p[5]),
+            self.mav.command_int_send(*target, mavlink.MAV_FRAME_GLOBAL, cmd, 0, 0, *p[:4], round(p[4]), round(p[5]),
                                       p[6])
         return self.wait("COMMAND_ACK", lambda m: m.command == cmd)
 
@@ -296,3 +297,17 @@ def test_a_lone_vehicle_starts_landed_and_disarmed_and_refuses_as_configured():
     finally:
         v.close()
         agent.close()
+
+
+def test_a_reposition_flies_to_the_point_in_hold_and_attitude_targets_are_said_unsupported(fleet):
+    f, agent, _ = fleet
+    agent.wait("HEARTBEAT")
+    v = f.fleet.vehicles[0]
+    f.fleet.publish(0.0, np.zeros((2, 4)), [0, 1])
+    lat, lon, alt = v.origin.to_global(30.0, -20.0, -12.0)  # 30 m north, 20 m west, 12 m up
+    ack = agent.command(mavlink.MAV_CMD_DO_REPOSITION, -1, 1, 0, NAN, lat * 1e7, lon * 1e7, alt, kind="int")
+    assert ack.result == mavlink.MAV_RESULT_ACCEPTED and (v.mode, v.sub_mode) == (px4.AUTO, px4.AUTO_LOITER)
+    assert np.allclose(v.commander.anchor, [30.0, -20.0, -12.0], atol=0.01)
+    agent.mav.set_attitude_target_send(0, 1, 1, 0, [1, 0, 0, 0], 0, 0, 0, 0.5)
+    _, text = agent.text(lambda t: t.startswith("SET_ATTITUDE_TARGET"))
+    assert text == "SET_ATTITUDE_TARGET not supported by this simulated vehicle"

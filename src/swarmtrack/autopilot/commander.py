@@ -17,6 +17,7 @@ Commands (``COMMAND_LONG`` or ``COMMAND_INT``, answered with ``COMMAND_ACK``):
   ``MPC_TKO_SPEED``, then Hold; ``MAV_CMD_NAV_LAND`` (21): Land at ``MPC_LAND_SPEED``, disarmed ``COM_DISARM_LAND`` s
   after touching down; ``MAV_CMD_NAV_RETURN_TO_LAUNCH`` (20): climb to ``RTL_RETURN_ALT``, fly home at
   ``MPC_XY_CRUISE``, descend to ``RTL_DESCEND_ALT``, land;
+- ``MAV_CMD_DO_REPOSITION`` (192): Hold at the given point (:meth:`Commander.reposition`);
 - another command: ``MAV_RESULT_UNSUPPORTED``.
 
 Offboard: a ``SET_POSITION_TARGET_LOCAL_NED`` that PX4 accepts (:func:`~swarmtrack.autopilot.flight.setpoint_of`)
@@ -146,6 +147,22 @@ class Commander:
         if cmd == mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH:
             return self._switch(px4.AUTO, px4.AUTO_RTL, now)
         return UNSUPPORTED
+
+    def reposition(self, target: np.ndarray, change_mode: bool, now: float, on_ground: bool) -> int:
+        """``MAV_CMD_DO_REPOSITION`` (QGroundControl's "go to location", MAVSDK's ``goto_location``) to the NED point
+        ``target`` (3,): in Hold (switched to when ``change_mode``, PX4's ``MAV_DO_REPOSITION_FLAGS_CHANGE_MODE``), it
+        flies there at ``MPC_XY_CRUISE`` and holds it. Only armed in the air (PX4's navigator ignores it on the
+        ground)."""
+        if not self.armed or on_ground:
+            self._say_once("Reposition is only possible in the air", now)
+            return REJECTED
+        if change_mode:
+            result = self._switch(px4.AUTO, px4.AUTO_LOITER, now)
+            if result != ACCEPTED:
+                return result
+        if (self.main, self.sub) == (px4.AUTO, px4.AUTO_LOITER):
+            self.anchor = np.asarray(target, dtype=float).copy()
+        return ACCEPTED
 
     home_amsl = 0.0
     """The home's altitude above mean sea level (m): Takeoff's ``param7`` is AMSL (the vehicle sets it from its

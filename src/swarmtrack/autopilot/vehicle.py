@@ -23,7 +23,9 @@ tests and demos (the world's side). It composes:
 
 Dispatch of what comes in: the commands the streams serve (message intervals, requests) → the link's streams;
 ``PARAM_*`` → parameters; ``MISSION_*`` → missions; ``SET_POSITION_TARGET_LOCAL_NED`` and the other commands → the
-commander (anything else is ignored, as PX4 ignores what it has no handler for).
+commander; the setpoints PX4 flies and this vehicle does not (:data:`NOT_FLOWN`: attitude, global position, actuator
+targets) are counted in :attr:`MavlinkVehicle.refused` and said once a second; anything else is ignored, as PX4
+ignores what it has no handler for.
 
 The vehicle's vertical channel is its own when the world is planar (:class:`~swarmtrack.autopilot.flight.Vertical`):
 it climbs, holds and lands as its modes fly it; a 3-D world's altitude, when given to :meth:`MavlinkVehicle.publish`,
@@ -55,6 +57,8 @@ __all__ = ["MavlinkVehicle", "VehicleError", "hold"]
 AUTOPILOT = mavlink.MAV_COMP_ID_AUTOPILOT1
 #: What the companion computer sends that the ground station is forwarded.
 FORWARDED_TO_GCS = ("COMMAND_ACK", "STATUSTEXT", "HEARTBEAT")
+#: Offboard setpoints PX4 flies and this vehicle does not: counted and said (STATUSTEXT), never flown.
+NOT_FLOWN = ("SET_ATTITUDE_TARGET", "SET_POSITION_TARGET_GLOBAL_INT", "SET_ACTUATOR_CONTROL_TARGET")
 #: The altitude (m) a vehicle starting in the air holds when the world gives none: PX4's ``MIS_TAKEOFF_ALT``.
 AIRBORNE_ALTITUDE = 2.5
 
@@ -119,7 +123,7 @@ class MavlinkVehicle:
             self.streams[id(self.gcs_link)] = Streams(self.gcs_link.mav, NORMAL, origin, self.params, battery,
                                                       local_position=True)
         self.commander = Commander(self.params, self._say, airborne=airborne, refuse=refuse)
-        self.commander.home_amsl = origin.alt
+        self.commander.home_amsl, self.origin = origin.alt, origin
         start = (AIRBORNE_ALTITUDE if altitude is None else float(altitude)) if airborne else 0.0
         self.vertical = Vertical(-start)
         self.state = VehicleState(system=self.system)
@@ -234,6 +238,10 @@ class MavlinkVehicle:
         elif kind == "SET_POSITION_TARGET_LOCAL_NED":
             if msg.target_system in (0, self.system) and msg.target_component in (0, AUTOPILOT):
                 self.commander.take_setpoint(msg, now)
+        elif kind in NOT_FLOWN:
+            text = f"{kind} not supported by this simulated vehicle"
+            self.commander.refused[text] += 1
+            self.commander._say_once(text, now)
         elif (link is self.offboard_link and self.gcs_link is not None and kind in FORWARDED_TO_GCS
               and msg.get_srcComponent() != AUTOPILOT):
             self._forward(msg, self.gcs_link, "to_gcs")
@@ -256,12 +264,27 @@ class MavlinkVehicle:
             params = (msg.param1, msg.param2, msg.param3, msg.param4, msg.param5, msg.param6, msg.param7)
         else:
             params = (msg.param1, msg.param2, msg.param3, msg.param4, float(msg.x), float(msg.y), msg.z)
-        result = self.commander.command(msg.command, params, now, self.vertical.on_ground, self.state.position)
+        if msg.command == mavlink.MAV_CMD_DO_REPOSITION:
+            result = self.commander.reposition(self._target(msg, params), int(params[1] or 0) & 1 == 1
+                                               if math.isfinite(params[1]) else False, now, self.vertical.on_ground)
+        else:
+            result = self.commander.command(msg.command, params, now, self.vertical.on_ground, self.state.position)
         link.mav.command_ack_send(msg.command, result, target_system=msg.get_srcSystem(),
                                   target_component=msg.get_srcComponent())
         if self.commander.changed:  # the new state is told at once
             self.commander.changed = False
             self.heartbeat(force=True)
+
+    def _target(self, msg, params: tuple) -> np.ndarray:
+        """The NED point of a reposition: latitude and longitude (``COMMAND_INT``'s ``x, y`` in 1e-7 degrees, or
+        ``COMMAND_LONG``'s ``param5, param6`` in degrees) and altitude AMSL (``param7`` / ``z``); an unset one (NaN,
+        or 0 in ``COMMAND_INT``) is the vehicle's own."""
+        scale = 1e-7 if msg.get_type() == "COMMAND_INT" else 1.0
+        lat, lon, alt = params[4] * scale, params[5] * scale, params[6]
+        here = self.state.position
+        n, e, d = self.origin.to_local(lat, lon, alt if math.isfinite(alt) else self.origin.alt - here[2])
+        given = math.isfinite(lat) and math.isfinite(lon) and not (scale != 1.0 and params[4] == 0 == params[5])
+        return np.array([n if given else here[0], e if given else here[1], d])
 
     # -- the world's side -------------------------------------------------------------------------------------------
 

@@ -237,7 +237,8 @@ class Commander:
             self.landed_at = now
         if self.main == px4.AUTO and self.sub == px4.AUTO_TAKEOFF and self.target_z is not None \
                 and z <= self.target_z + REACHED_Z and not on_ground:
-            takeoff = None if self.anchor is None else np.array([self.anchor[0], self.anchor[1], self.target_z])
+            top = min(z, self.target_z)  # NED: already higher, it stays there
+            takeoff = None if self.anchor is None else np.array([self.anchor[0], self.anchor[1], top])
             self.set_mode(px4.AUTO, px4.AUTO_LOITER)
             self.anchor = takeoff  # Hold keeps the takeoff's point and altitude
         if on_ground and self.landed_at is not None:

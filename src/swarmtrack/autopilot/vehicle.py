@@ -201,7 +201,7 @@ class MavlinkVehicle:
         self._beat = time.monotonic()
         c = self.commander
         status = mavlink.MAV_STATE_ACTIVE if c.armed else mavlink.MAV_STATE_STANDBY
-        for link in self.links:
+        for link in (link for link in self.links if link.remote is not None):
             link.mav.heartbeat_send(mavlink.MAV_TYPE_QUADROTOR, mavlink.MAV_AUTOPILOT_PX4, _base_mode(c.armed, c.main),
                                     px4.custom_mode(c.main, c.sub), status)
 
@@ -224,7 +224,8 @@ class MavlinkVehicle:
             self.heartbeat()
         wall = time.monotonic()
         for link in self.links:
-            self.streams[id(link)].tick(wall, self.state)
+            if link.remote is not None:  # an unclaimed ground-station link encodes nothing
+                self.streams[id(link)].tick(wall, self.state)
 
     def _take(self, msg, link: Endpoint, now: float) -> None:
         kind = msg.get_type()

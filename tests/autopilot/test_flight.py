@@ -17,6 +17,7 @@ from swarmtrack.autopilot.flight import (
     Vertical,
     attitude_of,
     constrain_xy,
+    global_setpoint_of,
     horizontal,
     setpoint_of,
     stopping_point,
@@ -130,3 +131,21 @@ def test_stopping_point_and_attitude():
     assert math.isclose(pitch, -math.pi / 4) and abs(roll) < 1e-12 and yaw == 0.0
     roll, pitch, _ = attitude_of(np.array([0.0, 1.0]), 0.0)  # to the right (east): roll right
     assert roll > 0 and math.isclose(roll, math.atan2(1.0, G)) and abs(pitch) < 1e-12
+
+
+def test_a_global_position_setpoint_is_projected_about_the_origin_as_px4_does():
+    from swarmtrack.autopilot.geodesy import PX4_SITL
+
+    lat, lon, alt = PX4_SITL.to_global(120.0, -35.0, -20.0)
+    codec = mavlink.MAVLink(None, 1, 191)
+    mask = px4.POSITION
+    for frame, z_alt, home, z in [(mavlink.MAV_FRAME_GLOBAL_INT, alt, None, -20.0),
+                                  (mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, 15.0, np.array([0, 0, -1.0]), -16.0)]:
+        msg = mavlink.MAVLink_set_position_target_global_int_message(0, 1, 1, frame, mask, round(lat * 1e7),
+                                                                     round(lon * 1e7), z_alt, 0, 0, 0, 0, 0, 0, 0, 0)
+        sp, why = global_setpoint_of(codec.decode(bytearray(msg.pack(codec))), PX4_SITL, home)
+        assert why is None and np.allclose(sp.position, [120.0, -35.0, z], atol=0.02)  # 1e-7° ≈ 1.1 cm
+    msg = mavlink.MAVLink_set_position_target_global_int_message(0, 1, 1, mavlink.MAV_FRAME_LOCAL_NED, mask, 0, 0, 0,
+                                                                 0, 0, 0, 0, 0, 0, 0, 0)
+    assert global_setpoint_of(msg, PX4_SITL, None) == (None,
+                                                       "SET_POSITION_TARGET_GLOBAL_INT invalid coordinate frame 1")

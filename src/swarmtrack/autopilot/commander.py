@@ -20,8 +20,9 @@ Commands (``COMMAND_LONG`` or ``COMMAND_INT``, answered with ``COMMAND_ACK``):
 - ``MAV_CMD_DO_REPOSITION`` (192): Hold at the given point (:meth:`Commander.reposition`);
 - another command: ``MAV_RESULT_UNSUPPORTED``.
 
-Offboard: a ``SET_POSITION_TARGET_LOCAL_NED`` that PX4 accepts (:func:`~swarmtrack.autopilot.flight.setpoint_of`)
-is the offboard signal in any mode; it is flown only in Offboard mode. One PX4 drops is counted
+Offboard: a ``SET_POSITION_TARGET_LOCAL_NED`` (or ``SET_POSITION_TARGET_GLOBAL_INT``) that PX4 accepts
+(:func:`~swarmtrack.autopilot.flight.setpoint_of`) is the offboard signal in any mode; it is flown only in Offboard
+mode. One PX4 drops is counted
 (:attr:`Commander.refused`, by PX4's text) and said once a second as ``STATUSTEXT`` (``MAV_SEVERITY_CRITICAL``).
 Setpoints older than ``COM_OF_LOSS_T`` in Offboard mode are the offboard-loss failsafe: ``COM_OBL_RC_ACT`` (0
 Position, 1 Altitude, 2 Manual, 3 Return, 4 Land, 5 Hold, 6 Terminate, 7 Disarm; PX4's ``fromOffboardLossActParam``)
@@ -40,7 +41,7 @@ from collections.abc import Callable
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
-from swarmtrack.autopilot import px4
+from swarmtrack.autopilot import flight, px4
 from swarmtrack.autopilot.flight import Limits, Setpoint, horizontal, setpoint_of, stopping_point, vertical
 
 CRITICAL, INFO = mavlink.MAV_SEVERITY_CRITICAL, mavlink.MAV_SEVERITY_INFO
@@ -111,10 +112,13 @@ class Commander:
 
     # -- offboard setpoints -----------------------------------------------------------------------------------------
 
-    def take_setpoint(self, msg, now: float) -> bool:
-        """A ``SET_POSITION_TARGET_LOCAL_NED``: kept as the offboard signal when PX4 accepts it (True), else counted
-        and said."""
-        sp, why = setpoint_of(msg, self.yaw)
+    def take_setpoint(self, msg, now: float, origin=None) -> bool:
+        """A ``SET_POSITION_TARGET_LOCAL_NED`` (or ``..._GLOBAL_INT``, with the local frame's geodetic ``origin``):
+        kept as the offboard signal when PX4 accepts it (True), else counted and said."""
+        if msg.get_type() == "SET_POSITION_TARGET_GLOBAL_INT":
+            sp, why = flight.global_setpoint_of(msg, origin, self.home)
+        else:
+            sp, why = setpoint_of(msg, self.yaw)
         if sp is None:
             self.refused[why] += 1
             self._say_once(why, now)

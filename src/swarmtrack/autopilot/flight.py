@@ -107,6 +107,36 @@ def setpoint_of(msg, yaw: float) -> tuple[Setpoint | None, str | None]:
     return sp, None
 
 
+def global_setpoint_of(msg, origin, home) -> tuple[Setpoint | None, str | None]:
+    """The setpoint of a ``SET_POSITION_TARGET_GLOBAL_INT`` as PX4's receiver builds it
+    (``handle_message_set_position_target_global_int``): the position projected about the local frame's geodetic
+    ``origin`` (:class:`~swarmtrack.autopilot.geodesy.Origin`), its altitude AMSL (``MAV_FRAME_GLOBAL_INT``) or above
+    ``home`` (NED (3,), ``MAV_FRAME_GLOBAL_RELATIVE_ALT_INT``; dropped without a home); velocity and acceleration in
+    NED as given. Another frame is dropped, "invalid coordinate frame N"."""
+    mask, frame = int(msg.type_mask), int(msg.coordinate_frame)
+    pos = _nan3()
+    if not mask & sum(_POS_BITS):
+        n, e, d = origin.to_local(msg.lat_int / 1e7, msg.lon_int / 1e7, float(msg.alt))
+        if frame == mavlink.MAV_FRAME_GLOBAL_INT:
+            pos = np.array([n, e, d])
+        elif frame == mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT and home is not None:
+            pos = np.array([n, e, home[2] - float(msg.alt)])
+        elif frame == mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT:
+            return None, "SET_POSITION_TARGET_GLOBAL_INT needs a home altitude"
+        else:
+            return None, f"SET_POSITION_TARGET_GLOBAL_INT invalid coordinate frame {frame}"
+    sp = Setpoint(pos, _masked(mask, _VEL_BITS, (msg.vx, msg.vy, msg.vz)),
+                  _masked(mask, _ACC_BITS, (msg.afx, msg.afy, msg.afz)))
+    sp.yaw = math.nan if mask & mavlink.POSITION_TARGET_TYPEMASK_YAW_IGNORE else float(msg.yaw)
+    sp.yaw_rate = math.nan if mask & mavlink.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE else float(msg.yaw_rate)
+    given = [not np.isnan(v).all() for v in (sp.position, sp.velocity, sp.acceleration)]
+    if given[2] and mask & mavlink.POSITION_TARGET_TYPEMASK_FORCE_SET:
+        return None, "SET_POSITION_TARGET_GLOBAL_INT force not supported"
+    if not any(given):
+        return None, "SET_POSITION_TARGET_GLOBAL_INT invalid"
+    return sp, None
+
+
 @dataclass
 class Limits:
     """The gains and limits the cascade flies with, by PX4's parameter names (defaults: PX4 v1.14's)."""

@@ -22,10 +22,10 @@ tests and demos (the world's side). It composes:
   link, and the companion's ``COMMAND_ACK``, ``STATUSTEXT`` and ``HEARTBEAT`` go to the ground station.
 
 Dispatch of what comes in: the commands the streams serve (message intervals, requests) → the link's streams;
-``PARAM_*`` → parameters; ``MISSION_*`` → missions; ``SET_POSITION_TARGET_LOCAL_NED`` and the other commands → the
-commander; the setpoints PX4 flies and this vehicle does not (:data:`NOT_FLOWN`: attitude, global position, actuator
-targets) are counted in :attr:`MavlinkVehicle.refused` and said once a second; anything else is ignored, as PX4
-ignores what it has no handler for.
+``PARAM_*`` → parameters; ``MISSION_*`` → missions; ``SET_POSITION_TARGET_LOCAL_NED``, ``..._GLOBAL_INT`` and the
+other commands → the commander; the setpoints PX4 flies and this vehicle does not (:data:`NOT_FLOWN`: attitude and
+actuator targets) are counted in :attr:`MavlinkVehicle.refused` and said once a second; anything else is ignored, as
+PX4 ignores what it has no handler for.
 
 The vehicle's vertical channel is its own when the world is planar (:class:`~swarmtrack.autopilot.flight.Vertical`):
 it climbs, holds and lands as its modes fly it; a 3-D world's altitude, when given to :meth:`MavlinkVehicle.publish`,
@@ -58,7 +58,7 @@ AUTOPILOT = mavlink.MAV_COMP_ID_AUTOPILOT1
 #: What the companion computer sends that the ground station is forwarded.
 FORWARDED_TO_GCS = ("COMMAND_ACK", "STATUSTEXT", "HEARTBEAT")
 #: Offboard setpoints PX4 flies and this vehicle does not: counted and said (STATUSTEXT), never flown.
-NOT_FLOWN = ("SET_ATTITUDE_TARGET", "SET_POSITION_TARGET_GLOBAL_INT", "SET_ACTUATOR_CONTROL_TARGET")
+NOT_FLOWN = ("SET_ATTITUDE_TARGET", "SET_ACTUATOR_CONTROL_TARGET")
 #: The altitude (m) a vehicle starting in the air holds when the world gives none: PX4's ``MIS_TAKEOFF_ALT``.
 AIRBORNE_ALTITUDE = 2.5
 
@@ -236,9 +236,9 @@ class MavlinkVehicle:
             self.params.handle(msg, mav)
         elif kind.startswith("MISSION_"):
             self.missions.handle(msg, mav)
-        elif kind == "SET_POSITION_TARGET_LOCAL_NED":
+        elif kind in ("SET_POSITION_TARGET_LOCAL_NED", "SET_POSITION_TARGET_GLOBAL_INT"):
             if msg.target_system in (0, self.system) and msg.target_component in (0, AUTOPILOT):
-                self.commander.take_setpoint(msg, now)
+                self.commander.take_setpoint(msg, now, self.origin)
         elif kind in NOT_FLOWN:
             text = f"{kind} not supported by this simulated vehicle"
             self.commander.refused[text] += 1

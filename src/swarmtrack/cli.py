@@ -29,6 +29,9 @@ COMMANDS: dict[str, tuple[str, str]] = {
               "Run UAV --uav's onboard stack (estimator, controller) of SCENARIO, as on its companion computer: its "
               "navigation, detections and radio from the world (or its navigation from its autopilot, --autopilot), "
               "its neighbours' messages over Zenoh."),
+    "engage": ("swarmtrack.live.commands:engage_cmd",
+               "Ask UAV --uav's swarmtrack agent to fly its vehicle again after a handover to the operator (or, with "
+               "--release, to hand it back), through the autopilot's ground-station link at --to."),
     "export": ("swarmtrack.interop.commands:export_cmd",
                "Write the run in RUN (a swarmtrack run folder) as standard messages: the truth and every UAV's "
                "estimate with its covariance (docs/replay.md lists the topics)."),

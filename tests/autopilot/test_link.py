@@ -12,6 +12,7 @@ import pytest
 from pymavlink.dialects.v20 import common as mavlink
 
 from swarmtrack.autopilot import px4
+from swarmtrack.autopilot.authority import Authority
 from swarmtrack.autopilot.link import AutopilotError, AutopilotLink, AutopilotRefused, device_of
 from swarmtrack.autopilot.vehicle import MavlinkVehicle, hold
 
@@ -26,7 +27,7 @@ class Flying:
     """A vehicle polled every 5 ms by a thread, publishing ``nav`` at 50 Hz (wall-clock time)."""
 
     def __init__(self, port: int, **kwargs):
-        self.vehicle = MavlinkVehicle(2, port, **kwargs)
+        self.vehicle = MavlinkVehicle(2, port, local_port=_port(), gcs=False, **kwargs)
         self.nav = np.array([10.0, -20.0, 1.5, -0.5])
         self.attitude = np.array([0.1, -0.2, 2.5])  # roll, pitch, yaw (ENU)
         self.t0, self._stop = time.monotonic(), False
@@ -65,8 +66,8 @@ def test_the_link_engages_and_a_setpoint_arrives_as_sent_within_float32(flying):
     link = AutopilotLink(url, 2)
     try:
         assert link.target == (3, mavlink.MAV_COMP_ID_AUTOPILOT1)  # system uav + 1
-        link.engage()
-        assert vehicle.vehicle.offboard() and link.pump(2.0, lambda: link.armed and link.mode == px4.OFFBOARD)
+        Authority(link).engage()
+        assert vehicle.vehicle.offboard() and link.wait(lambda: link.armed and link.mode == px4.OFFBOARD, 2.0)
         nav = link.navigation()
         assert np.allclose(nav, vehicle.nav, rtol=2 ** -23, atol=0)  # ENU in, NED on the wire, ENU out (float32)
         assert np.allclose(link.attitude, vehicle.attitude, rtol=0, atol=1e-6)
@@ -89,7 +90,7 @@ def test_a_refusal_names_the_vehicle_and_the_acknowledgements_result(flying, wha
     link = AutopilotLink(url, 2)
     try:
         with pytest.raises(AutopilotRefused, match=f"UAV 3's autopilot refused {what}: {result}"):
-            link.engage()
+            Authority(link).engage()
         assert not vehicle.vehicle.offboard()
     finally:
         link.close()
@@ -100,26 +101,31 @@ def test_offboard_mode_is_refused_without_a_setpoint_stream(flying):
     link = AutopilotLink(url, 2)
     try:
         with pytest.raises(AutopilotRefused, match="MAV_RESULT_TEMPORARILY_REJECTED"):
-            link._command(mavlink.MAV_CMD_DO_SET_MODE, 1.0, float(px4.OFFBOARD), what="offboard mode")
+            link.command(mavlink.MAV_CMD_DO_SET_MODE, 1.0, float(px4.OFFBOARD), what="offboard mode")
     finally:
         link.close()
 
 
-@pytest.mark.slow  # two engagements and a failsafe: 3 s
-def test_setpoints_that_stop_trip_the_failsafe_which_holds_position_until_offboard_again(flying):
+@pytest.mark.parametrize("flying", [{"airborne": True}], indirect=True)
+def test_setpoints_that_stop_trip_the_failsafe_which_holds_position_and_the_program_hands_over(flying):
+    """The program stops streaming (it hangs): after COM_OF_LOSS_T the vehicle leaves offboard mode for its failsafe
+    (Position: it brakes to hold where it is), says so, and the program's authority hands over, believing it the
+    failsafe."""
     vehicle, url = flying
     link = AutopilotLink(url, 2)
     try:
-        link.engage()
-        link.send_acceleration(np.array([1.0, 1.0]), 0.0)
+        authority = Authority(link)
+        authority.engage()
+        authority.fly(np.array([1.0, 1.0]), 0.0)
         time.sleep(0.1)
         assert np.allclose(vehicle.vehicle.command(vehicle.nav, vehicle.now()), [1.0, 1.0])
-        time.sleep(0.6)  # no setpoint for longer than OFFBOARD_LOSS_S
+        link.stop_stream()
+        time.sleep(px4.OFFBOARD_LOSS_S + 0.3)  # no setpoint for longer than COM_OF_LOSS_T
         u = vehicle.vehicle.command(vehicle.nav, vehicle.now())
-        assert np.allclose(u, hold(vehicle.nav, vehicle.nav[:2])) and not vehicle.vehicle.offboard()
-        assert link.pump(2.0, lambda: link.mode == px4.POSCTL)  # the heartbeat says it left offboard mode
-        link.offboard()  # the program switches it back
-        assert vehicle.vehicle.offboard()
+        assert not vehicle.vehicle.offboard() and u @ vehicle.nav[2:] < 0  # it brakes to hold where it is
+        assert link.wait(lambda: link.mode == px4.POSCTL and not authority.engaged, 2.0)
+        assert [(e["mode"], e["cause"]) for e in authority.take(1.0)] == [("Position", "failsafe")]
+        assert any("Failsafe activated" in text for _, text in link.texts)
     finally:
         link.close()
 

@@ -7,18 +7,21 @@ companion computer usually listens on the port the autopilot's MAVLink instance 
 - waits for the autopilot's ``HEARTBEAT`` (:data:`HEARTBEAT_TIMEOUT` s, else :class:`AutopilotError`), then sends its
   own every second, as ``MAV_TYPE_ONBOARD_CONTROLLER`` of the vehicle's system, component
   ``MAV_COMP_ID_ONBOARD_COMPUTER``;
-- engages (:meth:`AutopilotLink.engage`): arms (``MAV_CMD_COMPONENT_ARM_DISARM``; PX4 enters offboard mode only
-  armed), streams zero setpoints for 1.2 s (PX4 enters it only after setpoints have come for over a second), and
-  switches to offboard mode (``MAV_CMD_DO_SET_MODE``, PX4 main mode 6); a refusal stops it with
-  :class:`AutopilotRefused`, naming the vehicle and the acknowledgement's result;
-- reads the navigation solution from ``LOCAL_POSITION_NED`` (NED, converted to the project's ENU:
-  :mod:`~swarmtrack.autopilot.frames`), keeping the latest (:meth:`AutopilotLink.navigation`), and ``ATTITUDE``
-  (:attr:`AutopilotLink.attitude`, its yaw in ENU's convention; the planar controllers do not read it);
+- reads everything the autopilot sends in a thread of its own (:meth:`AutopilotLink.wait` waits for a condition on
+  what came): the navigation solution from ``LOCAL_POSITION_NED`` (NED, converted to the project's ENU:
+  :mod:`~swarmtrack.autopilot.frames`; :meth:`AutopilotLink.navigation`), ``ATTITUDE`` (:attr:`AutopilotLink.attitude`,
+  its yaw in ENU's convention), its mode and armed flag from ``HEARTBEAT``, its landed state from
+  ``EXTENDED_SYS_STATE``, its ``STATUSTEXT`` messages, command acknowledgements, and the commands a ground station
+  addresses to this companion computer (:attr:`AutopilotLink.requests`);
 - sends the controller's planar acceleration as ``SET_POSITION_TARGET_LOCAL_NED`` with the acceleration type mask
   (:data:`~swarmtrack.autopilot.px4.ACCELERATION`; the quadrotor's command is an acceleration, tracked by its
-  attitude loop), its ``time_boot_ms`` the navigation's it answers.
+  attitude loop), its ``time_boot_ms`` the control step's it answers, and repeats the latest at :data:`STREAM_RATE`
+  from a thread while streaming (PX4 leaves offboard mode when its setpoints stop for ``COM_OF_LOSS_T``; a companion
+  computer streams them, as MAVSDK's offboard plugin does).
 
-MAVLink's fields are float32: a position of 100 m travels with a resolution of about 8 µm (2⁻²⁴ relative).
+Who may fly the vehicle (engaging offboard mode, handing it back to the operator) is
+:mod:`~swarmtrack.autopilot.authority`'s. MAVLink's fields are float32: a position of 100 m travels with a resolution
+of about 8 µm (2⁻²⁴ relative).
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ from __future__ import annotations
 import socket
 import threading
 import time
+from collections import deque
 
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
@@ -35,9 +39,14 @@ from swarmtrack.autopilot.frames import enu_to_ned, ned_to_enu, yaw_ned_to_enu
 
 #: Seconds to wait for the autopilot's first heartbeat, and for a command's acknowledgement.
 HEARTBEAT_TIMEOUT, ACK_TIMEOUT = 5.0, 3.0
-#: Zero setpoints sent before asking for offboard mode, and their rate (Hz): PX4 (v1.14) enters offboard mode only
-#: after the setpoints have come for over a second at more than 2 Hz.
-PRIME, PRIME_RATE = 24, 20.0
+#: How often the latest setpoint is repeated while streaming (Hz): PX4 (v1.14) enters offboard mode only after
+#: setpoints have come for over a second at more than 2 Hz, and leaves it when they stop for ``COM_OF_LOSS_T``.
+STREAM_RATE = 20.0
+#: A silence of the autopilot longer than this (s) is remembered (:attr:`AutopilotLink.gaps`): its streams come at
+#: 1 Hz (heartbeat) and faster, so a longer one is a link that dropped.
+GAP = 0.3
+#: The commands a ground station may address to this companion computer (``MAV_COMP_ID_ONBOARD_COMPUTER``).
+REQUESTS = frozenset({mavlink.MAV_CMD_NAV_GUIDED_ENABLE})
 
 
 class AutopilotError(Exception):
@@ -92,13 +101,20 @@ class AutopilotLink:
         except OSError as exc:
             raise AutopilotError(f"UAV {uav + 1}: cannot open the autopilot link {url}: "
                                  f"{exc.strerror or exc}") from None
-        self._send_lock = threading.Lock()
+        self._send_lock, self._cond = threading.Lock(), threading.Condition()
         self.nav: np.ndarray | None = None  # the latest navigation solution [x, y, vx, vy] (ENU)
         self.nav_ms = -1  # its time_boot_ms
-        self.mode, self.armed = None, False  # from the autopilot's heartbeats
+        self.mode, self.sub_mode, self.armed = None, 0, False  # from the autopilot's heartbeats
+        self.landed: int | None = None  # MAV_LANDED_STATE from EXTENDED_SYS_STATE (None: never told)
+        self.heard = -np.inf  # when the autopilot was last heard (monotonic s)
+        self.gaps: deque[tuple[float, float]] = deque(maxlen=16)  # its silences over GAP s: (ended at, seconds)
+        self.texts: deque[tuple[float, str]] = deque(maxlen=16)  # its latest STATUSTEXTs, (monotonic s, text)
+        self.requests: deque = deque()  # COMMAND_LONGs a ground station addressed to this companion computer
         self._acks: dict[int, int] = {}
+        self._watchers: list = []  # called (under the link's condition) after each HEARTBEAT and request
         self.fault: str | None = None  # what is wrong with the autopilot's navigation stream
         self.attitude: np.ndarray | None = None  # the latest [roll, pitch, yaw] (rad; yaw ENU's, from east)
+        self._streamed: tuple | None = None  # the setpoint repeated while streaming: (accel (2,), t)
         heartbeat, deadline = None, time.monotonic() + timeout
         while heartbeat is None and time.monotonic() < deadline:  # the autopilot's, not a ground station's
             beat = self.conn.recv_match(type="HEARTBEAT", blocking=True, timeout=deadline - time.monotonic())
@@ -111,20 +127,64 @@ class AutopilotLink:
         self.conn.mav.srcSystem = self.target[0]  # a companion computer shares its vehicle's system id
         self._take(heartbeat)
         self._closed = False
-        threading.Thread(target=self._beat, name="mavlink-heartbeat", daemon=True).start()
+        self._threads = [threading.Thread(target=f, name=f"mavlink-{name}", daemon=True)
+                         for name, f in (("read", self._read), ("heartbeat", self._beat), ("stream", self._stream))]
+        for thread in self._threads:
+            thread.start()
+
+    # the threads: what comes, this computer's heartbeat, the setpoint stream
+
+    def _read(self) -> None:
+        while not self._closed:
+            try:
+                msg = self.conn.recv_match(blocking=True, timeout=0.05)
+            except OSError:  # closed under it
+                return
+            if msg is not None:
+                with self._cond:
+                    self._take(msg)
+                    self._cond.notify_all()
 
     def _beat(self) -> None:
         while not self._closed:
             with self._send_lock:
                 self.conn.mav.heartbeat_send(mavlink.MAV_TYPE_ONBOARD_CONTROLLER, mavlink.MAV_AUTOPILOT_INVALID, 0, 0,
                                              mavlink.MAV_STATE_ACTIVE)
-            time.sleep(1.0)
+            self._sleep(1.0)
+
+    def _stream(self) -> None:
+        while not self._closed:
+            with self._send_lock:
+                if self._streamed is not None:
+                    self._send_setpoint(*self._streamed)
+            self._sleep(1.0 / STREAM_RATE)
+
+    def _sleep(self, seconds: float) -> None:
+        deadline = time.monotonic() + seconds
+        while not self._closed and (left := deadline - time.monotonic()) > 0:
+            time.sleep(min(left, 0.05))
 
     def _take(self, msg) -> None:
         kind = msg.get_type()
-        if kind == "HEARTBEAT" and msg.get_srcComponent() == self.target[1]:
-            self.mode = px4.main_mode(msg.custom_mode)
+        if kind == "COMMAND_LONG":  # a ground station's, to this computer (forwarded by the autopilot)
+            if msg.target_component == mavlink.MAV_COMP_ID_ONBOARD_COMPUTER and msg.command in REQUESTS:
+                self.requests.append(msg)
+                self._watch()
+            return
+        if msg.get_srcSystem() != self.target[0] or msg.get_srcComponent() != self.target[1]:
+            return  # another component's, or a ground station's own heartbeat
+        now = time.monotonic()
+        if GAP < now - self.heard < np.inf:
+            self.gaps.append((now, now - self.heard))
+        self.heard = now
+        if kind == "HEARTBEAT":
+            self.mode, self.sub_mode = px4.main_mode(msg.custom_mode), px4.sub_mode(msg.custom_mode)
             self.armed = bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
+            self._watch()
+        elif kind == "EXTENDED_SYS_STATE":
+            self.landed = msg.landed_state
+        elif kind == "STATUSTEXT":
+            self.texts.append((self.heard, msg.text))
         elif kind == "LOCAL_POSITION_NED":
             if not np.isfinite([msg.x, msg.y, msg.z, msg.vx, msg.vy, msg.vz]).all():
                 self.fault = "its navigation holds NaN or infinity"
@@ -139,52 +199,51 @@ class AutopilotLink:
         elif kind == "COMMAND_ACK":
             self._acks[msg.command] = msg.result
 
-    def pump(self, timeout: float = 0.0, until=None) -> bool:
-        """Take the messages that came; then, unless ``until()`` holds (None: take what is there), wait up to
-        ``timeout`` s for more until it does. Returns whether it holds."""
-        deadline = time.monotonic() + timeout
-        while True:
-            while (msg := self.conn.recv_match(blocking=False)) is not None:
-                self._take(msg)
-            if until is None or until():
-                return True
-            left = deadline - time.monotonic()
-            if left <= 0:
-                return False
-            msg = self.conn.recv_match(blocking=True, timeout=min(0.05, left))
-            if msg is not None:
-                self._take(msg)
+    def _watch(self) -> None:
+        for watcher in self._watchers:
+            watcher()
 
-    def _command(self, command: int, *params: float, what: str) -> None:
-        self._acks.pop(command, None)
+    def watch(self, watcher) -> None:
+        """Call ``watcher()`` after every heartbeat and every request that comes (in the reading thread, holding the
+        link's condition: it must not wait on the link)."""
+        self._watchers.append(watcher)
+
+    # what the UAV's process asks of it
+
+    def wait(self, until, timeout: float) -> bool:
+        """Wait up to ``timeout`` s until ``until()`` holds (checked whenever something came); returns whether it
+        does."""
+        with self._cond:
+            return self._cond.wait_for(until, timeout)
+
+    def command(self, command: int, *params: float, what: str) -> None:
+        """Send ``COMMAND_LONG`` ``command`` to the autopilot and wait for its acknowledgement
+        (:class:`AutopilotRefused` naming ``what`` unless it is accepted)."""
+        with self._cond:
+            self._acks.pop(command, None)
         with self._send_lock:
             self.conn.mav.command_long_send(*self.target, command, 0, *params, *[0.0] * (7 - len(params)))
-        if not self.pump(ACK_TIMEOUT, lambda: command in self._acks):
+        if not self.wait(lambda: command in self._acks, ACK_TIMEOUT):
             raise AutopilotRefused(f"UAV {self.uav + 1}'s autopilot did not acknowledge {what} within "
                                    f"{ACK_TIMEOUT:g} s")
         if self._acks[command] != mavlink.MAV_RESULT_ACCEPTED:
             raise AutopilotRefused(f"UAV {self.uav + 1}'s autopilot refused {what}: "
                                    f"{px4.result_name(self._acks[command])}")
 
-    def engage(self) -> None:
-        """Arm, stream zero setpoints, enter offboard mode (:class:`AutopilotRefused` on a refusal)."""
-        if not self.armed:
-            self._command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0, what="to arm")
-        self.offboard()
-
-    def offboard(self) -> None:
-        """Stream zero setpoints, then enter offboard mode (again, after a failsafe)."""
-        for _ in range(PRIME):
-            self.send_acceleration(np.zeros(2), max(self.nav_ms, 0) / 1000)
-            time.sleep(1.0 / PRIME_RATE)
-        self._command(mavlink.MAV_CMD_DO_SET_MODE, float(mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED),
-                      float(px4.OFFBOARD), what="offboard mode")
+    def acknowledge(self, request, result: int, text: str | None = None) -> None:
+        """Answer a ground station's ``request`` (:attr:`requests`) with ``result``, and ``text`` as a STATUSTEXT."""
+        with self._send_lock:
+            if text is not None:
+                self.conn.mav.statustext_send(mavlink.MAV_SEVERITY_INFO if result == mavlink.MAV_RESULT_ACCEPTED
+                                              else mavlink.MAV_SEVERITY_WARNING, text.encode()[:50])
+            self.conn.mav.command_ack_send(request.command, result, target_system=request.get_srcSystem(),
+                                           target_component=request.get_srcComponent())
 
     def navigation(self, after_ms: int = -1, timeout: float = HEARTBEAT_TIMEOUT) -> np.ndarray:
         """The latest navigation solution ``[x, y, vx, vy]`` (ENU), waiting up to ``timeout`` s for one newer than
         ``after_ms`` (``time_boot_ms``); :class:`AutopilotError` if none comes, or if the stream held a NaN or went
         back in time (the UAV's process then stops, and its autopilot's failsafe holds it)."""
-        if not self.pump(timeout, lambda: self.nav_ms > after_ms or self.fault is not None):
+        if not self.wait(lambda: self.nav_ms > after_ms or self.fault is not None, timeout):
             raise AutopilotError(f"UAV {self.uav + 1}: no navigation from the autopilot at {self.url} within "
                                  f"{timeout:g} s")
         if self.fault is not None:
@@ -192,13 +251,26 @@ class AutopilotLink:
         return self.nav.copy()
 
     def send_acceleration(self, accel: np.ndarray, t: float) -> None:
-        """The planar acceleration ``accel`` (2,) (ENU, m/s²) as an offboard setpoint stamped ``t`` (s)."""
-        a = enu_to_ned([accel[0], accel[1], 0.0])
+        """The planar acceleration ``accel`` (2,) (ENU, m/s²) as an offboard setpoint stamped ``t`` (s), sent now and
+        repeated from then at :data:`STREAM_RATE` until the next (or :meth:`stop_stream`)."""
         with self._send_lock:
-            self.conn.mav.set_position_target_local_ned_send(
-                int(round(t * 1000)), *self.target, mavlink.MAV_FRAME_LOCAL_NED, px4.ACCELERATION,
-                0.0, 0.0, 0.0, 0.0, 0.0, 0.0, *a.tolist(), 0.0, 0.0)
+            self._streamed = (np.asarray(accel, dtype=float).copy(), t)
+            self._send_setpoint(*self._streamed)
+
+    def stop_stream(self) -> None:
+        """No setpoint is sent from now (until the next :meth:`send_acceleration`)."""
+        with self._send_lock:
+            self._streamed = None
+
+    def _send_setpoint(self, accel: np.ndarray, t: float) -> None:
+        a = enu_to_ned([accel[0], accel[1], 0.0])
+        self.conn.mav.set_position_target_local_ned_send(
+            int(round(t * 1000)), *self.target, mavlink.MAV_FRAME_LOCAL_NED, px4.ACCELERATION,
+            0.0, 0.0, 0.0, 0.0, 0.0, 0.0, *a.tolist(), 0.0, 0.0)
 
     def close(self) -> None:
+        """Stop its threads (joined), then the connection."""
         self._closed = True
+        for thread in getattr(self, "_threads", []):
+            thread.join(timeout=2.0)
         self.conn.close()

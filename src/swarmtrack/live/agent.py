@@ -24,7 +24,7 @@ import numpy as np
 
 from swarmtrack import registry
 from swarmtrack.analysis.sweep import warm
-from swarmtrack.autopilot import px4
+from swarmtrack.autopilot.authority import Authority
 from swarmtrack.autopilot.link import AutopilotError, AutopilotLink, AutopilotRefused
 from swarmtrack.control.base import SequentialPlanner
 from swarmtrack.estimation.base import TargetView
@@ -46,6 +46,10 @@ FAREWELL = 10.0
 #: after the wall-clock time the step is due: their estimation broadcasts (then it fuses what came; what comes later
 #: is fused at its time stamp within the scenario's delay bound), their second broadcasts, their plans (IB21 Sec. 5.3).
 FUSE_BY, PUBLISH_BY, PLAN_BY = 0.3, 0.5, 0.6
+#: How the console names the believed cause of a handover (:func:`swarmtrack.autopilot.authority.cause`).
+CAUSES = {"operator": "its operator: a pilot's switch or a ground station's command",
+          "failsafe": "its autopilot's failsafe", "disarm": "disarmed", "land": "landing",
+          "released": "handed back on a ground station's request"}
 
 
 def scenario_hash(scenario: Scenario) -> str:
@@ -89,11 +93,15 @@ def warm_up(scenario: Scenario) -> None:
 
 class Agent:
     """UAV ``uav`` of ``scenario`` on ``node`` (its transport and seal); ``autopilot``: the URL of its autopilot's
-    MAVLink link (:mod:`swarmtrack.autopilot.link`), which then gives its navigation and takes its commands."""
+    MAVLink link (:mod:`swarmtrack.autopilot.link`), which then gives its navigation and takes its commands while the
+    operator lets it (:mod:`swarmtrack.autopilot.authority`; ``reengage``: its opt-in re-engagement after a link
+    loss)."""
 
-    def __init__(self, scenario: Scenario, uav: int, node: Node, autopilot: str | None = None):
-        self.scenario, self.i, self.node, self.autopilot = scenario, uav, node, autopilot
+    def __init__(self, scenario: Scenario, uav: int, node: Node, autopilot: str | None = None,
+                 reengage: bool = False):
+        self.scenario, self.i, self.node, self.autopilot, self.reengage = scenario, uav, node, autopilot, reengage
         self.link: AutopilotLink | None = None
+        self.authority: Authority | None = None
         self.flying = False  # whether it has sent its autopilot a command of its controller
         self.n = scenario.swarm.n_uavs
         self.clock = clock_of(scenario)
@@ -107,7 +115,6 @@ class Agent:
         self._pending: dict[int, list[int]] = {}  # real time: per recent step, linked senders not heard by FUSE_BY
         self.late: Counter = Counter()  # real time: neighbours' messages that missed their deadline, by channel
         self._cpu = time.process_time()
-        self._engaged = -np.inf  # when it last switched its autopilot to offboard mode (monotonic s)
 
     def run(self, rejoin: bool = False) -> None:
         """Say hello, build the stack when the world says start, and follow its steps to the end. ``rejoin``: the
@@ -123,7 +130,8 @@ class Agent:
         if self.autopilot is not None:  # its autopilot first, as a companion computer does: armed, in offboard mode
             try:
                 self.link = AutopilotLink(self.autopilot, self.i)
-                self.link.engage()
+                self.authority = Authority(self.link, self.reengage)
+                self.authority.engage()
             except (AutopilotError, AutopilotRefused) as exc:
                 hello.error = str(exc)
                 self._farewell(hello)  # the world learns why this UAV will not fly, at once
@@ -262,8 +270,8 @@ class Agent:
         u = np.asarray(ctl.command(t, nav, view, inbox, self.clock.dt_control))
         if self._sequential:
             self.node.send(self.i, wire.Plan(k=k, c=c, taken=t, payloads=_pack(ctl.plans())))
-        if self.link is not None:
-            self._fly(u[0], t, due)
+        if self.authority is not None:
+            self._fly(u[0], t)
         return u
 
     def _navigation(self, got: wire.Navigation) -> np.ndarray:
@@ -274,18 +282,19 @@ class Agent:
         after = -1 if got.due is not None else int(round(got.taken * 1000)) - 1
         return self.link.navigation(after, timeout=PATIENCE)[None]
 
-    def _fly(self, u: np.ndarray, t: float, due: float | None) -> None:
-        """Send the command ``u`` of time ``t`` to its autopilot as a setpoint; in real time, first switch it back to
-        offboard mode if its failsafe left it (a link that dropped and came back)."""
-        if due is not None:
-            self.link.pump()
-            if self.link.mode != px4.OFFBOARD and time.monotonic() - self._engaged > 1.0:
-                self._engaged = time.monotonic()
-                print(f"UAV {self.i + 1}: its autopilot left offboard mode at t = {t:.2f} s (its failsafe); switching "
-                      "it back", file=sys.stderr, flush=True)
-                self.link.offboard()
-        self.link.send_acceleration(u, t)
-        self.flying = True
+    def _fly(self, u: np.ndarray, t: float) -> None:
+        """Send the command ``u`` of time ``t`` to its autopilot as a setpoint, while its operator lets it; say each
+        handover and engagement once."""
+        self.flying |= self.authority.fly(u, t)
+        for event in self.authority.take(t):
+            if event["event"] == "handover":
+                print(f"UAV {self.i + 1}: its autopilot left offboard mode at t = {t:.2f} s: {event['mode']}"
+                      f"{'' if event['armed'] else ', disarmed'} ({CAUSES[event['cause']]}); this UAV no longer "
+                      "commands it and goes on estimating and sharing; it engages again only when asked "
+                      f"(swarmtrack engage --uav {self.i + 1}: docs/autopilot.md)", file=sys.stderr, flush=True)
+            else:
+                print(f"UAV {self.i + 1}: engaged again at t = {t:.2f} s ({event['by']})", file=sys.stderr,
+                      flush=True)
 
     def _sample(self, k: int) -> tuple[wire.Sample, TargetView]:
         """The step's probes, and where a gimballed sensor should aim at the next frame (its latest estimate); and
@@ -299,7 +308,8 @@ class Agent:
         return wire.Sample(k=k, probes=_pack(probes), aim=wire.pack(view.state[:, :2]),
                            telemetry={role: _pack(r) for role, r in reports.items()},
                            rejected=dict(self.node.seal.rejected), cpu=cpu, heard=self.node.log(),
-                           late=dict(self.late)), view
+                           late=dict(self.late), autopilot=[] if self.authority is None else
+                           list(self.authority.events)), view
 
     def _wait(self, channel: str, senders, k: int, c: int, due: float | None, by: float, period: float,
               take: bool = True, count: bool = True) -> dict:

@@ -141,6 +141,10 @@ def keygen_cmd(file: Path) -> None:
 @click.option("--autopilot", metavar="URL", default=None, help=(
     "fly through this UAV's autopilot over MAVLink: udp://[HOST]:PORT (listen there, as PX4 SITL's 14540 + i) or "
     "serial://DEVICE[:BAUD]; its navigation comes from it and its commands go to it as setpoints"))
+@click.option("--reengage-after-link-loss", "reengage", is_flag=True, help=(
+    "DANGEROUS, opt-in: engage the vehicle again by itself after the autopilot's offboard-loss failsafe that followed "
+    "a silence of this link (never after a mode change while the link was heard, never a disarmed or landed vehicle): "
+    "a pilot who took the vehicle while the link was down loses it again (docs/autopilot.md)"))
 @_security_options
 def agent_cmd(**options) -> None:
     """Run UAV --uav's onboard stack (estimator, controller) of SCENARIO, as on its companion computer: its
@@ -166,7 +170,7 @@ def agent_cmd(**options) -> None:
     except TransportError as exc:
         raise UsageFailure(str(exc)) from None
     node = Node(transport, Seal(key, scn.swarm.n_uavs), o.swarm or scn.name, uav - 1)
-    agent = Agent(scn, uav - 1, node, o.autopilot)
+    agent = Agent(scn, uav - 1, node, o.autopilot, o.reengage)
     try:
         agent.run(o.rejoin)
     except Stopped as exc:
@@ -189,9 +193,51 @@ def agent_cmd(**options) -> None:
         node.close()  # its heartbeat stopped and joined, then the transport: nothing of Zenoh runs at exit
 
 
+@click.command("engage")
+@click.option("--uav", type=click.IntRange(min=1, max=254), required=True,
+              help="which UAV (1..N: its vehicle's MAVLink system id)")
+@click.option("--to", "to", required=True, metavar="HOST:PORT", help=(
+    "the autopilot's ground-station link, sent to over UDP (UAV i's simulated vehicle: 127.0.0.1:PORT + 4030 + i - 1 "
+    "with world --mavlink-port PORT, 18570 + i - 1 by default; PX4 SITL instance i: 18570 + i)"))
+@click.option("--release", is_flag=True, help="hand the vehicle back to its autopilot instead (Hold)")
+@click.option("--timeout", type=click.FloatRange(min=0, min_open=True), default=5.0, show_default=True,
+              metavar="SECONDS", help="wait this long for the answer")
+def engage_cmd(**options) -> None:
+    """Ask UAV --uav's swarmtrack agent to fly its vehicle again after a handover to the operator (or, with
+    --release, to hand it back), through the autopilot's ground-station link at --to. Exit 0: done; 3: refused
+    (the reason is printed); 1: no answer."""
+    from pymavlink.dialects.v20 import common as mavlink
+
+    from swarmtrack.autopilot import px4
+    from swarmtrack.autopilot.engage import request
+
+    o = SimpleNamespace(**options)
+    host, _, port = o.to.rpartition(":")
+    if not host or not port.isdigit() or not 0 < int(port) < 65536:
+        raise UsageFailure(f"--to {o.to}: expected HOST:PORT, PORT 1..65535")
+    what = "hand its vehicle back" if o.release else "engage"
+    result, said = request(o.to, o.uav - 1, not o.release, o.timeout)
+    reason = f" ({'; '.join(said)})" if said else ""
+    if result is None:
+        click.echo(f"UAV {o.uav}: no answer to the request to {what} within {o.timeout:g} s through {o.to} (is its "
+                   "agent running with --autopilot, and does its autopilot forward to it: PX4's MAV_x_FORWARD?)",
+                   err=True)
+        sys.exit(1)
+    if result != mavlink.MAV_RESULT_ACCEPTED:
+        click.echo(f"UAV {o.uav}: its agent refused to {what}: {px4.result_name(result)}{reason}", err=True)
+        sys.exit(3)
+    click.echo(f"UAV {o.uav}: {'handed back' if o.release else 'engaged'}{reason}")
+
+
 def _live_options(f):
-    f = click.option("--mavlink-port", type=click.IntRange(1, 65535 - 1024), default=14540, show_default=True,
-                     metavar="PORT", help="with --mavlink, UAV i's autopilot sends to 127.0.0.1:PORT + i - 1")(f)
+    f = click.option("--mavlink-gcs", type=click.IntRange(1, 65535), default=None, metavar="PORT", help=(
+        "with --mavlink, the vehicles' ground-station links send to 127.0.0.1:PORT (as PX4 SITL's to 14550, where "
+        "QGroundControl listens); without it, a ground station claims UAV i's by sending to its port, "
+        "--mavlink-port + 4030 + i - 1 (18570 + i - 1 by default)"))(f)
+    f = click.option("--mavlink-port", type=click.IntRange(1, 65535 - 4030 - 1024), default=14540, show_default=True,
+                     metavar="PORT", help=(
+                         "with --mavlink, UAV i's autopilot sends to 127.0.0.1:PORT + i - 1 from its port PORT + 40 + "
+                         "i - 1, as PX4 SITL instance i - 1 (a port another vehicle holds is refused)"))(f)
     f = click.option("--mavlink", is_flag=True, help=(
         "fly every UAV through a simulated PX4-like autopilot it talks MAVLink to (swarmtrack agent --autopilot)"))(f)
     f = click.option("--realtime", is_flag=True, help=(
@@ -230,6 +276,7 @@ def world_cmd(**options) -> None:
 def _serve(o: SimpleNamespace, spawn: bool) -> None:
     """The world process of a live run: ``o`` the command's options; ``spawn``: start the UAVs' processes."""
     from swarmtrack.analysis.runs import run_key
+    from swarmtrack.autopilot.endpoint import VehicleError
     from swarmtrack.live.node import Node
     from swarmtrack.live.session import run_live
     from swarmtrack.live.transport import TransportError, ZenohTransport, free_port
@@ -271,7 +318,7 @@ def _serve(o: SimpleNamespace, spawn: bool) -> None:
                 click.echo(f"world of {scn.name} listening on {', '.join(endpoints)} (swarm {swarm}); waiting for "
                            f"UAVs 1..{scn.swarm.n_uavs}", err=True)
             rec, live, tables = run_live(scn, node, record_to=tmp / "recording", realtime=o.realtime,
-                                         mavlink=(o.mavlink_port, "127.0.0.1") if o.mavlink else None)
+                                         mavlink=(o.mavlink_port, "127.0.0.1", o.mavlink_gcs) if o.mavlink else None)
             stop_agents(procs)  # within GRACE s of the end (or of Ctrl-C), before the files are written
             if live.interrupted is not None and not rec.meta["n_steps"]:
                 raise _NothingRecorded()  # stopped before its first step: there is no run to write
@@ -281,7 +328,7 @@ def _serve(o: SimpleNamespace, spawn: bool) -> None:
                     table.to_parquet(tmp / "live" / f"{name}.parquet", index=False)
             metrics = write_run(rec, scn, tmp, no_plots=o.no_plots, extra={"live": dataclasses.asdict(live)},
                                 warnings=live.warnings())
-    except (OutputError, LiveError) as exc:
+    except (OutputError, LiveError, VehicleError) as exc:
         raise UsageFailure(str(exc)) from None
     except TimeoutError as exc:
         raise UsageFailure(f"the live run stopped: {exc}") from None

@@ -44,6 +44,7 @@ class RealtimeWorld(LockstepWorld):
     epoch = 0.0  # the wall-clock time (s since the Unix epoch) of t = 0, set when every UAV is ready
 
     def __init__(self, *args, **kwargs):
+        self._boot = time.monotonic()  # the vehicles' clock starts with the world (its Fleet reads it at once)
         super().__init__(*args, **kwargs)
         warm_up(self.scenario)  # the world's first steps call its kernels too
         self.report.mode = "realtime"
@@ -68,7 +69,9 @@ class RealtimeWorld(LockstepWorld):
         return due
 
     def _now(self) -> float:
-        return time.time() - self.epoch
+        """The clock of the world's simulated autopilots (s): monotonic from the world's start, before the run's
+        epoch too (a setpoint that came while the UAVs joined is as old as it is)."""
+        return time.monotonic() - self._boot
 
     def _until(self, due: float, period: float) -> float:
         return time.monotonic() + (due + RECORD_BY * period - time.time())

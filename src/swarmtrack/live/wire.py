@@ -182,6 +182,9 @@ class Sample(Message, tag="sample"):
     late: dict[str, int] = {}
     """Real time: its neighbours' messages that came after its deadline, or after the scenario's delay bound (never
     fused), so far, by channel."""
+    autopilot: list[dict[str, Any]] = []
+    """With an autopilot: its handovers to the operator and engagements so far
+    (:attr:`swarmtrack.autopilot.authority.Authority.events`)."""
 
 
 class Alive(Message, tag="alive"):

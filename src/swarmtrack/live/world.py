@@ -105,6 +105,11 @@ class LiveReport:
     late: dict[str, int] = field(default_factory=dict)
     """Real time: the messages that missed their deadline, by channel (``share_fused_late``: of the shares, those
     fused afterwards at their time stamps, within the scenario's delay bound)."""
+    autopilot: dict[str, list[dict]] = field(default_factory=dict)
+    """With autopilots: each UAV's (1-based) handovers to its operator and engagements, in order: ``t`` (simulated s,
+    the step that saw it), ``event`` (``handover`` or ``engaged``), for a handover the ``mode`` the vehicle went to,
+    whether it stayed ``armed`` and the believed ``cause`` (:func:`swarmtrack.autopilot.authority.cause`), for an
+    engagement ``by`` whom."""
 
     def warnings(self) -> list[dict]:
         out = [{"check": "live", "message": f"UAV {e['uav']} stopped answering at t = {e['t']:.2f} s; it was flown "
@@ -122,7 +127,15 @@ class LiveReport:
         out += [{"check": "live", "message": f"a stop the world did not send came at t = {t:.2f} s, unsealed: this run "
                  "is --insecure, so anyone on the network can stop its UAVs (those that obeyed were lost and flown "
                  "safely)"} for t in self.unsealed_stops]
+        out += [{"check": "live", "message": f"UAV {uav}'s vehicle was handed to its operator at t = {e['t']:.2f} s "
+                 f"({e['mode']}, cause: {e['cause']}); its commands were not flown from then"
+                 f"{self._engaged(uav, e['t'])}, its estimates were"} for uav, events in self.autopilot.items()
+                for e in events if e["event"] == "handover"]
         return out
+
+    def _engaged(self, uav: str, t: float) -> str:
+        back = [e["t"] for e in self.autopilot[uav] if e["event"] == "engaged" and e["t"] >= t]
+        return f" until it was engaged again at t = {back[0]:.2f} s" if back else ""
 
     def _back(self, uav: int) -> str:
         back = [e["t"] for e in self.rejoined if e["uav"] == uav]
@@ -154,7 +167,7 @@ class LockstepWorld:
     realtime = False  # the clock: lockstep (RealtimeWorld, realtime.py: the wall clock)
 
     def __init__(self, scenario: Scenario, node: Node, record_to=None, patience: float = PATIENCE,
-                 progress: Callable[[float], None] | None = None, mavlink: tuple[int, str] | None = None):
+                 progress: Callable[[float], None] | None = None, mavlink: tuple | None = None):
         self.scenario, self.node, self.patience, self.progress = scenario, node, patience, progress
         self.sim = sim = build(scenario)
         self.n = scenario.swarm.n_uavs
@@ -171,11 +184,13 @@ class LockstepWorld:
         # each UAV process's latest counts of the messages it dropped, by (UAV, its process): a process lost and
         # started again counts afresh, and the counts of its earlier life stay in the total
         self._rejected: dict[tuple, dict] = {}
+        self._autopilot: dict[tuple, list] = {}  # each UAV process's latest account of its autopilot's handovers
         self._stop = False  # Ctrl-C or SIGTERM arrived (:meth:`_interruptible`)
         self.recorded = 0  # estimation steps recorded
         self.processes: dict[int, tuple[int, int]] = {}  # each UAV's process the world knows: (pid, start time)
         self.cpu: list[float] = []  # the CPU time (s) of a UAV's process per estimation step, over UAVs and steps
-        # --mavlink (base port, host): each UAV flies through a simulated autopilot its process talks MAVLink to
+        # --mavlink (base port, host, ground-station port): each UAV flies through a simulated autopilot its process
+        # talks MAVLink to
         self.fleet = None if mavlink is None else Fleet(self.n, self._now, *mavlink)
         self.node.seal.run = self.node.seal.run or wire.new_run()  # this run's identity: every message carries it
         self._joiners: dict[int, wire.Hello] = {}  # UAVs whose new process (--rejoin) starts at the next step
@@ -215,6 +230,8 @@ class LockstepWorld:
         for counts in self._rejected.values():
             total.update(counts)
         self.report.rejected = dict(total)
+        for (i, *_), events in sorted(self._autopilot.items(), key=lambda item: item[0][0]):
+            self.report.autopilot.setdefault(str(i + 1), []).extend(events)
         self.report.cpu_per_step_ms = _percentiles(1e3 * np.asarray(self.cpu))
         self._finish()
         return self.recorder.close(), self.report
@@ -443,7 +460,7 @@ class LockstepWorld:
                 guide=None if view is None else _row_of_view(view, i),
                 control=None if beacons is None else world.t, due=due))
         if self.fleet is not None:
-            self.fleet.publish(t, nav, self._listeners())
+            self.fleet.publish(t, nav, self._listeners(), self._heights())
         until = self._until(due, clock.dt_estimation)
         samples = self._gather("sample", k, -1, t, until)
         self.recorder.record_inputs(k, t, nav, detections)  # what the UAVs were sent (the simulator's order)
@@ -467,7 +484,7 @@ class LockstepWorld:
             self.node.send(i, wire.Navigation(k=k, c=c, taken=t, nav=self._own_nav(nav, i),
                                               radio=wire.Radio(beacons=heard[i]), due=due))
         if self.fleet is not None:
-            self.fleet.publish(t, nav, self._listeners())
+            self.fleet.publish(t, nav, self._listeners(), self._heights())
         until = self._until(due, self.sim.clock.dt_control)
         commands = self._gather("command", k, c, t, until)
         self._fly(t, nav, {i: m.u for i, m in commands.items()}, until)
@@ -491,12 +508,20 @@ class LockstepWorld:
         """What the samples say of their processes: the messages they dropped, their CPU per step."""
         for sample in samples:
             self._rejected[self._process_of(sample.sender)] = sample.rejected
+            if sample.autopilot:
+                self._autopilot[self._process_of(sample.sender)] = sample.autopilot
             if sample.k >= 0:  # the first sample's CPU is the process's start-up
                 self.cpu.append(sample.cpu)
 
     def _process_of(self, i: int) -> tuple:
         """Which process of UAV ``i`` the world knows now: ``(i, pid, start time)`` (a rejoined UAV's is another)."""
         return (i, *self.processes.get(i, ()))
+
+    def _heights(self) -> np.ndarray | None:
+        """The UAVs' altitudes (m) in a 3-D world, for their autopilots' navigation (None: a planar world, where each
+        simulated autopilot keeps its own)."""
+        world = self.sim.world
+        return world.altitude("uavs")[:, 0] if world.three_d else None
 
     def _own_nav(self, nav: np.ndarray, i: int):
         """UAV i's navigation for its message: packed, or None when its autopilot gives it (``--mavlink``)."""

@@ -1,0 +1,189 @@
+"""The operator always wins, in whole live runs through the simulated autopilots: a ground station puts one UAV in
+Hold, disarms another in flight and lands a third; each agent hands its vehicle over at once, says so once, goes on
+estimating, never takes the vehicle back, and ``metrics.json`` records each handover; the UAV left alone keeps
+tracking; ``swarmtrack engage`` gives a vehicle back to its agent. In lockstep and in real time."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import threading
+import time
+import uuid
+
+import numpy as np
+import pytest
+from pymavlink.dialects.v20 import common as mavlink
+
+import swarmtrack
+from swarmtrack.autopilot import px4
+from swarmtrack.live.transport import free_port
+
+from .test_mavlink import _udp_ports
+
+pytestmark = [pytest.mark.xdist_group("live"), pytest.mark.slow]
+
+#: The simulated vehicles' ground-station ports: UAV i's at --mavlink-port + GCS_OFFSET + i - 1 (PX4 SITL's 18570 + i).
+GCS_OFFSET = 18570 - 14540
+FORCE = 21196.0  # PX4's magic number for a disarm in flight
+
+
+class GroundStation:
+    """A pymavlink ground station with a link to each UAV's vehicle (it claims them by sending first): sends
+    commands, keeps every heartbeat it hears as (monotonic s, system, main mode, sub mode, armed)."""
+
+    def __init__(self, base: int, n: int):
+        self.conns = [px4.connect(f"udpout:127.0.0.1:{base + GCS_OFFSET + i}", source_system=255,
+                                  source_component=mavlink.MAV_COMP_ID_MISSIONPLANNER) for i in range(n)]
+        self.beats: list[tuple] = []
+        self.acks: list = []
+        self._stop = False
+        for i in range(n):
+            self.claim(i)
+        self.threads = [threading.Thread(target=self._hear, args=(c,), daemon=True) for c in self.conns]
+        for thread in self.threads:
+            thread.start()
+
+    def _hear(self, conn) -> None:
+        while not self._stop:
+            msg = conn.recv_match(type=["HEARTBEAT", "COMMAND_ACK"], blocking=True, timeout=0.1)
+            if msg is None:
+                continue
+            if msg.get_type() == "COMMAND_ACK":
+                self.acks.append((msg.get_srcSystem(), msg.command, msg.result))
+            elif msg.autopilot == mavlink.MAV_AUTOPILOT_PX4:
+                self.beats.append((time.monotonic(), msg.get_srcSystem(), px4.main_mode(msg.custom_mode),
+                                   px4.sub_mode(msg.custom_mode),
+                                   bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)))
+
+    def claim(self, uav: int) -> None:
+        """Be the ground station UAV ``uav``'s vehicle answers (its link answers the latest sender, as PX4's UDP
+        links do)."""
+        self.conns[uav].mav.heartbeat_send(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+
+    def command(self, uav: int, command: int, *params: float) -> float:
+        """Send ``command`` to UAV ``uav``'s autopilot (0-based); returns when (monotonic s)."""
+        self.conns[uav].mav.command_long_send(uav + 1, mavlink.MAV_COMP_ID_AUTOPILOT1, command, 0, *params,
+                                              *[0.0] * (7 - len(params)))
+        return time.monotonic()
+
+    def hold(self, uav: int) -> float:
+        return self.command(uav, mavlink.MAV_CMD_DO_SET_MODE, float(mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED),
+                            float(px4.AUTO), float(px4.AUTO_LOITER))
+
+    def disarm(self, uav: int) -> float:
+        return self.command(uav, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0.0, FORCE)
+
+    def land(self, uav: int) -> float:
+        return self.command(uav, mavlink.MAV_CMD_NAV_LAND)
+
+    def offboard_after(self, uav: int, since: float) -> list[tuple]:
+        """UAV ``uav``'s heartbeats after ``since`` that say it flies offboard (armed, in offboard mode; PX4 keeps
+        the mode's name on a disarmed vehicle)."""
+        return [b for b in self.beats if b[1] == uav + 1 and b[0] > since and b[2] == px4.OFFBOARD and b[4]]
+
+    def close(self) -> None:
+        self._stop = True
+        for thread in self.threads:
+            thread.join()
+        for conn in self.conns:
+            conn.close()
+
+
+def _swarm(tmp_path, n: int, duration: float, realtime: bool):
+    """A world with --mavlink and ``n`` agents, each its own process (their stderr apart)."""
+    base, zenoh_port, swarm = _udp_ports(n), free_port(), f"test-{uuid.uuid4().hex[:8]}"
+    common = ["l24-ct", "--insecure", "--swarm", swarm, "--set", f"duration={duration}", "--set",
+              f"swarm.n_uavs={n}"]
+    run = [sys.executable, "-m", "swarmtrack"]
+    world = subprocess.Popen(run + ["world", *common, *(["--realtime"] if realtime else []), "--mavlink",
+                                    "--mavlink-port", str(base), "--listen", f"tcp/127.0.0.1:{zenoh_port}",
+                                    "--no-plots", "--out", str(tmp_path / "live")],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    agents = [subprocess.Popen(run + ["agent", *common, "--uav", str(i + 1), "--connect", f"tcp/127.0.0.1:{zenoh_port}",
+                                      "--autopilot", f"udp://127.0.0.1:{base + i}"],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for i in range(n)]
+    return base, zenoh_port, swarm, world, agents
+
+
+def _end(world, agents) -> tuple[str, list[str]]:
+    """The world's and the agents' stderr once they ended (each killed if still running after its bound)."""
+    try:
+        err = world.communicate(timeout=240)[1]
+        errs = [a.communicate(timeout=60)[1] for a in agents]
+    finally:
+        for p in (world, *agents):
+            if p.poll() is None:
+                p.kill()
+    return err, errs
+
+
+@pytest.mark.parametrize("realtime", [False, True], ids=["lockstep", "realtime"])
+def test_a_hold_a_disarm_and_a_landing_each_hand_the_vehicle_over_for_good(tmp_path, peer, realtime):
+    n = 4
+    base, zenoh_port, swarm, world, agents = _swarm(tmp_path, n, 24.0 if realtime else 30.0, realtime)
+    gcs = None
+    try:
+        peer.flown(zenoh_port, swarm, 0, 100)  # 5 s flown by every UAV's agent
+        gcs = GroundStation(base, n)
+        sent = [gcs.hold(0), gcs.disarm(1), gcs.land(2)]
+        err, errs = _end(world, agents)
+    finally:
+        for p in (world, *agents):
+            if p.poll() is None:
+                p.kill()
+        if gcs is not None:
+            gcs.close()
+    assert world.returncode == 0, err[-3000:]
+    assert all(a.returncode == 0 for a in agents), [e[-1500:] for e in errs]
+    report = json.loads((tmp_path / "live" / "metrics.json").read_text())["live"]["autopilot"]
+    causes = {uav: [(e["event"], e["cause"]) for e in events] for uav, events in report.items()}
+    assert causes == {"1": [("handover", "operator")], "2": [("handover", "disarm")], "3": [("handover", "land")]}
+    assert report["1"][0]["mode"] == "Hold"
+    for i in range(3):
+        assert errs[i].count("its autopilot left offboard mode") == 1, errs[i][-2000:]
+        assert "engaged again" not in errs[i]
+        assert gcs.offboard_after(i, sent[i] + 0.5) == []  # never back in offboard mode
+    assert "its autopilot left offboard mode" not in errs[3] and gcs.offboard_after(3, sent[0])
+    rec = swarmtrack.load_run(tmp_path / "live")
+    handed = min(e[0]["t"] for e in report.values())
+    error = np.linalg.norm(rec.estimate[:, :, :2] - rec.target[:, None, :2], axis=2)
+    after = rec.t > handed + 2
+    assert after.any() and np.isfinite(error[after]).all()  # every UAV goes on estimating
+    left_alone = rec.uav[:, 3, :2]  # UAV 4 flies on with its swarm: it follows the target as before
+    assert np.nanmean(error[after, 3]) < 2 * np.nanmean(error[~after & (rec.t > 3), 3]) + 1.0
+    assert np.isfinite(left_alone).all()
+    assert any("UAV 1's vehicle was handed to its operator at t = " in w["message"]
+               for w in json.loads((tmp_path / "live" / "metrics.json").read_text())["warnings"])
+
+
+def test_swarmtrack_engage_gives_a_held_vehicle_back_to_its_agent(tmp_path, peer):
+    n = 3
+    base, zenoh_port, swarm, world, agents = _swarm(tmp_path, n, 24.0, realtime=True)
+    gcs = None
+    try:
+        peer.flown(zenoh_port, swarm, 0, 100)
+        gcs = GroundStation(base, n)
+        gcs.hold(0)
+        time.sleep(2.0)
+        refused = subprocess.run([sys.executable, "-m", "swarmtrack", "engage", "--uav", "2", "--to",
+                                  f"127.0.0.1:{base + GCS_OFFSET + 1}"], capture_output=True, text=True, timeout=60)
+        engaged = subprocess.run([sys.executable, "-m", "swarmtrack", "engage", "--uav", "1", "--to",
+                                  f"127.0.0.1:{base + GCS_OFFSET}"], capture_output=True, text=True, timeout=60)
+        back = time.monotonic()
+        gcs.claim(0)  # swarmtrack engage was the ground station UAV 1's vehicle answered
+        time.sleep(2.0)
+        err, errs = _end(world, agents)
+    finally:
+        for p in (world, *agents):
+            if p.poll() is None:
+                p.kill()
+        if gcs is not None:
+            gcs.close()
+    assert world.returncode == 0, err[-3000:]
+    assert refused.returncode == 3 and "already engaged" in refused.stderr, refused.stderr
+    assert engaged.returncode == 0 and "UAV 1: engaged" in engaged.stdout, engaged.stderr
+    assert gcs.offboard_after(0, back)  # offboard again, flown by its agent
+    report = json.loads((tmp_path / "live" / "metrics.json").read_text())["live"]["autopilot"]
+    assert [e["event"] for e in report["1"]] == ["handover", "engaged"] and "engaged again" in errs[0]

@@ -275,7 +275,7 @@ class Commander:
         brake = -lim.xy_vel_p * v[:2]
         if not self.armed:
             return (brake if on_ground else np.zeros(2)), 0.0
-        if self.anchor is None:
+        if self.anchor is None or not np.isfinite(self.anchor).all():  # a NaN navigation sets none for good
             self.anchor = np.append(stopping_point(p[:2], v[:2], lim.acc_hor), p[2])
         if self.main == px4.AUTO and self.sub == px4.AUTO_TAKEOFF:
             if self.target_z is None:

@@ -130,13 +130,17 @@ def test_auto_disarm_after_landing_and_before_takeoff():
 
 
 def test_takeoff_climbs_to_mis_takeoff_alt_then_holds_there():
-    c, _ = _commander(airborne=False)
+    c, said = _commander(airborne=False)
     c.command(ARM, _p(1.0), 0.0, True, np.zeros(3))
     assert c.command(mavlink.MAV_CMD_NAV_TAKEOFF, _p(0, 0, 0, NAN, NAN, NAN, NAN), 0.0, True, np.zeros(3)) == ACCEPTED
     _, az = c.fly(0.0, np.zeros(3), np.zeros(3), True)
     assert az < 0 and c.target_z == -2.5  # up, to 2.5 m above home
+    c.update(0.5, True, 0.0)
     c.update(1.0, False, -2.45)
     assert (c.main, c.sub) == (px4.AUTO, px4.AUTO_LOITER) and c.anchor[2] == -2.5
+    assert said[-1] == (mavlink.MAV_SEVERITY_INFO, "Takeoff detected")
+    c.update(9.0, True, 0.0)
+    assert said[-1] == (mavlink.MAV_SEVERITY_INFO, "Landing detected")
 
 
 def test_nan_parameters_are_unset_as_px4_reads_mavsdks_commands():

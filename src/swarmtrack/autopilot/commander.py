@@ -26,8 +26,9 @@ mode. One PX4 drops is counted
 (:attr:`Commander.refused`, by PX4's text) and said once a second as ``STATUSTEXT`` (``MAV_SEVERITY_CRITICAL``).
 Setpoints older than ``COM_OF_LOSS_T`` in Offboard mode are the offboard-loss failsafe: ``COM_OBL_RC_ACT`` (0
 Position, 1 Altitude, 2 Manual, 3 Return, 4 Land, 5 Hold, 6 Terminate, 7 Disarm; PX4's ``fromOffboardLossActParam``)
-with PX4's ``STATUSTEXT`` "Failsafe activated"; the heartbeat then shows the new mode. The vehicle models a pilot with
-a radio: Position mode needs no further fallback.
+with PX4's ``STATUSTEXT`` "Failsafe activated"; the heartbeat then shows the new mode. Armed, touching down and
+lifting off are said as PX4 says them ("Landing detected", "Takeoff detected", ``MAV_SEVERITY_INFO``). The vehicle
+models a pilot with a radio: Position mode needs no further fallback.
 
 Times are the caller's clock (``now``: simulated seconds in lockstep, the run's seconds in real time).
 """
@@ -82,6 +83,7 @@ class Commander:
         self.flew = airborne  # it has been in the air since it armed
         self.changed = False  # the mode or arming changed: the vehicle tells it at once (HEARTBEAT)
         self.yaw = 0.0
+        self._on_ground: bool | None = None  # the land detector's latest
 
     # -- state ------------------------------------------------------------------------------------------------------
 
@@ -232,6 +234,9 @@ class Commander:
                 self.set_mode(*OFFBOARD_LOSS_ACTIONS.get(action, (px4.POSCTL, 0)))
             self.failsafes.append((now, px4.mode_name(self.main, self.sub)))
             self.say(CRITICAL, "Failsafe activated")
+        was, self._on_ground = self._on_ground, on_ground
+        if self.armed and was is not None and was != on_ground:  # PX4's Commander::landDetectorUpdate
+            self.say(INFO, "Landing detected" if on_ground else "Takeoff detected")
         if not self.armed:
             self.landed_at = now if on_ground else None
             return

@@ -69,7 +69,7 @@ def test_do_set_mode_with_main_and_sub_modes(main, sub, result, mode):
     assert c.command(MODE, _p(CUSTOM, main, sub), 0.0, False, np.zeros(3)) == result
     assert (c.main, c.sub) == mode
     if result == REJECTED:
-        assert said[-1][1] == f"Switching to {px4.mode_name(main, sub or px4.AUTO_MISSION)} is currently not possible"
+        assert said[-1][1] == f"Switching to {px4.mode_name(main, sub or px4.AUTO_MISSION)} is currently not available"
 
 
 def test_return_needs_a_home_and_an_unknown_command_is_unsupported():

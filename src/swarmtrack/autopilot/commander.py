@@ -216,7 +216,7 @@ class Commander:
         if result == ACCEPTED:
             self.set_mode(main, sub)
         elif not can_run:
-            self._say_once(f"Switching to {px4.mode_name(main, sub)} is currently not possible", now)
+            self._say_once(f"Switching to {px4.mode_name(main, sub)} is currently not available", now)
         return result
 
     # -- the state machine ------------------------------------------------------------------------------------------

@@ -74,9 +74,12 @@ def _vehicle_echo(port: int) -> None:
 
     from swarmtrack.autopilot.vehicle import MavlinkVehicle
 
-    vehicle, answered = MavlinkVehicle(0, port), -1
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        local = s.getsockname()[1]
+    vehicle, answered = MavlinkVehicle(0, port, local_port=local, gcs=False), -1
     while True:
-        select.select([vehicle.conn.port], [], [], 0.5)
+        select.select(vehicle.sockets(), [], [], 0.5)
         vehicle.poll(0.0)
         if vehicle.setpoint_ms != answered:
             answered = vehicle.setpoint_ms
@@ -189,13 +192,17 @@ def _live(uavs: int, duration: float, realtime: bool, progress=None, mavlink: bo
 
 
 def _udp_base(n: int) -> int:
-    """The first of ``n`` consecutive free UDP ports."""
+    """A base port whose ``n`` vehicles' ports are all free: the agents' (base + i) and the vehicles' own, offboard
+    (base + 40 + i) and ground-station (base + 4030 + i)."""
+    from swarmtrack.autopilot.endpoint import gcs_local_port, offboard_ports
+
     for base in range(20000, 60000, 97):
         socks = []
         try:
             for i in range(n):
-                socks.append(socket.socket(socket.AF_INET, socket.SOCK_DGRAM))
-                socks[-1].bind(("127.0.0.1", base + i))
+                for port in (base + i, offboard_ports(base, i)[0], gcs_local_port(base, i)):
+                    socks.append(socket.socket(socket.AF_INET, socket.SOCK_DGRAM))
+                    socks[-1].bind(("127.0.0.1", port))
             return base
         except OSError:
             continue

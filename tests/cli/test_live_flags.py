@@ -92,3 +92,24 @@ def test_agents_started_by_live_get_the_key_path_swarm_and_tls_folder_in_their_e
         assert "--key" not in args and "--swarm" not in args and "--tls" not in args
         assert env[commands.ENV["key"]] == str(key.absolute()) and env[commands.ENV["swarm"]] == "secret-swarm"
         assert env[commands.ENV["tls"]] == str(tls.absolute())
+
+
+@pytest.mark.parametrize("command", ["live", "world"])
+@pytest.mark.parametrize("taken", ["offboard", "ground-station"])
+def test_a_vehicle_port_another_process_holds_is_refused_before_anything_starts(tmp_path, command, taken):
+    """Another simulated vehicle (a second world --mavlink) or a PX4 SITL instance holds a port the vehicles bind:
+    one message naming the port, exit 2, nothing written (nor an agent started)."""
+    import socket
+
+    from swarmtrack.autopilot.endpoint import gcs_local_port, offboard_ports
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as holder:
+        holder.bind(("127.0.0.1", 0))
+        port = holder.getsockname()[1]
+        base = port - 40 - 1 if taken == "offboard" else port - 4030 - 1  # UAV 2's
+        assert (offboard_ports(base, 1)[0] if taken == "offboard" else gcs_local_port(base, 1)) == port
+        out = tmp_path / "out"
+        res = CliRunner().invoke(main, [*RUNS[command], "--mavlink", "--mavlink-port", str(base), "--out", str(out)])
+    assert res.exit_code == 2, res.output
+    assert f"UDP port {port}" in res.output and f"UAV 2's autopilot's {taken}" in res.output, res.output
+    assert "Traceback" not in res.output and len(res.output.strip().splitlines()) == 1 and not out.exists()

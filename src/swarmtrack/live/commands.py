@@ -276,7 +276,7 @@ def world_cmd(**options) -> None:
 def _serve(o: SimpleNamespace, spawn: bool) -> None:
     """The world process of a live run: ``o`` the command's options; ``spawn``: start the UAVs' processes."""
     from swarmtrack.analysis.runs import run_key
-    from swarmtrack.autopilot.endpoint import VehicleError
+    from swarmtrack.autopilot.fleet import VehicleError, check_ports
     from swarmtrack.live.node import Node
     from swarmtrack.live.session import run_live
     from swarmtrack.live.transport import TransportError, ZenohTransport, free_port
@@ -293,6 +293,11 @@ def _serve(o: SimpleNamespace, spawn: bool) -> None:
                 raise UsageFailure(f"--mavlink flies planar acceleration setpoints: swarm.vehicle "
                                    f"{scn.swarm.vehicle} is commanded otherwise")
             key = read_key(o.key_file, o.insecure)
+            if o.mavlink:
+                try:
+                    check_ports(scn.swarm.n_uavs, o.mavlink_port)
+                except VehicleError as exc:
+                    raise UsageFailure(f"--mavlink: {exc}") from None
             out = o.out or Path("runs") / f"{scn.name}-seed{scn.seed}-{run_key(scn)[:8]}-live"
             try:
                 check_destination(out.absolute(), o.overwrite)

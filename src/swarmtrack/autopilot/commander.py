@@ -12,7 +12,7 @@ Commands (``COMMAND_LONG`` or ``COMMAND_INT``, answered with ``COMMAND_ACK``):
   ``param3`` its sub mode within Auto: Position, Altitude, Manual, Stabilized (flown as Position with the pilot's
   sticks centred), Offboard (only with a fresh setpoint stream), Auto Takeoff, Hold (Loiter), Return (with a home),
   Land; Mission, Acro and Auto Ready are refused (``TEMPORARILY_REJECTED``, "Switching to X is currently not
-  possible"); an unknown Auto sub mode is ``MAV_RESULT_DENIED``... as PX4's "Unsupported auto mode";
+  available"); an unknown Auto sub mode is ``MAV_RESULT_DENIED`` with PX4's "Unsupported auto mode";
 - ``MAV_CMD_NAV_TAKEOFF`` (22): Takeoff (``param7``: altitude AMSL, NaN: ``MIS_TAKEOFF_ALT`` above home), climbing at
   ``MPC_TKO_SPEED``, then Hold; ``MAV_CMD_NAV_LAND`` (21): Land at ``MPC_LAND_SPEED``, disarmed ``COM_DISARM_LAND`` s
   after touching down; ``MAV_CMD_NAV_RETURN_TO_LAUNCH`` (20): climb to ``RTL_RETURN_ALT``, fly home at

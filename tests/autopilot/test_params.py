@@ -137,3 +137,14 @@ def test_messages_for_another_vehicle_or_of_another_kind_are_not_taken(wire):
     assert not p.handle(wire.request(mavlink.MAVLink_param_request_list_message(SYSTEM, 191)), wire.mav)
     assert not p.handle(wire.request(mavlink.MAVLink_heartbeat_message(6, 8, 0, 0, 4, 3)), wire.mav)
     assert wire.replies() == []
+
+
+def test_a_changed_value_is_also_told_on_the_other_links(wire):
+    p, gcs_link = Parameters(), Wire()
+    p.handle(wire.request(mavlink.MAVLink_param_set_message(SYSTEM, COMPONENT, b"RTL_RETURN_ALT", 30.0, REAL32)),
+             wire.mav, others=(gcs_link.mav,))
+    (here,), (there,) = wire.replies(), gcs_link.replies()
+    assert _name(here) == _name(there) == "RTL_RETURN_ALT" and here.param_value == there.param_value == 30.0
+    p.handle(wire.request(mavlink.MAVLink_param_set_message(SYSTEM, COMPONENT, b"NO_SUCH", 1.0, REAL32)), wire.mav,
+             others=(gcs_link.mav,))
+    assert wire.replies() == [] and gcs_link.replies() == []

@@ -14,7 +14,9 @@ battery_simulator_params.yaml``, ``src/lib/battery/module.yaml``): the ones the 
   order (PX4 orders its parameters by name);
 - ``PARAM_REQUEST_READ``: by index (``param_index >= 0``) or by name (``_HASH_CHECK`` gives the hash); an unknown
   one is not answered (PX4 logs ``unknown param`` on its own console);
-- ``PARAM_SET``: of a known name with its declared type: set, answered with the new ``PARAM_VALUE``; of an unknown
+- ``PARAM_SET``: of a known name with its declared type: set, answered with the new ``PARAM_VALUE`` (also on the
+  vehicle's other links given as ``others``: PX4's other MAVLink instances send a changed value too,
+  ``send_untransmitted``); of an unknown
   name, of another type, or of a type beyond ``MAV_PARAM_TYPE``: not answered, nothing set (PX4 logs ``unknown
   param`` / ``invalid param``; the client times out or sees the old value); ``_HASH_CHECK`` is ignored.
 
@@ -152,10 +154,11 @@ class Parameters:
     def _send_hash(self, mav) -> None:
         mav.param_value_send(HASH_CHECK.encode(), encode(self.hash(), UINT32), UINT32, len(self._names), 65535)
 
-    def handle(self, msg, mav) -> bool:
+    def handle(self, msg, mav, others=()) -> bool:
         """Answer ``msg`` if it is a parameter message for this autopilot (``mav.srcSystem``, ``mav.srcComponent``
-        or ``MAV_COMP_ID_ALL``); replies go out through ``mav`` (the link ``msg`` came on). Returns whether it was
-        one (True also when PX4 would stay silent: an unknown name, a wrong type)."""
+        or ``MAV_COMP_ID_ALL``); replies go out through ``mav`` (the link ``msg`` came on), a changed value also
+        through each of ``others`` (the vehicle's other links). Returns whether it was one (True also when PX4 would
+        stay silent: an unknown name, a wrong type)."""
         kind = msg.get_type()
         if kind not in ("PARAM_REQUEST_LIST", "PARAM_REQUEST_READ", "PARAM_SET"):
             return False
@@ -169,7 +172,7 @@ class Parameters:
         elif kind == "PARAM_REQUEST_READ":
             self._read(msg, mav)
         else:
-            self._set(msg, mav)
+            self._set(msg, mav, others)
         return True
 
     def _read(self, msg, mav) -> None:
@@ -183,13 +186,14 @@ class Parameters:
         elif name in self._params:
             self._send(mav, name)
 
-    def _set(self, msg, mav) -> None:
+    def _set(self, msg, mav, others) -> None:
         name = _name(msg.param_id)
         p = self._params.get(name)
         if p is None or msg.param_type != p.type:  # PX4: "unknown param" / "invalid param", no answer
             return
         self._values[name] = self._typed(p, decode(msg.param_value, p.type))
-        self._send(mav, name)
+        for link in (mav, *others):
+            self._send(link, name)
 
     def table(self) -> list[tuple[str, str, float | int, float | int, str, str]]:
         """(name, type, default, value, unit, meaning) of every parameter, in index order (for docs and notes)."""

@@ -174,6 +174,8 @@ def test_info_version_identification_product(drone):
         assert ident.hardware_uid == (b"swarmtrack".ljust(17, b"\0") + bytes([1])).hex()
         product = await drone.info.get_product()
         assert product.vendor_id == 0 and product.product_id == 0
+        # MAVSDK's estimate of the simulation's speed from ATTITUDE's time_boot_ms: the vehicle runs in real time
+        assert await drone.info.get_speed_factor() == pytest.approx(1.0, abs=0.2)
     run(go(), 10.0)
 
 
@@ -270,6 +272,13 @@ def test_takeoff_reaches_the_takeoff_altitude_and_holds(drone):
         assert await until(t.flight_mode, lambda m: m == FlightMode.HOLD, 5.0, "Hold after takeoff")
         assert await t.in_air() and await until(t.landed_state, lambda s: s == LandedState.IN_AIR, 2.0, "in air")
         assert abs(pos.relative_altitude_m - drone.solo.altitude) < 0.3
+        # FLIGHT_INFORMATION (MAVSDK asks for it at 1 Hz with SET_MESSAGE_INTERVAL): armed before it took off
+        stream = drone.info.subscribe_flight_information()
+        try:
+            flight = await asyncio.wait_for(stream.__anext__(), 3.0)
+        finally:
+            await stream.aclose()
+        assert flight.duration_since_arming_ms > flight.duration_since_takeoff_ms > 0
     run(go(), 20.0)
 
 

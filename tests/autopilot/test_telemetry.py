@@ -250,3 +250,24 @@ def test_quaternion_of_euler_angles():
     w, x, y, z = quaternion(0.3, -0.2, 1.0)
     assert w * w + x * x + y * y + z * z == pytest.approx(1.0)
     assert math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y)) == pytest.approx(0.3)  # roll back
+
+
+def test_flight_information_on_request_gives_the_arming_and_takeoff_times():
+    w = Wire()
+    s = Streams(w.mav, NORMAL)
+    ground, air = mavlink.MAV_LANDED_STATE_ON_GROUND, mavlink.MAV_LANDED_STATE_IN_AIR
+    for ms, armed, landed in ((500, False, ground), (1000, True, ground), (1500, True, ground), (2000, True, air),
+                              (2500, True, air)):
+        s.tick(ms / 1000, _state(boot_ms=ms, armed=armed, landed=landed))
+    w.replies()
+    request = _long(mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAVLINK_MSG_ID_FLIGHT_INFORMATION)
+    s.handle(w.received(request), _state(boot_ms=3000, armed=True, landed=air))
+    info, ack = w.replies()
+    assert ack.result == mavlink.MAV_RESULT_ACCEPTED and info.get_type() == "FLIGHT_INFORMATION"
+    # PX4's boot-relative µs in the _utc fields, as MAVSDK reads them (3 s since boot, armed 2 s, flying 1 s)
+    assert (info.time_boot_ms, info.arming_time_utc, info.takeoff_time_utc) == (3000, 1_000_000, 2_000_000)
+    s.tick(3.5, _state(boot_ms=3500, armed=False, landed=ground))
+    w.replies()
+    s.handle(w.received(request), _state(boot_ms=4000))
+    info, _ = w.replies()
+    assert (info.arming_time_utc, info.takeoff_time_utc) == (0, 0)

@@ -17,7 +17,8 @@ PX4's ``MavlinkReceiver::handle_message_command_both`` answers them (``src/modul
 - ``MAV_CMD_GET_MESSAGE_INTERVAL`` (510): ``MESSAGE_INTERVAL`` (µs; −1 stopped; 0 no such stream), then accepted;
 - ``MAV_CMD_REQUEST_MESSAGE`` (512), ``MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES`` (520, any component),
   ``MAV_CMD_GET_HOME_POSITION`` (410): the message is sent, then ``MAV_RESULT_ACCEPTED``; ``MAV_RESULT_DENIED`` when
-  it cannot be (HOME_POSITION before home is set, a message not served here);
+  it cannot be (HOME_POSITION before home is set, a message not served here). AUTOPILOT_VERSION and
+  FLIGHT_INFORMATION (MAVSDK's ``info``) are sent only on request, as PX4 streams neither by default;
 - ``MAV_CMD_REQUEST_PROTOCOL_VERSION`` (519): ``MAV_RESULT_UNSUPPORTED`` (PROTOCOL_VERSION is not in pymavlink's
   common dialect; PX4 sends it).
 
@@ -76,6 +77,7 @@ STREAMS: tuple[Stream, ...] = (
     Stream("GPS_RAW_INT", 5.0, UNLIMITED),
     Stream("BATTERY_STATUS", 0.5, 0.5),
     Stream("AUTOPILOT_VERSION", 0.0, 0.0),
+    Stream("FLIGHT_INFORMATION", 0.0, 0.0),
 )
 BY_ID = {s.id: s for s in STREAMS}
 
@@ -184,6 +186,7 @@ class Streams:
         self._served = {s.id for s in STREAMS if local_position or s.name != "LOCAL_POSITION_NED"}
         self._interval: dict[int, float] = {}  # message id -> seconds between sends (absent: stopped)
         self._due: dict[int, float] = {}
+        self._armed_ms = self._takeoff_ms = 0  # boot_ms of the arming and of the takeoff (0: not armed, on ground)
         for sid in self._served:
             self._default(sid)
 
@@ -204,6 +207,7 @@ class Streams:
     def tick(self, now: float, state: VehicleState) -> None:
         """Send every stream that is due at ``now`` (monotonic seconds) from ``state``."""
         self.battery.update(state.armed, state.boot_ms)
+        self._flight(state)
         for msg_id, interval in self._interval.items():
             due = self._due.get(msg_id, now)
             if now >= due:
@@ -215,6 +219,17 @@ class Streams:
         if msg_id not in self._served:
             return False
         return getattr(self, "_" + BY_ID[msg_id].name.lower())(state) is not False
+
+    def _flight(self, state: VehicleState) -> None:
+        """The arming and takeoff times PX4 keeps in ``vehicle_status`` (``armed_time``, ``takeoff_time``: since boot,
+        cleared at disarming), as this link sees them at its ticks."""
+        if not state.armed:
+            self._armed_ms = self._takeoff_ms = 0
+            return
+        if not self._armed_ms:
+            self._armed_ms = max(1, state.boot_ms)
+        if not self._takeoff_ms and state.landed in (mavlink.MAV_LANDED_STATE_IN_AIR, mavlink.MAV_LANDED_STATE_TAKEOFF):
+            self._takeoff_ms = max(1, state.boot_ms)
 
     # -- commands ---------------------------------------------------------------------------------------------------
 
@@ -336,6 +351,11 @@ class Streams:
         voltages = [int(round(b.voltage * 1000))] + [65535] * 9  # the total in the first cell, as PX4 without cells
         self.mav.battery_status_send(0, mavlink.MAV_BATTERY_FUNCTION_ALL, mavlink.MAV_BATTERY_TYPE_LIPO, 32767,
                                      voltages, -1, -1, -1, int(round(b.remaining * 100)), 0, b.charge_state)
+
+    def _flight_information(self, state: VehicleState) -> None:
+        # PX4 fills the "_utc" fields with its boot-relative µs (FLIGHT_INFORMATION.hpp), as MAVSDK reads them;
+        # flight_uuid (COM_FLIGHT_UUID, PX4's count of flights) is not kept here: 0
+        self.mav.flight_information_send(state.boot_ms, self._armed_ms * 1000, self._takeoff_ms * 1000, 0)
 
     def _autopilot_version(self, state: VehicleState) -> None:
         uid2 = list(b"swarmtrack".ljust(17, b"\0")) + [state.system & 0xFF]

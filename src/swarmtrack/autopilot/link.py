@@ -7,6 +7,7 @@ companion computer usually listens on the port the autopilot's MAVLink instance 
 - waits for the autopilot's ``HEARTBEAT`` (:data:`HEARTBEAT_TIMEOUT` s, else :class:`AutopilotError`), then sends its
   own every second, as ``MAV_TYPE_ONBOARD_CONTROLLER`` of the vehicle's system, component
   ``MAV_COMP_ID_ONBOARD_COMPUTER``;
+- asks the autopilot for the streams it reads, at the rates it needs (:data:`STREAMS`);
 - reads everything the autopilot sends in a thread of its own (:meth:`AutopilotLink.wait` waits for a condition on
   what came): the navigation solution from ``LOCAL_POSITION_NED`` (NED, converted to the project's ENU:
   :mod:`~swarmtrack.autopilot.frames`; :meth:`AutopilotLink.navigation`), ``ATTITUDE`` (:attr:`AutopilotLink.attitude`,
@@ -45,6 +46,12 @@ STREAM_RATE = 20.0
 #: A silence of the autopilot longer than this (s) is remembered (:attr:`AutopilotLink.gaps`): its streams come at
 #: 1 Hz (heartbeat) and faster, so a longer one is a link that dropped.
 GAP = 0.3
+#: The autopilot's streams the link asks for at another rate (Hz; 0 stops one) when it opens, with
+#: ``MAV_CMD_SET_MESSAGE_INTERVAL``, as a companion computer asks for what it reads: PX4's onboard link streams
+#: ``ATTITUDE`` at 100 Hz and ``GLOBAL_POSITION_INT`` at 50 Hz, which the UAV's process would decode in Python for
+#: nothing (its navigation is ``LOCAL_POSITION_NED``; its landed state ``EXTENDED_SYS_STATE``, kept at PX4's rate).
+STREAMS = {"ATTITUDE": 10.0, "ATTITUDE_QUATERNION": 0.0, "GLOBAL_POSITION_INT": 0.0, "GPS_RAW_INT": 0.0,
+           "ALTITUDE": 0.0, "VFR_HUD": 0.0}
 #: The commands a ground station may address to this companion computer (``MAV_COMP_ID_ONBOARD_COMPUTER``).
 REQUESTS = frozenset({mavlink.MAV_CMD_NAV_GUIDED_ENABLE})
 
@@ -126,6 +133,10 @@ class AutopilotLink:
         self.target = (heartbeat.get_srcSystem(), heartbeat.get_srcComponent())
         self.conn.mav.srcSystem = self.target[0]  # a companion computer shares its vehicle's system id
         self._take(heartbeat)
+        for name, hz in STREAMS.items():  # answered or not: an autopilot that keeps a stream is only heard more
+            self.conn.mav.command_long_send(*self.target, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0,
+                                            getattr(mavlink, f"MAVLINK_MSG_ID_{name}"), 1e6 / hz if hz else -1.0,
+                                            0, 0, 0, 0, 0)
         self._closed = False
         self._threads = [threading.Thread(target=f, name=f"mavlink-{name}", daemon=True)
                          for name, f in (("read", self._read), ("heartbeat", self._beat), ("stream", self._stream))]

@@ -114,19 +114,19 @@ def test_setpoints_px4_drops_are_counted_and_said_once_a_second():
 
 
 def test_auto_disarm_after_landing_and_before_takeoff():
-    c, _ = _commander(COM_DISARM_LAND=2.0)
+    c, said = _commander(COM_DISARM_LAND=2.0)
     c.update(0.0, False, -3.0)
     c.update(1.0, True, 0.0)  # touched down
     c.update(2.9, True, 0.0)
     assert c.armed
     c.update(3.0, True, 0.0)
-    assert not c.armed
-    c, _ = _commander(airborne=False, COM_DISARM_PRFLT=10.0)
+    assert not c.armed and said[-1] == (mavlink.MAV_SEVERITY_INFO, "Disarmed by landing")
+    c, said = _commander(airborne=False, COM_DISARM_PRFLT=10.0)
     c.command(ARM, _p(1.0), 5.0, True, np.zeros(3))
     c.update(14.9, True, 0.0)
     assert c.armed
     c.update(15.0, True, 0.0)
-    assert not c.armed
+    assert not c.armed and [t for _, t in said] == ["Armed by external command", "Disarmed by auto preflight disarming"]
 
 
 def test_takeoff_climbs_to_mis_takeoff_alt_then_holds_there():

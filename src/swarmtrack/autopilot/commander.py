@@ -27,7 +27,9 @@ mode. One PX4 drops is counted
 Setpoints older than ``COM_OF_LOSS_T`` in Offboard mode are the offboard-loss failsafe: ``COM_OBL_RC_ACT`` (0
 Position, 1 Altitude, 2 Manual, 3 Return, 4 Land, 5 Hold, 6 Terminate, 7 Disarm; PX4's ``fromOffboardLossActParam``)
 with PX4's ``STATUSTEXT`` "Failsafe activated"; the heartbeat then shows the new mode. Armed, touching down and
-lifting off are said as PX4 says them ("Landing detected", "Takeoff detected", ``MAV_SEVERITY_INFO``). The vehicle
+lifting off are said as PX4 says them ("Landing detected", "Takeoff detected", ``MAV_SEVERITY_INFO``), and so are
+arming and disarming ("Armed by external command", "Disarmed by landing", "... by auto preflight disarming", "... by
+failsafe", "... by external command": PX4's ``arm_disarm_reason_str``). The vehicle
 models a pilot with a radio: Position mode needs no further fallback.
 
 Times are the caller's clock (``now``: simulated seconds in lockstep, the run's seconds in real time).
@@ -83,6 +85,7 @@ class Commander:
         self.flew = airborne  # it has been in the air since it armed
         self.changed = False  # the mode or arming changed: the vehicle tells it at once (HEARTBEAT)
         self.yaw = 0.0
+        self.disarmed_by: str | None = None  # PX4's reason of the latest disarm
         self._on_ground: bool | None = None  # the land detector's latest
 
     # -- state ------------------------------------------------------------------------------------------------------
@@ -103,8 +106,11 @@ class Commander:
         """Whether the offboard signal is fresh (a setpoint within ``COM_OF_LOSS_T``)."""
         return now - self.signal_at <= self.p("COM_OF_LOSS_T")
 
-    def _disarm(self) -> None:
+    def _disarm(self, reason: str) -> None:
+        """Disarm, said as PX4 says it ("Disarmed by landing"; ``arm_disarm_reason_str``)."""
         self.armed, self.changed, self.armed_at = False, True, None
+        self.disarmed_by = reason
+        self.say(INFO, f"Disarmed by {reason}")
 
     def _say_once(self, text: str, now: float) -> None:
         """``STATUSTEXT`` at most once a second per text (the caller's clock)."""
@@ -180,6 +186,7 @@ class Commander:
             result = self.refuse.get("arm", ACCEPTED)
             if result == ACCEPTED and not self.armed:
                 self.armed, self.changed, self.armed_at, self.flew = True, True, now, not on_ground
+                self.say(INFO, "Armed by external command")
                 self.landed_at = now if on_ground else None
                 if on_ground or self.home is None:
                     self.home = np.array([position[0], position[1], position[2] if on_ground else 0.0])
@@ -191,7 +198,7 @@ class Commander:
             self._say_once("Disarming denied: not landed", now)
             return REJECTED
         if self.armed:
-            self._disarm()
+            self._disarm("external command")
         return ACCEPTED
 
     def _set_mode_command(self, params: tuple, now: float) -> int:
@@ -229,7 +236,7 @@ class Commander:
             action = int(self.p("COM_OBL_RC_ACT"))
             if action in (6, 7):
                 self.set_mode(px4.POSCTL)
-                self._disarm()
+                self._disarm("failsafe")
             else:
                 self.set_mode(*OFFBOARD_LOSS_ACTIONS.get(action, (px4.POSCTL, 0)))
             self.failsafes.append((now, px4.mode_name(self.main, self.sub)))
@@ -254,7 +261,7 @@ class Commander:
             wait = self.p("COM_DISARM_LAND") if self.flew else self.p("COM_DISARM_PRFLT")
             taking_off = self.main == px4.AUTO and self.sub == px4.AUTO_TAKEOFF
             if wait > 0 and now - self.landed_at >= wait and not taking_off:
-                self._disarm()
+                self._disarm("landing" if self.flew else "auto preflight disarming")
 
     def landed_state(self, on_ground: bool, vz: float) -> int:
         """``MAV_LANDED_STATE``: on the ground, taking off, landing, in the air."""

@@ -51,6 +51,22 @@ def run(coro, timeout: float):
     return asyncio.run(asyncio.wait_for(coro, timeout))
 
 
+async def count(subscribe, seconds: float) -> int:
+    """How many updates the MAVSDK subscription ``subscribe()`` gives in ``seconds``."""
+    stream, n = subscribe(), 0
+    deadline = time.monotonic() + seconds
+    try:
+        while (left := deadline - time.monotonic()) > 0:
+            try:
+                await asyncio.wait_for(stream.__anext__(), left)
+            except TimeoutError:
+                break
+            n += 1
+    finally:
+        await stream.aclose()
+    return n
+
+
 async def until(get, ok, timeout: float, what: str, period: float = 0.05):
     """Poll ``await get()`` until ``ok(value)``; AssertionError naming ``what`` and the last value after
     ``timeout`` s."""
@@ -87,7 +103,7 @@ def drone():
     sdk = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
     try:
         run(sdk.add_any_connection(f"udpin://127.0.0.1:{port}"), 5.0)
-        with SoloVehicle(port=port, local_port=_free_port()) as solo:
+        with SoloVehicle(port=port, local_port=_free_port(), gcs_local_port=_free_port()) as solo:
             system = run(sdk.first_autopilot(10.0), 15.0)
             assert system is not None, "MAVSDK found no autopilot within 10 s"
             yield Drone(sdk, solo, system, logs)
@@ -140,28 +156,39 @@ def test_set_rate_changes_a_streams_rate(drone):
     0 Hz restores the onboard link's default (PX4's 100 Hz, here the vehicle's 50 Hz steps)."""
     t = drone.telemetry
 
-    async def count(seconds: float) -> int:
-        stream, n = t.subscribe_attitude_euler(), 0
-        deadline = time.monotonic() + seconds
-        try:
-            while (left := deadline - time.monotonic()) > 0:
-                try:
-                    await asyncio.wait_for(stream.__anext__(), left)
-                except TimeoutError:
-                    break
-                n += 1
-        finally:
-            await stream.aclose()
-        return n
-
     async def go():
         await t.set_rate_attitude_euler(5.0)
         await asyncio.sleep(0.3)
-        assert abs(await count(2.0) - 10) <= 2
+        assert abs(await count(t.subscribe_attitude_euler, 2.0) - 10) <= 2
         await t.set_rate_attitude_euler(0.0)
         await asyncio.sleep(0.3)
-        assert await count(1.0) >= 40
+        assert await count(t.subscribe_attitude_euler, 1.0) >= 40
     run(go(), 15.0)
+
+
+def test_a_ground_station_on_the_gcs_link_gets_px4s_normal_rates(drone):
+    """A second MAVSDK instance, a ground station sending to the vehicle's GCS port (PX4 SITL's 18570 + i), claims the
+    link and gets its streams at PX4's "normal" rates, beside the companion's "onboard" ones: ATTITUDE 15 Hz (30 ± 4
+    in 2 s; onboard ≥ 40/s, the vehicle's 50 Hz steps capping PX4's 100 Hz), LOCAL_POSITION_NED 1 Hz (2 ± 1 in 2 s),
+    GPS_RAW_INT 5 Hz (10 ± 2); and a parameter the companion changed is the GCS's value too."""
+    gcs = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
+    try:
+        async def go():
+            await gcs.add_any_connection(f"udpout://127.0.0.1:{drone.solo.vehicle.gcs_link.port}")
+            system = await gcs.first_autopilot(10.0)
+            assert system is not None and await system.get_system_id() == 1
+            t = TelemetryAsync(system)
+            await asyncio.sleep(1.0)
+            assert abs(await count(t.subscribe_attitude_euler, 2.0) - 30) <= 4
+            assert abs(await count(t.subscribe_position_velocity_ned, 2.0) - 2) <= 1
+            assert abs(await count(t.subscribe_raw_gps, 2.0) - 10) <= 2
+            assert await count(drone.telemetry.subscribe_attitude_euler, 1.0) >= 40
+            await drone.param.set_param_float("RTL_RETURN_ALT", 30.0)
+            assert await ParamAsync(system).get_param_float("RTL_RETURN_ALT") == 30.0
+            await drone.param.set_param_float("RTL_RETURN_ALT", 60.0)
+        run(go(), 30.0)
+    finally:
+        gcs.destroy()
 
 
 def test_info_version_identification_product(drone):

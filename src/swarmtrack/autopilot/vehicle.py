@@ -91,14 +91,15 @@ class MavlinkVehicle:
     ``host:port`` from ``local_port`` (default ``port + 40``), its ground-station link bound to ``gcs_local_port``
     (default ``port + 4030``; ``gcs=False``: none) sending to ``host:gcs_port`` when given, else to whoever claims it.
     ``airborne``: it starts armed, in the air (at ``altitude`` m, default :data:`AIRBORNE_ALTITUDE`), in Position
-    mode, home below it; else landed and disarmed (PX4 at boot). ``params``: parameter values by PX4 name;
-    ``origin``: the geodetic point of the local origin (PX4 SITL's by default); ``refuse``: results that replace
-    the acceptance of ``"arm"``, ``"offboard"`` or ``"mode"`` (tests). Raises VehicleError when a port is taken."""
+    mode, home below it; else landed and disarmed (PX4 at boot). ``params``: parameter values by PX4 name (or a
+    :class:`~swarmtrack.autopilot.params.Parameters`); ``origin``: the geodetic point of the local origin (PX4
+    SITL's by default); ``refuse``: results that replace the acceptance of ``"arm"``, ``"offboard"`` or ``"mode"``
+    (tests). Raises VehicleError when a port is taken."""
 
     def __init__(self, uav: int, port: int, host: str = "127.0.0.1", refuse: dict[str, int] | None = None, *,
                  local_port: int | None = None, gcs_local_port: int | None = None, gcs_port: int | None = None,
                  gcs: bool = True, airborne: bool = False, altitude: float | None = None,
-                 params: dict[str, float] | None = None, origin: Origin = PX4_SITL):
+                 params: dict[str, float] | Parameters | None = None, origin: Origin = PX4_SITL):
         self.uav, self.system = uav, uav + 1
         name = f"UAV {uav + 1}'s autopilot"
         self.links: list[Endpoint] = []
@@ -115,7 +116,7 @@ class MavlinkVehicle:
         except VehicleError:
             self.close()
             raise
-        self.params = Parameters(params)
+        self.params = params if isinstance(params, Parameters) else Parameters(params)
         self.missions = Missions()
         battery = Battery(self.params)
         self.streams = {id(self.offboard_link): Streams(self.offboard_link.mav, ONBOARD, origin, self.params, battery)}

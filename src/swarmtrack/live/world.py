@@ -128,8 +128,8 @@ class LiveReport:
                  "is --insecure, so anyone on the network can stop its UAVs (those that obeyed were lost and flown "
                  "safely)"} for t in self.unsealed_stops]
         out += [{"check": "live", "message": f"UAV {uav}'s vehicle was handed to its operator at t = {e['t']:.2f} s "
-                 f"({e['mode']}, cause: {e['cause']}); its commands were not flown from then"
-                 f"{self._engaged(uav, e['t'])}, its estimates were"} for uav, events in self.autopilot.items()
+                 f"({e['mode']}, cause: {e['cause']}): its controller's commands were not flown from then"
+                 f"{self._engaged(uav, e['t'])} (its estimates still count)"} for uav, events in self.autopilot.items()
                 for e in events if e["event"] == "handover"]
         return out
 

@@ -309,7 +309,7 @@ class Agent:
                            telemetry={role: _pack(r) for role, r in reports.items()},
                            rejected=dict(self.node.seal.rejected), cpu=cpu, heard=self.node.log(),
                            late=dict(self.late), autopilot=[] if self.authority is None else
-                           list(self.authority.events)), view
+                           [e for e in self.authority.events if "t" in e]), view  # those its steps saw
 
     def _wait(self, channel: str, senders, k: int, c: int, due: float | None, by: float, period: float,
               take: bool = True, count: bool = True) -> dict:

@@ -187,3 +187,9 @@ def test_return_climbs_flies_home_descends_and_lands_then_disarms():
     phases = [s[2] for s in seen if s[3]]
     assert phases == ["climb", "return", "descend", "land"] and seen[-1][3] is False  # disarmed on the ground
     assert np.linalg.norm(p[:2]) < 0.6 and p[2] == 0.0
+
+
+def test_a_setpoint_stamped_in_the_callers_future_is_no_offboard_signal():
+    c, _ = _commander()
+    assert c.take_setpoint(_setpoint(), 1.7e9)  # a clock that was not the run's (issue 37)
+    assert not c.fresh(3.0) and c.command(MODE, _p(CUSTOM, px4.OFFBOARD), 3.0, False, np.zeros(3)) == REJECTED

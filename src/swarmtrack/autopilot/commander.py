@@ -103,8 +103,9 @@ class Commander:
         return self.armed and self.main == px4.OFFBOARD
 
     def fresh(self, now: float) -> bool:
-        """Whether the offboard signal is fresh (a setpoint within ``COM_OF_LOSS_T``)."""
-        return now - self.signal_at <= self.p("COM_OF_LOSS_T")
+        """Whether the offboard signal is fresh (a setpoint within ``COM_OF_LOSS_T``); one stamped later than
+        ``now`` (a caller's clock that went back) is not."""
+        return -1e-9 <= now - self.signal_at <= self.p("COM_OF_LOSS_T")
 
     def _disarm(self, reason: str) -> None:
         """Disarm, said as PX4 says it ("Disarmed by landing"; ``arm_disarm_reason_str``)."""

@@ -193,3 +193,12 @@ def test_a_setpoint_stamped_in_the_callers_future_is_no_offboard_signal():
     c, _ = _commander()
     assert c.take_setpoint(_setpoint(), 1.7e9)  # a clock that was not the run's (issue 37)
     assert not c.fresh(3.0) and c.command(MODE, _p(CUSTOM, px4.OFFBOARD), 3.0, False, np.zeros(3)) == REJECTED
+
+
+def test_return_with_rtl_land_delay_minus_one_hovers_above_home_for_good():
+    c, _ = _commander(RTL_RETURN_ALT=8.0, RTL_DESCEND_ALT=4.0, RTL_LAND_DELAY=-1.0)
+    c.home = np.zeros(3)
+    c.command(mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, _p(), 0.0, False, np.zeros(3))
+    _, p, _, seen = _simulate(c, (30.0, -40.0, -3.0), (0.0, 0.0), 60.0)
+    assert [s[2] for s in seen] == ["climb", "return", "descend"] and c.armed
+    assert np.linalg.norm(p[:2]) < 0.05 and abs(p[2] + 4.0) < 0.05

@@ -57,7 +57,7 @@ AUTO_FLOWN = (px4.AUTO_TAKEOFF, px4.AUTO_LOITER, px4.AUTO_RTL, px4.AUTO_LAND)
 #: COM_OBL_RC_ACT → (main, sub) of the failsafe's mode; 6 (Terminate) and 7 (Disarm) disarm.
 OFFBOARD_LOSS_ACTIONS = {0: (px4.POSCTL, 0), 1: (px4.ALTCTL, 0), 2: (px4.STABILIZED, 0),
                          3: (px4.AUTO, px4.AUTO_RTL), 4: (px4.AUTO, px4.AUTO_LAND), 5: (px4.AUTO, px4.AUTO_LOITER)}
-#: Metres within which a climb or descent has reached its altitude, and Return its home (then it lands).
+#: Metres within which a climb or descent has reached its altitude, and Return is above its home (then it lands).
 REACHED_Z, REACHED_XY = 0.1, 0.5
 
 
@@ -81,6 +81,7 @@ class Commander:
         self.anchor: np.ndarray | None = None  # the point (3,) its own mode holds, set when first flown
         self.target_z: float | None = None  # Takeoff's altitude (NED z)
         self.phase = ""  # Return's: climb, return, descend, land
+        self.arrived_at: float | None = None  # when Return's descent reached its altitude above home
         self.armed_at = self.landed_at = None  # when it armed, when it touched down (None: not on the ground)
         self.flew = airborne  # it has been in the air since it armed
         self.changed = False  # the mode or arming changed: the vehicle tells it at once (HEARTBEAT)
@@ -299,7 +300,7 @@ class Commander:
         if self.main == px4.AUTO and self.sub == px4.AUTO_LAND:
             return self._land(self.anchor[:2], p, v, lim)
         if self.main == px4.AUTO and self.sub == px4.AUTO_RTL:
-            return self._return(p, v, lim)
+            return self._return(now, p, v, lim)
         return self._to(self.anchor[:2], self.anchor[2], p, v, lim)  # Position, Hold and the pilot's modes
 
     def _to(self, xy: np.ndarray, z: float, p: np.ndarray, v: np.ndarray, lim: Limits,
@@ -312,19 +313,24 @@ class Commander:
                                                                                     self.p("MPC_LAND_SPEED")]))
         return horizontal(sp, p[:2], v[:2], lim, own_mode=True), vertical(sp, p[2], v[2], lim)
 
-    def _return(self, p: np.ndarray, v: np.ndarray, lim: Limits) -> tuple[np.ndarray, float]:
+    def _return(self, now: float, p: np.ndarray, v: np.ndarray, lim: Limits) -> tuple[np.ndarray, float]:
         """PX4's Return (``navigator/rtl_direct.cpp``): climb to ``RTL_RETURN_ALT`` above home (or stay higher), fly
-        home, descend to ``RTL_DESCEND_ALT``, land."""
+        home at ``MPC_XY_CRUISE``, descend to ``RTL_DESCEND_ALT`` once within ``NAV_ACC_RAD`` of it, hover
+        ``RTL_LAND_DELAY`` s above it (−1: for good), land."""
         home = self.home
         if not self.phase:
             self.phase, self.anchor = "climb", np.array([p[0], p[1], min(p[2], home[2] - self.p("RTL_RETURN_ALT"))])
         if self.phase == "climb" and p[2] <= self.anchor[2] + REACHED_Z:
             self.phase = "return"
-        if self.phase == "return" and np.linalg.norm(p[:2] - home[:2]) < REACHED_XY:
-            self.phase = "descend"
+        off = float(np.linalg.norm(p[:2] - home[:2]))
+        if self.phase == "return" and off < self.p("NAV_ACC_RAD"):
+            self.phase, self.arrived_at = "descend", None
         descend_z = max(self.anchor[2], home[2] - self.p("RTL_DESCEND_ALT"))
-        if self.phase == "descend" and p[2] >= descend_z - REACHED_Z:
-            self.phase = "land"
+        if self.phase == "descend" and p[2] >= descend_z - REACHED_Z and off < REACHED_XY:
+            self.arrived_at = now if self.arrived_at is None else self.arrived_at
+            delay = self.p("RTL_LAND_DELAY")
+            if delay >= 0 and now - self.arrived_at >= delay:  # -1: it stays there
+                self.phase = "land"
         if self.phase == "climb":
             return self._to(self.anchor[:2], self.anchor[2], p, v, lim)
         if self.phase == "return":

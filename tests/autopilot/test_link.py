@@ -66,7 +66,7 @@ def test_the_link_engages_and_a_setpoint_arrives_as_sent_within_float32(flying):
     link = AutopilotLink(url, 2)
     try:
         assert link.target == (3, mavlink.MAV_COMP_ID_AUTOPILOT1)  # system uav + 1
-        Authority(link).engage()
+        Authority(link, prime=0.2).engage()
         assert vehicle.vehicle.offboard() and link.wait(lambda: link.armed and link.mode == px4.OFFBOARD, 2.0)
         nav = link.navigation()
         assert np.allclose(nav, vehicle.nav, rtol=2 ** -23, atol=0)  # ENU in, NED on the wire, ENU out (float32)
@@ -90,7 +90,7 @@ def test_a_refusal_names_the_vehicle_and_the_acknowledgements_result(flying, wha
     link = AutopilotLink(url, 2)
     try:
         with pytest.raises(AutopilotRefused, match=f"UAV 3's autopilot refused {what}: {result}"):
-            Authority(link).engage()
+            Authority(link, prime=0.2).engage()
         assert not vehicle.vehicle.offboard()
     finally:
         link.close()
@@ -106,6 +106,7 @@ def test_offboard_mode_is_refused_without_a_setpoint_stream(flying):
         link.close()
 
 
+@pytest.mark.slow  # setpoints stopped for longer than COM_OF_LOSS_T
 @pytest.mark.parametrize("flying", [{"airborne": True}], indirect=True)
 def test_setpoints_that_stop_trip_the_failsafe_which_holds_position_and_the_program_hands_over(flying):
     """The program stops streaming (it hangs): after COM_OF_LOSS_T the vehicle leaves offboard mode for its failsafe
@@ -114,7 +115,7 @@ def test_setpoints_that_stop_trip_the_failsafe_which_holds_position_and_the_prog
     vehicle, url = flying
     link = AutopilotLink(url, 2)
     try:
-        authority = Authority(link)
+        authority = Authority(link, prime=0.2)
         authority.engage()
         authority.fly(np.array([1.0, 1.0]), 0.0)
         time.sleep(0.1)

@@ -64,8 +64,8 @@ def cause(armed: bool, mode: int | None, sub: int, landed: int | None, silence: 
 class Authority:
     """Operator authority over UAV ``link.uav``'s vehicle (module docstring)."""
 
-    def __init__(self, link: AutopilotLink, reengage_after_link_loss: bool = False):
-        self.link, self.reengage_after_link_loss = link, reengage_after_link_loss
+    def __init__(self, link: AutopilotLink, reengage_after_link_loss: bool = False, prime: float = PRIME):
+        self.link, self.reengage_after_link_loss, self.prime = link, reengage_after_link_loss, prime
         self.engaged = False
         self.engaging = False  # a re-engagement's thread is on its way
         self.events: list[dict] = []  # handovers and engagements, in order (``t`` filled by :meth:`take`)
@@ -75,14 +75,14 @@ class Authority:
         link.watch(self._watch)
 
     def engage(self) -> None:
-        """Arm if disarmed, stream zero setpoints, enter offboard mode (:class:`AutopilotRefused` on a refusal):
-        when the UAV joins (it may wait), or in a thread on an explicit request. Engaged once the heartbeat says
-        offboard."""
+        """Arm if disarmed, stream zero setpoints for :attr:`prime` s, enter offboard mode (:class:`AutopilotRefused`
+        on a refusal): when the UAV joins (it may wait), or in a thread on an explicit request. Engaged once the
+        heartbeat says offboard."""
         link = self.link
         if not link.armed:
             link.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1.0, what="to arm")
         link.send_acceleration(np.zeros(2), max(link.nav_ms, 0) / 1000)
-        time.sleep(PRIME)
+        time.sleep(self.prime)
         try:
             link.command(mavlink.MAV_CMD_DO_SET_MODE, float(mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED),
                          float(px4.OFFBOARD), what="offboard mode")

@@ -122,7 +122,7 @@ def _end(world, agents) -> tuple[str, list[str]]:
 @pytest.mark.parametrize("realtime", [False, True], ids=["lockstep", "realtime"])
 def test_a_hold_a_disarm_and_a_landing_each_hand_the_vehicle_over_for_good(tmp_path, peer, realtime):
     n = 4
-    base, zenoh_port, swarm, world, agents = _swarm(tmp_path, n, 24.0 if realtime else 30.0, realtime)
+    base, zenoh_port, swarm, world, agents = _swarm(tmp_path, n, 16.0 if realtime else 20.0, realtime)
     gcs = None
     try:
         peer.flown(zenoh_port, swarm, 0, 100)  # 5 s flown by every UAV's agent
@@ -164,7 +164,7 @@ def test_a_hold_a_disarm_and_a_landing_each_hand_the_vehicle_over_for_good(tmp_p
 
 def test_swarmtrack_engage_gives_a_held_vehicle_back_to_its_agent(tmp_path, peer):
     n = 3
-    base, zenoh_port, swarm, world, agents = _swarm(tmp_path, n, 24.0, realtime=True)
+    base, zenoh_port, swarm, world, agents = _swarm(tmp_path, n, 18.0, realtime=True)
     gcs = None
     try:
         peer.flown(zenoh_port, swarm, 0, 100)

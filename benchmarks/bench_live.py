@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from swarmtrack.autopilot.endpoint import free_base
 from swarmtrack.live import wire
 from swarmtrack.live.node import Node
 from swarmtrack.live.transport import ZenohTransport, free_port, key
@@ -177,7 +178,7 @@ def _live(uavs: int, duration: float, realtime: bool, progress=None, mavlink: bo
     endpoints = [_endpoint(port)]
     transport = ZenohTransport(listen=endpoints, tls=TLS)
     node = Node(transport, wire.Seal(None, uavs), f"{SWARM}-{port}", wire.WORLD)
-    mavlink_port = _udp_base(uavs) if mavlink else None
+    mavlink_port = free_base(uavs) if mavlink else None
     procs = start_agents(scenario, "l24-ct", None, overrides, endpoints, f"{SWARM}-{port}", None, mavlink_port,
                          tls=TLS)
     try:
@@ -189,27 +190,6 @@ def _live(uavs: int, duration: float, realtime: bool, progress=None, mavlink: bo
         stop_agents(procs)
         transport.close()
     return scenario, report, world_cpu_ms
-
-
-def _udp_base(n: int) -> int:
-    """A base port whose ``n`` vehicles' ports are all free: the agents' (base + i) and the vehicles' own, offboard
-    (base + 40 + i) and ground-station (base + 4030 + i)."""
-    from swarmtrack.autopilot.endpoint import gcs_local_port, offboard_ports
-
-    for base in range(20000, 60000, 97):
-        socks = []
-        try:
-            for i in range(n):
-                for port in (base + i, offboard_ports(base, i)[0], gcs_local_port(base, i)):
-                    socks.append(socket.socket(socket.AF_INET, socket.SOCK_DGRAM))
-                    socks[-1].bind(("127.0.0.1", port))
-            return base
-        except OSError:
-            continue
-        finally:
-            for s in socks:
-                s.close()
-    raise RuntimeError("no free UDP ports")
 
 
 def lockstep(uavs: int, duration: float, mavlink: bool = False) -> dict:

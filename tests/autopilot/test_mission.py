@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import pytest
 from pymavlink.dialects.v20 import common as mavlink
+from tests.autopilot import wire
 
 from swarmtrack.autopilot.mission import CAPACITY, FENCE, MISSION, PROTOCOL_TIMEOUT, Missions
 
@@ -13,24 +14,11 @@ WAYPOINT, TAKEOFF = mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_CMD_NAV_TAKEOFF
 REL = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
 
 
-class Wire:
-    """The vehicle's MAVLink object writing into a list, and a ground station's encoding what it sends."""
-
-    def __init__(self):
-        self.out: list[bytes] = []
-        self.mav = mavlink.MAVLink(self, srcSystem=SYSTEM, srcComponent=COMPONENT)
-        self.gcs = mavlink.MAVLink(None, srcSystem=255, srcComponent=190)
-
-    def write(self, data) -> None:
-        self.out.append(bytes(data))
-
+class Wire(wire.Wire):
     def send(self, missions: Missions, msg) -> list:
         """Hand ``msg`` (as the vehicle receives it) to ``missions``; the replies it wrote."""
-        assert missions.handle(mavlink.MAVLink(None).decode(bytearray(msg.pack(self.gcs))), self.mav)
-        parser = mavlink.MAVLink(None)
-        got = [parser.decode(bytearray(b)) for b in self.out]
-        self.out.clear()
-        return got
+        assert missions.handle(self.received(msg), self.mav)
+        return self.replies()
 
 
 def _item(seq: int, lat: float, lon: float, alt: float, command=WAYPOINT, frame=REL, kind=MISSION):
@@ -66,13 +54,13 @@ def _download(w: Wire, m: Missions, kind=MISSION) -> list:
 
 
 def test_an_empty_mission_by_default():
-    w, m = Wire(), Missions()
+    w, m = Wire(SYSTEM), Missions()
     (count,) = w.send(m, mavlink.MAVLink_mission_request_list_message(SYSTEM, COMPONENT, MISSION))
     assert count.count == 0 and (count.target_system, count.target_component) == (255, 190)
 
 
 def test_upload_then_download_gives_the_same_items_and_stores_them_per_type():
-    w, m = Wire(), Missions()
+    w, m = Wire(SYSTEM), Missions()
     (ack,) = _upload(w, m)
     assert ack.get_type() == "MISSION_ACK" and ack.type == mavlink.MAV_MISSION_ACCEPTED and ack.mission_type == MISSION
     items = _download(w, m)
@@ -83,7 +71,7 @@ def test_upload_then_download_gives_the_same_items_and_stores_them_per_type():
 
 
 def test_clear_all_and_a_count_of_zero_each_empty_the_list():
-    w, m = Wire(), Missions()
+    w, m = Wire(SYSTEM), Missions()
     _upload(w, m)
     (ack,) = w.send(m, mavlink.MAVLink_mission_clear_all_message(SYSTEM, COMPONENT, MISSION))
     assert ack.type == mavlink.MAV_MISSION_ACCEPTED and m.items[MISSION] == []
@@ -97,7 +85,7 @@ def test_clear_all_and_a_count_of_zero_each_empty_the_list():
 
 
 def test_refusals_as_px4_refuses():
-    w, m = Wire(), Missions()
+    w, m = Wire(SYSTEM), Missions()
     (ack,) = w.send(m, mavlink.MAVLink_mission_count_message(SYSTEM, COMPONENT, CAPACITY[MISSION] + 1, MISSION))
     assert ack.type == mavlink.MAV_MISSION_NO_SPACE
     w.send(m, mavlink.MAVLink_mission_count_message(SYSTEM, COMPONENT, 1, MISSION))
@@ -114,7 +102,7 @@ def test_refusals_as_px4_refuses():
 
 
 def test_a_lost_request_or_item_is_recovered_as_px4_recovers_it():
-    w, m = Wire(), Missions()
+    w, m = Wire(SYSTEM), Missions()
     w.send(m, mavlink.MAVLink_mission_count_message(SYSTEM, COMPONENT, 2, MISSION))
     (again,) = w.send(m, mavlink.MAVLink_mission_count_message(SYSTEM, COMPONENT, 2, MISSION))
     assert again.get_type() == "MISSION_REQUEST_INT" and again.seq == 0  # our request was lost: asked again
@@ -127,7 +115,7 @@ def test_a_lost_request_or_item_is_recovered_as_px4_recovers_it():
 
 def test_a_stalled_transfer_is_abandoned_after_the_protocol_timeout():
     now = [0.0]
-    w, m = Wire(), Missions(clock=lambda: now[0])
+    w, m = Wire(SYSTEM), Missions(clock=lambda: now[0])
     w.send(m, mavlink.MAVLink_mission_count_message(SYSTEM, COMPONENT, 3, MISSION))
     w.send(m, _item(0, *PLAN[0][:3]))  # then the client goes away
     now[0] += PROTOCOL_TIMEOUT + 0.1
@@ -136,7 +124,7 @@ def test_a_stalled_transfer_is_abandoned_after_the_protocol_timeout():
 
 
 def test_the_older_float_messages():
-    w, m = Wire(), Missions()
+    w, m = Wire(SYSTEM), Missions()
     w.send(m, mavlink.MAVLink_mission_count_message(SYSTEM, COMPONENT, 1, MISSION))
     (ack,) = w.send(m, mavlink.MAVLink_mission_item_message(SYSTEM, COMPONENT, 0, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT,
                                                             WAYPOINT, 1, 1, 0, 0, 0, 0, 47.3981234, 8.5461234, 12.0,
@@ -150,7 +138,7 @@ def test_the_older_float_messages():
 
 
 def test_messages_for_another_vehicle_are_not_taken():
-    w, m = Wire(), Missions()
+    w, m = Wire(SYSTEM), Missions()
     msg = mavlink.MAVLink_mission_request_list_message(SYSTEM + 1, COMPONENT, MISSION)
     assert not m.handle(mavlink.MAVLink(None).decode(bytearray(msg.pack(w.gcs))), w.mav)
     hb = mavlink.MAVLink_heartbeat_message(6, 8, 0, 0, 4, 3)

@@ -7,37 +7,16 @@ import struct
 
 import pytest
 from pymavlink.dialects.v20 import common as mavlink
+from tests.autopilot.wire import Wire
 
 from swarmtrack.autopilot.params import HASH_CHECK, INT32, REAL32, TABLE, UINT32, Parameters, decode, encode
 
 SYSTEM, COMPONENT = 2, mavlink.MAV_COMP_ID_AUTOPILOT1
 
 
-class Wire:
-    """The vehicle's MAVLink object writing into a list, and a ground station's (system 255) encoding requests."""
-
-    def __init__(self):
-        self.out: list[bytes] = []
-        self.mav = mavlink.MAVLink(self, srcSystem=SYSTEM, srcComponent=COMPONENT)
-        self.gcs = mavlink.MAVLink(None, srcSystem=255, srcComponent=190)
-
-    def write(self, data) -> None:
-        self.out.append(bytes(data))
-
-    def request(self, msg):
-        """``msg`` as the vehicle receives it (packed by the ground station, parsed back)."""
-        return mavlink.MAVLink(None).decode(bytearray(msg.pack(self.gcs)))
-
-    def replies(self) -> list:
-        parser = mavlink.MAVLink(None)
-        got = [parser.decode(bytearray(b)) for b in self.out]
-        self.out.clear()
-        return got
-
-
 @pytest.fixture
 def wire():
-    return Wire()
+    return Wire(SYSTEM)
 
 
 def _name(v) -> str:
@@ -68,7 +47,7 @@ def test_int_values_travel_bytewise():
 
 def test_list_sends_the_hash_then_every_parameter_in_order(wire):
     p = Parameters()
-    assert p.handle(wire.request(mavlink.MAVLink_param_request_list_message(SYSTEM, COMPONENT)), wire.mav)
+    assert p.handle(wire.received(mavlink.MAVLink_param_request_list_message(SYSTEM, COMPONENT)), wire.mav)
     got = wire.replies()
     assert [m.get_type() for m in got] == ["PARAM_VALUE"] * (len(TABLE) + 1)
     first = got[0]
@@ -86,18 +65,18 @@ def test_list_sends_the_hash_then_every_parameter_in_order(wire):
 
 def test_read_by_name_by_index_and_the_unknown_unanswered(wire):
     p = Parameters()
-    p.handle(wire.request(mavlink.MAVLink_param_request_read_message(SYSTEM, COMPONENT, b"COM_OBL_RC_ACT", -1)),
+    p.handle(wire.received(mavlink.MAVLink_param_request_read_message(SYSTEM, COMPONENT, b"COM_OBL_RC_ACT", -1)),
              wire.mav)
     (v,) = wire.replies()
     assert _name(v) == "COM_OBL_RC_ACT" and v.param_type == INT32 and decode(v.param_value, INT32) == 0
-    p.handle(wire.request(mavlink.MAVLink_param_request_read_message(SYSTEM, COMPONENT, b"", 0)), wire.mav)
+    p.handle(wire.received(mavlink.MAVLink_param_request_read_message(SYSTEM, COMPONENT, b"", 0)), wire.mav)
     (v,) = wire.replies()
     assert v.param_index == 0 and _name(v) == sorted(q.name for q in TABLE)[0]
-    assert p.handle(wire.request(mavlink.MAVLink_param_request_read_message(SYSTEM, COMPONENT, b"NO_SUCH", -1)),
+    assert p.handle(wire.received(mavlink.MAVLink_param_request_read_message(SYSTEM, COMPONENT, b"NO_SUCH", -1)),
                     wire.mav)
-    assert p.handle(wire.request(mavlink.MAVLink_param_request_read_message(SYSTEM, COMPONENT, b"", 999)), wire.mav)
+    assert p.handle(wire.received(mavlink.MAVLink_param_request_read_message(SYSTEM, COMPONENT, b"", 999)), wire.mav)
     assert wire.replies() == []  # PX4 answers neither
-    p.handle(wire.request(mavlink.MAVLink_param_request_read_message(SYSTEM, COMPONENT, HASH_CHECK.encode(), -1)),
+    p.handle(wire.received(mavlink.MAVLink_param_request_read_message(SYSTEM, COMPONENT, HASH_CHECK.encode(), -1)),
              wire.mav)
     (h,) = wire.replies()
     assert decode(h.param_value, UINT32) == p.hash()
@@ -106,11 +85,11 @@ def test_read_by_name_by_index_and_the_unknown_unanswered(wire):
 def test_set_a_float_and_an_int_echoes_and_changes_the_value_and_hash(wire):
     p = Parameters()
     before = p.hash()
-    p.handle(wire.request(mavlink.MAVLink_param_set_message(SYSTEM, COMPONENT, b"COM_OF_LOSS_T", 2.5, REAL32)),
+    p.handle(wire.received(mavlink.MAVLink_param_set_message(SYSTEM, COMPONENT, b"COM_OF_LOSS_T", 2.5, REAL32)),
              wire.mav)
     (v,) = wire.replies()
     assert _name(v) == "COM_OF_LOSS_T" and v.param_value == 2.5 and p.get("COM_OF_LOSS_T") == 2.5
-    p.handle(wire.request(mavlink.MAVLink_param_set_message(SYSTEM, mavlink.MAV_COMP_ID_ALL, b"COM_OBL_RC_ACT",
+    p.handle(wire.received(mavlink.MAVLink_param_set_message(SYSTEM, mavlink.MAV_COMP_ID_ALL, b"COM_OBL_RC_ACT",
                                                              encode(5, INT32), INT32)), wire.mav)
     (v,) = wire.replies()
     assert decode(v.param_value, INT32) == 5 and p.get("COM_OBL_RC_ACT") == 5
@@ -119,13 +98,13 @@ def test_set_a_float_and_an_int_echoes_and_changes_the_value_and_hash(wire):
 
 def test_set_of_an_unknown_name_or_another_type_is_not_answered_nor_applied(wire):
     p = Parameters()
-    assert p.handle(wire.request(mavlink.MAVLink_param_set_message(SYSTEM, COMPONENT, b"COM_OBL_RC_ACT", 5.0,
+    assert p.handle(wire.received(mavlink.MAVLink_param_set_message(SYSTEM, COMPONENT, b"COM_OBL_RC_ACT", 5.0,
                                                                     REAL32)), wire.mav)
-    assert p.handle(wire.request(mavlink.MAVLink_param_set_message(SYSTEM, COMPONENT, b"MPC_XY_P",
+    assert p.handle(wire.received(mavlink.MAVLink_param_set_message(SYSTEM, COMPONENT, b"MPC_XY_P",
                                                                     encode(3, INT32), INT32)), wire.mav)
-    assert p.handle(wire.request(mavlink.MAVLink_param_set_message(SYSTEM, COMPONENT, b"NO_SUCH", 1.0, REAL32)),
+    assert p.handle(wire.received(mavlink.MAVLink_param_set_message(SYSTEM, COMPONENT, b"NO_SUCH", 1.0, REAL32)),
                     wire.mav)
-    assert p.handle(wire.request(mavlink.MAVLink_param_set_message(SYSTEM, COMPONENT, HASH_CHECK.encode(), 0.0,
+    assert p.handle(wire.received(mavlink.MAVLink_param_set_message(SYSTEM, COMPONENT, HASH_CHECK.encode(), 0.0,
                                                                     UINT32)), wire.mav)
     assert wire.replies() == []
     assert p.get("COM_OBL_RC_ACT") == 0 and p.get("MPC_XY_P") == pytest.approx(0.95, rel=1e-7)
@@ -133,18 +112,18 @@ def test_set_of_an_unknown_name_or_another_type_is_not_answered_nor_applied(wire
 
 def test_messages_for_another_vehicle_or_of_another_kind_are_not_taken(wire):
     p = Parameters()
-    assert not p.handle(wire.request(mavlink.MAVLink_param_request_list_message(SYSTEM + 1, COMPONENT)), wire.mav)
-    assert not p.handle(wire.request(mavlink.MAVLink_param_request_list_message(SYSTEM, 191)), wire.mav)
-    assert not p.handle(wire.request(mavlink.MAVLink_heartbeat_message(6, 8, 0, 0, 4, 3)), wire.mav)
+    assert not p.handle(wire.received(mavlink.MAVLink_param_request_list_message(SYSTEM + 1, COMPONENT)), wire.mav)
+    assert not p.handle(wire.received(mavlink.MAVLink_param_request_list_message(SYSTEM, 191)), wire.mav)
+    assert not p.handle(wire.received(mavlink.MAVLink_heartbeat_message(6, 8, 0, 0, 4, 3)), wire.mav)
     assert wire.replies() == []
 
 
 def test_a_changed_value_is_also_told_on_the_other_links(wire):
-    p, gcs_link = Parameters(), Wire()
-    p.handle(wire.request(mavlink.MAVLink_param_set_message(SYSTEM, COMPONENT, b"RTL_RETURN_ALT", 30.0, REAL32)),
+    p, gcs_link = Parameters(), Wire(SYSTEM)
+    p.handle(wire.received(mavlink.MAVLink_param_set_message(SYSTEM, COMPONENT, b"RTL_RETURN_ALT", 30.0, REAL32)),
              wire.mav, others=(gcs_link.mav,))
     (here,), (there,) = wire.replies(), gcs_link.replies()
     assert _name(here) == _name(there) == "RTL_RETURN_ALT" and here.param_value == there.param_value == 30.0
-    p.handle(wire.request(mavlink.MAVLink_param_set_message(SYSTEM, COMPONENT, b"NO_SUCH", 1.0, REAL32)), wire.mav,
+    p.handle(wire.received(mavlink.MAVLink_param_set_message(SYSTEM, COMPONENT, b"NO_SUCH", 1.0, REAL32)), wire.mav,
              others=(gcs_link.mav,))
     assert wire.replies() == [] and gcs_link.replies() == []

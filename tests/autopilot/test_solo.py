@@ -9,9 +9,10 @@ import time
 import numpy as np
 import pytest
 from pymavlink.dialects.v20 import common as mavlink
-from tests.autopilot.test_vehicle import Client, free_base
+from tests.autopilot.test_vehicle import Client
 
 from swarmtrack.autopilot import px4
+from swarmtrack.autopilot.endpoint import free_base
 from swarmtrack.autopilot.solo import SoloVehicle
 
 CUSTOM = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
@@ -19,7 +20,7 @@ CUSTOM = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
 
 @pytest.fixture
 def solo():
-    port = free_base(1, spread=(0, 40))
+    port = free_base(1)
     client = Client(port, ("127.0.0.1", port + 40))
     vehicle = SoloVehicle(port, port + 40, position=(5.0, 7.0), params={"COM_DISARM_LAND": 0.5})
     yield vehicle, client

@@ -10,6 +10,7 @@ from collections import Counter
 import numpy as np
 import pytest
 from pymavlink.dialects.v20 import common as mavlink
+from tests.autopilot.wire import Wire
 
 from swarmtrack.autopilot.geodesy import EARTH_RADIUS, PX4_SITL, Origin
 from swarmtrack.autopilot.params import Parameters
@@ -28,27 +29,6 @@ SYSTEM, COMPONENT = 3, mavlink.MAV_COMP_ID_AUTOPILOT1
 ID = {name: getattr(mavlink, f"MAVLINK_MSG_ID_{name}") for name in (
     "HEARTBEAT", "SYS_STATUS", "ATTITUDE", "HOME_POSITION", "GLOBAL_POSITION_INT", "AUTOPILOT_VERSION",
     "LOCAL_POSITION_NED", "GPS_RAW_INT", "HIGHRES_IMU", "BATTERY_STATUS")}
-
-
-class Wire:
-    """The vehicle's MAVLink object writing into a list, and a ground station's encoding what it sends."""
-
-    def __init__(self):
-        self.out: list[bytes] = []
-        self.mav = mavlink.MAVLink(self, srcSystem=SYSTEM, srcComponent=COMPONENT)
-        self.gcs = mavlink.MAVLink(None, srcSystem=255, srcComponent=190)
-
-    def write(self, data) -> None:
-        self.out.append(bytes(data))
-
-    def received(self, msg):
-        return mavlink.MAVLink(None).decode(bytearray(msg.pack(self.gcs)))
-
-    def replies(self) -> list:
-        parser = mavlink.MAVLink(None)
-        got = [parser.decode(bytearray(b)) for b in self.out]
-        self.out.clear()
-        return got
 
 
 def _state(**kw) -> VehicleState:
@@ -71,7 +51,7 @@ def _run(streams: Streams, wire: Wire, seconds: float, state: VehicleState, dt: 
 
 
 def test_default_rates_are_px4s_for_each_mode():
-    w = Wire()
+    w = Wire(SYSTEM)
     onboard, normal = Streams(w.mav, ONBOARD), Streams(w.mav, NORMAL)
     assert onboard.interval(ID["ATTITUDE"]) == pytest.approx(1 / 100) and normal.interval(ID["ATTITUDE"]) == \
         pytest.approx(1 / 15)
@@ -87,26 +67,26 @@ def test_default_rates_are_px4s_for_each_mode():
 
 
 def test_a_second_of_ticks_sends_each_stream_at_its_rate():
-    w = Wire()
+    w = Wire(SYSTEM)
     counts = _run(Streams(w.mav, NORMAL), w, 2.0, _state(home=[0, 0, 0]))
     assert counts["ATTITUDE"] == 30 and counts["ATTITUDE_QUATERNION"] == 20 and counts["GLOBAL_POSITION_INT"] == 10
     assert counts["SYS_STATUS"] == 2 and counts["EXTENDED_SYS_STATE"] == 2 and counts["VFR_HUD"] == 8
     assert counts["HOME_POSITION"] == 1 and counts["BATTERY_STATUS"] == 1 and counts["GPS_RAW_INT"] == 10
     assert counts["AUTOPILOT_VERSION"] == 0 and counts["LOCAL_POSITION_NED"] == 0 and counts["HEARTBEAT"] == 0
-    w2 = Wire()
+    w2 = Wire(SYSTEM)
     counts = _run(Streams(w2.mav, ONBOARD), w2, 1.0, _state())
     assert counts["ATTITUDE"] == 100 and counts["GLOBAL_POSITION_INT"] == 50 and counts["SYS_STATUS"] == 5
     assert counts["HOME_POSITION"] == 0  # no home yet: PX4 sends none
 
 
 def test_a_stream_is_sent_at_most_once_per_tick():
-    w = Wire()
+    w = Wire(SYSTEM)
     counts = _run(Streams(w.mav, ONBOARD), w, 1.0, _state(), dt=0.05)  # ticking at 20 Hz
     assert counts["ATTITUDE"] == 20 and counts["SYS_STATUS"] == 5
 
 
 def test_set_message_interval_sets_stops_and_restores_as_px4():
-    w = Wire()
+    w = Wire(SYSTEM)
     s = Streams(w.mav, NORMAL)
     state = _state()
     assert s.handle(w.received(_long(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, ID["ATTITUDE"], 200000)), state)
@@ -137,7 +117,7 @@ def test_set_message_interval_sets_stops_and_restores_as_px4():
 
 
 def test_autopilot_version_on_request_then_the_ack():
-    w = Wire()
+    w = Wire(SYSTEM)
     s = Streams(w.mav)
     assert s.handle(w.received(_long(mavlink.MAV_CMD_REQUEST_MESSAGE, ID["AUTOPILOT_VERSION"])), _state())
     version, ack = w.replies()
@@ -154,7 +134,7 @@ def test_autopilot_version_on_request_then_the_ack():
 
 
 def test_home_position_is_denied_before_home_and_sent_after():
-    w = Wire()
+    w = Wire(SYSTEM)
     s = Streams(w.mav, origin=Origin(10.0, 20.0, 100.0))
     s.handle(w.received(_long(mavlink.MAV_CMD_REQUEST_MESSAGE, ID["HOME_POSITION"])), _state())
     (ack,) = w.replies()
@@ -167,7 +147,7 @@ def test_home_position_is_denied_before_home_and_sent_after():
 
 
 def test_global_position_and_attitude_come_from_the_state():
-    w = Wire()
+    w = Wire(SYSTEM)
     s = Streams(w.mav, origin=PX4_SITL)
     state = _state(boot_ms=4321, position=[1000.0, -500.0, -20.0], velocity=[1.5, -2.25, -0.5],
                    attitude=[0.1, -0.2, -math.pi / 2], home=[0.0, 0.0, -2.0])
@@ -183,7 +163,7 @@ def test_global_position_and_attitude_come_from_the_state():
 
 
 def test_sys_status_and_extended_sys_state():
-    w = Wire()
+    w = Wire(SYSTEM)
     s = Streams(w.mav)
     s.send(mavlink.MAVLINK_MSG_ID_SYS_STATUS, _state())
     s.send(mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE, _state(landed=mavlink.MAV_LANDED_STATE_IN_AIR))
@@ -213,7 +193,7 @@ def test_battery_drains_as_px4_sitls_while_armed():
     assert b.remaining == 0.0 and b.charge_state == mavlink.MAV_BATTERY_CHARGE_STATE_EMERGENCY
     b.update(False, 201000)
     assert b.remaining == 1.0 and b.charge_state == mavlink.MAV_BATTERY_CHARGE_STATE_OK
-    w = Wire()
+    w = Wire(SYSTEM)
     s = Streams(w.mav, battery=b)
     s.tick(0.0, _state(armed=True, boot_ms=0))
     s.tick(0.0, _state(armed=True, boot_ms=30000))
@@ -224,7 +204,7 @@ def test_battery_drains_as_px4_sitls_while_armed():
 
 
 def test_commands_for_others_are_left_to_the_vehicle():
-    w = Wire()
+    w = Wire(SYSTEM)
     s = Streams(w.mav)
     assert not s.handle(w.received(_long(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)), _state())
     assert not s.handle(w.received(_long(mavlink.MAV_CMD_REQUEST_MESSAGE, 148, target=(SYSTEM + 1, 1))), _state())
@@ -253,7 +233,7 @@ def test_quaternion_of_euler_angles():
 
 
 def test_flight_information_on_request_gives_the_arming_and_takeoff_times():
-    w = Wire()
+    w = Wire(SYSTEM)
     s = Streams(w.mav, NORMAL)
     ground, air = mavlink.MAV_LANDED_STATE_ON_GROUND, mavlink.MAV_LANDED_STATE_IN_AIR
     for ms, armed, landed in ((500, False, ground), (1000, True, ground), (1500, True, ground), (2000, True, air),

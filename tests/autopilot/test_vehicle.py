@@ -11,31 +11,12 @@ import pytest
 from pymavlink.dialects.v20 import common as mavlink
 
 from swarmtrack.autopilot import px4
+from swarmtrack.autopilot.endpoint import free_base
 from swarmtrack.autopilot.fleet import Fleet, check_ports, gcs_port_of
 from swarmtrack.autopilot.vehicle import MavlinkVehicle, VehicleError, hold
 
 COMPANION, GCS = mavlink.MAV_COMP_ID_ONBOARD_COMPUTER, 190
 NAN = float("nan")
-
-
-def free_base(n: int, spread=(0, 40, 4030)) -> int:
-    """A base port whose ``base + s + i`` (s in ``spread``, i < n) are all free now."""
-    rng = np.random.default_rng()
-    while True:
-        base = int(rng.integers(20000, 40000))
-        socks = []
-        try:
-            for s in spread:
-                for i in range(n):
-                    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-                    socks.append(sock)
-                    sock.bind(("127.0.0.1", base + s + i))
-            return base
-        except OSError:
-            continue
-        finally:
-            for sock in socks:
-                sock.close()
 
 
 class Client:

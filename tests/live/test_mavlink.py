@@ -18,6 +18,7 @@ from pymavlink.dialects.v20 import common as mavlink
 
 import swarmtrack
 from swarmtrack.analysis.metrics import summary
+from swarmtrack.autopilot.endpoint import free_base
 from swarmtrack.autopilot.vehicle import MavlinkVehicle
 from swarmtrack.live.commands import swarm_processes
 from swarmtrack.live.transport import ZenohTransport, free_port
@@ -26,21 +27,8 @@ pytestmark = pytest.mark.xdist_group("live")
 
 
 def _udp_ports(n: int) -> int:
-    """The first of ``n`` consecutive UDP ports nothing is bound to now."""
-    while True:
-        base = 20000 + np.random.default_rng().integers(0, 20000)
-        socks = []
-        try:
-            for i in range(n):
-                s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-                socks.append(s)
-                s.bind(("127.0.0.1", int(base) + i))
-            return int(base)
-        except OSError:
-            continue
-        finally:
-            for s in socks:
-                s.close()
+    """A base whose ``n`` UAVs' ports are free now: the agents' (``base + i``) and their simulated vehicles' own."""
+    return free_base(n)
 
 
 def _live(tmp_path, *extra, duration=8):

@@ -108,15 +108,17 @@ def _swarm(tmp_path, n: int, duration: float, realtime: bool):
 
 
 def _end(world, agents) -> tuple[str, list[str]]:
-    """The world's and the agents' stderr once they ended (each killed if still running after its bound)."""
-    try:
-        err = world.communicate(timeout=240)[1]
-        errs = [a.communicate(timeout=60)[1] for a in agents]
-    finally:
-        for p in (world, *agents):
-            if p.poll() is None:
-                p.kill()
-    return err, errs
+    """The world's and the agents' stderr once they ended (within their bounds)."""
+    return world.communicate(timeout=240)[1], [a.communicate(timeout=60)[1] for a in agents]
+
+
+def _stop(world, agents, gcs) -> None:
+    """End what the test started: the processes still running (by their ids), the ground station's links."""
+    for p in (world, *agents):
+        if p.poll() is None:
+            p.kill()
+    if gcs is not None:
+        gcs.close()
 
 
 @pytest.mark.parametrize("realtime", [False, True], ids=["lockstep", "realtime"])
@@ -130,11 +132,7 @@ def test_a_hold_a_disarm_and_a_landing_each_hand_the_vehicle_over_for_good(tmp_p
         sent = [gcs.hold(0), gcs.disarm(1), gcs.land(2)]
         err, errs = _end(world, agents)
     finally:
-        for p in (world, *agents):
-            if p.poll() is None:
-                p.kill()
-        if gcs is not None:
-            gcs.close()
+        _stop(world, agents, gcs)
     assert world.returncode == 0, err[-3000:]
     assert all(a.returncode == 0 for a in agents), [e[-1500:] for e in errs]
     report = json.loads((tmp_path / "live" / "metrics.json").read_text())["live"]["autopilot"]
@@ -180,11 +178,7 @@ def test_swarmtrack_engage_gives_a_held_vehicle_back_to_its_agent(tmp_path, peer
         time.sleep(2.0)
         err, errs = _end(world, agents)
     finally:
-        for p in (world, *agents):
-            if p.poll() is None:
-                p.kill()
-        if gcs is not None:
-            gcs.close()
+        _stop(world, agents, gcs)
     assert world.returncode == 0, err[-3000:]
     assert refused.returncode == 3 and "already engaged" in refused.stderr, refused.stderr
     assert engaged.returncode == 0 and "UAV 1: engaged" in engaged.stdout, engaged.stderr

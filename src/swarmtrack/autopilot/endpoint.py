@@ -19,6 +19,7 @@ answers to the latest sender (how PX4 answers a ground station that connects to 
 from __future__ import annotations
 
 import errno
+import random
 import socket
 
 from pymavlink.dialects.v20 import common as mavlink
@@ -41,6 +42,26 @@ def offboard_ports(base: int, i: int) -> tuple[int, int]:
 def gcs_local_port(base: int, i: int) -> int:
     """The local port of instance ``i``'s ground-station link: ``base + 4030 + i`` (18570 + i for base 14540)."""
     return base + (GCS_LOCAL - OFFBOARD_REMOTE) + i
+
+
+def free_base(n: int, host: str = "127.0.0.1", low: int = 20000, high: int = 40000) -> int:
+    """A base port (between ``low`` and ``high``) whose ``n`` instances' ports are all free now: the companion
+    computers' (``base + i``) and the vehicles' own, offboard and ground-station (:func:`offboard_ports`,
+    :func:`gcs_local_port`); for tests and benchmarks that start vehicles beside others."""
+    rng = random.Random()
+    while True:
+        base, socks = rng.randrange(low, high), []
+        try:
+            for i in range(n):
+                for port in (base + i, offboard_ports(base, i)[0], gcs_local_port(base, i)):
+                    socks.append(socket.socket(socket.AF_INET, socket.SOCK_DGRAM))
+                    socks[-1].bind((host, port))
+            return base
+        except OSError:
+            continue
+        finally:
+            for sock in socks:
+                sock.close()
 
 
 def check_free(host: str, port: int, what: str) -> None:

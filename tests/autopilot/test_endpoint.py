@@ -91,3 +91,35 @@ def test_a_configured_link_sends_at_once():
     finally:
         link.close()
         receiver.close()
+
+
+def test_a_sender_beside_the_peer_gets_the_answers_too_until_it_falls_silent(monkeypatch):
+    """QGroundControl on a configured port and ``swarmtrack engage`` asking beside it: both get what the link sends,
+    the latter until it has been silent for PEER_S."""
+    from swarmtrack.autopilot import endpoint
+
+    monkeypatch.setattr(endpoint, "PEER_S", 0.5)
+    qgc, engage = (socket.socket(socket.AF_INET, socket.SOCK_DGRAM) for _ in range(2))
+    try:
+        for s in (qgc, engage):
+            s.bind(("127.0.0.1", 0))
+            s.settimeout(0.3)
+        link = Endpoint("127.0.0.1", _free_port(), qgc.getsockname(), 3, 1, "gcs")
+        ground = mavlink.MAVLink(None, 255, 190)
+        engage.sendto(mavlink.MAVLink_heartbeat_message(6, 8, 0, 0, 0, 3).pack(ground), ("127.0.0.1", link.port))
+        deadline = time.monotonic() + 2
+        while not link.receive() and time.monotonic() < deadline:
+            time.sleep(0.01)
+        link.mav.statustext_send(mavlink.MAV_SEVERITY_INFO, b"both")
+        for s in (qgc, engage):
+            assert mavlink.MAVLink(None).parse_buffer(bytearray(s.recv(1024)))[0].text == "both"
+        time.sleep(0.6)
+        link.mav.statustext_send(mavlink.MAV_SEVERITY_INFO, b"qgc")
+        assert mavlink.MAVLink(None).parse_buffer(bytearray(qgc.recv(1024)))[0].text == "qgc"
+        with pytest.raises(TimeoutError):
+            engage.recv(1024)
+        assert link.remote == qgc.getsockname()  # a configured peer stays the peer
+    finally:
+        link.close()
+        qgc.close()
+        engage.close()

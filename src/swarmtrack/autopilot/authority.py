@@ -39,8 +39,9 @@ PRIME = 1.2
 #: A silence of the link at least this long (s) before a handover makes it the offboard-loss failsafe (PX4's default
 #: ``COM_OF_LOSS_T``, 1 s: shorter silences cannot have tripped it).
 LINK_LOSS = 1.0
-#: How recent (s) a silence or a STATUSTEXT must be to explain a handover.
-RECENT = 3.0
+#: How recent (s) the end of a silence of the link must be to explain a handover (the first heartbeat after a link
+#: comes back arrives within a second of it), and how recent a STATUSTEXT.
+SILENCE_ENDED, RECENT = 1.5, 3.0
 #: The modes PX4's offboard-loss failsafe can leave the vehicle in (``COM_OBL_RC_ACT``), where the opt-in re-engages.
 FAILSAFE_MODES = {(px4.POSCTL, 0), (px4.AUTO, px4.AUTO_LOITER)}
 
@@ -124,7 +125,7 @@ class Authority:
                 self.engaged = False
                 link.stop_stream()
                 now = time.monotonic()
-                silence = max([gap for at, gap in link.gaps if now - at < RECENT], default=0.0)
+                silence = max([gap for at, gap in link.gaps if now - at < SILENCE_ENDED], default=0.0)
                 text = next((text for at, text in reversed(link.texts) if now - at < RECENT), None)
                 event = {"event": "handover", "mode": px4.mode_name(link.mode, link.sub_mode), "armed": link.armed,
                          "cause": "released" if self._releasing else

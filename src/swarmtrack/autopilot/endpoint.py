@@ -13,7 +13,9 @@ port held by another simulated vehicle (a second ``swarmtrack world --mavlink``)
 at once with :class:`VehicleError`, naming the port.
 
 A link whose peer is not configured is *claimable*: it sends nothing until someone sends to its local port, then
-answers to the latest sender (how PX4 answers a ground station that connects to its UDP port).
+answers to the latest sender (how PX4 answers a ground station that connects to its UDP port). Every link also
+sends to whoever else sent to it within :data:`PEER_S` s, as a MAVLink router does: QGroundControl on a configured
+port and ``swarmtrack engage`` asking beside it both get their answers.
 """
 
 from __future__ import annotations
@@ -21,12 +23,16 @@ from __future__ import annotations
 import errno
 import random
 import socket
+import time
 
 from pymavlink.dialects.v20 import common as mavlink
 
 #: PX4 SITL's ports of instance 0: its offboard program listens on 14540, its onboard link's local port is 14580,
 #: its ground-station link's local port is 18570, the ground station listens on 14550.
 OFFBOARD_REMOTE, OFFBOARD_LOCAL, GCS_LOCAL, GCS_REMOTE = 14540, 14580, 18570, 14550
+#: Seconds a sender stays a peer of a link after its latest datagram (QGroundControl and MAVSDK send heartbeats at
+#: 1 Hz).
+PEER_S = 5.0
 
 
 class VehicleError(Exception):
@@ -92,6 +98,7 @@ class Endpoint:
         self.mav = mavlink.MAVLink(self, srcSystem=system, srcComponent=component)
         self.mav.robust_parsing = True
         self.sent, self.send_errors, self.bad = 0, 0, 0
+        self.peers: dict[tuple, float] = {}  # who sent to it: address → when last (monotonic s)
 
     @property
     def port(self) -> int:
@@ -101,14 +108,24 @@ class Endpoint:
         return self.sock.fileno()
 
     def write(self, buf: bytes) -> None:
-        """What the codec encoded, to the peer (nothing before a claimable link is claimed)."""
+        """What the codec encoded, to the peer and to the other senders of the last :data:`PEER_S` s (nothing before
+        a claimable link is claimed)."""
         if self.remote is None:
             return
-        try:
-            self.sock.sendto(buf, self.remote)
-            self.sent += 1
-        except OSError:  # nobody listens (ECONNREFUSED after an ICMP), or the buffer is full: a lost datagram
-            self.send_errors += 1
+        targets = [self.remote]
+        if len(self.peers) > 1 or self.remote not in self.peers:
+            now = time.monotonic()
+            for addr, heard in list(self.peers.items()):
+                if now - heard > PEER_S:
+                    del self.peers[addr]
+                elif addr != self.remote:
+                    targets.append(addr)
+        for addr in targets:
+            try:
+                self.sock.sendto(buf, addr)
+                self.sent += 1
+            except OSError:  # nobody listens (ECONNREFUSED after an ICMP), or the buffer is full: a lost datagram
+                self.send_errors += 1
 
     def receive(self) -> list:
         """The messages that came (non-blocking); a claimable link answers to the latest sender from now."""
@@ -122,6 +139,7 @@ class Endpoint:
                 return out
             if self.claimable:
                 self.remote = addr
+            self.peers[addr] = time.monotonic()
             for msg in self.mav.parse_buffer(data) or []:
                 if msg.get_type() == "BAD_DATA":
                     self.bad += 1

@@ -34,11 +34,11 @@ def _processes_of(swarm: str) -> list[str]:
     return [line for line in swarm_processes(swarm) if "agent" in line]
 
 
-def start_live(out, scenario: str, overrides: list[str]) -> tuple[subprocess.Popen, str]:
+def start_live(out, scenario: str, overrides: list[str], *extra: str) -> tuple[subprocess.Popen, str]:
     """``swarmtrack live`` (insecure, no figures) started in the background; returns the process and its swarm."""
     swarm = f"test-{uuid.uuid4().hex[:8]}"
     args = [sys.executable, "-m", "swarmtrack", "live", scenario, "--out", str(out), "--no-plots", "--insecure",
-            "--swarm", swarm]
+            "--swarm", swarm, *extra]
     for o in overrides:
         args += ["--set", o]
     proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
@@ -71,11 +71,25 @@ EQUAL = {
 
 
 @pytest.mark.slow
-def test_a_live_run_records_what_run_records(tmp_path):
+def test_a_live_run_records_what_run_records(tmp_path, peer):
     """The runs go together (each swarm on its own key space and port): a live run waits on messages most of the
-    time."""
-    runs = {name: start_live(tmp_path / name, name, overrides) for name, overrides in EQUAL.items()}
+    time. Once UAV 2 of the first flies, its process and the world's stall (SIGSTOP) for longer than a dead one is
+    given (``LOST_AFTER``), as on a machine too busy for them: the world waits for the process it started and sees
+    run, and the other UAVs for their world, which started them."""
+    port = free_port()
+    runs = {name: start_live(tmp_path / name, name, overrides, *(["--listen", f"tcp/127.0.0.1:{port}"] if first
+                                                                 else []))
+            for first, (name, overrides) in zip([True, False, False], EQUAL.items(), strict=True)}
     try:
+        proc, swarm = runs["w20-switching"]
+        assert peer.flown(port, swarm, 1, 1) >= 1, proc.stderr.read()[-3000:] if proc.poll() is not None else ""
+        stalled = [int(line.split()[0]) for line in _processes_of(swarm) if "--uav 2 " in line]
+        assert len(stalled) == 1, _processes_of(swarm)
+        for pid in (proc.pid, stalled[0]):
+            os.kill(pid, signal.SIGSTOP)
+        time.sleep(LOST_AFTER + 1.0)
+        for pid in (proc.pid, stalled[0]):
+            os.kill(pid, signal.SIGCONT)
         done = {name: proc.communicate(timeout=240) for name, (proc, _) in runs.items()}
     finally:
         for proc, _ in runs.values():
@@ -85,6 +99,7 @@ def test_a_live_run_records_what_run_records(tmp_path):
         assert not _processes_of(swarm), "UAV processes left behind"
         assert proc.returncode == 0, done[name][1][-3000:]
         assert "written to" in done[name][0]
+        assert not json.loads((tmp_path / name / "metrics.json").read_text())["live"]["lost"]
         ran = swarmtrack.simulate(swarmtrack.load_scenario(name, EQUAL[name]))
         assert_same_recording(swarmtrack.load_run(tmp_path / name), ran)
 

@@ -11,6 +11,7 @@ import sys
 import threading
 import time
 import uuid
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -130,10 +131,16 @@ def test_an_agent_whose_autopilot_refuses_to_arm_exits_3_naming_it_and_one_witho
     base = [sys.executable, "-m", "swarmtrack", "agent", "l24-ct", "--uav", "1", "--insecure", "--connect",
             f"tcp/127.0.0.1:{zenoh_port}", "--swarm", f"test-{uuid.uuid4().hex[:8]}"]
     try:
-        refused = subprocess.run(base + ["--autopilot", f"udp://127.0.0.1:{port}"], capture_output=True, text=True,
-                                 timeout=60)
-        silent = subprocess.run(base + ["--autopilot", f"udp://127.0.0.1:{_udp_ports(1)}"], capture_output=True,
-                                text=True, timeout=60)
+        procs = [subprocess.Popen(base + ["--autopilot", f"udp://127.0.0.1:{to}"], stdout=subprocess.PIPE,
+                                  stderr=subprocess.PIPE, text=True) for to in (port, _udp_ports(1))]  # side by side
+        try:
+            refused, silent = [SimpleNamespace(stderr=p.communicate(timeout=60)[1], returncode=p.returncode)
+                               for p in procs]
+        finally:
+            for p in procs:
+                if p.poll() is None:
+                    p.kill()
+                    p.wait()
     finally:
         refusing.close()
         listener.close()

@@ -1,6 +1,6 @@
 """A stranger doing everything at once (issue 36): in one sealed lockstep run, an outsider puts garbage and unsealed
 messages on every hello and world key, replays an earlier run's start, stop and navigation, subscribes to everything
-and then freezes, and a second process claims UAV 1 while it flies. The run ends by itself (exit 0), refuses the
+and then freezes, and a second process claims UAV 1 once it flies. The run ends by itself (exit 0), refuses the
 duplicate naming it, loses no UAV, counts what it dropped by cause, and records what ``swarmtrack run`` records,
 bit for bit.
 
@@ -55,6 +55,19 @@ def _earlier_run(tmp_path, peer, key_file, swarm: str) -> list[tuple[str, bytes]
     return [(k, d) for k, d in captured if k.rsplit("/", 1)[1] in ("navigation", "start", "stop")]
 
 
+#: ``swarmtrack`` with the live agent's modules loaded, run once a line comes on its input.
+HELD = ("import sys; import swarmtrack.live.agent; from swarmtrack.cli import main; sys.stdin.readline(); "
+        "main(sys.argv[1:])")
+
+
+def _held_agent(uav: int, port: int, swarm: str, key_file, overrides: list[str]) -> subprocess.Popen:
+    """``swarmtrack agent --uav UAV`` joining the world on ``port``, started when told (a line on its input)."""
+    sets = [a for o in overrides for a in ("--set", o)]
+    return subprocess.Popen([sys.executable, "-c", HELD, "agent", "l24-ct", "--uav", str(uav), "--key", str(key_file),
+                             "--swarm", swarm, "--connect", f"tcp/127.0.0.1:{port}", *sets],
+                            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
 @pytest.mark.slow
 def test_a_stranger_doing_everything_at_once_changes_no_number_and_is_counted(tmp_path, peer):
     key_file, swarm = _identity._keyfile(tmp_path), f"test-{uuid.uuid4().hex[:8]}"
@@ -65,10 +78,14 @@ def test_a_stranger_doing_everything_at_once_changes_no_number_and_is_counted(tm
     overrides, port, tally = ["duration=60"], free_port(), tmp_path / "tally"
     frozen = subprocess.Popen([sys.executable, "-c", _faults.STRANGER, str(port), str(tally)],
                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # the second process for UAV 1, its modules loaded now: it says hello at once when told, once UAV 1 flies (on a
+    # busy machine, started only then, it could come after the run's end, or its hello before UAV 1's own)
+    duplicate = _held_agent(1, port, swarm, key_file, overrides)
     run = _identity._live(tmp_path, "live", key_file, swarm, port, overrides)
-    stranger, duplicate, stopped = None, None, False
+    stranger, stopped, flying, told = None, False, [], False
     try:
         stranger = peer.join(port)
+        stranger.subscribe(key(swarm, "uav", 0, "sample"), lambda k, data: flying.append(data))  # UAV 1's own
         outsider, rng, i = wire.Seal(wire.keygen(), 3), np.random.default_rng(), 0
         keys = [key(swarm, "uav", u, "hello") for u in range(3)]
         keys += [key(swarm, "world", to, ch) for to in ("all", 0, 1, 2) for ch in ("alive", "start", "stop",
@@ -88,18 +105,20 @@ def test_a_stranger_doing_everything_at_once_changes_no_number_and_is_counted(tm
             if not stopped and _faults._count(tally) > 0:
                 frozen.send_signal(signal.SIGSTOP)  # it has heard the run: it reads nothing from now on
                 stopped = True
-            if duplicate is None and stopped:
-                duplicate = _identity._agent(1, port, swarm, key_file, overrides)  # UAV 1 flies: a second process
+            if not told and flying:
+                duplicate.stdin.write("go\n")  # UAV 1 flies: a second process claims it
+                duplicate.stdin.flush()
+                told = True
             time.sleep(0.05)
         _, err = run.communicate(timeout=240)
-        _, duplicate_err = duplicate.communicate(timeout=120) if duplicate is not None else ("", "")
+        _, duplicate_err = duplicate.communicate(timeout=120) if told else ("", "")
     finally:
         if stopped:
             frozen.send_signal(signal.SIGCONT)
         _identity._end(run, duplicate, frozen)
         if stranger is not None:
             stranger.close()
-    assert stopped and duplicate is not None, "the run ended before the stranger froze"
+    assert stopped and told, "the run ended before the stranger froze, or before UAV 1 flew"
     assert run.returncode == 0, err[-3000:]
     assert "Traceback" not in err and "fail the swarm key" not in err, err[-3000:]
     assert duplicate.returncode == 2 and "UAV 1 is flown by process" in duplicate_err, duplicate_err[-2000:]

@@ -137,6 +137,10 @@ class Agent:
                 self._farewell(hello)  # the world learns why this UAV will not fly, at once
                 raise
         start = self._greet(hello)
+        world = node.worlds.get(node.seal.run)
+        if not start.realtime and world is not None and world[1] == os.getppid():  # started by its world (live)
+            parent = world[1]
+            node.world_runs = lambda: os.getppid() == parent  # a lockstep world slowed by a busy machine is waited for
         if not rejoin and start.k:
             raise Mismatch(f"the swarm is at step {start.k} already: start this UAV with --rejoin")
         if start.mavlink != (self.autopilot is not None):

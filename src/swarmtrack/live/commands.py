@@ -322,8 +322,10 @@ def _serve(o: SimpleNamespace, spawn: bool) -> None:
             else:
                 click.echo(f"world of {scn.name} listening on {', '.join(endpoints)} (swarm {swarm}); waiting for "
                            f"UAVs 1..{scn.swarm.n_uavs}", err=True)
+            children = {p.pid: p for p in procs}
             rec, live, tables = run_live(scn, node, record_to=tmp / "recording", realtime=o.realtime,
-                                         mavlink=(o.mavlink_port, "127.0.0.1", o.mavlink_gcs) if o.mavlink else None)
+                                         mavlink=(o.mavlink_port, "127.0.0.1", o.mavlink_gcs) if o.mavlink else None,
+                                         running=lambda pid: pid in children and children[pid].poll() is None)
             stop_agents(procs)  # within GRACE s of the end (or of Ctrl-C), before the files are written
             if live.interrupted is not None and not rec.meta["n_steps"]:
                 raise _NothingRecorded()  # stopped before its first step: there is no run to write

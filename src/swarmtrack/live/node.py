@@ -11,12 +11,16 @@ from __future__ import annotations
 import threading
 import time
 from collections import deque
+from collections.abc import Callable
 
 from swarmtrack.live.transport import Transport, key, parse
 from swarmtrack.live.wire import WORLD, Alive, Hello, Message, Rejected, Seal, channel_of, peek
 
 #: Seconds between a process's heartbeats, and without a message after which the world takes a UAV for lost.
 HEARTBEAT, LOST_AFTER = 0.2, 3.0
+#: Seconds a UAV's process waits, in lockstep, for a silent world that is its parent process and still runs (a world
+#: slowed by a busy machine), before it stops.
+PARENT_PATIENCE = 60.0
 #: Evidence that a process runs with another key: this many consecutive messages of one process identity that fail
 #: the seal (and decode, as what they claim to be), spanning at least this many seconds, from a sender none of whose
 #: messages passed the seal meanwhile. Random bytes never count; a stranger who wants a refusal must forge such a
@@ -67,6 +71,8 @@ class Node:
         self.worlds: dict[bytes, list] = {}
         self._early: deque = deque(maxlen=EARLY)
         self.greeting = False  # a UAV's process has said hello: until its start it takes only what binds to it
+        # a UAV's process: whether its world still runs though silent (lockstep, a world that is its parent)
+        self.world_runs: Callable[[], bool] = lambda: False
 
     def listen(self, *patterns: tuple[str, str, str]) -> None:
         """Subscribe to ``(origin, to, channel)`` key patterns of the swarm's space (``*`` wildcards)."""
@@ -235,8 +241,10 @@ class Node:
                 if not missing:
                     break
                 if self.me != WORLD:
-                    if self.stopped is None and time.monotonic() - self.seen.get(WORLD, time.monotonic()) > LOST_AFTER:
-                        self.stopped = f"the world stopped answering (not heard for {LOST_AFTER:g} s)"
+                    quiet = time.monotonic() - self.seen.get(WORLD, time.monotonic())
+                    if self.stopped is None and quiet > LOST_AFTER and (
+                            quiet > PARENT_PATIENCE or not self.world_runs()):
+                        self.stopped = f"the world stopped answering (not heard for {quiet:.1f} s)"
                     if self.stopped is not None:
                         raise Refused(self.stopped) if self.refused else Stopped(self.stopped)
                 left = None if deadline is None else deadline - time.monotonic()

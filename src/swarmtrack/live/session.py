@@ -16,15 +16,18 @@ from swarmtrack.sim.recorder import Recording
 
 def run_live(scenario: Scenario, node: Node, record_to=None, progress: Callable[[float], None] | None = None,
              patience: float = PATIENCE, realtime: bool = False,
-             mavlink: tuple | None = None) -> tuple[Recording, LiveReport, dict[str, pd.DataFrame]]:
+             mavlink: tuple | None = None,
+             running: Callable[[int], bool] | None = None) -> tuple[Recording, LiveReport, dict[str, pd.DataFrame]]:
     """Run ``scenario`` with its UAVs' stacks in their own processes (already started, reachable through ``node``),
     in lockstep (:class:`~swarmtrack.live.world.LockstepWorld`) or ``realtime``
     (:class:`~swarmtrack.live.realtime.RealtimeWorld`), each UAV flying through a simulated autopilot with
     ``mavlink`` (its vehicles' base port, host and ground-station port or None,
-    :class:`~swarmtrack.autopilot.fleet.Fleet`); returns the
+    :class:`~swarmtrack.autopilot.fleet.Fleet`); ``running``: whether the process of a pid is one the caller
+    started and it still runs (lockstep waits for such a UAV however long it is silent); returns the
     recording (streamed to ``record_to`` when given), the live report and the tables the run folder keeps beside the
     recording."""
-    world = (RealtimeWorld if realtime else LockstepWorld)(scenario, node, record_to, patience, progress, mavlink)
+    world = (RealtimeWorld if realtime else LockstepWorld)(scenario, node, record_to, patience, progress, mavlink,
+                                                                running)
     try:
         recording, report = world.run()
     finally:

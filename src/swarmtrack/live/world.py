@@ -158,7 +158,9 @@ class _Interrupted(Exception):
 class LockstepWorld:
     """The truth side of a live run in lockstep: :meth:`run` is the simulator's step loop by messages.
 
-    A UAV whose process is not heard for :data:`~swarmtrack.live.node.LOST_AFTER` s (no heartbeat) is lost: its
+    A UAV whose process is not heard for :data:`~swarmtrack.live.node.LOST_AFTER` s (no heartbeat) is lost, unless
+    ``running`` says that process is one this world started and it still runs (a process alive but slow, on a busy
+    machine, is waited for, up to ``patience``: lockstep's numbers are those of ``swarmtrack run``): its
     neighbours stop hearing it (the radio leaves it out as sender and receiver, a roster says nobody waits for it),
     the world flies it with :func:`safe_command`, its probes are recorded as NaN, and the report names it. A process
     started again for it (``swarmtrack agent --uav I --rejoin``) says hello, gets the step to start from, and rejoins
@@ -167,8 +169,10 @@ class LockstepWorld:
     realtime = False  # the clock: lockstep (RealtimeWorld, realtime.py: the wall clock)
 
     def __init__(self, scenario: Scenario, node: Node, record_to=None, patience: float = PATIENCE,
-                 progress: Callable[[float], None] | None = None, mavlink: tuple | None = None):
+                 progress: Callable[[float], None] | None = None, mavlink: tuple | None = None,
+                 running: Callable[[int], bool] | None = None):
         self.scenario, self.node, self.patience, self.progress = scenario, node, patience, progress
+        self.running = running  # whether the process of a pid is one this world started and it runs
         self.sim = sim = build(scenario)
         self.n = scenario.swarm.n_uavs
         self.alive = set(range(self.n))
@@ -424,7 +428,7 @@ class LockstepWorld:
             got.update(self.node.wait("sample", missing, -1, timeout=HELLO_EVERY, missing_ok=True))
             self._screen(0)
             now = time.monotonic()
-            silent = [i + 1 for i in missing if i not in got and now - self.node.seen.get(i, now) > LOST_AFTER]
+            silent = [i + 1 for i in missing if i not in got and self._silent(i, now, now)]
             if silent:
                 raise TimeoutError(f"UAVs {silent} stopped answering before their first step (not heard for "
                                    f"{LOST_AFTER:g} s)")
@@ -583,7 +587,7 @@ class LockstepWorld:
             self._screen(k)
             missing = self.alive - set(got)
             now = time.monotonic()
-            silent = {i for i in missing if now - self.node.seen.get(i, 0.0) > LOST_AFTER}  # not heard: it died
+            silent = {i for i in missing if self._silent(i, now)}  # not heard: it died
             silent |= {i for i in self.alive if i in self._joiners}  # replaced by a new process (--rejoin)
             if silent:
                 self.alive -= silent
@@ -594,6 +598,16 @@ class LockstepWorld:
             if until is None and now > deadline:
                 raise TimeoutError(f"no {channel} of step {k} from UAVs {[i + 1 for i in sorted(missing)]}, whose "
                                    f"processes are alive")
+
+    def _silent(self, i: int, now: float, unheard: float = 0.0) -> bool:
+        """Whether UAV ``i``'s process is taken for dead: not heard for :data:`~swarmtrack.live.node.LOST_AFTER` s
+        (``unheard``: when a process never heard was last heard) and, in lockstep, not a process this world started
+        that still runs; or not heard for ``patience`` s."""
+        quiet = now - self.node.seen.get(i, unheard)
+        if quiet <= LOST_AFTER or quiet > self.patience:
+            return quiet > LOST_AFTER
+        return self.realtime or self.running is None or i not in self.processes or not self.running(
+            self.processes[i][0])
 
     def _rejoin(self, k: int) -> None:
         """A lost UAV whose new process said hello (with ``--rejoin``: :meth:`_screen`) starts at step ``k``."""

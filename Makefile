@@ -19,8 +19,12 @@ run: $(STAMP)
 	$(VENV)/bin/swarmtrack run l24-ct-refilter --out runs/l24-ct-refilter --overwrite
 	@echo "L24's exact filter (its latency fused as if current; NEES far above its band): $(VENV)/bin/swarmtrack run l24-ct --out runs/l24-ct"
 
+# one test worker more than the machine has cores: the live tests wait on the wall clock much of the time (their
+# two groups each run on one worker, in turn), and the spare worker keeps the cores busy meanwhile
+WORKERS ?= $(shell $(PY) -c "import os; print((os.cpu_count() or 1) + 1)")
+
 test: $(STAMP)
-	$(VENV)/bin/python -m pytest -n auto --dist loadgroup
+	$(VENV)/bin/python -m pytest -n $(WORKERS) --dist loadgroup
 
 # bench: the default speed figures (about 5 min); bench-large adds 10,000 UAVs and the peak-memory runs
 # (tens of minutes, see benchmarks/bench_sim.py). All scripts take --json and --quick.

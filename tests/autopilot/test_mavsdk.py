@@ -35,7 +35,7 @@ from swarmtrack.autopilot.solo import SoloVehicle
 from swarmtrack.autopilot.telemetry import UID_BASE
 
 # one worker runs these in file order, beside nothing real-time of its own: the live group's worker
-pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("live")]  # beside the live tests, not under them
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("live-2")]  # with the live tests of autopilots, not under them
 
 TAKEOFF_ALT = 2.5  # MIS_TAKEOFF_ALT's default (m above home)
 

@@ -27,7 +27,8 @@ from swarmtrack.live.commands import GRACE, stop_agents, swarm_processes
 from swarmtrack.live.node import LOST_AFTER, Node
 from swarmtrack.live.transport import free_port, key
 
-pytestmark = pytest.mark.xdist_group("live")  # one worker runs these (each starts several processes) in turn
+# the live tests are two groups, "live" and "live-2", each run in turn by one worker (each starts several processes)
+pytestmark = pytest.mark.xdist_group("live")
 
 
 def _processes_of(swarm: str) -> list[str]:

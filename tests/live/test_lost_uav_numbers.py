@@ -17,7 +17,7 @@ from swarmtrack.live.commands import swarm_processes
 from swarmtrack.live.node import LOST_AFTER
 from swarmtrack.live.transport import free_port
 
-pytestmark = pytest.mark.xdist_group("live")  # one worker runs the live tests (each starts several processes)
+pytestmark = pytest.mark.xdist_group("live-2")  # beside the "live" group (tests/live/test_lockstep.py)
 
 
 def _agents(swarm: str, uav: int) -> list[int]:

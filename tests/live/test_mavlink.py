@@ -24,7 +24,7 @@ from swarmtrack.autopilot.vehicle import MavlinkVehicle
 from swarmtrack.live.commands import swarm_processes
 from swarmtrack.live.transport import ZenohTransport, free_port
 
-pytestmark = pytest.mark.xdist_group("live")
+pytestmark = pytest.mark.xdist_group("live-2")
 
 
 def _udp_ports(n: int) -> int:

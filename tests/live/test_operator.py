@@ -22,7 +22,7 @@ from swarmtrack.live.transport import free_port
 
 from .test_mavlink import _udp_ports
 
-pytestmark = [pytest.mark.xdist_group("live"), pytest.mark.slow]
+pytestmark = [pytest.mark.xdist_group("live-2"), pytest.mark.slow]
 
 #: The simulated vehicles' ground-station ports: UAV i's at --mavlink-port + GCS_OFFSET + i - 1 (PX4 SITL's 18570 + i).
 GCS_OFFSET = 18570 - 14540

@@ -26,7 +26,7 @@ from swarmtrack.sim.build import build
 from swarmtrack.sim.engine import step_loop
 from swarmtrack.sim.recorder import Recorder
 
-pytestmark = pytest.mark.xdist_group("live")
+pytestmark = pytest.mark.xdist_group("live-2")
 
 
 class Held:

@@ -18,7 +18,7 @@ import pytest
 
 import swarmtrack
 from swarmtrack.live import wire
-from swarmtrack.live.agent import Agent, build_onboard
+from swarmtrack.live.agent import Agent
 from swarmtrack.live.node import Node
 from swarmtrack.live.world import FIELDS
 from swarmtrack.scenarios import load_scenario
@@ -68,7 +68,7 @@ def _agent_run(scenario, inputs, lag: int | None) -> tuple[np.ndarray, dict]:
     agent_wire, world, neighbour = Held(), Node(Held(), wire.Seal(None, n), "t", wire.WORLD), \
         Node(Held(), wire.Seal(None, n), "t", 1)
     agent = Agent(scenario, 0, Node(agent_wire, wire.Seal(None, n), "t", 0))
-    agent.estimator, agent.controller = build_onboard(scenario, 0, {"targets": [0], "decoys": []})
+    agent.build({"targets": [0], "decoys": []})
     agent.node.heard = []
     estimates = []
     for k, (t, nav, own, _outbox) in enumerate(inputs):
@@ -87,7 +87,7 @@ def _agent_run(scenario, inputs, lag: int | None) -> tuple[np.ndarray, dict]:
                    if key_expr.endswith("/sample")]
         estimates.append(wire.unpack(samples[-1].probes["estimate"])[0])
         agent_wire.sent.clear()
-    return np.array(estimates), dict(agent.late)
+    return np.array(estimates), dict(agent.exchange.late)
 
 
 @pytest.fixture(scope="module")

@@ -23,8 +23,9 @@ from swarmtrack.estimation.base import Regions, TargetView
 from swarmtrack.estimation.raster_field import Field
 from swarmtrack.network.links import edge_list
 from swarmtrack.network.messages import Inbox
+from swarmtrack.onboard.context import Context, command_width
 from swarmtrack.scenarios import load_scenario
-from swarmtrack.sim.build import Context, build, command_width
+from swarmtrack.sim.build import build
 from swarmtrack.sim.engine import step_loop
 from swarmtrack.sim.recorder import Recorder
 

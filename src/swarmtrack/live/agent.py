@@ -6,9 +6,10 @@ UAV (:meth:`Agent.step`): take the step's message (its navigation, or its autopi
 radio's word); share, with the beacon of the control step that starts now; fuse what the radio delivered; (publish;
 combine); take its probes; command (hearing the beacons the radio delivered, and the plans of its lower-indexed
 neighbours, IB21 Sec. 5.3); answer with its probes and its command. A control step between estimation steps is one
-more exchange (:meth:`Agent.control`). In lockstep it waits for every message its radio names; in real time until
-deadlines (:data:`FUSE_BY` ...). Its inputs are its own navigation, its own detections and its inbox: nothing else
-reaches this process.
+more exchange (:meth:`Agent.control`). Its stack's steps are :class:`~swarmtrack.onboard.stack.OnboardStack`'s, its
+messages those of :class:`~swarmtrack.live.exchange.LiveExchange`: in lockstep it waits for every message its radio
+names; in real time until deadlines (:data:`~swarmtrack.live.exchange.FUSE_BY` ...). Its inputs are its own
+navigation, its own detections and its inbox: nothing else reaches this process.
 """
 
 from __future__ import annotations
@@ -18,7 +19,6 @@ import json
 import os
 import sys
 import time
-from collections import Counter
 
 import numpy as np
 
@@ -26,26 +26,19 @@ from swarmtrack import registry
 from swarmtrack.analysis.sweep import warm
 from swarmtrack.autopilot.authority import Authority
 from swarmtrack.autopilot.link import AutopilotError, AutopilotLink, AutopilotRefused
-from swarmtrack.control.base import SequentialPlanner
 from swarmtrack.estimation.base import TargetView
 from swarmtrack.live import wire
+from swarmtrack.live.exchange import PATIENCE, LiveExchange, pack
 from swarmtrack.live.node import EVIDENCE, EVIDENCE_SPAN, LOST_AFTER, Mismatch, Node, Refused, Stopped
-from swarmtrack.network.messages import Inbox
+from swarmtrack.onboard.context import clock_of, context
+from swarmtrack.onboard.stack import OnboardStack
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sensors.detections import Detections
-from swarmtrack.sim.build import Context, command_width
-from swarmtrack.sim.clock import Clock
 
-#: How long a process waits for a message its step needs before it gives up (s).
-PATIENCE = 60.0
 #: Seconds between a starting UAV's hellos.
 HELLO_EVERY = 0.5
 #: Seconds a UAV that cannot fly (its autopilot link) says so to the world before it exits, at most.
 FAREWELL = 10.0
-#: In real time, when a UAV stops waiting for its neighbours' messages of a step, as fractions of the step's period
-#: after the wall-clock time the step is due: their estimation broadcasts (then it fuses what came; what comes later
-#: is fused at its time stamp within the scenario's delay bound), their second broadcasts, their plans (IB21 Sec. 5.3).
-FUSE_BY, PUBLISH_BY, PLAN_BY = 0.3, 0.5, 0.6
 #: How the console names the believed cause of a handover (:func:`swarmtrack.autopilot.authority.cause`).
 CAUSES = {"operator": "its operator: a pilot's switch or a ground station's command",
           "failsafe": "its autopilot's failsafe", "disarm": "disarmed", "land": "landing",
@@ -57,17 +50,10 @@ def scenario_hash(scenario: Scenario) -> str:
     return hashlib.sha256(json.dumps(scenario.model_dump(mode="json"), sort_keys=True).encode()).hexdigest()[:16]
 
 
-def clock_of(scenario: Scenario) -> Clock:
-    r = scenario.rates
-    return Clock.from_rates(r.physics, r.estimation, r.control, scenario.run_duration())
-
-
 def build_onboard(scenario: Scenario, uav: int, labels: dict[str, list[int]]):
     """UAV ``uav``'s estimator and controller, built for it alone; ``labels`` the sensor's label of each member of
     each sensed group (the world's ``start`` message)."""
-    clock = clock_of(scenario)
-    ctx = Context(scenario, scenario.swarm.n_uavs, clock.dt_estimation, clock.dt_control, scenario.kernels != "numpy",
-                  lambda group, member: labels[group][member], command_width(scenario), uavs=[uav])
+    ctx = context(scenario, lambda group, member: labels[group][member], uavs=[uav])
     build = {role: registry.get(role, getattr(scenario, role).kind).builder() for role in ("estimator", "controller")}
     return build["estimator"](scenario.estimator, ctx), build["controller"](scenario.controller, ctx)
 
@@ -105,15 +91,11 @@ class Agent:
         self.flying = False  # whether it has sent its autopilot a command of its controller
         self.n = scenario.swarm.n_uavs
         self.clock = clock_of(scenario)
-        self.estimator = self.controller = None
-        self._own: dict[int, dict] = {}  # own outboxes of recent steps (late parts hold the own row too)
+        self.estimator = self.controller = self.stack = None
         self._telemetry = telemetry_of(scenario)
-        self._sequential = False  # whether its controller plans in sequence (IB21 Sec. 5.3): known once built
-        # estimation steps a late message can take (the channel's delay bound); the mailbox keeps two more
-        self._late_steps = int(np.ceil(scenario.network.delay_bound() / self.clock.dt_estimation - 1e-9))
-        self._window = self._late_steps + 2
-        self._pending: dict[int, list[int]] = {}  # real time: per recent step, linked senders not heard by FUSE_BY
-        self.late: Counter = Counter()  # real time: neighbours' messages that missed their deadline, by channel
+        # its messages; a late share can take the estimation steps of the channel's delay bound
+        self.exchange = LiveExchange(node, uav, self.n, int(np.ceil(scenario.network.delay_bound()
+                                                                    / self.clock.dt_estimation - 1e-9)))
         self._cpu = time.process_time()
 
     def run(self, rejoin: bool = False) -> None:
@@ -152,8 +134,7 @@ class Agent:
         warm_up(self.scenario)
         if start.realtime:
             node.heard = []  # every message's latency is logged and reported
-        self.estimator, self.controller = build_onboard(self.scenario, self.i, start.labels)
-        self._sequential = isinstance(self.controller, SequentialPlanner)
+        self.build(start.labels)
         node.send(wire.WORLD, self._sample(-1)[0])  # ready: its stack is built
         try:
             for k in range(start.k, self.clock.steps):
@@ -164,6 +145,11 @@ class Agent:
                       "so anyone on the network can send one (the world flies this UAV safely from now)",
                       file=sys.stderr, flush=True)
             raise
+
+    def build(self, labels: dict[str, list[int]]) -> None:
+        """Its stack, built for this UAV alone (``labels``: the world's, from its ``start``)."""
+        self.estimator, self.controller = build_onboard(self.scenario, self.i, labels)
+        self.stack = OnboardStack(self.estimator, self.controller, self.estimator)
 
     def _greet(self, hello: wire.Hello) -> wire.Start:
         """Say ``hello`` until the world starts this process (a ``start`` bound to its hello); said again at once when
@@ -212,37 +198,20 @@ class Agent:
             time.sleep(0.1 if node.heard_worlds() else HELLO_EVERY)
 
     def step(self, k: int) -> None:
-        node, est, dt = self.node, self.estimator, self.clock.dt_estimation
-        t = k * dt
+        """Estimation step ``k`` (:meth:`~swarmtrack.onboard.stack.OnboardStack.estimation_step`), then the control
+        step that starts with it and those until the next (:meth:`control`)."""
+        node, dt = self.node, self.clock.dt_estimation
         got = node.wait("navigation", [wire.WORLD], k, timeout=PATIENCE)[wire.WORLD]
-        nav, radio, due = self._navigation(got), got.radio, got.due
+        nav = self._navigation(got)
         detections = Detections(**{name: wire.unpack(v) for name, v in got.detections.items()})
-        with np.errstate(over="ignore", invalid="ignore"):  # a diverging filter is reported by its own checks
-            outbox = est.share(t, nav, detections)
-            self._own[k] = outbox
-            # the control step starting now: its beacon travels with the share (it reads only navigation and the
-            # controller's own state, which the estimation step does not touch)
-            beacon = None if got.control is None else self.controller.broadcast(got.control, nav)
-            node.send(self.i, wire.Share(k=k, taken=t, payloads=_pack(outbox),
-                                         beacon=None if beacon is None else _pack(beacon)))
-            est.fuse(t, detections, self._inbox(k, radio, outbox, due))
-            publish = getattr(est, "publish", None)  # the optional second round (Estimator.publish)
-            if publish is not None:
-                posteriors = publish(t)
-                node.send(self.i, wire.Publish(k=k, taken=t, payloads=_pack(posteriors)))
-                if posteriors:
-                    heard = self._wait("publish", radio.links, k, -1, due, PUBLISH_BY, dt)
-                    est.combine(t, self._assemble(radio.links, {s: m.payloads for s, m in heard.items()},
-                                                  posteriors))
-        self._own.pop(k - self._window, None)
-        node.forget(k - self._window)
+        exchange = self.exchange.at(k, 0, got, dt, self.controller)
+        beacon = self.stack.estimation_step(k * dt, nav, detections, exchange, got.control)
+        exchange.forget(k)
         sample, view = self._sample(k)
         if got.guide is not None:  # an external tracker's view of the target (controller.follow: truth)
             view = TargetView(**{name: wire.unpack(v) for name, v in got.guide.items()})
-        if got.control is not None:  # the beacons came with the shares
-            heard = self._wait("share", radio.beacons, k, -1, due, FUSE_BY, dt, take=False, count=False)
-            sample.u = wire.pack(self._command(k, 0, got.control, nav, view, radio.beacons,
-                                               {s: m.beacon for s, m in heard.items()}, beacon, due, dt))
+        if got.control is not None:  # its beacon went with the share
+            sample.u = wire.pack(self._command(got.control, nav, view, exchange, beacon))
         node.send(wire.WORLD, sample)
         for c, (control_now, _) in enumerate(self.clock.control_segments(k)):
             if control_now and c:
@@ -251,29 +220,15 @@ class Agent:
     def control(self, k: int, c: int, view) -> None:
         """A control step between estimation steps: its navigation and beacon radio from the world, its command
         back."""
-        node, dt = self.node, self.clock.dt_control
-        got = node.wait("navigation", [wire.WORLD], k, c, timeout=PATIENCE)[wire.WORLD]
-        nav, t, senders = self._navigation(got), got.taken, got.radio.beacons
-        beacon = self.controller.broadcast(t, nav)
-        node.send(self.i, wire.Beacon(k=k, c=c, taken=t, payloads=_pack(beacon)))
-        heard = {s: m.payloads for s, m in self._wait("beacon", senders, k, c, got.due, FUSE_BY, dt).items()}
-        u = self._command(k, c, t, nav, view, senders, heard, beacon, got.due, dt)
-        node.send(wire.WORLD, wire.Command(k=k, c=c, taken=t, u=wire.pack(u)))
+        got = self.node.wait("navigation", [wire.WORLD], k, c, timeout=PATIENCE)[wire.WORLD]
+        exchange = self.exchange.at(k, c, got, self.clock.dt_control, self.controller)
+        u = self._command(got.taken, self._navigation(got), view, exchange)
+        self.node.send(wire.WORLD, wire.Command(k=k, c=c, taken=got.taken, u=wire.pack(u)))
 
-    def _command(self, k: int, c: int, t: float, nav: np.ndarray, view, senders: list[int], heard: dict,
-                 beacon: dict, due: float | None, period: float) -> np.ndarray:
-        """The controller's command, from the beacons ``heard`` (packed, by sender)."""
-        ctl = self.controller
-        if self._sequential:  # the plans its lower-indexed neighbours made in this call; in real time, one whose
-            lower = [s for s in senders if s < self.i and s in heard]  # plan did not come in time is not heard
-            plans = self._wait("plan", lower, k, c, due, PLAN_BY, period)
-            heard = {s: b for s, b in heard.items() if s > self.i or s in plans}
-        inbox = self._assemble(senders, heard, beacon)
-        if self._sequential:
-            inbox.payloads.update(self._rows(lower, {s: m.payloads for s, m in plans.items()}, ctl.plans()))
-        u = np.asarray(ctl.command(t, nav, view, inbox, self.clock.dt_control))
-        if self._sequential:
-            self.node.send(self.i, wire.Plan(k=k, c=c, taken=t, payloads=_pack(ctl.plans())))
+    def _command(self, t: float, nav: np.ndarray, view, exchange: LiveExchange, beacon: dict | None = None):
+        """The control step at ``t`` (:meth:`~swarmtrack.onboard.stack.OnboardStack.control_step`); its command is
+        flown through its autopilot while the operator lets it."""
+        u = np.asarray(self.stack.control_step(t, nav, view, exchange, self.clock.dt_control, beacon))
         if self.authority is not None:
             self._fly(u[0], t)
         return u
@@ -309,82 +264,8 @@ class Agent:
                    (("estimator", self.estimator), ("controller", self.controller)) if role in self._telemetry}
         now = time.process_time()
         cpu, self._cpu = now - self._cpu, now
-        return wire.Sample(k=k, probes=_pack(probes), aim=wire.pack(view.state[:, :2]),
-                           telemetry={role: _pack(r) for role, r in reports.items()},
+        return wire.Sample(k=k, probes=pack(probes), aim=wire.pack(view.state[:, :2]),
+                           telemetry={role: pack(r) for role, r in reports.items()},
                            rejected=dict(self.node.seal.rejected), cpu=cpu, heard=self.node.log(),
-                           late=dict(self.late), autopilot=[] if self.authority is None else
+                           late=dict(self.exchange.late), autopilot=[] if self.authority is None else
                            [e for e in self.authority.events if "t" in e]), view  # those its steps saw
-
-    def _wait(self, channel: str, senders, k: int, c: int, due: float | None, by: float, period: float,
-              take: bool = True, count: bool = True) -> dict:
-        """The messages of ``channel`` for step ``(k, c)`` from ``senders``: in lockstep (``due`` None) every one
-        (waiting up to PATIENCE); in real time, those come by ``due + by · period`` (wall clock; with ``count``,
-        the others are counted in :attr:`late`)."""
-        if due is None:
-            return self.node.wait(channel, senders, k, c, timeout=PATIENCE, take=take)
-        got = self.node.wait(channel, senders, k, c, timeout=max(0.0, due + by * period - time.time()),
-                             missing_ok=True, take=take)
-        if count:
-            self.late[channel] += len([s for s in senders if s not in got and s not in self.node.absent])
-        return got
-
-    def _inbox(self, k: int, radio: wire.Radio, outbox: dict, due: float | None) -> Inbox:
-        """The estimation inbox: this step's part, then the late ones (Inbox.late, oldest first). In lockstep the
-        simulated radio names them; in real time this step's part is what came by FUSE_BY, and a late part is what
-        came since of an earlier step's, fused at its time stamp within the scenario's delay bound (later: dropped
-        and counted)."""
-        dt = self.clock.dt_estimation
-        parts = []
-        for send_step, senders in [*radio.parts, *self._late_parts(k, due)]:  # this step's part is always first
-            heard = self._wait("share", senders, send_step, -1, due, FUSE_BY, dt, take=False, count=False)
-            if due is not None and send_step == k:
-                missed = [s for s in senders if s not in heard and s not in self.node.absent]
-                self.late["share"] += len(missed)
-                if missed and self._late_steps:
-                    self._pending[k] = missed
-            parts.append(self._assemble(senders, {s: m.payloads for s, m in heard.items()},
-                                        self._own.get(send_step, outbox)))
-        return Inbox(parts[0].links, parts[0].payloads, tuple(parts[1:]), parts[0].receivers)
-
-    def _late_parts(self, k: int, due: float | None) -> list[tuple[int, list[int]]]:
-        """Real time: ``[(send step, senders)]`` of the shares that missed their step's deadline and came since,
-        within the delay bound; what is older is forgotten (it was counted late when it missed its deadline)."""
-        if due is None:
-            return []
-        parts = []
-        for j in sorted(self._pending):
-            if j < k - self._late_steps:
-                del self._pending[j]
-                continue
-            came = [s for s in self._pending[j] if self.node.peek("share", s, j) is not None]
-            if came:
-                parts.append((j, came))
-                self.late["share_fused_late"] += len(came)
-                self._pending[j] = [s for s in self._pending[j] if s not in came]
-        return parts
-
-    def _assemble(self, senders, heard: dict, own: dict) -> Inbox:
-        """An inbox of this UAV: its row of the links (the ``senders`` heard: ``heard`` their packed payloads), every
-        payload as the swarm's (N, ...) arrays with its own row and the heard senders' rows filled (the others zero:
-        never read)."""
-        links = np.zeros((1, self.n), dtype=bool)
-        links[0, [s for s in senders if s in heard]] = True
-        payloads = self._rows(list(senders), heard, own)
-        return Inbox(links, payloads, (), np.array([self.i]))
-
-    def _rows(self, senders: list[int], heard: dict[int, dict], own: dict) -> dict:
-        senders = [s for s in senders if s in heard]  # a sender lost meanwhile is not heard
-        out = {}
-        for name, value in own.items():
-            value = np.asarray(value)
-            full = np.empty((self.n, *value.shape[1:]), dtype=object) if value.dtype == object else \
-                np.zeros((self.n, *value.shape[1:]), dtype=value.dtype)
-            full[self.i] = value[0]
-            for s in senders:
-                full[s] = wire.unpack(heard[s][name])[0]
-            out[name] = full
-        return out
-
-
-def _pack(outbox: dict | None) -> dict:
-    return {name: wire.pack(np.asarray(v)) for name, v in (outbox or {}).items()}

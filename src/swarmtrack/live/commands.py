@@ -282,8 +282,8 @@ def _serve(o: SimpleNamespace, spawn: bool) -> None:
     from swarmtrack.live.transport import TransportError, ZenohTransport, free_port
     from swarmtrack.live.wire import WORLD, Seal
     from swarmtrack.live.world import LiveError
+    from swarmtrack.onboard.context import command_width
     from swarmtrack.outputs import OutputError, Terminated, check_destination, run_folder, terminate_as_exception
-    from swarmtrack.sim.build import command_width
 
     check_wire(o.tls, listen=o.listen)
     try:

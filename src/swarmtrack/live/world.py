@@ -28,10 +28,11 @@ from swarmtrack.live import wire
 from swarmtrack.live.agent import HELLO_EVERY, PATIENCE, scenario_hash, telemetry_of
 from swarmtrack.live.node import LOST_AFTER, Node
 from swarmtrack.network.links import neighbour_lists
+from swarmtrack.onboard.context import command_width
 from swarmtrack.outputs import Terminated
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sensors.detections import Detections
-from swarmtrack.sim.build import build, command_width
+from swarmtrack.sim.build import build
 from swarmtrack.sim.recorder import Recorder, Recording
 
 if TYPE_CHECKING:

@@ -1,7 +1,7 @@
 """The replay loop: the simulator's estimation step, with the world's sensing replaced by a log.
 
-Per step: share → deliver → fuse → (publish → deliver → combine) → record, exactly as
-:func:`swarmtrack.sim.engine.step_loop` does it, on the navigation and detections a log reader gives
+Per step: the stack's estimation step (:meth:`~swarmtrack.onboard.stack.OnboardStack.estimation_step`) → record,
+exactly as :func:`swarmtrack.sim.engine.step_loop` does it, on the navigation and detections a log reader gives
 (:class:`~swarmtrack.replay.steps.StepInputs`). The messages between UAVs are the scenario's: its channel (topology,
 losses, delays, outages, from the scenario's seeded streams) carries what the estimators share, over the links the
 UAVs' logged positions give. The controller is not run (its commands would fly nothing), so a channel that draws
@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from swarmtrack.network.messages import Inbox
+from swarmtrack.network.exchange import ChannelExchange
 from swarmtrack.replay.steps import LogError, StepInputs
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sim.build import build
@@ -39,7 +39,7 @@ def replay(scenario: Scenario, steps: Iterable[StepInputs], record_to: Path | No
     target's steps are one phase, ``logged`` (phase 0 of the steps). ``progress`` gets the fraction done; ``planned``
     the number of steps before the first, when the reader knows it (:class:`~swarmtrack.replay.steps.Planned`)."""
     sim = build(scenario)
-    estimator, channel, dt = sim.stack.estimator, sim.channel, sim.clock.dt_estimation
+    estimator, exchange, dt = sim.stack.estimator, ChannelExchange(sim.channel), sim.clock.dt_estimation
     n = scenario.swarm.n_uavs
     probes = {p.name: p.shape for p in estimator.probes}
     # the controller was not run: its kind's metrics and figures have nothing to read
@@ -51,7 +51,6 @@ def replay(scenario: Scenario, steps: Iterable[StepInputs], record_to: Path | No
     # chunks of at most REPLAY_CHUNK_STEPS steps: a long log of a small swarm streams in bounded memory
     recorder = Recorder(meta, sim.world.n_objects, n, probes, record_to, inputs=record_to is not None,
                         max_chunk_steps=REPLAY_CHUNK_STEPS)
-    publish = getattr(estimator, "publish", None)  # the optional second round (Estimator.publish)
     n_steps = getattr(steps, "n_steps", None)
     if n_steps is not None and planned is not None:
         planned(n_steps)
@@ -62,13 +61,7 @@ def replay(scenario: Scenario, steps: Iterable[StepInputs], record_to: Path | No
         if s.k <= k_last:
             raise LogError(f"replay: step {s.k} (t = {s.t:g} s) came after step {k_last}; steps must go forward")
         k_last = s.k
-        with np.errstate(over="ignore", invalid="ignore"):  # a diverging filter is reported by fuse()
-            outbox = estimator.share(s.t, s.navigation, s.detections)
-            links = channel.links(s.positions, s.t)
-            estimator.fuse(s.t, s.detections, channel.deliver(links, outbox, s.t))
-            posteriors = publish(s.t) if publish is not None else None
-            if posteriors:
-                estimator.combine(s.t, Inbox(links, posteriors))
+        sim.stack.estimation_step(s.t, s.navigation, s.detections, exchange.at(s.positions, s.t))
         recorder.record_inputs(s.k, s.t, s.navigation, s.detections)
         recorder.record(s.t, s.truth, s.phase, estimator.sample())
         n_done += 1

@@ -22,20 +22,18 @@ import numpy as np
 from swarmtrack import registry
 from swarmtrack.estimation.base import TargetView
 from swarmtrack.network.channel import Channel, WorldsChannel
+from swarmtrack.onboard.context import clock_of, context
+from swarmtrack.onboard.stack import OnboardStack
 from swarmtrack.scenarios.schema import Scenario
-from swarmtrack.sim.agent import OnboardStack
 from swarmtrack.sim.build import (
-    Context,
     Simulation,
     _group,
     _oracle,
     build_component,
-    command_width,
     profiles,
     run_meta,
     spawn_positions,
 )
-from swarmtrack.sim.clock import Clock
 from swarmtrack.sim.engine import step_loop
 from swarmtrack.sim.oracle import TruthOracle
 from swarmtrack.sim.recorder import Chunk, Recorder, Recording
@@ -117,8 +115,7 @@ def build_batch(scenarios: list[Scenario]) -> tuple[Simulation, list[dict]]:
     if why is not None:
         raise ValueError(f"cannot batch these runs: {why}")
     first = scenarios[0]
-    r = first.rates
-    clock = Clock.from_rates(r.physics, r.estimation, r.control, first.run_duration())
+    clock = clock_of(first)
     n, worlds = first.swarm.n_uavs, len(scenarios)
     flown = [{g: profiles(s, g) for g in ("targets", "decoys")} for s in scenarios]
     uavs = Group("uavs", first.swarm.vehicle,
@@ -137,8 +134,7 @@ def build_batch(scenarios: list[Scenario]) -> tuple[Simulation, list[dict]]:
         objects = world.slices[group].start + np.arange(worlds) * per[group] + member
         return np.repeat([world.label_of(o) for o in objects], n)
 
-    ctx = Context(first, n * worlds, clock.dt_estimation, clock.dt_control, first.kernels != "numpy", label_of,
-                  command_width(first), worlds=worlds)
+    ctx = context(first, label_of, worlds=worlds)
     estimator = build_component("estimator", first, ctx)
     controller = build_component("controller", first, ctx)
     guide = estimator

@@ -17,10 +17,10 @@ from swarmtrack import registry
 from swarmtrack.network.channel import Channel
 from swarmtrack.network.faults import Liar
 from swarmtrack.network.links import edge_list, proximity_links
-from swarmtrack.network.rows import Rows, subset_of
+from swarmtrack.onboard.context import Context, clock_of, context
+from swarmtrack.onboard.stack import OnboardStack
 from swarmtrack.scenarios.schema import GroupSpec, Scenario, SensorSpec
 from swarmtrack.scenarios.spawn import on_lattice
-from swarmtrack.sim.agent import OnboardStack
 from swarmtrack.sim.clock import Clock
 from swarmtrack.sim.oracle import TruthOracle
 from swarmtrack.sim.sensors import Occluder, hidden_by
@@ -28,54 +28,6 @@ from swarmtrack.sim.streams import stream
 from swarmtrack.sim.world import Group, ProfileDriver, World, vehicle
 from swarmtrack.vehicles.altitude import GroupAltitude
 from swarmtrack.vehicles.quadrotor import DEFAULT_PARAMS
-
-
-@dataclass(frozen=True)
-class Context:
-    """What a builder may use besides its own settings: the scenario, the rates and the labels the sensor reports
-    for the world's objects. Not the world itself: what a builder hands an onboard component must not be truth.
-
-    ``uavs``: the swarm's UAVs (0-based, sorted) the component is built for, default all of them (the simulator);
-    a builder makes a component of ``len(uavs)`` rows with each UAV's own settings, which produces for those rows
-    exactly what the whole swarm's component produces given the same inputs (one UAV's own process in the live
-    runtime). ``n_uavs`` is the swarm's size either way."""
-
-    scenario: Scenario
-    n_uavs: int
-    dt_estimation: float
-    dt_control: float
-    compiled: bool
-    label_of: Callable[[str, int], int]
-    """``label_of(group, member)``: the label the sensor reports for ``group`` member ``member`` (0-based)."""
-    command_width: int = 2
-    """What a UAV's controller commands per UAV (the swarm's vehicle kind's ``command_width``): 2 (a planar
-    acceleration) or 1 (a fixed wing's yaw acceleration)."""
-    uavs: np.ndarray | None = dataclasses.field(default=None, compare=False)
-    resources: dict = dataclasses.field(default_factory=dict, compare=False)
-    worlds: int = 1
-    """A batch of worlds (:mod:`swarmtrack.sim.batch`): ``n_uavs`` is ``worlds`` worlds' UAVs, world-major."""
-
-    def __post_init__(self) -> None:
-        uavs = np.arange(self.n_uavs) if self.uavs is None else subset_of(self.uavs, self.n_uavs)
-        object.__setattr__(self, "uavs", uavs)
-
-    @property
-    def rows(self) -> Rows:
-        """The UAVs of the build (:class:`~swarmtrack.network.rows.Rows`)."""
-        return Rows(self.uavs, self.n_uavs, self.worlds)
-
-    def whole_swarm_only(self, kind: str, why: str) -> None:
-        """Refuse a build for a subset of the swarm's UAVs (``NotImplementedError`` naming the kind and why)."""
-        if len(self.uavs) != self.n_uavs:
-            raise NotImplementedError(f"{kind}: cannot be built for a subset of the swarm's UAVs "
-                                      f"({self.uavs.tolist()} of {self.n_uavs}): {why}")
-
-    def shared(self, name: str, make: Callable[[], object]):
-        """What several components of one build share, made once (e.g. IB21's set backend, held the same way by
-        the estimator and the MPC)."""
-        if name not in self.resources:
-            self.resources[name] = make()
-        return self.resources[name]
 
 
 def occluders(s: SensorSpec) -> tuple[Occluder, ...]:
@@ -198,10 +150,9 @@ class Simulation:
 
 def build(scenario: Scenario) -> Simulation:
     """Wire a validated scenario into a :class:`Simulation` (random streams derived by purpose from its seed)."""
-    r = scenario.rates
-    clock = Clock.from_rates(r.physics, r.estimation, r.control, scenario.run_duration())
+    clock = clock_of(scenario)
     dt_phys, dt_est = clock.dt, clock.dt_estimation
-    compiled = scenario.kernels != "numpy"  # one decision for every compiled fast path
+    compiled = scenario.kernels != "numpy"  # one decision for every compiled fast path (onboard.context too)
     n = scenario.swarm.n_uavs
     seed = scenario.seed
     flown = {g: profiles(scenario, g) for g in ("targets", "decoys")}
@@ -211,9 +162,7 @@ def build(scenario: Scenario) -> Simulation:
                   dt=dt_phys, ticks=clock.steps * clock.ticks_estimation,
                   nav_std=(scenario.swarm.nav_position_std, scenario.swarm.nav_velocity_std),
                   streams=lambda purpose: stream(seed, purpose), compiled=compiled)
-    ctx = Context(scenario, n, dt_est, clock.dt_control, compiled,
-                  lambda group, member: world.label_of(world.slices[group].start + member),
-                  command_width(scenario))
+    ctx = context(scenario, lambda group, member: world.label_of(world.slices[group].start + member))
     estimator = build_component("estimator", scenario, ctx)
     controller = build_component("controller", scenario, ctx)
     followed = scenario.estimator.followed_target()  # 1-based member of targets, checked by the schema
@@ -233,11 +182,6 @@ def build(scenario: Scenario) -> Simulation:
     meta["tracked_label"] = None if tracked is None else world.label_of(tracked)
     return Simulation(world, OnboardStack(estimator, controller, guide), channel, clock, meta,
                       monitors(scenario, world, {"estimator": estimator, "controller": controller}))
-
-
-def command_width(scenario: Scenario) -> int:
-    """What the swarm's controller commands per UAV: its vehicle kind's ``command_width``."""
-    return vehicle(scenario.swarm.vehicle).command_width
 
 
 def monitors(scenario: Scenario, world: World, components: dict) -> dict[str, Callable[[], np.ndarray]]:

@@ -1,7 +1,10 @@
 """The engine: one clock, and the same step loop for every capability.
 
-Per estimation step: sense → share → deliver → fuse → (publish → deliver → combine) → record; then, per control
-step until the next estimation step: broadcast → deliver → command → advance. What is sensed, shared, fused and
+Per estimation step: sense → the stack's estimation step
+(:meth:`~swarmtrack.onboard.stack.OnboardStack.estimation_step`: share → broadcast → deliver → fuse → publish →
+deliver → combine) → record; then, per control step until the next
+estimation step: the stack's control step (deliver the beacons → command) → advance. The messages travel over the
+simulated channel (:class:`~swarmtrack.network.exchange.ChannelExchange`). What is sensed, shared, fused and
 commanded is the business of the components the builder (:mod:`swarmtrack.sim.build`) wired from the scenario; this
 loop has no branch per capability. It is the only place where truth (for the recorder) and onboard state meet.
 """
@@ -13,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from swarmtrack.network.messages import Inbox
+from swarmtrack.network.exchange import ChannelExchange
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sim.build import Simulation, build
 from swarmtrack.sim.recorder import Recorder, Recording
@@ -38,11 +41,11 @@ def step_loop(sim: Simulation, recorder: Recorder, progress: Callable[[float], N
     """Run a built simulation to its end, recording every estimation step. ``on_step(sim)`` (truth side, e.g. the
     animation's frame capture) is called after each estimation step's record, before the control; it may read the
     simulation, never change it."""
-    world, stack, channel, clock = sim.world, sim.stack, sim.channel, sim.clock
+    world, stack, clock = sim.world, sim.stack, sim.clock
+    exchange = ChannelExchange(sim.channel)
     uavs = world.slices["uavs"]
     u = np.zeros((uavs.stop - uavs.start, 2))
     report_every = max(1, clock.steps // 100)
-    publish = getattr(stack.estimator, "publish", None)  # the optional second round (Estimator.publish)
     aims = world.aims  # only a gimballed sensor reads the estimates (computing them is not free)
     for k in range(clock.steps):
         t = k * clock.dt_estimation
@@ -51,13 +54,9 @@ def step_loop(sim: Simulation, recorder: Recorder, progress: Callable[[float], N
         nav = world.navigation()
         # sources: the world's, never onboard; a gimballed sensor aims at its UAV's latest estimate
         detections, _sources = world.sense(aim=stack.estimator.view().state[:, :2] if aims else None)
-        with np.errstate(over="ignore", invalid="ignore"):  # a diverging filter is reported by fuse()
-            outbox = stack.estimator.share(t, nav, detections)
-            links = channel.links(positions, t)
-            stack.estimator.fuse(t, detections, channel.deliver(links, outbox, t))
-            posteriors = publish(t) if publish is not None else None
-            if posteriors:  # the second message of the step travels over the links that carried the first
-                stack.estimator.combine(t, Inbox(links, posteriors))
+        segments = list(clock.control_segments(k))
+        control = world.t if segments[0][0] else None  # a control step starts with this one: its beacon now
+        beacon = stack.estimation_step(t, nav, detections, exchange.at(positions, t), control)
         recorder.record_inputs(k, t, nav, detections)
         recorder.record(t, world.recorded_truth(truth), world.phase_index(),
                         {**stack.sample(), **{k: f() for k, f in sim.monitors.items()}})
@@ -65,13 +64,13 @@ def step_loop(sim: Simulation, recorder: Recorder, progress: Callable[[float], N
             on_step(sim)
         view = stack.guide.view()
         offset = 0  # physics ticks since the estimation step
-        for control_now, ticks in clock.control_segments(k):
+        for control_now, ticks in segments:
             if control_now:
                 if offset:  # a control step between estimation steps: fresh navigation
                     nav = world.navigation()
                     positions = world.truth("uavs")[:, :2]
-                beacons = Inbox(channel.beacon_links(positions, world.t), stack.controller.broadcast(world.t, nav))
-                u = stack.controller.command(world.t, nav, view, beacons, clock.dt_control)
+                u = stack.control_step(world.t, nav, view, exchange.at(positions, world.t), clock.dt_control,
+                                       None if offset else beacon)
             world.advance({"uavs": u}, ticks)
             offset += ticks
         if progress is not None and (k % report_every == 0 or k == clock.steps - 1):

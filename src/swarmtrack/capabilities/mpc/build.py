@@ -7,7 +7,7 @@ import numpy as np
 from swarmtrack.capabilities.mpc.settings import MPCSpec
 from swarmtrack.control.mpc import MPCController, MPCSettings
 from swarmtrack.control.position import PositionGains
-from swarmtrack.sim.build import Context
+from swarmtrack.onboard.context import Context
 
 
 def mpc(spec: MPCSpec, ctx: Context) -> MPCController:

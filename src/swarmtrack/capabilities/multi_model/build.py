@@ -9,8 +9,9 @@ from swarmtrack.capabilities.multi_model.settings import CameraSpec, MultiModelS
 from swarmtrack.estimation.measurements import CameraFrameMeasurement, RangeBearingMeasurement
 from swarmtrack.estimation.multimodel import MultiModelEstimator
 from swarmtrack.models import make_model
+from swarmtrack.onboard.context import Context
 from swarmtrack.scenarios.schema import Scenario
-from swarmtrack.sim.build import Context, occluders
+from swarmtrack.sim.build import occluders
 from swarmtrack.sim.sensors import CameraSensor
 
 #: W20 Table 4.1: x̂0 = [h⁻¹(z0); 0], with CT's turn rate ω0 = 1e-5 rad/s.

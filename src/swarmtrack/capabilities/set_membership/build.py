@@ -13,9 +13,9 @@ from swarmtrack.control.sm_mpc import SetMembershipMPC, SMMPCSettings
 from swarmtrack.estimation.set_backends import PolygonSets, RasterSets, SetBackend
 from swarmtrack.estimation.setmembership import SetMembershipEstimator
 from swarmtrack.models.fixed_wing import FixedWingParams
+from swarmtrack.onboard.context import Context
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sensors import footprint
-from swarmtrack.sim.build import Context
 from swarmtrack.sim.sensors import FootprintSensor
 from swarmtrack.sim.streams import stream
 from swarmtrack.sim.world import World

@@ -25,8 +25,9 @@ from swarmtrack.estimation.information_compiled import compiled_cycle
 from swarmtrack.estimation.refilter import RefilteringEstimator
 from swarmtrack.estimation.sharing import Chi2Gate, CovarianceIntersection
 from swarmtrack.models import make_model
+from swarmtrack.onboard.context import Context
 from swarmtrack.scenarios.schema import Scenario
-from swarmtrack.sim.build import Context, occluders
+from swarmtrack.sim.build import occluders
 from swarmtrack.sim.sensors import RangeBearingElevationSensor, RangeBearingSensor
 
 

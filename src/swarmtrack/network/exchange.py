@@ -1,0 +1,45 @@
+"""The simulated radio as an :class:`~swarmtrack.onboard.exchange.Exchange`: the simulator's channel, and replay's
+over the logged positions.
+
+:meth:`ChannelExchange.at` gives the UAVs' positions (the world's truth, or a log's) and the step's time; the
+estimation round draws the step's links (:meth:`~swarmtrack.network.channel.Channel.links`) and delivers the outbox
+over them (with the late parts a channel with delays delivers now), the second round travels over the same links,
+and a control step's beacons over the beacon links drawn at its time. A beacon sent with the share is delivered at
+the control step, as it is broadcast in the simulator: the draws of the channel's streams come in one order for every
+driver.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from swarmtrack.network.channel import Channel
+from swarmtrack.network.messages import Inbox, Outbox
+
+
+class ChannelExchange:
+    """The swarm's messages over ``channel``."""
+
+    def __init__(self, channel: Channel):
+        self.channel = channel
+        self.positions: np.ndarray | None = None
+        self.links = None
+        self.t = 0.0
+
+    def at(self, positions: np.ndarray, t: float) -> ChannelExchange:
+        """The UAVs' planar ``positions`` (N, 2) at time ``t``: the radio's geometry of the next round."""
+        self.positions, self.t = positions, t
+        return self
+
+    def share(self, t: float, outbox: Outbox, beacon: Outbox | None) -> Inbox:
+        self.links = self.channel.links(self.positions, t)
+        return self.channel.deliver(self.links, outbox, t)
+
+    def publish(self, t: float, posteriors: Outbox) -> Inbox:
+        return Inbox(self.links, posteriors)  # the second message travels over the links that carried the first
+
+    def beacons(self, t: float, beacon: Outbox) -> Inbox:
+        return Inbox(self.channel.beacon_links(self.positions, t), beacon)
+
+    def planned(self, t: float, plans: Outbox) -> None:
+        """The swarm's planner hears its UAVs' plans in the same call (IB21 Sec. 5.3): nothing travels."""

@@ -9,8 +9,8 @@ import pytest
 
 import swarmtrack
 from swarmtrack import registry
+from swarmtrack.onboard.context import command_width
 from swarmtrack.scenarios.loader import ScenarioError
-from swarmtrack.sim.build import command_width
 from swarmtrack.vehicles.base import Vehicle
 
 NAME = "test-unicycle"

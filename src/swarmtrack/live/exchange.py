@@ -15,7 +15,6 @@ from collections import Counter
 
 import numpy as np
 
-from swarmtrack.control.base import SequentialPlanner
 from swarmtrack.live import wire
 from swarmtrack.live.node import Node
 from swarmtrack.network.messages import Inbox, Outbox
@@ -74,7 +73,7 @@ class LiveExchange:
         else:
             self.node.send(self.i, wire.Beacon(k=k, c=c, taken=t, payloads=pack(beacon)))
             heard = {s: m.payloads for s, m in self._wait("beacon", senders, k, c, FUSE_BY).items()}
-        if not isinstance(self.controller, SequentialPlanner):
+        if getattr(self.controller, "plans", None) is None:  # not a SequentialPlanner
             return self._assemble(senders, heard, beacon)
         # the plans its lower-indexed neighbours made in this call; in real time, one whose plan did not come in
         # time is not heard

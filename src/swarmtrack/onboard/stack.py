@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from swarmtrack.control.base import Controller, SequentialPlanner
+from swarmtrack.control.base import Controller
 from swarmtrack.estimation.base import Estimator, TargetView
 from swarmtrack.network.messages import Outbox
 from swarmtrack.onboard.exchange import Exchange
@@ -69,6 +69,7 @@ class OnboardStack:
         if beacon is None:
             beacon = ctl.broadcast(t, nav)
         u = ctl.command(t, nav, view, exchange.beacons(t, beacon), dt)
-        if isinstance(ctl, SequentialPlanner):
-            exchange.planned(t, ctl.plans())
+        plans = getattr(ctl, "plans", None)  # a SequentialPlanner (an isinstance check of a Protocol: 25 µs)
+        if plans is not None:
+            exchange.planned(t, plans())
         return u

@@ -23,7 +23,7 @@ import pytest
 import swarmtrack
 from swarmtrack.live.transport import TransportError, ZenohTransport, free_port
 
-pytestmark = [pytest.mark.xdist_group("live"),
+pytestmark = [pytest.mark.xdist_group("live-2"),  # beside the "live" group (tests/live/test_lockstep.py)
               pytest.mark.skipif(shutil.which("openssl") is None, reason="the openssl tool makes the certificates")]
 
 #: docs/live.md's recipe: a swarm CA, and a member's certificate (EC P-256) signed by it, naming the hosts.

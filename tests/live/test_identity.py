@@ -250,13 +250,12 @@ def test_a_second_process_for_a_uav_that_flies_is_refused_naming_it_and_the_run_
     and exits 2 naming the process that flies it; the world names the newcomer (console and metrics.json); no UAV
     is lost and the numbers equal ``swarmtrack run``'s bit for bit."""
     key_file, port, swarm = _keyfile(tmp_path), free_port(), f"test-{uuid.uuid4().hex[:8]}"
-    overrides = ["duration=60"]  # lockstep runs at a few times real time: the newcomer starts while it flies
+    overrides = ["duration=20"]  # lockstep runs at a few times real time: the newcomer says hello while it flies
+    second = _held_agent(1, port, swarm, key_file, overrides)
     world = _live(tmp_path, "live", key_file, swarm, port, overrides)
-    second = None
     try:
         assert peer.flown(port, swarm, 0, 20) >= 20
-        second = _start("agent", "l24-ct", "--uav", "1", "--key", str(key_file), "--swarm", swarm, "--connect",
-                        f"tcp/127.0.0.1:{port}", "--set", *overrides)
+        _go(second)
         _, second_err = second.communicate(timeout=120)
         _, err = world.communicate(timeout=240)
     finally:
@@ -281,6 +280,25 @@ def _agent(uav: int, port: int, swarm: str, key_file, overrides: list[str], *ext
     sets = [a for o in overrides for a in ("--set", o)]
     return _start("agent", "l24-ct", "--uav", str(uav), "--key", str(key_file), "--swarm", swarm, "--connect",
                   f"tcp/127.0.0.1:{port}", *sets, *extra)
+
+
+#: ``swarmtrack`` with the live agent's modules loaded, run once a line comes on its input.
+HELD = ("import sys; import swarmtrack.live.agent; from swarmtrack.cli import main; sys.stdin.readline(); "
+        "main(sys.argv[1:])")
+
+
+def _held_agent(uav: int, port: int, swarm: str, key_file, overrides: list[str], *extra: str) -> subprocess.Popen:
+    """``swarmtrack agent --uav UAV`` joining the world on ``port``, its modules loaded at once, started when told
+    (:func:`_go`): on a busy machine one started from scratch mid-run may say hello only after the run's end."""
+    sets = [a for o in overrides for a in ("--set", o)]
+    return subprocess.Popen([sys.executable, "-c", HELD, "agent", "l24-ct", "--uav", str(uav), "--key", str(key_file),
+                             "--swarm", swarm, "--connect", f"tcp/127.0.0.1:{port}", *sets, *extra],
+                            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def _go(held: subprocess.Popen) -> None:
+    held.stdin.write("go\n")
+    held.stdin.flush()
 
 
 @pytest.mark.slow
@@ -406,12 +424,12 @@ def test_a_process_started_with_rejoin_replaces_the_one_that_flies_its_uav(tmp_p
     told it is replaced (it stops, naming the newcomer), the UAV is lost and rejoins with the new process, and the
     run completes (exit 0), the newcomer's process with it."""
     key_file, port, swarm = _keyfile(tmp_path), free_port(), f"test-{uuid.uuid4().hex[:8]}"
-    overrides = ["duration=60"]
+    overrides = ["duration=20"]
+    newcomer = _held_agent(2, port, swarm, key_file, overrides, "--rejoin")
     world = _live(tmp_path, "live", key_file, swarm, port, overrides)
-    newcomer = None
     try:
         assert peer.flown(port, swarm, 1, 20) >= 20
-        newcomer = _agent(2, port, swarm, key_file, overrides, "--rejoin")
+        _go(newcomer)
         _, err = world.communicate(timeout=240)
         newcomer_out, newcomer_err = newcomer.communicate(timeout=60)
     finally:

@@ -55,19 +55,6 @@ def _earlier_run(tmp_path, peer, key_file, swarm: str) -> list[tuple[str, bytes]
     return [(k, d) for k, d in captured if k.rsplit("/", 1)[1] in ("navigation", "start", "stop")]
 
 
-#: ``swarmtrack`` with the live agent's modules loaded, run once a line comes on its input.
-HELD = ("import sys; import swarmtrack.live.agent; from swarmtrack.cli import main; sys.stdin.readline(); "
-        "main(sys.argv[1:])")
-
-
-def _held_agent(uav: int, port: int, swarm: str, key_file, overrides: list[str]) -> subprocess.Popen:
-    """``swarmtrack agent --uav UAV`` joining the world on ``port``, started when told (a line on its input)."""
-    sets = [a for o in overrides for a in ("--set", o)]
-    return subprocess.Popen([sys.executable, "-c", HELD, "agent", "l24-ct", "--uav", str(uav), "--key", str(key_file),
-                             "--swarm", swarm, "--connect", f"tcp/127.0.0.1:{port}", *sets],
-                            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-
-
 @pytest.mark.slow
 def test_a_stranger_doing_everything_at_once_changes_no_number_and_is_counted(tmp_path, peer):
     key_file, swarm = _identity._keyfile(tmp_path), f"test-{uuid.uuid4().hex[:8]}"
@@ -80,7 +67,7 @@ def test_a_stranger_doing_everything_at_once_changes_no_number_and_is_counted(tm
                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     # the second process for UAV 1, its modules loaded now: it says hello at once when told, once UAV 1 flies (on a
     # busy machine, started only then, it could come after the run's end, or its hello before UAV 1's own)
-    duplicate = _held_agent(1, port, swarm, key_file, overrides)
+    duplicate = _identity._held_agent(1, port, swarm, key_file, overrides)
     run = _identity._live(tmp_path, "live", key_file, swarm, port, overrides)
     stranger, stopped, flying, told = None, False, [], False
     try:
@@ -106,8 +93,7 @@ def test_a_stranger_doing_everything_at_once_changes_no_number_and_is_counted(tm
                 frozen.send_signal(signal.SIGSTOP)  # it has heard the run: it reads nothing from now on
                 stopped = True
             if not told and flying:
-                duplicate.stdin.write("go\n")  # UAV 1 flies: a second process claims it
-                duplicate.stdin.flush()
+                _identity._go(duplicate)  # UAV 1 flies: a second process claims it
                 told = True
             time.sleep(0.05)
         _, err = run.communicate(timeout=240)

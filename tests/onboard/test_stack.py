@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pytest
 
@@ -11,28 +13,27 @@ from swarmtrack.scenarios import builtin_names, load_scenario
 from swarmtrack.sim.engine import simulate
 
 
+@functools.cache
 def _scenario_of_each_controller() -> dict[str, str]:
-    """A built-in scenario of each registered controller kind (the first by name)."""
+    """A built-in scenario of each registered controller kind (the first by name; loading them all takes about 1 s,
+    done when a test asks, not when the tests are collected)."""
     out: dict[str, str] = {}
     for name in builtin_names():
         out.setdefault(load_scenario(name).controller.kind, name)
     return out
 
 
-SCENARIOS = _scenario_of_each_controller()
-
-
 def test_every_registered_controller_kind_has_a_built_in_scenario():
-    assert set(SCENARIOS) == set(registry.kinds("controller"))
+    assert set(_scenario_of_each_controller()) == set(registry.kinds("controller"))
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("kind", sorted(SCENARIOS))
+@pytest.mark.parametrize("kind", sorted(registry.kinds("controller")))
 def test_broadcast_reads_no_estimator_state(monkeypatch, kind):
     """The control step that starts with an estimation step broadcasts before the estimator fuses (so that the live
     agent's beacon travels in its share message): a run whose broadcasts come after the estimation step instead, as
     they did before, records the same numbers bit for bit, for every controller kind."""
-    scenario = load_scenario(SCENARIOS[kind], ["duration=3"], seed=2)
+    scenario = load_scenario(_scenario_of_each_controller()[kind], ["duration=3"], seed=2)
     first = simulate(scenario)
     estimation_step = OnboardStack.estimation_step
 

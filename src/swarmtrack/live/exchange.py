@@ -2,7 +2,7 @@
 
 Each round is a message of the UAV's own (sent at once) and the neighbours' of the same step, taken from the
 mailbox: those the world's simulated radio names, in lockstep, every one (waited for up to
-:data:`~swarmtrack.live.agent.PATIENCE`); in real time those that came by the round's deadline (:data:`FUSE_BY` ...
+:data:`PATIENCE`); in real time those that came by the round's deadline (:data:`FUSE_BY` ...
 of the step's period after it was due), the others counted late. The beacon of a control step that starts with the
 estimation step travels in the share message (one message fewer per step: 2.3x to 3.5x faster in lockstep,
 docs/live.md). A late share that comes within the scenario's delay bound is fused at its time stamp at the next step.

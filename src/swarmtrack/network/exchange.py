@@ -1,7 +1,7 @@
 """The simulated radio as an :class:`~swarmtrack.onboard.exchange.Exchange`: the simulator's channel, and replay's
 over the logged positions.
 
-:meth:`ChannelExchange.at` gives the UAVs' positions (the world's truth, or a log's) and the step's time; the
+:meth:`ChannelExchange.at` gives the UAVs' positions (the world's truth, or a log's); the
 estimation round draws the step's links (:meth:`~swarmtrack.network.channel.Channel.links`) and delivers the outbox
 over them (with the late parts a channel with delays delivers now), the second round travels over the same links,
 and a control step's beacons over the beacon links drawn at its time. A beacon sent with the share is delivered at
@@ -24,11 +24,10 @@ class ChannelExchange:
         self.channel = channel
         self.positions: np.ndarray | None = None
         self.links = None
-        self.t = 0.0
 
-    def at(self, positions: np.ndarray, t: float) -> ChannelExchange:
-        """The UAVs' planar ``positions`` (N, 2) at time ``t``: the radio's geometry of the next round."""
-        self.positions, self.t = positions, t
+    def at(self, positions: np.ndarray) -> ChannelExchange:
+        """The UAVs' planar ``positions`` (N, 2) now: the radio's geometry of the next round."""
+        self.positions = positions
         return self
 
     def share(self, t: float, outbox: Outbox, beacon: Outbox | None) -> Inbox:

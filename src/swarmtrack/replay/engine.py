@@ -61,7 +61,7 @@ def replay(scenario: Scenario, steps: Iterable[StepInputs], record_to: Path | No
         if s.k <= k_last:
             raise LogError(f"replay: step {s.k} (t = {s.t:g} s) came after step {k_last}; steps must go forward")
         k_last = s.k
-        sim.stack.estimation_step(s.t, s.navigation, s.detections, exchange.at(s.positions, s.t))
+        sim.stack.estimation_step(s.t, s.navigation, s.detections, exchange.at(s.positions))
         recorder.record_inputs(s.k, s.t, s.navigation, s.detections)
         recorder.record(s.t, s.truth, s.phase, estimator.sample())
         n_done += 1

@@ -56,7 +56,7 @@ def step_loop(sim: Simulation, recorder: Recorder, progress: Callable[[float], N
         detections, _sources = world.sense(aim=stack.estimator.view().state[:, :2] if aims else None)
         segments = list(clock.control_segments(k))
         control = world.t if segments[0][0] else None  # a control step starts with this one: its beacon now
-        beacon = stack.estimation_step(t, nav, detections, exchange.at(positions, t), control)
+        beacon = stack.estimation_step(t, nav, detections, exchange.at(positions), control)
         recorder.record_inputs(k, t, nav, detections)
         recorder.record(t, world.recorded_truth(truth), world.phase_index(),
                         {**stack.sample(), **{k: f() for k, f in sim.monitors.items()}})
@@ -69,7 +69,7 @@ def step_loop(sim: Simulation, recorder: Recorder, progress: Callable[[float], N
                 if offset:  # a control step between estimation steps: fresh navigation
                     nav = world.navigation()
                     positions = world.truth("uavs")[:, :2]
-                u = stack.control_step(world.t, nav, view, exchange.at(positions, world.t), clock.dt_control,
+                u = stack.control_step(world.t, nav, view, exchange.at(positions), clock.dt_control,
                                        None if offset else beacon)
             world.advance({"uavs": u}, ticks)
             offset += ticks

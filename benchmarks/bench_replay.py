@@ -74,8 +74,9 @@ def _messages_of(rec, sensor_kind: str, reorder: float = 0.05, seed: int = 0) ->
     """``(log time, topic, type, message)`` of a simulated run with its inputs: every UAV's navigation, its
     detections (as the target relative to the UAV), the followed target's truth; logged 1-20 ms after their stamps,
     a fraction ``reorder`` 50-300 ms late."""
-    from swarmtrack.replay.grid import MEASUREMENTS
+    from swarmtrack import registry
 
+    relative_of = registry.resolve(registry.get("sensor", sensor_kind).measurement.relative_of)
     store = _typestore()
     t = store.types
 
@@ -105,7 +106,7 @@ def _messages_of(rec, sensor_kind: str, reorder: float = 0.05, seed: int = 0) ->
         taken = now if det.taken is None else det.taken
         if taken < 0:
             continue
-        rel = MEASUREMENTS[sensor_kind][1](det)  # the detection as the target relative to the UAV
+        rel = relative_of(det)  # the detection as the target relative to the UAV
         for owner, xy in zip(det.owner, rel, strict=True):
             send(taken, f"/uav{owner + 1}/target", POINT, t[POINT](header=header(taken), point=point(xy)))
         send(now, "/target/pose", POSE, pose(now, truth[k][rec.tracked, :2]))

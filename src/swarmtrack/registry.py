@@ -58,7 +58,7 @@ Ref = Callable | str
 
 
 def resolve(ref: Ref) -> Callable:
-    """The callable a :data:`Ref` names."""
+    """The callable a :data:`Ref` names (or the object a ``"module:attribute"`` string names: a :data:`Declared`)."""
     if callable(ref):
         return ref
     module, _, attr = ref.partition(":")
@@ -112,19 +112,35 @@ class Telemetry(NamedTuple):
     mirror: Callable
 
 
+class Measurement(NamedTuple):
+    """How a sensor kind's measurement relates to a target's planar position relative to the UAV (what replay makes
+    of a log's relative positions, :mod:`swarmtrack.replay.grid`, and ``swarmtrack export`` of recorded
+    detections): ``of_relative(rel, pos) → (z, frame)`` for relative positions ``rel`` (M, 2) of UAVs at ``pos``
+    (M, 2), with ``frame`` the :class:`~swarmtrack.sensors.detections.Detections` frame or None;
+    ``relative_of(detections) → rel`` (M, 2), its inverse. Each a :data:`Ref`."""
+
+    of_relative: Ref
+    relative_of: Ref
+
+
+#: A tuple, or ``"module:attribute"`` naming one (imported when first read): a kind's metrics, health checks or
+#: figures, so that registering a kind imports nothing of the analysis.
+Declared = tuple | str
+
+
 @dataclass(frozen=True)
 class Kind:
     """One registered kind: its ``role`` and ``name``, its ``settings`` class and its builder ``build``, and what the
-    analysis reads of its runs (:class:`Metric` sections, health checks — accumulators whose ``result()`` is a list
-    of warnings — and :class:`Figure` s)."""
+    analysis reads of its runs (:attr:`metrics`: :class:`Metric` sections; :attr:`health`: checks, accumulators
+    whose ``result()`` is a list of warnings; :attr:`figures`: :class:`Figure` s), each :data:`Declared`."""
 
     role: str
     name: str
     settings: type
     build: Ref
-    metrics: tuple[Metric, ...] = ()
-    health: tuple[Metric, ...] = ()
-    figures: tuple[Figure, ...] = ()
+    declared_metrics: Declared = ()
+    declared_health: Declared = ()
+    declared_figures: Declared = ()
     animated: bool = False
     """Whether its runs can be animated (``swarmtrack run --animate``: a set-valued estimator's sets frame by frame,
     :mod:`swarmtrack.analysis.animation`)."""
@@ -137,10 +153,33 @@ class Kind:
     telemetry: Ref | None = None
     """What the monitors read of the component when it runs in the UAVs' own processes (the live swarm): a
     :class:`Telemetry`."""
+    measurement: Measurement | None = None
+    """A sensor's measurement as a function of the target's relative position, and back (:class:`Measurement`;
+    None: its measurements are not made from relative positions)."""
+    quiet: Ref | None = None
+    """A sensor's frame without detections, as it hands it to UAVs with navigation ``nav`` (R, d):
+    ``quiet(settings, nav) → Detections`` (a sensor that stamps what it explored, e.g. IB21's footprints, stamps
+    them); None: a frame without detections is empty."""
     module: str = field(default="", compare=False)
 
     def builder(self) -> Callable:
         return resolve(self.build)
+
+    @property
+    def metrics(self) -> tuple[Metric, ...]:
+        return _tuple(self.declared_metrics)
+
+    @property
+    def health(self) -> tuple[Metric, ...]:
+        return _tuple(self.declared_health)
+
+    @property
+    def figures(self) -> tuple[Figure, ...]:
+        return _tuple(self.declared_figures)
+
+
+def _tuple(declared: Declared) -> tuple:
+    return tuple(resolve(declared) if isinstance(declared, str) else declared)
 
 
 class UnknownKind(ValueError):
@@ -172,12 +211,15 @@ def _load() -> None:
         ep.load()
 
 
-def register(role: str, settings: type, build: Ref, *, metrics=(), health=(), figures=(), animated: bool = False,
-             batched: bool = False, monitors: Ref | None = None, telemetry: Ref | None = None) -> Kind:
+def register(role: str, settings: type, build: Ref, *, metrics: Declared = (), health: Declared = (),
+             figures: Declared = (), animated: bool = False,
+             batched: bool = False, monitors: Ref | None = None, telemetry: Ref | None = None,
+             measurement: Measurement | None = None, quiet: Ref | None = None) -> Kind:
     """Register a kind for ``role``: its name is the default of ``settings.kind`` (a string literal), ``settings``
     subclasses the role's base settings class (declared by the schema, :func:`declare_role`), and ``build`` makes
     the component (estimator and controller: ``build(settings, context)``; sensor: ``build(settings, scenario)``).
-    A name is registered once per role."""
+    ``metrics``, ``health`` and ``figures`` are :data:`Declared` (name the capability's module, so that registering
+    the kind imports none of the analysis). A name is registered once per role."""
     if role not in ROLES:
         hint = "; a vehicle registers with register_vehicle" if role == VEHICLE else ""
         raise ValueError(f"unknown role {role!r}; roles: {', '.join(ROLES)}{hint}")
@@ -191,8 +233,10 @@ def register(role: str, settings: type, build: Ref, *, metrics=(), health=(), fi
         raise TypeError(f"{settings.__name__}.kind needs a string default (its kind)")
     if name in _KINDS[role]:
         raise ValueError(f"{role} kind {name!r} is already registered (by {_KINDS[role][name].module})")
-    kind = Kind(role, name, settings, build, metrics=tuple(metrics), health=tuple(health), figures=tuple(figures),
-                animated=animated, batched=batched, monitors=monitors, telemetry=telemetry, module=settings.__module__)
+    declared = (d if isinstance(d, str) else tuple(d) for d in (metrics, health, figures))
+    kind = Kind(role, name, settings, build, *declared,
+                animated=animated, batched=batched, monitors=monitors, telemetry=telemetry, measurement=measurement,
+                quiet=quiet, module=settings.__module__)
     _KINDS[role][name] = kind
     return kind
 

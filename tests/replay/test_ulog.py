@@ -271,8 +271,9 @@ def test_bad_ulogs_and_maps_are_refused_with_one_message_naming_the_cause(tmp_pa
     (tmp_path / "x.mcap").write_bytes(b"")
     with pytest.raises(LogError, match="a ROS bag needs a map"):
         timestamped.steps([tmp_path / "x.mcap"], scenario, None, {})
-    with pytest.raises(LogError, match="not a ROS bag .* a PX4 ULog .* or a CSV"):
+    with pytest.raises(LogError, match="map.yaml: not a ") as refused:  # every time-stamped reader's files named
         timestamped.steps([tmp_path / "map.yaml"], scenario, None, {})
+    assert all(what in str(refused.value) for what in ("a ROS bag (", "a PX4 ULog (.ulg)", "a CSV file (.csv)"))
 
 
 def test_a_ulog_is_recognised_by_its_magic_bytes(tmp_path):

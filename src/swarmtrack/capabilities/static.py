@@ -5,7 +5,6 @@ from __future__ import annotations
 from typing import Literal
 
 from swarmtrack import registry
-from swarmtrack.control.static import StaticController
 from swarmtrack.scenarios.schema import ControllerSpec
 
 
@@ -16,7 +15,11 @@ class StaticSpec(ControllerSpec):
     kind: Literal["static"] = "static"
 
 
-def build(spec: StaticSpec, ctx) -> StaticController:
+def build(spec: StaticSpec, ctx):
+    """:class:`~swarmtrack.control.static.StaticController` (imported here: registering the kind imports no control
+    law)."""
+    from swarmtrack.control.static import StaticController
+
     return StaticController(len(ctx.uavs), ctx.command_width)
 
 

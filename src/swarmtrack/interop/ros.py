@@ -20,7 +20,7 @@ topic                       type                                        content
 ==========================  ==========================================  ==============================================
 
 The last two are written for a run that kept its inputs (every ``swarmtrack run``) and whose sensor's measurements
-map back to a relative position (range-bearing, camera; :data:`swarmtrack.replay.grid.MEASUREMENTS`): the exported
+map back to a relative position (range-bearing, camera; :class:`swarmtrack.registry.Measurement`): the exported
 bag then replays with ``swarmtrack replay`` and a map naming them.
 
 The frame is ``map``: the project's ENU world frame is ROS's convention for it (REP 103), so no axis changes; z is 0
@@ -108,12 +108,12 @@ def export_ros(rec, out: Path, fmt: str) -> dict[str, int]:
 def _inputs(rec):
     """The recording's inputs step by step and how its sensor's detections map back to relative positions, or
     ``(None, None)`` when it kept no inputs or its sensor's measurements do not map back."""
-    from swarmtrack.replay.grid import MEASUREMENTS
+    from swarmtrack import registry
 
-    kind = (rec.meta.get("sensor") or {}).get("kind")
-    if "inputs" not in rec.meta or kind not in MEASUREMENTS or rec.meta.get("tracked_label") is None:
+    kind = registry.kinds("sensor").get((rec.meta.get("sensor") or {}).get("kind"))
+    if "inputs" not in rec.meta or kind is None or kind.measurement is None or rec.meta.get("tracked_label") is None:
         return None, None
-    return rec.inputs(), MEASUREMENTS[kind][1]
+    return rec.inputs(), registry.resolve(kind.measurement.relative_of)
 
 
 def _pose(msg, state: np.ndarray):

@@ -23,15 +23,16 @@ import time
 import numpy as np
 
 from swarmtrack import registry
-from swarmtrack.analysis.sweep import warm
 from swarmtrack.autopilot.authority import Authority
 from swarmtrack.autopilot.link import AutopilotError, AutopilotLink, AutopilotRefused
 from swarmtrack.estimation.base import TargetView
 from swarmtrack.live import wire
 from swarmtrack.live.exchange import PATIENCE, LiveExchange, pack
 from swarmtrack.live.node import EVIDENCE, EVIDENCE_SPAN, LOST_AFTER, Mismatch, Node, Refused, Stopped
+from swarmtrack.onboard.build import onboard_stack
 from swarmtrack.onboard.context import clock_of, context
 from swarmtrack.onboard.stack import OnboardStack
+from swarmtrack.onboard.warm import warm_up
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sensors.detections import Detections
 
@@ -50,12 +51,10 @@ def scenario_hash(scenario: Scenario) -> str:
     return hashlib.sha256(json.dumps(scenario.model_dump(mode="json"), sort_keys=True).encode()).hexdigest()[:16]
 
 
-def build_onboard(scenario: Scenario, uav: int, labels: dict[str, list[int]]):
-    """UAV ``uav``'s estimator and controller, built for it alone; ``labels`` the sensor's label of each member of
-    each sensed group (the world's ``start`` message)."""
-    ctx = context(scenario, lambda group, member: labels[group][member], uavs=[uav])
-    build = {role: registry.get(role, getattr(scenario, role).kind).builder() for role in ("estimator", "controller")}
-    return build["estimator"](scenario.estimator, ctx), build["controller"](scenario.controller, ctx)
+def build_onboard(scenario: Scenario, uav: int, labels: dict[str, list[int]]) -> OnboardStack:
+    """UAV ``uav``'s stack, built for it alone; ``labels`` the sensor's label of each member of each sensed group
+    (the world's ``start`` message)."""
+    return onboard_stack(context(scenario, lambda group, member: labels[group][member], uavs=[uav]))
 
 
 def telemetry_of(scenario: Scenario) -> dict[str, registry.Telemetry]:
@@ -67,14 +66,6 @@ def telemetry_of(scenario: Scenario) -> dict[str, registry.Telemetry]:
         if kind.telemetry is not None:
             out[role] = registry.resolve(kind.telemetry)
     return out
-
-
-def warm_up(scenario: Scenario) -> None:
-    """Load the compiled kernels the stack calls before the first real-time step is due (in a fresh process numba's
-    cache takes about 1 s to load at the first call, which would make the first steps late): the sweeps' warm-up
-    (:func:`swarmtrack.analysis.sweep.warm`, a throwaway run of the scenario's first second) with another seed, so that
-    nothing of the run's own truth is computed here."""
-    warm(scenario.model_copy(update={"seed": scenario.seed + 1}))
 
 
 class Agent:
@@ -131,7 +122,7 @@ class Agent:
                            "(start it with --mavlink)")
         # the kernels loaded (compiled, when numba's cache is cold) before it says it is ready, in lockstep too: the
         # world waits for that as long as the process is heard, but for a step only its patience
-        warm_up(self.scenario)
+        warm_up(self.scenario, self.i, lambda group, member: start.labels[group][member])
         if start.realtime:
             node.heard = []  # every message's latency is logged and reported
         self.build(start.labels)
@@ -148,8 +139,8 @@ class Agent:
 
     def build(self, labels: dict[str, list[int]]) -> None:
         """Its stack, built for this UAV alone (``labels``: the world's, from its ``start``)."""
-        self.estimator, self.controller = build_onboard(self.scenario, self.i, labels)
-        self.stack = OnboardStack(self.estimator, self.controller, self.estimator)
+        self.stack = build_onboard(self.scenario, self.i, labels)
+        self.estimator, self.controller = self.stack.estimator, self.stack.controller
 
     def _greet(self, hello: wire.Hello) -> wire.Start:
         """Say ``hello`` until the world starts this process (a ``start`` bound to its hello); said again at once when

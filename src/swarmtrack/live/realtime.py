@@ -27,8 +27,8 @@ from collections import Counter
 import numpy as np
 import pandas as pd
 
+from swarmtrack.analysis.sweep import warm
 from swarmtrack.live import wire
-from swarmtrack.live.agent import warm_up
 from swarmtrack.live.world import LockstepWorld, _percentiles, safe_command
 
 #: Seconds between the UAVs' stacks being built and the first step.
@@ -46,7 +46,8 @@ class RealtimeWorld(LockstepWorld):
     def __init__(self, *args, **kwargs):
         self._boot = time.monotonic()  # the vehicles' clock starts with the world (its Fleet reads it at once)
         super().__init__(*args, **kwargs)
-        warm_up(self.scenario)  # the world's first steps call its kernels too
+        # the world's first steps call its kernels too: loaded by a throwaway run of its first second (another seed)
+        warm(self.scenario.model_copy(update={"seed": self.scenario.seed + 1}))
         self.report.mode = "realtime"
         self.joining: set[int] = set()  # UAVs whose new process was sent its start, not back yet
         self.steps: list[tuple[int, int, float, float]] = []  # (UAV, k, done after its time (s), CPU (s))

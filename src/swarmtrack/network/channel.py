@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from swarmtrack.network.delays import delay_steps
 from swarmtrack.network.faults import Liar
 from swarmtrack.network.links import (
     Links,
@@ -24,12 +25,6 @@ from swarmtrack.network.links import (
     to_dense,
 )
 from swarmtrack.network.messages import Inbox, Outbox
-
-
-def delay_steps(seconds, period: float):
-    """The estimation steps a message waits (int, or an int array for an array of delays): it arrives at the first
-    step at or after its delay ends (a delay of a whole number of steps, to round-off, takes that many)."""
-    return np.ceil(np.asarray(seconds, dtype=float) / period - 1e-9).astype(int)
 
 
 @dataclass

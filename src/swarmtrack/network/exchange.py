@@ -11,10 +11,30 @@ driver.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from swarmtrack.network.channel import Channel
+from swarmtrack.network.faults import Liar
 from swarmtrack.network.messages import Inbox, Outbox
+from swarmtrack.sim.streams import stream
+
+if TYPE_CHECKING:
+    from swarmtrack.scenarios.schema import Scenario
+
+
+def channel_of(scenario: Scenario, dt: float) -> Channel:
+    """The scenario's channel (its ``network`` section, 0-based UAVs; losses, delays and a liar's noise each from
+    their own stream of its seed), stepped every ``dt`` s (the clock's estimation step)."""
+    net, seed = scenario.network, scenario.seed
+    liar = None if net.liar is None else Liar(net.liar.uav - 1, net.liar.mode, net.liar.offset, net.liar.sigma,
+                                              net.liar.start, stream(seed, "liar"))
+    return Channel(net.topology, scenario.swarm.n_uavs, net.r_comm, tuple((a - 1, b - 1) for a, b in net.edges),
+                   net.loss_probability, stream(seed, "channel"),
+                   outages=tuple((tuple(u - 1 for u in o.uavs), o.window) for o in net.outages),
+                   delay=net.delay, delay_max=net.delay_bound(), dt=dt,
+                   delay_rng=stream(seed, "channel/delay"), liar=liar)
 
 
 class ChannelExchange:

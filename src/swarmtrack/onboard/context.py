@@ -22,6 +22,33 @@ if TYPE_CHECKING:
     from swarmtrack.scenarios.schema import Scenario
 
 
+def layout(scenario: Scenario) -> dict[str, slice]:
+    """The world objects' rows of ``scenario``: targets, decoys, UAVs, in this order (the world's, the recording's)."""
+    sizes = {"targets": scenario.targets.size(), "decoys": scenario.decoys.size(), "uavs": scenario.swarm.n_uavs}
+    out, start = {}, 0
+    for name, size in sizes.items():
+        out[name] = slice(start, start + size)
+        start += size
+    return out
+
+
+def sensed_objects(slices: dict[str, slice], groups) -> np.ndarray:
+    """The objects (rows of ``slices``' groups) a sensor of ``groups`` sees, in label order: a cooperative sensor
+    labels each by its place here (the world's truth side and the UAVs' builders read this one rule)."""
+    return np.concatenate([np.arange(slices[n].start, slices[n].stop, dtype=np.int64)
+                           for n in groups if n in slices] or [np.zeros(0, np.int64)])
+
+
+def sensor_labels(scenario: Scenario) -> Callable[[str, int], int | None]:
+    """``label_of(group, member)`` of :class:`Context`: the label the scenario's sensor reports for a member of a
+    group, from what its settings declare it sees (:attr:`SensorSpec.sensed
+    <swarmtrack.scenarios.schema.SensorSpec.sensed>`); None for a member it does not see."""
+    rows = layout(scenario)
+    sensed = sensed_objects(rows, scenario.sensor.sensed)
+    label = {int(obj): k for k, obj in enumerate(sensed)}
+    return lambda group, member: label.get(rows[group].start + member)
+
+
 def clock_of(scenario: Scenario) -> Clock:
     """The scenario's clock: its physics, estimation and control rates over its run's duration."""
     r = scenario.rates

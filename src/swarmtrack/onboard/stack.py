@@ -28,19 +28,25 @@ from swarmtrack.onboard.exchange import Exchange
 
 @dataclass
 class OnboardStack:
-    """``estimator`` is run and recorded; ``guide`` is what the controller follows: the estimator itself, or an
-    oracle the builder wired to the truth (``controller.follow: truth``, a study aid, never onboard)."""
+    """``estimator`` is run and recorded; ``controller`` None: none is run (replay: its commands would fly nothing);
+    ``guide`` is what the controller follows: the estimator itself, or an oracle the builder wired to the truth
+    (``controller.follow: truth``, a study aid, never onboard)."""
 
     estimator: Estimator
-    controller: Controller
+    controller: Controller | None
     guide: Estimator
 
     @property
+    def components(self) -> tuple:
+        return (self.estimator,) if self.controller is None else (self.estimator, self.controller)
+
+    @property
     def probes(self) -> dict[str, tuple[int, ...]]:
-        return {p.name: p.shape for p in (*self.estimator.probes, *self.controller.probes)}
+        return {p.name: p.shape for c in self.components for p in c.probes}
 
     def sample(self) -> dict:
-        return {**self.estimator.sample(), **self.controller.sample()}
+        own = self.estimator.sample()
+        return own if self.controller is None else {**own, **self.controller.sample()}
 
     def estimation_step(self, t: float, nav: np.ndarray, detections, exchange: Exchange,
                         control: float | None = None) -> Outbox | None:

@@ -248,3 +248,12 @@ def read(paths: list[Path], mapping, counts: dict, n_uavs: int | None = None) ->
 def messages(paths: list[Path], mapping, counts: dict, n_uavs: int | None = None) -> Iterator[Message]:
     """The messages of the CSV files ``paths`` in time-stamp order (:func:`read`)."""
     return iter(read(paths, mapping, counts, n_uavs))
+
+
+def stamped(paths: list[Path], scenario, mapping, counts: dict):
+    """The CSVs' messages per pass (:attr:`~swarmtrack.replay.formats.LogFormat.stamped`): read once, whole, their
+    skips counted in ``counts``; None without a CSV."""
+    if not paths:
+        return None
+    table = read(paths, mapping, counts, scenario.swarm.n_uavs)
+    return lambda counted: iter(table)

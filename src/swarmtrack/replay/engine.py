@@ -16,10 +16,12 @@ from pathlib import Path
 
 import numpy as np
 
-from swarmtrack.network.exchange import ChannelExchange
+from swarmtrack.network.exchange import ChannelExchange, channel_of
+from swarmtrack.onboard.build import onboard_stack
+from swarmtrack.onboard.context import clock_of, context, layout, sensor_labels
 from swarmtrack.replay.steps import LogError, StepInputs
 from swarmtrack.scenarios.schema import Scenario
-from swarmtrack.sim.build import build
+from swarmtrack.sim.meta import profiles, run_meta
 from swarmtrack.sim.recorder import Recorder, Recording
 
 #: The one phase of a log that does not know the scenario's profile phases.
@@ -38,32 +40,35 @@ def replay(scenario: Scenario, steps: Iterable[StepInputs], record_to: Path | No
     (:func:`truth_coverage`). ``phases=False``: the log does not know the scenario's profile phases; the tracked
     target's steps are one phase, ``logged`` (phase 0 of the steps). ``progress`` gets the fraction done; ``planned``
     the number of steps before the first, when the reader knows it (:class:`~swarmtrack.replay.steps.Planned`)."""
-    sim = build(scenario)
-    estimator, exchange, dt = sim.stack.estimator, ChannelExchange(sim.channel), sim.clock.dt_estimation
-    n = scenario.swarm.n_uavs
-    probes = {p.name: p.shape for p in estimator.probes}
+    clock, label_of, rows = clock_of(scenario), sensor_labels(scenario), layout(scenario)
+    stack = onboard_stack(context(scenario, label_of), controller=False)
+    exchange, dt = ChannelExchange(channel_of(scenario, clock.dt_estimation)), clock.dt_estimation
+    n, n_objects = scenario.swarm.n_uavs, rows["uavs"].stop
+    followed = scenario.estimator.followed_target()
+    meta = run_meta(scenario, rows, {g: profiles(scenario, g) for g in ("targets", "decoys")}, dt)
     # the controller was not run: its kind's metrics and figures have nothing to read
-    meta = {**sim.meta, "controller": None, "replay": source or {}}
+    meta.update(tracked_label=None if followed is None else label_of("targets", followed - 1), controller=None,
+                replay=source or {})
     if not phases:
         meta["phase_names"] = [LOGGED] if meta["tracked"] is not None else []
-        meta["object_phases"] = [[LOGGED] if j == meta["tracked"] else [] for j in range(sim.world.n_objects)]
+        meta["object_phases"] = [[LOGGED] if j == meta["tracked"] else [] for j in range(n_objects)]
     # a replay keeps its inputs too (a replayed run folder can be replayed again, with another estimator)
     # chunks of at most REPLAY_CHUNK_STEPS steps: a long log of a small swarm streams in bounded memory
-    recorder = Recorder(meta, sim.world.n_objects, n, probes, record_to, inputs=record_to is not None,
+    recorder = Recorder(meta, n_objects, n, stack.probes, record_to, inputs=record_to is not None,
                         max_chunk_steps=REPLAY_CHUNK_STEPS)
     n_steps = getattr(steps, "n_steps", None)
     if n_steps is not None and planned is not None:
         planned(n_steps)
-    total = max(n_steps if n_steps is not None else sim.clock.steps, 1)
+    total = max(n_steps if n_steps is not None else clock.steps, 1)
     tracked = meta["tracked"]
     k_last, n_done, n_truth = -1, 0, 0
     for s in steps:
         if s.k <= k_last:
             raise LogError(f"replay: step {s.k} (t = {s.t:g} s) came after step {k_last}; steps must go forward")
         k_last = s.k
-        sim.stack.estimation_step(s.t, s.navigation, s.detections, exchange.at(s.positions))
+        stack.estimation_step(s.t, s.navigation, s.detections, exchange.at(s.positions))
         recorder.record_inputs(s.k, s.t, s.navigation, s.detections)
-        recorder.record(s.t, s.truth, s.phase, estimator.sample())
+        recorder.record(s.t, s.truth, s.phase, stack.sample())
         n_done += 1
         n_truth += tracked is not None and bool(np.isfinite(s.truth[tracked]).all())
         if progress is not None:

@@ -18,6 +18,12 @@ class LogFormat:
     ``mapping`` the parsed map file (or None) and ``counts`` a dict the reader adds what it skipped to (name →
     count, reported in ``metrics.json`` under ``replay``). ``needs_map``: the reader cannot run without a map
     file. ``phases``: its steps carry the scenario's profile phases (a run folder's do; a flight's log knows none).
+
+    A *time-stamped* reader (a flight's pieces, read together in any mix: :mod:`swarmtrack.replay.timestamped`)
+    also gives ``stamped(paths, scenario, mapping, counts)``: None when it has nothing to read, else a function of a
+    ``counts`` dict giving its messages (:mod:`swarmtrack.replay.grid`'s ``Navigation``, ``Detection``, ``Truth``) in
+    time-stamp order, once per pass over the logs; ``files`` says which files it recognises, for the message that
+    names a log no reader recognises.
     """
 
     name: str
@@ -26,6 +32,8 @@ class LogFormat:
     steps: Ref
     needs_map: bool = False
     phases: bool = False
+    stamped: Ref | None = None
+    files: str = ""
 
     def recognises(self, path) -> bool:
         return bool(resolve(self.accepts)(path))

@@ -16,7 +16,7 @@ messages in the order the log holds them; :func:`on_grid` turns them into estima
   its velocity is the samples' finite difference where the message has none.
 - **Detections** go to the nearest step of their stamp, taken from where the UAV's navigation put it at the stamp.
   A relative position ``(dx, dy)`` along the map frame's axes or a range and bearing becomes the scenario sensor's
-  measurement (:data:`MEASUREMENTS`).
+  measurement (its registration's :class:`~swarmtrack.registry.Measurement`).
 - **Truth** of the followed target at step k is interpolated between the two truth samples around it when they
   are at most ``truth_gap`` (:data:`TRUTH_GAP`) apart, and NaN (absent) elsewhere: before the first sample, after
   the last, across a longer gap. A step waits (its inputs computed, not yet handed on) until the sample after it
@@ -38,12 +38,14 @@ import math
 from array import array
 from bisect import bisect_right, insort
 from collections import deque
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from swarmtrack.replay.steps import LogError, StepInputs, layout
+from swarmtrack import registry
+from swarmtrack.onboard.context import layout, sensor_labels
+from swarmtrack.replay.steps import LogError, StepInputs
 from swarmtrack.sensors.detections import Detections
 
 
@@ -136,37 +138,6 @@ def remedy(key: str) -> str:
     """What the user can do about the skipped messages counted under ``key`` (:func:`skip`'s)."""
     cause = max((c for c in SKIPS if key.startswith(c)), key=len, default=None)
     return "" if cause is None else SKIPS[cause]
-
-
-def _range_bearing(rel: np.ndarray, pos: np.ndarray) -> tuple[np.ndarray, None]:
-    """L24 Sec. 3.2's ``z = [ρ, β]`` of relative positions (M, 2)."""
-    return np.stack([np.hypot(rel[:, 0], rel[:, 1]), np.arctan2(rel[:, 1], rel[:, 0])], axis=1), None
-
-
-def _camera(rel: np.ndarray, pos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """W20 eq. 4.16's affine measurement ``z = A p + b`` with ``A = I``, ``b = −p_uav``: the relative position
-    itself, stamped with its frame ``[I | −p_uav]``."""
-    frame = np.zeros((len(rel), 2, 3))
-    frame[:, 0, 0] = frame[:, 1, 1] = 1.0
-    frame[:, :, 2] = -pos
-    return rel.copy(), frame
-
-
-def _range_bearing_relative(det: Detections) -> np.ndarray:
-    return det.z[:, :1] * np.stack([np.cos(det.z[:, 1]), np.sin(det.z[:, 1])], axis=1)
-
-
-def _camera_relative(det: Detections) -> np.ndarray:
-    """``p = A⁻¹ (z − b)`` (solved), less where the UAV was."""
-    p = np.linalg.solve(det.frame[:, :, :2], (det.z - det.frame[:, :, 2])[..., None])[..., 0]
-    return p - det.sensor_pos
-
-
-#: Per sensor kind: how a relative position becomes its measurement ``(z, frame)`` given where the UAV was, and
-#: back (its detections' target relative to the UAV along the map frame's axes, for ``swarmtrack export``).
-MEASUREMENTS: dict[str, tuple[Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray | None]],
-                              Callable[[Detections], np.ndarray]]] = {
-    "range_bearing": (_range_bearing, _range_bearing_relative), "camera": (_camera, _camera_relative)}
 
 
 def _stamp(sample: tuple) -> float:
@@ -263,24 +234,22 @@ def on_grid(messages: Iterable[Message], scenario, counts: dict, window: float =
     """The estimation steps of ``messages`` (see the module's docstring); ``counts`` gets what was skipped. ``start``
     and ``n_steps`` (from :func:`plan`): t = 0 and the number of steps, else found as the messages come. The
     scenario is checked at once (its sensor makes measurements from relative positions; it follows one target)."""
-    from swarmtrack.sim.build import build_component
-    from swarmtrack.sim.world import sensed_objects
-
     kind = scenario.sensor.kind
-    if kind not in MEASUREMENTS:
-        raise LogError(f"sensor.kind {kind}: a replay from time-stamped logs makes {', '.join(MEASUREMENTS)} "
+    measurement = registry.get("sensor", kind).measurement
+    if measurement is None:
+        known = [name for name, k in registry.kinds("sensor").items() if k.measurement is not None]
+        raise LogError(f"sensor.kind {kind}: a replay from time-stamped logs makes {', '.join(known)} "
                        "measurements (replay a run folder for other sensors)")
     followed = scenario.estimator.followed_target()
     if followed is None:
         raise LogError(f"estimator.kind {scenario.estimator.kind} follows no single target: a replay from "
                        "time-stamped logs gives detections of one target")
-    rows = layout(scenario)
-    tracked = rows["targets"].start + followed - 1
-    sensed = sensed_objects(rows, build_component("sensor", scenario, scenario).sensed)  # the world's label order
-    if tracked not in sensed:
+    tracked = layout(scenario)["targets"].start + followed - 1
+    label = sensor_labels(scenario)("targets", followed - 1)
+    if label is None:
         raise LogError(f"sensor.kind {kind} does not see the followed target (estimator.target {followed})")
-    grid = _Grid(scenario, counts, window, start, int(np.flatnonzero(sensed == tracked)[0]), MEASUREMENTS[kind][0],
-                 tracked, n_steps, truth_gap)
+    grid = _Grid(scenario, counts, window, start, label, registry.resolve(measurement.of_relative), tracked,
+                 n_steps, truth_gap)
     return grid.run(messages)
 
 

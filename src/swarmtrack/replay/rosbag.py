@@ -167,6 +167,15 @@ def messages(paths: list[Path], mapping, counts: dict) -> Iterator:
         reader.close()
 
 
+def stamped(paths: list[Path], scenario, mapping, counts: dict):
+    """The bags' messages per pass (:attr:`~swarmtrack.replay.formats.LogFormat.stamped`); None without a bag."""
+    if not paths:
+        return None
+    if mapping is None:
+        raise LogError(f"{paths[0]}: a ROS bag needs a map (--map) naming its topics (docs/replay.md)")
+    return lambda counted: messages(paths, mapping, counted)
+
+
 def steps(paths: list[Path], scenario, mapping, counts: dict) -> Iterator[StepInputs]:
     """The steps of the bags ``paths`` alone. The registered reader's are
     :func:`swarmtrack.replay.timestamped.steps`, which reads bags with ULogs and CSVs of the same flight too (it

@@ -12,7 +12,8 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from swarmtrack.replay.steps import LogError, Planned, StepInputs, layout
+from swarmtrack.onboard.context import layout
+from swarmtrack.replay.steps import LogError, Planned, StepInputs
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sim.recorder import Recording
 

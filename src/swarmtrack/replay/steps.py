@@ -9,16 +9,6 @@ import numpy as np
 from swarmtrack.sensors.detections import Detections
 
 
-def layout(scenario) -> dict[str, slice]:
-    """The world objects' rows of ``scenario`` (targets, decoys, UAVs, in the world's order)."""
-    sizes = {"targets": scenario.targets.size(), "decoys": scenario.decoys.size(), "uavs": scenario.swarm.n_uavs}
-    out, start = {}, 0
-    for name, size in sizes.items():
-        out[name] = slice(start, start + size)
-        start += size
-    return out
-
-
 class LogError(ValueError):
     """A log that cannot be replayed (the message names the file, topic, field or row)."""
 

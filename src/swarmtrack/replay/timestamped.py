@@ -1,4 +1,5 @@
-"""The ``steps`` of the time-stamped readers (``rosbag``, ``ulog``, ``csv``): one flight from any mix of their logs.
+"""The ``steps`` of the time-stamped readers (each registers ``stamped``; built in: ``rosbag``, ``ulog``, ``csv``): one
+flight from any mix of their logs.
 
 A flight is often logged in pieces: one PX4 ULog per UAV for its navigation, and a ROS bag or a CSV file of the
 detections and the ground truth. :func:`steps` sorts the logs given by the reader that recognises each one (a bag:
@@ -17,47 +18,45 @@ from __future__ import annotations
 import heapq
 from pathlib import Path
 
-from swarmtrack.replay import csv_log, rosbag, ulog
+from swarmtrack import registry
 from swarmtrack.replay.grid import MAX_GAP, TRUTH_GAP, WINDOW, on_grid, plan
 from swarmtrack.replay.steps import LogError, Planned
 
-#: The time-stamped readers, in the order they are asked whether they recognise a log.
-READERS = {"rosbag": rosbag, "ulog": ulog, "csv": csv_log}
+
+def readers() -> dict:
+    """The registered time-stamped readers (:attr:`~swarmtrack.replay.formats.LogFormat.stamped`), by name."""
+    return {name: f for name, f in registry.kinds(registry.READER).items() if f.stamped is not None}
 
 
 def group(paths) -> dict[str, list[Path]]:
-    """``paths`` by the reader that recognises each one; a log none recognises is refused naming it."""
-    out: dict[str, list[Path]] = {name: [] for name in READERS}
+    """``paths`` by the time-stamped reader that recognises each one (the first by name); a log none recognises is
+    refused naming it."""
+    known = readers()
+    out: dict[str, list[Path]] = {name: [] for name in known}
     for path in map(Path, paths):
         if not path.exists():
             raise LogError(f"{path}: no such file or folder")
-        name = next((n for n, reader in READERS.items() if reader.accepts(path)), None)
+        name = next((n for n, reader in known.items() if reader.recognises(path)), None)
         if name is None:
-            raise LogError(f"{path}: not a ROS bag (.bag, .mcap, .db3, a folder with metadata.yaml), a PX4 ULog "
-                           "(.ulg) or a CSV file (.csv)")
+            files = [reader.files for reader in known.values()]
+            raise LogError(f"{path}: not {', '.join(files[:-1])} or {files[-1]}")
         out[name].append(path)
     return out
 
 
 def steps(paths, scenario, mapping, counts: dict) -> Planned:
-    """The estimation steps of the logs ``paths`` (any mix of bags, ULogs and CSVs) for ``scenario``, ``mapping``
-    the map file (None: CSVs alone); ``counts`` gets what was skipped (a :class:`~swarmtrack.replay.formats.LogFormat`'s
-    ``steps``). The logs are read twice: once for their stamps (:func:`~swarmtrack.replay.grid.plan`: t = 0, the
-    number of steps, the gaps; its skips are not counted), then for the replay; CSVs are read once, kept whole."""
+    """The estimation steps of the logs ``paths`` (any mix of the time-stamped readers' logs: bags, ULogs, CSVs) for
+    ``scenario``, ``mapping`` the map file (None: CSVs alone); ``counts`` gets what was skipped (a
+    :class:`~swarmtrack.replay.formats.LogFormat`'s ``steps``). The logs are read twice: once for their stamps
+    (:func:`~swarmtrack.replay.grid.plan`: t = 0, the number of steps, the gaps; its skips are not counted), then
+    for the replay (a reader may read its logs once and give them twice: CSVs are kept whole). Messages of equal
+    stamps are merged in the readers' name order."""
     logs = group(paths)
-    if logs["rosbag"] and mapping is None:
-        raise LogError(f"{logs['rosbag'][0]}: a ROS bag needs a map (--map) naming its topics (docs/replay.md)")
-    table = csv_log.read(logs["csv"], mapping, counts, scenario.swarm.n_uavs) if logs["csv"] else None
+    passes = [p for p in (registry.resolve(f.stamped)(logs[name], scenario, mapping, counts)
+                          for name, f in readers().items()) if p is not None]
 
     def merged(counted: dict):
-        streams = []
-        if logs["rosbag"]:
-            streams.append(rosbag.messages(logs["rosbag"], mapping, counted))
-        if logs["ulog"] or (mapping is not None and any(s.log is not None for s in mapping.uavs.values())):
-            streams.append(ulog.messages(logs["ulog"], mapping, counted))
-        if table is not None:
-            streams.append(iter(table))
-        return heapq.merge(*streams, key=lambda m: m.stamp)
+        return heapq.merge(*(p(counted) for p in passes), key=lambda m: m.stamp)
 
     window = WINDOW if mapping is None else mapping.window
     max_gap = MAX_GAP if mapping is None else mapping.max_gap

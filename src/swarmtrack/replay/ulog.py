@@ -214,3 +214,11 @@ def messages(paths: list[Path], mapping, counts: dict) -> Iterator[Navigation]:
     files = _files(paths, mapping)
     streams = [_navigation(path, number - 1, mapping.uavs[number], counts) for number, path in files.items()]
     return heapq.merge(*streams, key=lambda m: m.stamp)
+
+
+def stamped(paths: list[Path], scenario, mapping, counts: dict):
+    """The ULogs' navigation per pass (:attr:`~swarmtrack.replay.formats.LogFormat.stamped`): of the ULogs given and
+    those the map names (``uavs.N.log``); None when there are neither."""
+    if not paths and (mapping is None or all(s.log is None for s in mapping.uavs.values())):
+        return None
+    return lambda counted: messages(paths, mapping, counted)

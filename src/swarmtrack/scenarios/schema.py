@@ -448,6 +448,9 @@ class SensorSpec(Strict):
     #: Whether it reads heights: the world flies them (``swarm.altitude``, the targets' altitude and climb) and its
     #: estimators run 3-D models; a planar sensor's estimators run planar ones.
     three_d: ClassVar[bool] = False
+    #: The groups whose members it sees, in label order: it reports member m of the k-th group, whose predecessors
+    #: hold L members, as label L + m (:func:`~swarmtrack.onboard.context.sensor_labels`).
+    sensed: ClassVar[tuple[str, ...]] = ("targets", "decoys")
     latency: float = Field(0.0, ge=0, le=5.0, description=(
         "s, age of a measurement when the filter uses it as current (sensing and middleware delay; "
         "rounded to the physics step)"))

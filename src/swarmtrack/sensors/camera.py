@@ -195,3 +195,20 @@ def sense_imperfect(objects: np.ndarray, uavs: np.ndarray, stamped: np.ndarray, 
     frame = ground_affine(rotation_of(*commanded), stamped, height)[world, uav]
     return Detections(world * n + uav, z, stamped[world, uav], labels[world, obj], uavs.shape[0] * n, frame=frame,
                       taken=taken), labels[world, obj]
+
+
+def of_relative(rel: np.ndarray, pos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """W20 eq. 4.16's affine measurement ``z = A p + b`` of targets at planar positions ``rel`` (M, 2) relative to
+    the UAVs at ``pos`` (M, 2), with ``A = I``, ``b = −p_uav``: the relative position itself, stamped with its frame
+    ``[I | −p_uav]`` (:class:`~swarmtrack.registry.Measurement`)."""
+    frame = np.zeros((len(rel), 2, 3))
+    frame[:, 0, 0] = frame[:, 1, 1] = 1.0
+    frame[:, :, 2] = -pos
+    return rel.copy(), frame
+
+
+def relative_of(det: Detections) -> np.ndarray:
+    """``p = A⁻¹ (z − b)`` (solved) of ``det``'s frames, less where the UAVs were: the inverse of
+    :func:`of_relative` for any affine frame."""
+    p = np.linalg.solve(det.frame[:, :, :2], (det.z - det.frame[:, :, 2])[..., None])[..., 0]
+    return p - det.sensor_pos

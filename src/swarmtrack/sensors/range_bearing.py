@@ -188,3 +188,16 @@ def _grid(n: int, m: int) -> tuple[np.ndarray, np.ndarray]:
     owner.setflags(write=False)
     source.setflags(write=False)
     return owner, source
+
+
+def of_relative(rel: np.ndarray, pos: np.ndarray) -> tuple[np.ndarray, None]:
+    """L24 Sec. 3.2's noiseless ``z = [ρ, β]`` of targets at planar positions ``rel`` (M, 2) relative to the UAVs
+    at ``pos`` (M, 2), and no frame: what a log's relative positions are replayed as
+    (:class:`~swarmtrack.registry.Measurement`)."""
+    return np.stack([np.hypot(rel[:, 0], rel[:, 1]), np.arctan2(rel[:, 1], rel[:, 0])], axis=1), None
+
+
+def relative_of(det: Detections) -> np.ndarray:
+    """The planar target positions relative to their UAVs (M, 2) that ``det``'s ``[ρ, β]`` say: the inverse of
+    :func:`of_relative`."""
+    return det.z[:, :1] * np.stack([np.cos(det.z[:, 1]), np.sin(det.z[:, 1])], axis=1)

@@ -22,19 +22,17 @@ import numpy as np
 from swarmtrack import registry
 from swarmtrack.estimation.base import TargetView
 from swarmtrack.network.channel import Channel, WorldsChannel
+from swarmtrack.onboard.build import component, onboard_stack
 from swarmtrack.onboard.context import clock_of, context
-from swarmtrack.onboard.stack import OnboardStack
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sim.build import (
     Simulation,
     _group,
     _oracle,
-    build_component,
-    profiles,
-    run_meta,
     spawn_positions,
 )
 from swarmtrack.sim.engine import step_loop
+from swarmtrack.sim.meta import profiles, run_meta
 from swarmtrack.sim.oracle import TruthOracle
 from swarmtrack.sim.recorder import Chunk, Recorder, Recording
 from swarmtrack.sim.streams import stream
@@ -122,7 +120,7 @@ def build_batch(scenarios: list[Scenario]) -> tuple[Simulation, list[dict]]:
                  np.concatenate([spawn_positions(s, stream(s.seed, "spawn")) for s in scenarios]),
                  params=vehicle(first.swarm.vehicle).make_params(first.swarm))
     groups = [_concat_group("targets", scenarios, flown), _concat_group("decoys", scenarios, flown), uavs]
-    world = World(groups, build_component("sensor", first, first), dt=clock.dt,
+    world = World(groups, component("sensor", first, first), dt=clock.dt,
                   ticks=clock.steps * clock.ticks_estimation,
                   nav_std=(first.swarm.nav_position_std, first.swarm.nav_velocity_std),
                   streams=[lambda purpose, seed=s.seed: stream(seed, purpose) for s in scenarios],
@@ -135,13 +133,11 @@ def build_batch(scenarios: list[Scenario]) -> tuple[Simulation, list[dict]]:
         return np.repeat([world.label_of(o) for o in objects], n)
 
     ctx = context(first, label_of, worlds=worlds)
-    estimator = build_component("estimator", first, ctx)
-    controller = build_component("controller", first, ctx)
-    guide = estimator
+    stack = onboard_stack(ctx)
     followed = first.estimator.followed_target()
     if first.controller.follows_truth():  # each world's UAVs told their own world's target (the schema checked it)
         start = world.slices["targets"].start
-        guide = WorldsOracle([_oracle(world, start + b * per["targets"] + followed - 1,
+        stack.guide = WorldsOracle([_oracle(world, start + b * per["targets"] + followed - 1,
                                       f["targets"][followed - 1], n) for b, f in enumerate(flown)])
     net = first.network
     channel = WorldsChannel(tuple(Channel(net.topology, n, net.r_comm, tuple((a - 1, b - 1) for a, b in net.edges),
@@ -151,7 +147,7 @@ def build_batch(scenarios: list[Scenario]) -> tuple[Simulation, list[dict]]:
     metas = [run_meta(s, local, f, clock.dt_estimation) for s, f in zip(scenarios, flown, strict=True)]
     batch_meta = {**metas[0], "seed": None, "groups": {k: [v.start, v.stop] for k, v in world.slices.items()},
                   "tracked": None, "worlds": worlds}
-    sim = Simulation(world, OnboardStack(estimator, controller, guide), channel, clock, batch_meta)
+    sim = Simulation(world, stack, channel, clock, batch_meta)
     return sim, metas
 
 

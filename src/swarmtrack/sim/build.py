@@ -15,13 +15,15 @@ import numpy as np
 
 from swarmtrack import registry
 from swarmtrack.network.channel import Channel
-from swarmtrack.network.faults import Liar
+from swarmtrack.network.exchange import channel_of
 from swarmtrack.network.links import edge_list, proximity_links
-from swarmtrack.onboard.context import Context, clock_of, context
+from swarmtrack.onboard.build import component, onboard_stack
+from swarmtrack.onboard.context import clock_of, context, sensor_labels
 from swarmtrack.onboard.stack import OnboardStack
 from swarmtrack.scenarios.schema import GroupSpec, Scenario, SensorSpec
 from swarmtrack.scenarios.spawn import on_lattice
 from swarmtrack.sim.clock import Clock
+from swarmtrack.sim.meta import profiles, run_meta
 from swarmtrack.sim.oracle import TruthOracle
 from swarmtrack.sim.sensors import Occluder, hidden_by
 from swarmtrack.sim.streams import stream
@@ -33,13 +35,6 @@ from swarmtrack.vehicles.quadrotor import DEFAULT_PARAMS
 def occluders(s: SensorSpec) -> tuple[Occluder, ...]:
     """The world's occluders of a sensor's settings (0-based UAVs)."""
     return tuple(Occluder(o.region, o.window, tuple(u - 1 for u in o.uavs)) for o in s.occluders)
-
-
-def build_component(role: str, scenario: Scenario, ctx: Context | Scenario):
-    """The ``role`` component of ``scenario``, by its registered kind's builder (estimator and controller: with the
-    builder context; sensor: with the scenario)."""
-    spec = getattr(scenario, role)
-    return registry.get(role, spec.kind).builder()(spec, ctx)
 
 
 def spawn_positions(scenario: Scenario, rng: np.random.Generator) -> np.ndarray:
@@ -69,16 +64,6 @@ def _too_close(pos: np.ndarray, min_sep: float) -> np.ndarray:
         receivers, senders = edge_list(proximity_links(pos, min_sep))
         close[np.maximum(receivers, senders)] = True
     return close
-
-
-def profiles(scenario: Scenario, group: str) -> tuple:
-    """The velocity profile of each member of a driven group (random manoeuvres from the stream
-    ``manoeuvres/<group>/<member>``); kinematic vehicles (walkers) fly none."""
-    spec = getattr(scenario, group)
-    if vehicle(spec.vehicle).is_kinematic:
-        return ()
-    return tuple(m.velocity_profile(stream(scenario.seed, f"manoeuvres/{group}/{k}"))
-                 for k, m in enumerate(spec.members))
 
 
 def _altitude(scenario: Scenario, kind: str, z0, hold=None) -> GroupAltitude | None:
@@ -158,66 +143,29 @@ def build(scenario: Scenario) -> Simulation:
     flown = {g: profiles(scenario, g) for g in ("targets", "decoys")}
     groups = [_group("targets", scenario.targets, flown["targets"], seed, scenario),
               _group("decoys", scenario.decoys, flown["decoys"], seed, scenario), _uavs(scenario)]
-    world = World(groups, build_component("sensor", scenario, scenario),
+    world = World(groups, component("sensor", scenario, scenario),
                   dt=dt_phys, ticks=clock.steps * clock.ticks_estimation,
                   nav_std=(scenario.swarm.nav_position_std, scenario.swarm.nav_velocity_std),
                   streams=lambda purpose: stream(seed, purpose), compiled=compiled)
-    ctx = context(scenario, lambda group, member: world.label_of(world.slices[group].start + member))
-    estimator = build_component("estimator", scenario, ctx)
-    controller = build_component("controller", scenario, ctx)
+    label_of = sensor_labels(scenario)
+    stack = onboard_stack(context(scenario, label_of))
     followed = scenario.estimator.followed_target()  # 1-based member of targets, checked by the schema
     tracked = None if followed is None else world.slices["targets"].start + followed - 1
-    guide = estimator
     if scenario.controller.follows_truth():  # the schema checked there is a target
-        guide = _oracle(world, tracked, flown["targets"][followed - 1], n)
-    net = scenario.network
-    channel = Channel(net.topology, n, net.r_comm, tuple((a - 1, b - 1) for a, b in net.edges),
-                      net.loss_probability, stream(seed, "channel"),
-                      outages=tuple((tuple(u - 1 for u in o.uavs), o.window) for o in net.outages),
-                      delay=net.delay, delay_max=net.delay_bound(), dt=dt_est, delay_rng=stream(seed, "channel/delay"),
-                      liar=None if net.liar is None else Liar(net.liar.uav - 1, net.liar.mode, net.liar.offset,
-                                                              net.liar.sigma, net.liar.start, stream(seed, "liar")))
+        stack.guide = _oracle(world, tracked, flown["targets"][followed - 1], n)
     meta = run_meta(scenario, world.slices, flown, dt_est)
     # the label the sensor reports for the tracked target (which detections are of it, for readers of the inputs)
-    meta["tracked_label"] = None if tracked is None else world.label_of(tracked)
-    return Simulation(world, OnboardStack(estimator, controller, guide), channel, clock, meta,
-                      monitors(scenario, world, {"estimator": estimator, "controller": controller}))
+    meta["tracked_label"] = None if followed is None else label_of("targets", followed - 1)
+    return Simulation(world, stack, channel_of(scenario, dt_est), clock, meta,
+                      monitors(scenario, world, {"estimator": stack.estimator, "controller": stack.controller}))
 
 
 def monitors(scenario: Scenario, world: World, components: dict) -> dict[str, Callable[[], np.ndarray]]:
     """The truth-side checks the run's kinds registered (:attr:`swarmtrack.registry.Kind.monitors`), recorded beside
     the probes, (N,) each; never onboard."""
     out = {}
-    for role, component in components.items():
+    for role, built in components.items():
         kind = registry.get(role, getattr(scenario, role).kind)
         if kind.monitors is not None:
-            out.update(registry.resolve(kind.monitors)(world, component))
+            out.update(registry.resolve(kind.monitors)(world, built))
     return out
-
-
-def run_meta(scenario: Scenario, slices: dict[str, slice], flown: dict[str, tuple], dt_estimation: float) -> dict:
-    """What a recording of one world says about its run: the groups' object ranges, the tracked object, the phases,
-    and what capability 1's metrics and figures read."""
-    followed = scenario.estimator.followed_target()
-    net = scenario.network
-    return {
-        "scenario": scenario.name, "seed": scenario.seed, "dt": dt_estimation, "topology": net.topology,
-        "r_comm": net.r_comm, "liar": None if net.liar is None else net.liar.uav - 1,
-        "groups": {name: [sl.start, sl.stop] for name, sl in slices.items()},
-        "tracked": None if followed is None else slices["targets"].start + followed - 1,
-        "phase_names": [] if followed is None or not flown["targets"]
-        else list(flown["targets"][followed - 1].phase_names),
-        # each object's phases, in the world's order (targets, decoys, UAVs); kinematic vehicles fly no profile
-        "object_phases": [names for g in ("targets", "decoys") for names in
-                          ([[]] * getattr(scenario, g).size() if vehicle(getattr(scenario, g).vehicle).is_kinematic
-                           else [list(p.phase_names) for p in flown[g]])] + [[]] * scenario.swarm.n_uavs,
-        "d": float("nan"),  # the flocking's (capability 1's spacing metrics), from controller.recording_meta()
-        # the metrics judge the run from here: when the chase starts, or when the estimator's warm-up ends
-        "chase_start": max(scenario.controller.chase_start_steps(), scenario.estimator.warmup_steps()) * dt_estimation,
-        "model": None,  # the filter's motion model (capability 1's figures), from estimator.recording_meta()
-        "sensor": scenario.sensor.model_dump(mode="json"),
-        "estimator": scenario.estimator.model_dump(mode="json"),
-        "controller": scenario.controller.model_dump(mode="json"),
-        **scenario.estimator.recording_meta(),
-        **scenario.controller.recording_meta(),
-    }

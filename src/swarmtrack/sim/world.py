@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from swarmtrack import registry
+from swarmtrack.onboard.context import sensed_objects
 from swarmtrack.sim.altitude_channel import AltitudeChannel
 from swarmtrack.sim.sensors import Scene, Sensor
 from swarmtrack.vehicles import double_integrator, fixed_wing, quadrotor
@@ -224,13 +225,6 @@ class _Layout:
     point_obj: list = field(default_factory=list)
     quad_driver: list = field(default_factory=list)
     point_driver: list = field(default_factory=list)
-
-
-def sensed_objects(slices: dict[str, slice], groups) -> np.ndarray:
-    """The world objects (rows of ``slices``' groups) a sensor of ``groups`` sees, in label order: a cooperative
-    sensor labels each by its place here."""
-    return np.concatenate([np.arange(slices[n].start, slices[n].stop, dtype=np.int64)
-                           for n in groups if n in slices] or [np.zeros(0, np.int64)])
 
 
 class World:

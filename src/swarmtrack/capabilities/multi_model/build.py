@@ -1,18 +1,14 @@
-"""W20 Ch. 4's builders: the multi-model distributed EKF and the gimballed camera."""
+"""W20 Ch. 4's onboard builder: the multi-model distributed EKF (the gimballed camera is built in :mod:`.world`)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from swarmtrack.capabilities.multi_model.sensor import Budget, ImperfectCamera
 from swarmtrack.capabilities.multi_model.settings import CameraSpec, MultiModelSpec
 from swarmtrack.estimation.measurements import CameraFrameMeasurement, RangeBearingMeasurement
 from swarmtrack.estimation.multimodel import MultiModelEstimator
 from swarmtrack.models import make_model
 from swarmtrack.onboard.context import Context
-from swarmtrack.scenarios.schema import Scenario
-from swarmtrack.sim.build import occluders
-from swarmtrack.sim.sensors import CameraSensor
 
 #: W20 Table 4.1: x̂0 = [h⁻¹(z0); 0], with CT's turn rate ω0 = 1e-5 rad/s.
 W20_HIDDEN_START = {"cv": (0.0, 0.0), "ca": (0.0,) * 4, "ct": (0.0, 0.0, 1e-5)}
@@ -37,14 +33,3 @@ def multimodel(spec: MultiModelSpec, ctx: Context) -> MultiModelEstimator:
         P0={m: np.diag(diag(m, spec.p0, spec.p0_turn_rate)) for m in set(spec.models)},
         x0_hidden={m: np.asarray(W20_HIDDEN_START[m]) for m in set(spec.models)}, compiled=ctx.compiled,
         team=(list(spec.models), ctx.rows))
-
-
-def camera(s: CameraSpec, scenario: Scenario) -> CameraSensor:
-    """The ideal camera, or with any of the error budget's sources on, :class:`ImperfectCamera` (issue 27)."""
-    tan_half = (0.5 * s.footprint[0] / s.footprint_range, 0.5 * s.footprint[1] / s.footprint_range)
-    if s.ideal():
-        return CameraSensor(s.sigma, s.height, tan_half, tuple(s.home), occluders(s), s.latency)
-    budget = Budget(s.footprint_range, s.noise_distance_power, s.noise_angle_power, np.radians(s.servo_deadband),
-                    np.inf if s.servo_speed is None else np.radians(s.servo_speed), np.radians(s.servo_zero_std),
-                    s.mount_offset_std)
-    return ImperfectCamera(s.sigma, s.height, tan_half, tuple(s.home), occluders(s), s.latency, budget=budget)

@@ -2,12 +2,14 @@
 set-membership MPC."""
 
 from swarmtrack import registry
-from swarmtrack.capabilities.set_membership import metrics, settings
+from swarmtrack.capabilities.set_membership import settings
 
+_METRICS = "swarmtrack.capabilities.set_membership.metrics:"  # what the analysis reads of its runs
 _BUILD = "swarmtrack.capabilities.set_membership.build:"
+_WORLD = "swarmtrack.capabilities.set_membership.world:"  # the truth side
 
-registry.register("sensor", settings.FootprintSpec, _BUILD + "footprint_sensor")
+registry.register("sensor", settings.FootprintSpec, _WORLD + "footprint_sensor", quiet=_BUILD + "quiet_frame")
 registry.register("estimator", settings.SetMembershipSpec, _BUILD + "setmembership",
-                  monitors=_BUILD + "guarantee_monitor", metrics=metrics.METRICS, figures=metrics.FIGURES,
+                  monitors=_WORLD + "guarantee_monitor", metrics=_METRICS + "METRICS", figures=_METRICS + "FIGURES",
                   animated=True, telemetry="swarmtrack.capabilities.set_membership.telemetry:TELEMETRY")
 registry.register("controller", settings.SMMPCSpec, _BUILD + "sm_mpc")

@@ -1,9 +1,7 @@
-"""IB21's builders: the set-membership estimator and MPC (sharing one set backend), the footprint sensor and the
-truth-side monitor of the guarantee."""
+"""IB21's onboard builders: the set-membership estimator and MPC, sharing one set backend (the footprint sensor and
+the truth-side monitor of the guarantee are built in :mod:`.world`)."""
 
 from __future__ import annotations
-
-from collections.abc import Callable
 
 import numpy as np
 import shapely
@@ -12,13 +10,27 @@ from swarmtrack.capabilities.set_membership.settings import FootprintSpec, SetMe
 from swarmtrack.control.sm_mpc import SetMembershipMPC, SMMPCSettings
 from swarmtrack.estimation.set_backends import PolygonSets, RasterSets, SetBackend
 from swarmtrack.estimation.setmembership import SetMembershipEstimator
+from swarmtrack.models import fixed_wing as fw
 from swarmtrack.models.fixed_wing import FixedWingParams
 from swarmtrack.onboard.context import Context
-from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sensors import footprint
-from swarmtrack.sim.sensors import FootprintSensor
-from swarmtrack.sim.streams import stream
-from swarmtrack.sim.world import World
+from swarmtrack.sensors.detections import Detections
+
+
+def footprint_params(s: FootprintSpec) -> footprint.FootprintParams:
+    """The footprint sensor's parameters (IB21 Sec. 3.2, Sec. 6)."""
+    return footprint.FootprintParams(s.opening, s.convention, s.orientation, tuple(s.noise_bound),
+                                     confusion=s.confusion)
+
+
+def quiet_frame(s: FootprintSpec, nav: np.ndarray) -> Detections:
+    """A frame without detections (:attr:`~swarmtrack.registry.Kind.quiet`): the footprints of the fixed wings whose
+    navigation is ``nav`` (``[x, y, vx, vy]`` and their state), as the sensor stamps them (IB21 Sec. 3.2)."""
+    p, state = footprint_params(s), nav[:, 4:]
+    corners = footprint.footprint_corners(state[:, fw.X:fw.Y + 1], state[:, fw.PSI], state[:, fw.Z], p.tan_half,
+                                          p.orientation)
+    return Detections(np.zeros(0, np.int64), np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0, np.int64), len(nav),
+                      footprint=corners)
 
 
 def set_backend(spec: SetMembershipSpec) -> SetBackend:
@@ -48,36 +60,3 @@ def sm_mpc(spec: SMMPCSpec, ctx: Context) -> SetMembershipMPC:
                              footprint.tan_half(sensor.opening, sensor.convention), sensor.orientation, spec.baseline)
     sets = ctx.shared("sets", lambda: set_backend(sc.estimator))  # the estimator's: its X^A are what it plans on
     return SetMembershipMPC(sets, settings, n_uavs=ctx.n_uavs, uavs=None if ctx.rows.whole else ctx.uavs)
-
-
-def footprint_sensor(s: FootprintSpec, scenario: Scenario) -> FootprintSensor:
-    """Each sensed object's cone angles from its stream ``cones/<group>/<k>``; decoys confused with target ℓ mod N_t
-    (IB21 leaves J open)."""
-    params = footprint.FootprintParams(s.opening, s.convention, s.orientation, tuple(s.noise_bound),
-                                       confusion=s.confusion)
-    angles = [footprint.draw_cones(stream(scenario.seed, f"cones/{g}/{k}"), 1)
-              for g in ("targets", "decoys") for k in range(getattr(scenario, g).size())]
-    beta = np.array([a[0][0] for a in angles])
-    gamma = np.array([a[1][0] for a in angles])
-    n_t, n_f = scenario.targets.size(), scenario.decoys.size()
-    is_decoy = np.r_[np.zeros(n_t, bool), np.ones(n_f, bool)]
-    return FootprintSensor(params, beta, gamma, is_decoy, footprint.confusion_map(n_f, n_t))
-
-
-def guarantee_monitor(world: World, estimator: SetMembershipEstimator) -> dict[str, Callable[[], np.ndarray]]:
-    """Truth-side check recorded beside the probes, (N,): the number of true targets outside the sets that must hold
-    them (IB21's guarantee)."""
-    if not world.slices["targets"].stop - world.slices["targets"].start:
-        return {}
-    ids = np.arange(world.slices["targets"].stop - world.slices["targets"].start)
-
-    def violations() -> np.ndarray:
-        """Checked for the UAVs whose sets describe this instant (updated now); 0 for the others, whose sets are
-        older than the truth they would be compared with."""
-        now = estimator.current(world.t)
-        out = np.zeros(len(now))
-        if now.any():
-            out[now] = (~estimator.containing(world.truth("targets")[:, :2], ids)[now]).sum(axis=1)
-        return out
-
-    return {"guarantee_violations": violations}

@@ -7,7 +7,7 @@ from typing import ClassVar, Literal
 
 from pydantic import Field
 
-from swarmtrack.network.channel import delay_steps
+from swarmtrack.network.delays import delay_steps
 from swarmtrack.scenarios.schema import (
     LIAR_NEEDS,
     Angle,
@@ -76,7 +76,7 @@ class SetMembershipSpec(EstimatorSpec):
 
     def replayed_periods(self, scenario: Scenario) -> int:
         """δ̄ of IB21 Sec. 4.5: how many sharing periods late a neighbour's sets can be fused, 0 without delays or
-        neighbours. A message waits :func:`~swarmtrack.network.channel.delay_steps` estimation steps and is fused
+        neighbours. A message waits :func:`~swarmtrack.network.delays.delay_steps` estimation steps and is fused
         at the first sharing time after it arrived: the delay bound rounded up to whole periods."""
         if self.delayed_data != "refilter" or scenario.network.topology == "none":
             return 0

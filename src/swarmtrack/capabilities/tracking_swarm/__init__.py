@@ -3,16 +3,20 @@ decentralized information filter, its centralized baseline, the IMM bank over mo
 flocking controller."""
 
 from swarmtrack import registry
-from swarmtrack.capabilities.tracking_swarm import metrics, settings
+from swarmtrack.capabilities.tracking_swarm import settings
 
+_METRICS = "swarmtrack.capabilities.tracking_swarm.metrics:"  # what the analysis reads of its runs
 _BUILD = "swarmtrack.capabilities.tracking_swarm.build:"
+_WORLD = "swarmtrack.capabilities.tracking_swarm.world:"  # the truth side
 
-registry.register("sensor", settings.RangeBearingSpec, _BUILD + "range_bearing", batched=True)
-registry.register("sensor", settings.RangeBearingElevationSpec, _BUILD + "range_bearing_elevation")
+registry.register("sensor", settings.RangeBearingSpec, _WORLD + "range_bearing", batched=True,
+                  measurement=registry.Measurement("swarmtrack.sensors.range_bearing:of_relative",
+                                                   "swarmtrack.sensors.range_bearing:relative_of"))
+registry.register("sensor", settings.RangeBearingElevationSpec, _WORLD + "range_bearing_elevation")
 registry.register("estimator", settings.InformationSpec, _BUILD + "information", batched=True,
-                  metrics=metrics.METRICS, health=metrics.HEALTH, figures=metrics.FIGURES)
-registry.register("estimator", settings.CentralizedSpec, _BUILD + "information", metrics=metrics.METRICS,
-                  health=metrics.HEALTH, figures=metrics.FIGURES)
-registry.register("estimator", settings.IMMSpec, _BUILD + "imm", batched=True, metrics=metrics.METRICS,
-                  health=metrics.HEALTH, figures=(*metrics.FIGURES, metrics.PROBABILITIES))
+                  metrics=_METRICS + "METRICS", health=_METRICS + "HEALTH", figures=_METRICS + "FIGURES")
+registry.register("estimator", settings.CentralizedSpec, _BUILD + "information", metrics=_METRICS + "METRICS",
+                  health=_METRICS + "HEALTH", figures=_METRICS + "FIGURES")
+registry.register("estimator", settings.IMMSpec, _BUILD + "imm", batched=True, metrics=_METRICS + "METRICS",
+                  health=_METRICS + "HEALTH", figures=_METRICS + "IMM_FIGURES")
 registry.register("controller", settings.FlockingSpec, _BUILD + "flocking", batched=True)

@@ -1,4 +1,5 @@
-"""Capability 1's builders (L24, L23): from settings to the onboard components and the truth-side sensor."""
+"""Capability 1's onboard builders (L24, L23): from settings to the estimators and the flocking controller (the
+truth-side sensors are built in :mod:`.world`)."""
 
 from __future__ import annotations
 
@@ -8,8 +9,6 @@ from swarmtrack.capabilities.tracking_swarm.settings import (
     FilterSpec,
     FlockingSpec,
     IMMSpec,
-    RangeBearingElevationSpec,
-    RangeBearingSpec,
     refiltered_steps,
 )
 from swarmtrack.control import kernels
@@ -26,9 +25,6 @@ from swarmtrack.estimation.refilter import RefilteringEstimator
 from swarmtrack.estimation.sharing import Chi2Gate, CovarianceIntersection
 from swarmtrack.models import make_model
 from swarmtrack.onboard.context import Context
-from swarmtrack.scenarios.schema import Scenario
-from swarmtrack.sim.build import occluders
-from swarmtrack.sim.sensors import RangeBearingElevationSensor, RangeBearingSensor
 
 
 def sharing(spec: FilterSpec, ctx: Context) -> InformationSharing:
@@ -87,11 +83,3 @@ def flocking(spec: FlockingSpec, ctx: Context) -> FlockingController:
     gains = flocking_gains(spec, ctx.scenario.network.r_comm)
     law = kernels.compiled_law(gains) if ctx.compiled else flocking_control
     return FlockingController(gains, spec.variant, len(ctx.uavs), spec.chase_after_steps * ctx.dt_estimation, law=law)
-
-
-def range_bearing(s: RangeBearingSpec, scenario: Scenario) -> RangeBearingSensor:
-    return RangeBearingSensor(s.sigma_range, s.sigma_bearing, s.max_range, s.latency, occluders(s))
-
-
-def range_bearing_elevation(s: RangeBearingElevationSpec, scenario: Scenario) -> RangeBearingElevationSensor:
-    return RangeBearingElevationSensor(s.sigma_range, s.sigma_bearing, s.sigma_elevation, s.max_range, s.latency)

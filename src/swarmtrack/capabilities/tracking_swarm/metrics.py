@@ -556,3 +556,5 @@ FIGURES = (Figure("estimates.png", _FIGURES + "plot_estimates", follows),
 PROBABILITIES = Figure("model_probabilities.png",
                        "swarmtrack.capabilities.multi_model.figures:plot_model_probabilities",
                        lambda rec: "probability" in rec.meta["probes"])
+#: The IMM's figures: the estimates', and its models' probabilities.
+IMM_FIGURES = (*FIGURES, PROBABILITIES)

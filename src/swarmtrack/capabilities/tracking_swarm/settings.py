@@ -9,9 +9,9 @@ from typing import Annotated, ClassVar, Literal
 
 from pydantic import Field, ValidationInfo, field_validator
 
-from swarmtrack.control.flocking import FlockingGains
+from swarmtrack.control.gains import FlockingGains
 from swarmtrack.models import make_model
-from swarmtrack.network.channel import delay_steps
+from swarmtrack.network.delays import delay_steps
 from swarmtrack.scenarios.schema import (
     LIAR_NEEDS,
     Angle,
@@ -179,7 +179,7 @@ class FilterSpec(EstimatorSpec):
 
 def refiltered_steps(scenario: Scenario) -> int:
     """How many estimation steps late a datum can arrive: the sensor's latency (a whole number of steps, checked)
-    plus the steps the channel holds a message (:func:`swarmtrack.network.channel.delay_steps`), for a filter that
+    plus the steps the channel holds a message (:func:`swarmtrack.network.delays.delay_steps`), for a filter that
     hears neighbours (a fusion centre or a UAV without links gets no message)."""
     period = 1.0 / scenario.rates.estimation
     steps = round(scenario.sensor.latency / period)

@@ -344,9 +344,19 @@ def test_each_uav_commands_exactly_as_the_whole_swarm(recorded):
         replay_controller(ctx, ctl_log, uavs)
 
 
-@pytest.mark.parametrize("role, name, overrides, why", [
-    ("estimator", "l24-cv", ["estimator={kind: centralized, model: cv}"], "fusion centre"),
-])
+#: The kinds that refuse a build for a subset of the swarm, by design: (role, scenario, overrides, why).
+REFUSED = [("estimator", "l24-cv", ["estimator={kind: centralized, model: cv}"], "fusion centre")]
+
+
+def test_the_cases_cover_every_registered_estimator_and_controller_kind():
+    covered = {(role, getattr(load_scenario(name, [o for o in overrides if o != "sparse"]), role).kind)
+               for name, overrides in CASES.values() for role in ("estimator", "controller")}
+    covered |= {(role, getattr(load_scenario(name, overrides), role).kind) for role, name, overrides, _ in REFUSED}
+    registered = {(role, kind) for role in ("estimator", "controller") for kind in registry.kinds(role)}
+    assert registered <= covered, f"kinds no case builds for one UAV: {sorted(registered - covered)}"
+
+
+@pytest.mark.parametrize("role, name, overrides, why", REFUSED)
 def test_the_kinds_without_a_subset_build_refuse_one_by_name(role, name, overrides, why):
     scenario = load_scenario(name, overrides, seed=3)
     spec = getattr(scenario, role)

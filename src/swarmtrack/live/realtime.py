@@ -100,7 +100,7 @@ class RealtimeWorld(LockstepWorld):
 
     def _account(self, samples) -> None:
         super()._account(samples)
-        dt = self.sim.clock.dt_estimation
+        dt = self.truth.clock.dt_estimation
         for sample in samples:
             i = sample.sender
             self._late[self._process_of(i)] = sample.late
@@ -133,7 +133,7 @@ class RealtimeWorld(LockstepWorld):
             self.joining.add(i)
 
     def _finish(self) -> None:
-        dt = self.sim.clock.dt_estimation
+        dt = self.truth.clock.dt_estimation
         self.messages += [(ch, s, wire.WORLD, k, c, sent - self.epoch, lat) for ch, s, k, c, sent, lat in
                           self.node.log()]
         latency = pd.DataFrame(self.messages, columns=["channel", "sender", "receiver", "k", "c", "sent", "latency"])

@@ -28,11 +28,12 @@ from swarmtrack.live import wire
 from swarmtrack.live.agent import HELLO_EVERY, PATIENCE, scenario_hash, telemetry_of
 from swarmtrack.live.node import LOST_AFTER, Node
 from swarmtrack.network.links import neighbour_lists
-from swarmtrack.onboard.context import command_width
+from swarmtrack.onboard.build import component, onboard_stack
+from swarmtrack.onboard.context import command_width, context, sensor_labels
 from swarmtrack.outputs import Terminated
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sensors.detections import Detections
-from swarmtrack.sim.build import build
+from swarmtrack.sim.build import monitors, truth_side
 from swarmtrack.sim.recorder import Recorder, Recording
 
 if TYPE_CHECKING:
@@ -174,16 +175,21 @@ class LockstepWorld:
                  running: Callable[[int], bool] | None = None):
         self.scenario, self.node, self.patience, self.progress = scenario, node, patience, progress
         self.running = running  # whether the process of a pid is one this world started and it runs
-        self.sim = sim = build(scenario)
+        self.truth = truth = truth_side(scenario)
         self.n = scenario.swarm.n_uavs
         self.alive = set(range(self.n))
         self.report = LiveReport()
-        probes = {**sim.stack.probes, **dict.fromkeys(sim.monitors, ())}
-        # a run folder keeps the UAVs' inputs (navigation, detections) as swarmtrack run's does: it can be replayed
-        self.recorder = Recorder(sim.meta, sim.world.n_objects, self.n, probes, record_to, presence=True,
-                                 inputs=record_to is not None)
+        label_of = sensor_labels(scenario)
+        # what every UAV's sample carries (a UAV's stack declares it); the truth side builds of the UAVs' components
+        # only those its monitors read, as copies the UAVs' telemetry is mirrored into
+        self.probes = onboard_stack(context(scenario, label_of, uavs=[0])).probes
         self.telemetries = telemetry_of(scenario)
-        self.components = {"estimator": sim.stack.estimator, "controller": sim.stack.controller}
+        self.components = {role: component(role, scenario, context(scenario, label_of)) for role in self.telemetries}
+        self.monitors = monitors(scenario, truth.world, self.components)
+        # a run folder keeps the UAVs' inputs (navigation, detections) as swarmtrack run's does: it can be replayed
+        self.recorder = Recorder(truth.meta, truth.world.n_objects, self.n, {**self.probes,
+                                 **dict.fromkeys(self.monitors, ())}, record_to, presence=True,
+                                 inputs=record_to is not None)
         self.last: dict[int, wire.Sample] = {}  # each UAV's latest sample (its aim and telemetry when lost)
         self.u = np.zeros((self.n, command_width(scenario)))
         # each UAV process's latest counts of the messages it dropped, by (UAV, its process): a process lost and
@@ -202,7 +208,7 @@ class LockstepWorld:
         self._refused: dict[int, float] = {}  # processes refused (their proc), and when they were last told
 
     def run(self) -> tuple[Recording, LiveReport]:
-        node, clock = self.node, self.sim.clock
+        node, clock = self.node, self.truth.clock
         node.listen(("uav", "*", "hello"), ("uav", "*", "sample"), ("uav", "*", "command"), ("uav", "*", "alive"),
                     ("world", "*", "stop"))  # a stop it did not send (an --insecure run): said in the report
         node.heartbeat()
@@ -247,7 +253,7 @@ class LockstepWorld:
         self.processes[i] = (hello.pid, hello.started)
         self.node.current[i] = hello.proc
         self._joiners.pop(i, None)
-        self.node.send(i, wire.Start(k=k, to=hello.proc, labels=labels_of(self.sim.world), realtime=self.realtime,
+        self.node.send(i, wire.Start(k=k, to=hello.proc, labels=labels_of(self.truth.world), realtime=self.realtime,
                                      mavlink=self.fleet is not None))
 
     def _leave(self, exc: BaseException, hello: bool = False) -> None:
@@ -379,7 +385,7 @@ class LockstepWorld:
         self._refused[hello.proc] = now
         self.node.send(i, wire.Stop(reason=reason, to=hello.proc, refused=True))
         if first:
-            t = round(self.sim.world.t, 9)
+            t = round(self.truth.world.t, 9)
             self.report.refused.append({"uav": i + 1, "pid": hello.pid, "t": t, "reason": reason})
             print(f"UAV {i + 1}: process {hello.pid} refused at t = {t:.2f} s: {reason}", file=sys.stderr, flush=True)
 
@@ -414,7 +420,7 @@ class LockstepWorld:
         with self.node._cond:
             came, self.node.foreign_stops = self.node.foreign_stops, []
         for _ in came:
-            t = round(self.sim.world.t, 9)
+            t = round(self.truth.world.t, 9)
             self.report.unsealed_stops.append(t)
             print(f"warning: at t = {t:.2f} s a stop the world did not send came on its keys, unsealed: this run is "
                   "--insecure, so anyone on the network can stop its UAVs", file=sys.stderr, flush=True)
@@ -440,8 +446,7 @@ class LockstepWorld:
         navigation, detections and radio, and the time of the control step that starts now with its beacon radio)
         and answers with one (its probes, and the command of that control step); the radio's draws (links, late
         parts, beacon links) and the guide's view come in the simulator's order."""
-        sim = self.sim
-        world, channel, clock = sim.world, sim.channel, sim.clock
+        world, channel, clock, oracle = self.truth.world, self.truth.channel, self.truth.clock, self.truth.oracle
         t = k * clock.dt_estimation
         due = self._due(t)
         truth = world.truth()
@@ -452,7 +457,7 @@ class LockstepWorld:
         parts = self._parts(k, t, links)
         segments = list(clock.control_segments(k))
         beacons = channel.beacon_links(positions, world.t) if segments[0][0] else None
-        view = sim.stack.guide.view() if sim.stack.guide is not sim.stack.estimator else None
+        view = None if oracle is None else oracle.view()
         heard, mine = self._heard(links), detections.of_each_uav()
         parts = [(step, self._heard(part)) for step, part in parts]
         beacons = None if beacons is None else self._heard(beacons)
@@ -483,28 +488,28 @@ class LockstepWorld:
             offset += ticks
 
     def control_step(self, k: int, c: int, nav: np.ndarray, beacons) -> None:
-        t = self.sim.world.t
+        t = self.truth.world.t
         due, heard = self._due(t), self._heard(beacons)
         for i in self._listeners():
             self.node.send(i, wire.Navigation(k=k, c=c, taken=t, nav=self._own_nav(nav, i),
                                               radio=wire.Radio(beacons=heard[i]), due=due))
         if self.fleet is not None:
             self.fleet.publish(t, nav, self._listeners(), self._heights())
-        until = self._until(due, self.sim.clock.dt_control)
+        until = self._until(due, self.truth.clock.dt_control)
         commands = self._gather("command", k, c, t, until)
         self._fly(t, nav, {i: m.u for i, m in commands.items()}, until)
 
     def _record(self, k: int, t: float, truth: np.ndarray, samples: dict) -> None:
         """Record step ``k``: the truth, the UAVs' probes (NaN for the UAVs without a sample, marked absent in the
         recording's present mask) and the truth-side monitors on the UAVs' telemetry."""
-        sim = self.sim
+        world = self.truth.world
         self.last.update(samples)
         probes = {name: np.concatenate([self._probe(i, name, shape, samples) for i in range(self.n)])
-                  for name, shape in sim.stack.probes.items()}
+                  for name, shape in self.probes.items()}
         for role, telemetry in self.telemetries.items():  # the truth side's copy of the UAVs' components
             telemetry.mirror(self.components[role], _stacked([self.last[i].telemetry[role] for i in range(self.n)]))
-        self.recorder.record(t, sim.world.recorded_truth(truth), sim.world.phase_index(),
-                             {**probes, **{m: f() for m, f in sim.monitors.items()}},
+        self.recorder.record(t, world.recorded_truth(truth), world.phase_index(),
+                             {**probes, **{m: f() for m, f in self.monitors.items()}},
                              present=np.array([i in samples for i in range(self.n)]))
         self.recorded = k + 1
         self._account(samples.values())
@@ -525,7 +530,7 @@ class LockstepWorld:
     def _heights(self) -> np.ndarray | None:
         """The UAVs' altitudes (m) in a 3-D world, for their autopilots' navigation (None: a planar world, where each
         simulated autopilot keeps its own)."""
-        world = self.sim.world
+        world = self.truth.world
         return world.altitude("uavs")[:, 0] if world.three_d else None
 
     def _own_nav(self, nav: np.ndarray, i: int):
@@ -545,7 +550,7 @@ class LockstepWorld:
 
     def _now(self) -> float:
         """The world's clock (s): simulated time in lockstep."""
-        return self.sim.world.t
+        return self.truth.world.t
 
     def _command(self, nav: np.ndarray, commands: dict) -> None:
         """The UAVs' ``commands`` (packed, by UAV) into the world's; the lost UAVs fly :func:`safe_command`."""
@@ -566,7 +571,7 @@ class LockstepWorld:
     def _parts(self, k: int, t: float, links) -> list[tuple[int, object]]:
         """``[(send step, links)]`` of the estimation messages that reach their receivers now: this step's, then the
         late ones the simulated channel delivers now (its delays, drawn as the simulator draws them)."""
-        delivered = self.sim.channel.deliver(links, {"k": np.full(self.n, k)}, t)
+        delivered = self.truth.channel.deliver(links, {"k": np.full(self.n, k)}, t)
         return [(int(part.payloads["k"][0]), part.links) for part in delivered.parts()]
 
     def _listeners(self) -> list[int]:
@@ -620,7 +625,7 @@ class LockstepWorld:
             if got:
                 self.last.update(got)
                 self.alive.add(i)
-                self.report.rejoined.append({"uav": i + 1, "t": round(k * self.sim.clock.dt_estimation, 9)})
+                self.report.rejoined.append({"uav": i + 1, "t": round(k * self.truth.clock.dt_estimation, 9)})
                 self.node.send("all", wire.Roster(alive=sorted(self.alive)))
 
     def _heard(self, links) -> list[list[int]]:

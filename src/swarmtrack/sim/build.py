@@ -120,6 +120,19 @@ def _oracle(world: World, tracked: int, profile, n: int) -> TruthOracle:
 
 
 @dataclass
+class Truth:
+    """The truth side of a run: the world, the channel (the radio: who hears whom, from the true positions), the
+    clock, the recording's metadata, and the oracle a controller following the truth is given (None: it follows
+    the estimator)."""
+
+    world: World
+    channel: Channel
+    clock: Clock
+    meta: dict
+    oracle: TruthOracle | None = None
+
+
+@dataclass
 class Simulation:
     """Everything one run needs: the truth, the onboard stack, the channel, the clock and the recording's
     metadata."""
@@ -133,12 +146,12 @@ class Simulation:
     """Truth-side checks recorded beside the probes: name → a function giving (N,) values (never onboard)."""
 
 
-def build(scenario: Scenario) -> Simulation:
-    """Wire a validated scenario into a :class:`Simulation` (random streams derived by purpose from its seed)."""
+def truth_side(scenario: Scenario) -> Truth:
+    """The truth side of a validated scenario (:class:`Truth`; random streams derived by purpose from its seed): what
+    the simulator runs beside the onboard stack, and the live world runs alone."""
     clock = clock_of(scenario)
     dt_phys, dt_est = clock.dt, clock.dt_estimation
     compiled = scenario.kernels != "numpy"  # one decision for every compiled fast path (onboard.context too)
-    n = scenario.swarm.n_uavs
     seed = scenario.seed
     flown = {g: profiles(scenario, g) for g in ("targets", "decoys")}
     groups = [_group("targets", scenario.targets, flown["targets"], seed, scenario),
@@ -147,17 +160,25 @@ def build(scenario: Scenario) -> Simulation:
                   dt=dt_phys, ticks=clock.steps * clock.ticks_estimation,
                   nav_std=(scenario.swarm.nav_position_std, scenario.swarm.nav_velocity_std),
                   streams=lambda purpose: stream(seed, purpose), compiled=compiled)
-    label_of = sensor_labels(scenario)
-    stack = onboard_stack(context(scenario, label_of))
     followed = scenario.estimator.followed_target()  # 1-based member of targets, checked by the schema
     tracked = None if followed is None else world.slices["targets"].start + followed - 1
+    oracle = None
     if scenario.controller.follows_truth():  # the schema checked there is a target
-        stack.guide = _oracle(world, tracked, flown["targets"][followed - 1], n)
+        oracle = _oracle(world, tracked, flown["targets"][followed - 1], scenario.swarm.n_uavs)
     meta = run_meta(scenario, world.slices, flown, dt_est)
     # the label the sensor reports for the tracked target (which detections are of it, for readers of the inputs)
-    meta["tracked_label"] = None if followed is None else label_of("targets", followed - 1)
-    return Simulation(world, stack, channel_of(scenario, dt_est), clock, meta,
-                      monitors(scenario, world, {"estimator": stack.estimator, "controller": stack.controller}))
+    meta["tracked_label"] = None if followed is None else sensor_labels(scenario)("targets", followed - 1)
+    return Truth(world, channel_of(scenario, dt_est), clock, meta, oracle)
+
+
+def build(scenario: Scenario) -> Simulation:
+    """Wire a validated scenario into a :class:`Simulation`: its truth side and the whole swarm's onboard stack."""
+    truth = truth_side(scenario)
+    stack = onboard_stack(context(scenario, sensor_labels(scenario)))
+    if truth.oracle is not None:
+        stack.guide = truth.oracle
+    return Simulation(truth.world, stack, truth.channel, truth.clock, truth.meta,
+                      monitors(scenario, truth.world, {"estimator": stack.estimator, "controller": stack.controller}))
 
 
 def monitors(scenario: Scenario, world: World, components: dict) -> dict[str, Callable[[], np.ndarray]]:

@@ -18,6 +18,7 @@ import yaml
 
 from swarmtrack import registry
 from swarmtrack.cli_support import UsageFailure, progress_bar, report_run, warn_run, write_run
+from swarmtrack.extras import require
 from swarmtrack.scenarios.loader import ScenarioError, builtin_names, load_raw, load_scenario
 
 
@@ -149,6 +150,8 @@ def reproduce_command() -> click.Command:
         Every finished run is kept in OUT/runs and reused next time (keyed by its resolved scenario and the
         swarmtrack version); Ctrl-C stops at once; the two reports are written together or not at all (with
         --figure N: reproduction-figN.json and .md)."""
+        if cluster is not None:  # without it, a local process pool
+            require("dask", "swarmtrack reproduce --cluster")
         from swarmtrack.analysis.reproduce import figure_experiments, reproduce
         from swarmtrack.outputs import Terminated, terminate_as_exception
 
@@ -190,6 +193,8 @@ def sweep_cmd(scenario: str, grid: tuple[str, ...], runs: int, workers: int | No
     OUT/results at once, so an interrupted sweep loses only the runs in progress; --resume runs only what is
     missing. A run that fails is stored as failed and the sweep goes on. Read the store with
     swarmtrack.analysis.sweep.load_results(OUT)."""
+    if cluster is not None:  # without it, a local process pool
+        require("dask", "swarmtrack sweep --cluster")
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
     from swarmtrack.analysis.sweep import load_results, parse_grid, sweep

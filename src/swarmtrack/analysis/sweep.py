@@ -262,8 +262,10 @@ def dask_client(cluster: str, workers: int | None, warm_with: Scenario | None = 
     :class:`ScenarioError` too, before any run."""
     try:
         from distributed import Client, LocalCluster
-    except ImportError:  # pragma: no cover - a dependency
-        raise ScenarioError("--cluster needs dask.distributed (pip install 'dask[distributed]')") from None
+    except ImportError:  # the dask extra; swarmtrack sweep and reproduce refuse --cluster without it before this
+        from swarmtrack.extras import EXTRAS, missing, refusal
+
+        raise ScenarioError(refusal("--cluster", "dask", missing("dask") or list(EXTRAS["dask"]))) from None
     if cluster == "local":
         local = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
                              dashboard_address=None)

@@ -10,6 +10,7 @@ from pathlib import Path
 import click
 
 from swarmtrack.cli_support import UsageFailure
+from swarmtrack.extras import require
 from swarmtrack.outputs import OutputError, check_new_destination
 
 
@@ -22,6 +23,8 @@ from swarmtrack.outputs import OutputError, check_new_destination
 def export_cmd(run: Path, fmt: str, out: Path | None) -> None:
     """Write the run in RUN (a swarmtrack run folder) as standard messages: the truth and every UAV's estimate with
     its covariance (docs/replay.md lists the topics)."""
+    if fmt != "csv":  # a bag, written with rosbags
+        require("logs", f"swarmtrack export --format {fmt}", ["rosbags"])
     from swarmtrack.replay.run_folder import open_run, reading
     from swarmtrack.replay.steps import LogError
 

@@ -23,6 +23,7 @@ from types import SimpleNamespace
 import click
 
 from swarmtrack.cli_support import UsageFailure, report_run, warn_run, write_run
+from swarmtrack.extras import require
 from swarmtrack.scenarios.loader import ScenarioError, load_scenario
 
 #: Seconds the processes a run started get to end after SIGTERM before they are killed.
@@ -117,6 +118,7 @@ def _load(scenario: str, overrides, seed):
 @click.argument("file", type=click.Path(dir_okay=False, path_type=Path))
 def keygen_cmd(file: Path) -> None:
     """Write a new swarm key to FILE (readable by its owner only); an existing FILE is never replaced."""
+    require("live", "swarmtrack keygen", ["msgspec"])  # the wire module makes the key
     from swarmtrack.live.wire import keygen
 
     try:
@@ -150,6 +152,9 @@ def agent_cmd(**options) -> None:
     """Run UAV --uav's onboard stack (estimator, controller) of SCENARIO, as on its companion computer: its
     navigation, detections and radio from the world (or its navigation from its autopilot, --autopilot), its
     neighbours' messages over Zenoh."""
+    require("live", "swarmtrack agent")
+    if (options["autopilot"] or "").startswith("serial://"):
+        require("autopilot", "swarmtrack agent --autopilot serial://", ["pyserial"])
     from swarmtrack.autopilot.link import AutopilotError, AutopilotRefused
     from swarmtrack.live.agent import Agent
     from swarmtrack.live.node import Mismatch, Node, Stopped
@@ -206,6 +211,7 @@ def engage_cmd(**options) -> None:
     """Ask UAV --uav's swarmtrack agent to fly its vehicle again after a handover to the operator (or, with
     --release, to hand it back), through the autopilot's ground-station link at --to. Exit 0: done; 3: refused
     (the reason is printed); 1: no answer."""
+    require("autopilot", "swarmtrack engage", ["pymavlink"])  # over UDP: no serial link
     from pymavlink.dialects.v20 import common as mavlink
 
     from swarmtrack.autopilot import px4
@@ -260,6 +266,7 @@ def live_cmd(**options) -> None:
     """Run SCENARIO with every UAV's onboard stack in its own process (swarmtrack agent --uav I), talking over
     Eclipse Zenoh on loopback with this world process: in lockstep (the run folder of swarmtrack run, with the same
     numbers) or at wall-clock rate (--realtime)."""
+    require("live", "swarmtrack live")
     _serve(SimpleNamespace(**options), spawn=True)
 
 
@@ -270,6 +277,7 @@ def live_cmd(**options) -> None:
 def world_cmd(**options) -> None:
     """Run the truth side of SCENARIO alone (world, sensors, simulated radio, recorder) and wait for its UAVs'
     processes (swarmtrack agent --uav I --connect ENDPOINT) to join."""
+    require("live", "swarmtrack world")
     _serve(SimpleNamespace(**options), spawn=False)
 
 

@@ -39,6 +39,7 @@ def replay_cmd(logs: tuple[Path, ...], scenario: str | None, map_file: Path | No
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
     from swarmtrack.estimation.information import FilterDivergence
+    from swarmtrack.extras import require_readers
     from swarmtrack.outputs import OutputError, Terminated, run_folder
     from swarmtrack.replay.engine import replay_logs
     from swarmtrack.replay.formats import reader_for
@@ -46,8 +47,10 @@ def replay_cmd(logs: tuple[Path, ...], scenario: str | None, map_file: Path | No
     from swarmtrack.scenarios.loader import ScenarioError, load_scenario
 
     try:
+        reader = reader_for(fmt, logs)
+        require_readers(_readers(reader, logs))  # a bag's or a ULog's library: before anything is read
         if scenario is None:
-            if reader_for(fmt, logs).name != "run" or not (logs[0] / "scenario.yaml").is_file():
+            if reader.name != "run" or not (logs[0] / "scenario.yaml").is_file():
                 raise UsageFailure("--scenario FILE|NAME is needed (only a run folder brings its own)")
             scenario = str(logs[0] / "scenario.yaml")
         scn = load_scenario(scenario, list(overrides), seed)
@@ -75,6 +78,17 @@ def replay_cmd(logs: tuple[Path, ...], scenario: str | None, map_file: Path | No
         sys.exit(130)
     report_run(metrics, scn, out)
     warn_run(metrics, strict)
+
+
+def _readers(reader, logs) -> set[str]:
+    """The names of the readers of ``logs`` given the one recognised or named (``reader``): a time-stamped reader's
+    logs are any mix of the time-stamped readers' (bags, ULogs, CSVs), each read by its own
+    (:func:`swarmtrack.replay.timestamped.group`)."""
+    if reader.stamped is None:
+        return {reader.name}
+    from swarmtrack.replay.timestamped import group
+
+    return {name for name, paths in group(logs).items() if paths}
 
 
 def _warnings(counts: dict[str, int]) -> list[dict]:

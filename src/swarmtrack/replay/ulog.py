@@ -87,8 +87,10 @@ def _load(path: Path, names: list[str]):
     """The ULog at ``path`` with the messages ``names`` (pyulog prints its warnings; they are kept quiet)."""
     try:
         from pyulog import ULog
-    except ImportError:
-        raise LogError(f"{path}: reading PX4 ULog files needs pyulog (pip install pyulog)") from None
+    except ImportError:  # a ULog the map names: swarmtrack replay checked only the logs it was given
+        from swarmtrack.extras import refusal
+
+        raise LogError(f"{path}: {refusal('reading PX4 ULog files', 'logs', ['pyulog'])}") from None
     try:
         f = _Watched(io.FileIO(path, "r"))
     except OSError as exc:

@@ -32,15 +32,6 @@ EXTRAS: dict[str, dict[str, str]] = {
     "dask": {"dask": "dask", "distributed": "distributed"},
 }
 
-#: ``swarmtrack replay``'s readers (:mod:`swarmtrack.capabilities.readers`) → the extra and distribution each reads
-#: with, None for those of the core (a test holds every registered reader here).
-READERS: dict[str, tuple[str, str] | None] = {
-    "run": None,
-    "csv": None,
-    "rosbag": ("logs", "rosbags"),
-    "ulog": ("logs", "pyulog"),
-}
-
 
 class MissingExtra(click.ClickException):
     """A command needs an extra that is not installed: one line naming it, exit code 2 (as
@@ -73,8 +64,12 @@ def require(extra: str, what: str, packages: Iterable[str] | None = None) -> Non
 
 
 def require_readers(names: Iterable[str], what: str = "swarmtrack replay") -> None:
-    """:func:`require` what the replay readers ``names`` (:data:`READERS`) read with."""
+    """:func:`require` what the replay readers ``names`` read with (their registrations' ``extra``,
+    :class:`~swarmtrack.replay.formats.LogFormat`)."""
+    from swarmtrack import registry
+
+    readers = registry.kinds(registry.READER)
     for name in sorted(set(names)):
-        need = READERS.get(name)
+        need = readers[name].extra
         if need is not None:
             require(need[0], f"{what} of {name} logs", [need[1]])

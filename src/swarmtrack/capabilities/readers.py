@@ -25,11 +25,11 @@ _STEPS = "swarmtrack.replay.timestamped:steps"
 registry.register_reader(LogFormat(
     "rosbag", "ROS 1 bags and ROS 2 bags (sqlite3 or MCAP storage), read with rosbags; topics named by --map",
     "swarmtrack.replay.rosbag:accepts", _STEPS, needs_map=True, stamped="swarmtrack.replay.rosbag:stamped",
-    files="a ROS bag (.bag, .mcap, .db3, a folder with metadata.yaml)"))
+    files="a ROS bag (.bag, .mcap, .db3, a folder with metadata.yaml)", extra=("logs", "rosbags")))
 registry.register_reader(LogFormat(
     "ulog", "PX4 ULog files (pyulog), one per UAV, for its navigation; files and messages named by --map",
     "swarmtrack.replay.ulog:accepts", _STEPS, needs_map=True, stamped="swarmtrack.replay.ulog:stamped",
-    files="a PX4 ULog (.ulg)"))
+    files="a PX4 ULog (.ulg)", extra=("logs", "pyulog")))
 registry.register_reader(LogFormat(
     "csv", "CSV files, one row per message (t, uav, kind, x, y, ...: docs/replay.md); no map needed",
     "swarmtrack.replay.csv_log:accepts", _STEPS, stamped="swarmtrack.replay.csv_log:stamped",

@@ -34,6 +34,9 @@ class LogFormat:
     phases: bool = False
     stamped: Ref | None = None
     files: str = ""
+    extra: tuple[str, str] | None = None
+    """The extra and its distribution it reads with (``("logs", "rosbags")``: :mod:`swarmtrack.extras`); None: the
+    core's."""
 
     def recognises(self, path) -> bool:
         return bool(resolve(self.accepts)(path))

@@ -161,15 +161,19 @@ def test_a_hold_a_disarm_and_a_landing_each_hand_the_vehicle_over_until_swarmtra
     assert report["1"][0]["mode"] == ("Hold" if held[0][1] == "operator" else "Position")
     # a busy machine may stall a process for over a second (its vehicle's failsafe then takes it too, UAV 4's as well):
     # what the mode promises is judged: engaged again only when asked, each handover said once
-    assert all(("engaged", None) not in causes[uav] for uav in "234"), report
-    assert all(cause == "failsafe" for _, cause in causes["4"]), report
+    # UAV 4, engaged, is refused by swarmtrack engage; unless a stall had handed it to its failsafe before the ask
+    # came (its first handover a failsafe's, and the ask engaged it: once, asked)
+    taken = realtime and refused.returncode == 0 and causes["4"][:2] == [("handover", "failsafe"), ("engaged", None)]
+    assert all(("engaged", None) not in causes[uav] for uav in "23"), report
+    assert causes["4"].count(("engaged", None)) == taken, report
+    assert all(cause == "failsafe" for event, cause in causes["4"] if event == "handover"), report
     for i in range(3):
         handovers = [c for c in causes[str(i + 1)] if c[0] == "handover"]
         assert errs[i].count("its autopilot left offboard mode") == len(handovers), errs[i][-2000:]
         flown = [b for b in gcs.offboard_after(i, sent[i] + 0.5) if i or b[0] < asked]
         assert flown == []  # not back in offboard mode (UAV 1: until swarmtrack engage asked)
     if realtime:
-        assert refused.returncode == 3 and "already engaged" in refused.stderr, refused.stderr
+        assert taken or (refused.returncode == 3 and "already engaged" in refused.stderr), refused.stderr
         assert engaged.returncode == 0 and "UAV 1: engaged" in engaged.stdout, engaged.stderr
         assert gcs.offboard_after(0, back)  # offboard again, flown by its agent
         assert causes["1"][1] == ("engaged", None) and errs[0].count("engaged again") == 1, report

@@ -179,7 +179,8 @@ class Kind:
 
 
 def _tuple(declared: Declared) -> tuple:
-    return tuple(resolve(declared) if isinstance(declared, str) else declared)
+    named: Any = resolve(declared) if isinstance(declared, str) else declared  # a string names a tuple
+    return tuple(named)
 
 
 class UnknownKind(ValueError):
@@ -233,8 +234,9 @@ def register(role: str, settings: type, build: Ref, *, metrics: Declared = (), h
         raise TypeError(f"{settings.__name__}.kind needs a string default (its kind)")
     if name in _KINDS[role]:
         raise ValueError(f"{role} kind {name!r} is already registered (by {_KINDS[role][name].module})")
-    declared = (d if isinstance(d, str) else tuple(d) for d in (metrics, health, figures))
-    kind = Kind(role, name, settings, build, *declared,
+    declared_metrics, declared_health, declared_figures = (d if isinstance(d, str) else tuple(d)
+                                                           for d in (metrics, health, figures))
+    kind = Kind(role, name, settings, build, declared_metrics, declared_health, declared_figures,
                 animated=animated, batched=batched, monitors=monitors, telemetry=telemetry, measurement=measurement,
                 quiet=quiet, module=settings.__module__)
     _KINDS[role][name] = kind

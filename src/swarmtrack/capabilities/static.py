@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 from swarmtrack import registry
 from swarmtrack.scenarios.schema import ControllerSpec
+
+if TYPE_CHECKING:
+    from swarmtrack.control.static import StaticController
+    from swarmtrack.onboard.context import Context
 
 
 class StaticSpec(ControllerSpec):
@@ -15,7 +19,7 @@ class StaticSpec(ControllerSpec):
     kind: Literal["static"] = "static"
 
 
-def build(spec: StaticSpec, ctx):
+def build(spec: StaticSpec, ctx: Context) -> StaticController:
     """:class:`~swarmtrack.control.static.StaticController` (imported here: registering the kind imports no control
     law)."""
     from swarmtrack.control.static import StaticController

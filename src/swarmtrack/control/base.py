@@ -27,7 +27,9 @@ from swarmtrack.network.messages import Inbox, Outbox
 
 
 class Controller(Protocol):
-    probes: tuple[Probe, ...]
+    @property
+    def probes(self) -> tuple[Probe, ...]:
+        """What the recorder samples (read only: an implementation's tuple of any length, or a property)."""
 
     def broadcast(self, t: float, nav: np.ndarray) -> Outbox:
         """Each UAV's beacon this control step."""

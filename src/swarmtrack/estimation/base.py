@@ -4,10 +4,10 @@ An estimator object holds the filters of the whole swarm as arrays (row i is UAV
 engine's step loop (sense → share → deliver → fuse → publish → deliver → combine → record): :meth:`Estimator.share`
 predicts and returns what each UAV broadcasts; the channel delivers it; :meth:`Estimator.fuse` updates row i from
 UAV i's own detections and its inbox only; an estimator that fuses estimates across UAVs publishes its posteriors
-and combines what arrives. Controllers read :meth:`Estimator.view`; the recorder samples the declared
-:attr:`Estimator.probes`. Implementations: :mod:`swarmtrack.estimation.information` (decentralized information
-filter and the centralized baseline), :mod:`swarmtrack.estimation.multimodel` (W20's multi-model distributed EKF);
-registered for scenarios in :mod:`swarmtrack.sim.build`.
+and combines what arrives (a :class:`PublishingEstimator`). Controllers read :meth:`Estimator.view`; the recorder
+samples the declared :attr:`Estimator.probes`. Implementations: :mod:`swarmtrack.estimation.information`
+(decentralized information filter and the centralized baseline), :mod:`swarmtrack.estimation.multimodel` (W20's
+multi-model distributed EKF); registered for scenarios in :mod:`swarmtrack.sim.build`.
 
 An estimator built for R of the swarm's N UAVs (``Context.uavs``: one UAV's own process in the live runtime) holds
 their R rows: its inputs are their navigation, their detections (:meth:`Detections.of_uavs`) and an inbox of their
@@ -58,7 +58,9 @@ class Regions:
 
 
 class Estimator(Protocol):
-    probes: tuple[Probe, ...]
+    @property
+    def probes(self) -> tuple[Probe, ...]:
+        """What the recorder samples (read only: an implementation's tuple of any length, or a property)."""
 
     def share(self, t: float, nav: np.ndarray, own: Detections) -> Outbox:
         """Predict to ``t`` and return what each UAV broadcasts this step."""
@@ -66,15 +68,20 @@ class Estimator(Protocol):
     def fuse(self, t: float, own: Detections, inbox: Inbox) -> None:
         """Update every UAV's estimate from its own detections and what its links delivered."""
 
-    def publish(self, t: float) -> Outbox:
-        """Optional: a second broadcast after the update (e.g. posteriors, for fusion across models; W20 Sec.
-        4.3.4), or ``{}``; the engine delivers it over this step's links. An estimator without it has none."""
-
-    def combine(self, t: float, inbox: Inbox) -> None:
-        """Fuse what :meth:`publish` delivered into each UAV's output (called only when it published)."""
-
     def view(self) -> TargetView:
         """The estimates controllers follow."""
 
     def sample(self) -> dict[str, np.ndarray]:
         """The current value of every probe, (N, *shape) each."""
+
+
+class PublishingEstimator(Estimator, Protocol):
+    """An estimator with a second round after the update: the stack finds :meth:`publish` on the estimator (one
+    without it has no second round), delivers it over the step's links and hands what arrived to :meth:`combine`."""
+
+    def publish(self, t: float) -> Outbox:
+        """A second broadcast after the update (e.g. posteriors, for fusion across models; W20 Sec. 4.3.4), or
+        ``{}``; the engine delivers it over this step's links."""
+
+    def combine(self, t: float, inbox: Inbox) -> None:
+        """Fuse what :meth:`publish` delivered into each UAV's output (called only when it published)."""

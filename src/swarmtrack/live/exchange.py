@@ -62,10 +62,12 @@ class LiveExchange:
         self.node.send(self.i, wire.Publish(k=self.k, taken=t, payloads=pack(posteriors)))
         if not posteriors:
             return None
+        assert self.radio is not None, "at() sets the step first"
         heard = self._wait("publish", self.radio.links, self.k, -1, PUBLISH_BY)
         return self._assemble(self.radio.links, {s: m.payloads for s, m in heard.items()}, posteriors)
 
     def beacons(self, t: float, beacon: Outbox) -> Inbox:
+        assert self.radio is not None, "at() sets the step first"
         k, c, senders = self.k, self.c, self.radio.beacons
         if c == 0:  # the beacons came with the shares
             heard = self._wait("share", senders, k, -1, FUSE_BY, take=False, count=False)
@@ -73,7 +75,8 @@ class LiveExchange:
         else:
             self.node.send(self.i, wire.Beacon(k=k, c=c, taken=t, payloads=pack(beacon)))
             heard = {s: m.payloads for s, m in self._wait("beacon", senders, k, c, FUSE_BY).items()}
-        if getattr(self.controller, "plans", None) is None:  # not a SequentialPlanner
+        own_plans = getattr(self.controller, "plans", None)
+        if own_plans is None:  # not a SequentialPlanner
             return self._assemble(senders, heard, beacon)
         # the plans its lower-indexed neighbours made in this call; in real time, one whose plan did not come in
         # time is not heard
@@ -81,7 +84,7 @@ class LiveExchange:
         plans = self._wait("plan", lower, k, c, PLAN_BY)
         heard = {s: b for s, b in heard.items() if s > self.i or s in plans}
         inbox = self._assemble(senders, heard, beacon)
-        inbox.payloads.update(self._rows(lower, {s: m.payloads for s, m in plans.items()}, self.controller.plans()))
+        inbox.payloads.update(self._rows(lower, {s: m.payloads for s, m in plans.items()}, own_plans()))
         return inbox
 
     def planned(self, t: float, plans: Outbox) -> None:
@@ -97,6 +100,7 @@ class LiveExchange:
         simulated radio names them; in real time this step's part is what came by FUSE_BY, and a late part is what
         came since of an earlier step's, fused at its time stamp within the scenario's delay bound (later: dropped
         and counted)."""
+        assert self.radio is not None, "at() sets the step first"
         parts = []
         for send_step, senders in [*self.radio.parts, *self._late_parts(k)]:  # this step's part is always first
             heard = self._wait("share", senders, send_step, -1, FUSE_BY, take=False, count=False)

@@ -17,6 +17,7 @@ import numpy as np
 
 from swarmtrack.network.channel import Channel
 from swarmtrack.network.faults import Liar
+from swarmtrack.network.links import Links
 from swarmtrack.network.messages import Inbox, Outbox
 from swarmtrack.sim.streams import stream
 
@@ -43,7 +44,7 @@ class ChannelExchange:
     def __init__(self, channel: Channel):
         self.channel = channel
         self.positions: np.ndarray | None = None
-        self.links = None
+        self.links: Links | None = None  # those of the last share (the second message travels over them)
 
     def at(self, positions: np.ndarray) -> ChannelExchange:
         """The UAVs' planar ``positions`` (N, 2) now: the radio's geometry of the next round."""
@@ -51,13 +52,16 @@ class ChannelExchange:
         return self
 
     def share(self, t: float, outbox: Outbox, beacon: Outbox | None) -> Inbox:
+        assert self.positions is not None, "at() sets the positions first"
         self.links = self.channel.links(self.positions, t)
         return self.channel.deliver(self.links, outbox, t)
 
     def publish(self, t: float, posteriors: Outbox) -> Inbox:
+        assert self.links is not None, "share() comes first"
         return Inbox(self.links, posteriors)  # the second message travels over the links that carried the first
 
     def beacons(self, t: float, beacon: Outbox) -> Inbox:
+        assert self.positions is not None, "at() sets the positions first"
         return Inbox(self.channel.beacon_links(self.positions, t), beacon)
 
     def planned(self, t: float, plans: Outbox) -> None:

@@ -34,7 +34,8 @@ class Inbox:
     #: Messages sent at earlier steps that arrive now, one inbox per send step (a channel with delays).
     late: tuple[Inbox, ...] = ()
     #: The swarm's UAVs the rows of ``links`` are (R,), sorted; default: every UAV (square links).
-    receivers: np.ndarray | None = None
+    # None: every UAV (__post_init__ replaces it, so the field is always an array after construction)
+    receivers: np.ndarray = None  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
         if self.receivers is None:

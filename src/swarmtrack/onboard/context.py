@@ -80,7 +80,8 @@ class Context:
     command_width: int = 2
     """What a UAV's controller commands per UAV (the swarm's vehicle kind's ``command_width``): 2 (a planar
     acceleration) or 1 (a fixed wing's yaw acceleration)."""
-    uavs: np.ndarray | None = dataclasses.field(default=None, compare=False)
+    # None: every UAV (__post_init__ replaces it, so the field is always an array after construction)
+    uavs: np.ndarray = dataclasses.field(default=None, compare=False)  # type: ignore[arg-type]
     resources: dict = dataclasses.field(default_factory=dict, compare=False)
     worlds: int = 1
     """A batch of worlds (:mod:`swarmtrack.sim.batch`): ``n_uavs`` is ``worlds`` worlds' UAVs, world-major."""

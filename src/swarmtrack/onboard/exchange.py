@@ -24,9 +24,10 @@ class Exchange(Protocol):
         or None); return the estimator's inbox of the step (with the late parts that arrive now)."""
         ...
 
-    def publish(self, t: float, posteriors: Outbox) -> Inbox:
+    def publish(self, t: float, posteriors: Outbox) -> Inbox | None:
         """Send the step's second message (an estimator's :meth:`publish`, possibly empty); return the posteriors
-        received over the links that carried the first."""
+        received over the links that carried the first (None allowed when ``posteriors`` is empty: the stack
+        combines nothing then)."""
         ...
 
     def beacons(self, t: float, beacon: Outbox) -> Inbox:

@@ -17,11 +17,12 @@ controller's own state (a test checks it reads no estimator state), and it may t
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
 from swarmtrack.control.base import Controller
-from swarmtrack.estimation.base import Estimator, TargetView
+from swarmtrack.estimation.base import Estimator, PublishingEstimator, TargetView
 from swarmtrack.network.messages import Outbox
 from swarmtrack.onboard.exchange import Exchange
 
@@ -56,14 +57,18 @@ class OnboardStack:
         est = self.estimator
         with np.errstate(over="ignore", invalid="ignore"):  # a diverging filter is reported by fuse()
             outbox = est.share(t, nav, detections)
-            beacon = None if control is None else self.controller.broadcast(control, nav)
+            beacon = None
+            if control is not None:
+                assert self.controller is not None, "a control step needs a controller"
+                beacon = self.controller.broadcast(control, nav)
             est.fuse(t, detections, exchange.share(t, outbox, beacon))
-            publish = getattr(est, "publish", None)  # the optional second round (Estimator.publish)
+            publish = getattr(est, "publish", None)  # the optional second round (PublishingEstimator.publish)
             if publish is not None:
                 posteriors = publish(t)
                 received = exchange.publish(t, posteriors)
                 if posteriors:
-                    est.combine(t, received)
+                    assert received is not None, "an exchange returns the posteriors received when some were sent"
+                    cast(PublishingEstimator, est).combine(t, received)
         return beacon
 
     def control_step(self, t: float, nav: np.ndarray, view: TargetView, exchange: Exchange, dt: float,
@@ -72,6 +77,7 @@ class OnboardStack:
         ``exchange.beacons`` → command, following ``view``; a controller that plans in sequence then hands its plans
         to ``exchange.planned``. Returns the command."""
         ctl = self.controller
+        assert ctl is not None, "a control step needs a controller"
         if beacon is None:
             beacon = ctl.broadcast(t, nav)
         u = ctl.command(t, nav, view, exchange.beacons(t, beacon), dt)

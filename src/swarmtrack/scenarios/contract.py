@@ -45,10 +45,11 @@ def describe(settings: type) -> str:
         parts.append(f"gives {', '.join(sorted(settings.gives)) or 'nothing an estimator reads'}")
     if getattr(settings, "three_d", False):
         parts.append("3-D: reads heights")
-    if getattr(settings, "reads", None):
-        parts.append("reads " + " or ".join(sorted(settings.reads)))
-    if getattr(settings, "commands", None) is not None:
-        parts.append(f"commands {settings.commands} number(s) per UAV")
+    reads, commands = getattr(settings, "reads", None), getattr(settings, "commands", None)
+    if reads:
+        parts.append("reads " + " or ".join(sorted(reads)))
+    if commands is not None:
+        parts.append(f"commands {commands} number(s) per UAV")
     return "; ".join(parts)
 
 

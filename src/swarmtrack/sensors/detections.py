@@ -91,6 +91,7 @@ class Detections:
     def frame_of_label(self, label) -> np.ndarray:
         """Per-UAV ``[A | b]`` (N, 2, 3) of the detection labelled ``label`` (one label, or one per UAV as in
         :meth:`of_label`; NaN where none; needs ``frame``)."""
+        assert self.frame is not None, "needs frame"
         out = np.full((self.n_uavs, 2, 3), np.nan)
         pick = self.label == (np.asarray(label)[self.owner] if np.ndim(label) else label)
         out[self.owner[pick]] = self.frame[pick]

@@ -10,10 +10,10 @@ A vehicle kind registers once (:func:`swarmtrack.registry.register_vehicle`) as 
   through the autopilot, a commanded one (the UAVs) holds its planar accelerations.
 * ``kinematic``: a module stepping its own state (:class:`KinematicModel`, e.g.
   :mod:`swarmtrack.vehicles.ground_walker` and :mod:`swarmtrack.vehicles.fixed_wing`, IB21 Sec. 6). The swarm's
-  members take their commands (``command_width`` numbers each); a driven group draws its own inputs
-  (``draw_inputs``, stream ``walk/<group>/<member>``). ``pack`` names the compiled fast path of a built-in
-  (:func:`swarmtrack.vehicles.kernels.kinematic_step` knows ``"walker"`` and ``"fixed_wing"`` rows); a kind without
-  one is stepped by its module's ``step`` (``step_compiled`` in a compiled run), whatever registered it.
+  members take their commands (``command_width`` numbers each); a driven group draws its own inputs (``draw_inputs``,
+  stream ``walk/<group>/<member>``: a :class:`DrivenKinematicModel`). ``pack`` names the compiled fast path of a
+  built-in (:func:`swarmtrack.vehicles.kernels.kinematic_step` knows ``"walker"`` and ``"fixed_wing"`` rows); a kind
+  without one is stepped by its module's ``step`` (``step_compiled`` in a compiled run), whatever registered it.
 
 This module imports nothing of swarmtrack: the registry, the schema and the world all read it.
 """
@@ -51,6 +51,11 @@ class KinematicModel(Protocol):
 
     def truth4(self, state, params, trig=None) -> Any:
         """``(n, 4)`` ``[x, y, vx, vy]``."""
+
+
+class DrivenKinematicModel(KinematicModel, Protocol):
+    """A :class:`KinematicModel` a driven group may use (:attr:`Vehicle.group`): it draws its members' inputs. One
+    only the swarm flies (its members take their commands) needs no :meth:`draw_inputs`."""
 
     def draw_inputs(self, rng, n_ticks: int, n: int, params) -> Any:
         """``(n_ticks, n)`` inputs of a driven member, drawn from its own stream ``rng``."""

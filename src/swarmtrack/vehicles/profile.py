@@ -32,7 +32,7 @@ def _pair(value, name: str) -> Pair:
     vals = tuple(float(v) for v in value)
     if len(vals) != 2:
         raise ValueError(f"{name} must have one value per planar axis (x, y), got {value!r}")
-    return vals  # type: ignore[return-value]
+    return vals
 
 
 @dataclass(frozen=True)

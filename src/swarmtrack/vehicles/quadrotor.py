@@ -79,6 +79,7 @@ class QuadrotorParams:
     def __post_init__(self) -> None:
         if self.max_thrust is None:
             object.__setattr__(self, "max_thrust", 2.0 * self.mass * self.g)
+        assert self.max_thrust is not None
         if not 0.0 < self.max_tilt < math.pi / 2:
             raise ValueError("max_tilt must be in (0, π/2)")
         if self.max_roll_pitch is not None and not 0.0 < self.max_roll_pitch < math.pi / 2:
@@ -86,6 +87,7 @@ class QuadrotorParams:
         if self.max_thrust <= self.mass * self.g:
             raise ValueError("max_thrust must exceed the weight m·g")
         wn, zeta = self.attitude_wn, self.attitude_zeta
+        alpha_max: np.ndarray | float
         if self.Ixx == self.Iyy:  # a Python float is ~2x faster than a (2,) array in tiny ufuncs
             alpha_max = self.max_moment / self.Ixx
         else:

@@ -18,6 +18,8 @@ accumulators are O(N) per UAV plus O(steps) scalars: they stream over the record
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from swarmtrack.analysis import metrics
@@ -79,7 +81,7 @@ class NetworkHealth:
     def result(self) -> dict:
         """The ``network`` section: per UAV the totals of each probe, the fraction of its contributions gated and
         when the gates first and last left one out."""
-        out = {f"{p}_per_uav": self.total[p].tolist() for p in self.names}
+        out: dict[str, Any] = {f"{p}_per_uav": self.total[p].tolist() for p in self.names}
         if "rejected" in self.names:
             out["rejected_fraction"] = self._rejected_fraction().tolist()
             out["rejected_window"] = [None if np.isnan(a) else [float(a), float(b)]

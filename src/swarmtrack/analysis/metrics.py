@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import functools
 import math
+from typing import Any
 
 import numpy as np
 
@@ -231,7 +232,8 @@ class _NeighbourSpacing:
 
     def __init__(self, rec: Recording, last: float):
         self.rec, self.tail_from = rec, rec.t_last - last
-        self.d_min, self.offsets = np.inf, []
+        self.d_min = np.inf
+        self.offsets: list = []
 
     def add(self, c: Chunk, keep, shared) -> None:
         rec = self.rec
@@ -534,7 +536,7 @@ def _scan(rec: Recording, accumulators: list) -> list:
     with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
         for c in rec.chunks():
             keep = chase_window(rec, c.t)
-            shared = {}  # what several accumulators compute from this chunk, computed once (e.g. the errors)
+            shared: dict = {}  # what several accumulators compute from this chunk, computed once (e.g. the errors)
             for m in accumulators:
                 m.add(c, keep, shared)
         return [m.result() for m in accumulators]
@@ -595,7 +597,7 @@ def summary(rec: Recording) -> dict:
     accs["coverage"] = presence = Presence(rec)
     results = _scan(rec, [*accs.values(), *checks, spacing_accumulator(rec)])
     sections, checked, spaced = results[:len(accs)], results[len(accs):-1], results[-1]
-    out = {"warnings": [w for ws in checked for w in ws]}
+    out: dict[str, Any] = {"warnings": [w for ws in checked for w in ws]}
     out.update(zip(accs, sections, strict=True))
     for acc in accs.values():
         if hasattr(acc, "warnings") and acc is not presence:  # presence's last: it reads the sections

@@ -129,7 +129,7 @@ class Endpoint:
 
     def receive(self) -> list:
         """The messages that came (non-blocking); a claimable link answers to the latest sender from now."""
-        out = []
+        out: list = []  # pymavlink messages
         while True:
             try:
                 data, addr = self.sock.recvfrom(65536)

@@ -111,7 +111,8 @@ class AutopilotLink:
         self._send_lock, self._cond = threading.Lock(), threading.Condition()
         self.nav: np.ndarray | None = None  # the latest navigation solution [x, y, vx, vy] (ENU)
         self.nav_ms = -1  # its time_boot_ms
-        self.mode, self.sub_mode, self.armed = None, 0, False  # from the autopilot's heartbeats
+        self.mode: int | None = None  # from the autopilot's heartbeats
+        self.sub_mode, self.armed = 0, False
         self.landed: int | None = None  # MAV_LANDED_STATE from EXTENDED_SYS_STATE (None: never told)
         self.heard = -np.inf  # when the autopilot was last heard (monotonic s)
         self.gaps: deque[tuple[float, float]] = deque(maxlen=16)  # its silences over GAP s: (ended at, seconds)
@@ -259,6 +260,7 @@ class AutopilotLink:
                                  f"{timeout:g} s")
         if self.fault is not None:
             raise AutopilotError(f"UAV {self.uav + 1}: the autopilot at {self.url}: {self.fault}")
+        assert self.nav is not None  # wait() returned with a navigation solution
         return self.nav.copy()
 
     def send_acceleration(self, accel: np.ndarray, t: float) -> None:

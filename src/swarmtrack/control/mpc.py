@@ -206,12 +206,14 @@ class MPCController:
         if t >= self._next_plan - 1e-9:
             self.plan(nav, view, inbox)
             self._next_plan = t + self.s.period
+        assert self.setpoint is not None  # _hold_from made it
         return position_control(self.setpoint, nav, self.gains)
 
     def plan(self, nav: np.ndarray, view: TargetView, inbox) -> None:
         """One MPC step of every UAV (each from its own state, estimate and inbox)."""
         s, h = self.s, self.s.horizon
         self._hold_from(nav)
+        assert self.setpoint is not None  # _hold_from made it
         ref = propagate_target(view, self.target_model, s.period, h) + self.offsets[:, None, :]  # (N, h, 2)
         own_free = self.rows.rowwise(self.cond.free, nav)
         w, r_bar = self._separation(nav, inbox, ref)

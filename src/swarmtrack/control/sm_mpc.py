@@ -291,9 +291,9 @@ def _local_costs(region, rem: Removals, s: SMMPCSettings, area, prune: bool, sha
         if vary.any():
             pts.append(rem.nb_corners[vary, k].reshape(-1, 2))
         steady.append(~vary)
-    pts = np.concatenate(pts)
+    window_pts = np.concatenate(pts)
     m = 2 * h * rho + WINDOW_SLACK
-    lo, hi = pts.min(axis=0) - m, pts.max(axis=0) + m
+    lo, hi = window_pts.min(axis=0) - m, window_pts.max(axis=0) + m
     window = (lo[0], lo[1], hi[0], hi[1])
     shrink = h * rho
     exact_box = (lo[0] + shrink, lo[1] + shrink, hi[0] - shrink, hi[1] - shrink)  # W ⊖ hρ, where local is exact
@@ -530,7 +530,7 @@ class SetMembershipMPC:
                  uavs: np.ndarray | None = None):
         self.area, self.s, self.start = sets.area, settings, start
         self.uavs = None if uavs is None else np.asarray(uavs)
-        self.n = n_uavs if uavs is None else len(self.uavs)
+        self.n = n_uavs if self.uavs is None else len(self.uavs)
         self.grid = sets.grid
         if self.grid is not None:  # the raster planner's kernels, loaded before any plan is timed
             from swarmtrack.control.sm_mpc_raster import warm

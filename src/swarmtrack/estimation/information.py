@@ -9,15 +9,20 @@ model), so a measurement's information is a 2 x 2 block ``I`` and a 2-vector ``i
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
 from swarmtrack.estimation.base import Probe, TargetView
 from swarmtrack.models.base import MotionModel
 from swarmtrack.network.links import neighbour_sum
+from swarmtrack.network.messages import Outbox
 from swarmtrack.network.rows import Rows
 from swarmtrack.sensors.range_bearing import polar_model, position_covariance, to_position, wrap_angle
+
+if TYPE_CHECKING:
+    from swarmtrack.estimation.information_compiled import CompiledCycle
+    from swarmtrack.estimation.sharing import Chi2Gate
 
 UPDATES = ("position", "polar")
 #: The position states a planar update observes, ``[x, y]`` (a slice: the position block is a view).
@@ -236,7 +241,7 @@ class InformationSharing:
     #: The update adds position-block information only (:meth:`contributions`), the form the compiled cycle takes.
     additive = True
 
-    def __init__(self, neighbours: NeighbourSum | None = None):
+    def __init__(self, neighbours: NeighbourSum | Chi2Gate | None = None):
         self.neighbours = NeighbourSum() if neighbours is None else neighbours
 
     def filters(self, n_uavs: int) -> int:
@@ -321,7 +326,7 @@ class InformationEstimator:
     """
 
     def __init__(self, model: MotionModel, update: RangeBearingUpdate, n_uavs: int, *, label: int = 0,
-                 sharing: InformationSharing | None = None, cycle: NumpyCycle | None = None,
+                 sharing: InformationSharing | None = None, cycle: NumpyCycle | CompiledCycle | None = None,
                  initial_info: float = 1e-6, fake_vz_sigma: float | None = None, rows: Rows | None = None):
         self.model, self.update_rule = model, update
         self.index = update.index  # the position states it observes
@@ -337,7 +342,8 @@ class InformationEstimator:
         self.vz = None
         if fake_vz_sigma is not None and hasattr(model, "VZ_INDEX"):
             self.vz = (model.VZ_INDEX, 1.0 / fake_vz_sigma**2)
-        self.own = None
+        # this step's own message: share() makes it before any reader (fuse) runs
+        self.own: Outbox = None  # type: ignore[assignment]
         self._detected = np.zeros(n_uavs)
         self.nis = np.full(n_uavs, np.nan)
         # the rows of F that predict the position, for the NIS: constant for the linear models and for FS (whose

@@ -454,7 +454,7 @@ def _predicted_covariance_source(name: str, n: int, pattern) -> str:
     ``G = F S = S + E S`` on the rows E touches, then ``A = G Fᵀ = G + G Eᵀ`` on the lower triangle, mirrored
     (``A`` exactly symmetric). The same arithmetic as the looped form, about 8 % faster for FS.
     """
-    rows = {}
+    rows: dict = {}
     for r, c, v in pattern:
         rows.setdefault(r, []).append((c, v))
     names = tuple(dict.fromkeys(v for _, _, v in pattern))

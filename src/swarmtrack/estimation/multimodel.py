@@ -116,7 +116,8 @@ class MultiModelEstimator:
     """
 
     def __init__(self, models: list[MotionModel], measurement, *, label: int = 0, fusion_rule: str = "ttest",
-                 occlusion: str = "last", window: int = 10, solo_steps: int = 100, markov: np.ndarray | None = None,
+                 occlusion: str = "last", window: int = 10, solo_steps: int = 100,
+                 markov: np.ndarray | list | None = None,
                  P0: dict[str, np.ndarray], x0_hidden: dict[str, np.ndarray] | None = None, compiled: bool = False,
                  team: tuple[list[str], Rows] | None = None):
         if fusion_rule not in FUSIONS:

@@ -71,7 +71,7 @@ def circumscribed(r, quad_segs: int = QUAD_SEGS):
 
 
 def dilate(sets: np.ndarray, r: float, *, quad_segs: int = QUAD_SEGS, eps: float = SIMPLIFY_EPS,
-           cap: int = VERTEX_CAP) -> np.ndarray:
+           cap: float = VERTEX_CAP) -> np.ndarray:
     """``A ⊕ D(r)`` of every set, as an outer approximation: sets above ``cap`` vertices are simplified with
     tolerance ``eps`` first and the buffer grows by ``eps`` (IB21 eqs. 13-15 with the reachable displacement r)."""
     sets = np.asarray(sets, dtype=object)

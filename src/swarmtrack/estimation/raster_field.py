@@ -87,7 +87,8 @@ class Field:
     i0: int
     j0: int
     data: np.ndarray
-    core: tuple[int, int, int, int] | None = None  # None: the window itself
+    # None: the window itself (__post_init__ replaces it, so the field is always a tuple after construction)
+    core: tuple[int, int, int, int] = None  # type: ignore[assignment]
     #: ``(i0, j0, i1, j1)``, the cells ``[i0, i1) × [j0, j1)`` (set from the data's shape).
     window: tuple[int, int, int, int] = field(init=False, repr=False, compare=False)
     #: Whether the set is empty (an empty window).

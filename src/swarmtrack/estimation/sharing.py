@@ -4,6 +4,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from swarmtrack.estimation.base import Probe
@@ -47,7 +49,8 @@ class Chi2Gate:
     def current(self, est: InformationEstimator, inbox) -> tuple[np.ndarray, np.ndarray]:
         """The gated sums of every part of the inbox against this step's prediction (late parts as if current)."""
         x_pos, P_pos = est.x_pred[..., est.index], est.predicted_position_covariance(est.x, est.P)
-        I, i = 0.0, 0.0
+        I: Any = 0.0  # arrays from the first part on (an inbox has one at least)
+        i: Any = 0.0
         for part in inbox.parts():
             I_p, i_p = self._gate(part.links, part.payloads, x_pos, P_pos)
             I, i = I + I_p, i + i_p

@@ -21,9 +21,9 @@ import json
 import socket
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Protocol
+from typing import Any, Protocol
 
 PREFIX = "swarmtrack"
 
@@ -148,7 +148,7 @@ class ZenohTransport:
     both sides' certificates checked against the swarm's CA (mutual TLS), and a peer's certificate must name the
     host it is reached at (``HOST``: an IP address or DNS name in its subjectAltName)."""
 
-    def __init__(self, listen: list[str] = (), connect: list[str] = (), timeout: float = 5.0,
+    def __init__(self, listen: Sequence[str] = (), connect: Sequence[str] = (), timeout: float = 5.0,
                  tls: Path | None = None):
         import zenoh
 
@@ -160,7 +160,7 @@ class ZenohTransport:
         except zenoh.ZError as exc:
             raise TransportError(_cause(str(exc), listen, connect)) from None
         self._zenoh = zenoh
-        self._publishers: dict[str, object] = {}
+        self._publishers: dict[str, Any] = {}  # zenoh publishers
         self._subscribers: list = []
         self._closed = False
         self.close_timed_out = False

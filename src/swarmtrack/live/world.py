@@ -344,7 +344,7 @@ class LockstepWorld:
 
     def _refuse_run(self, heard: dict) -> None:
         """Refuse the run (:class:`LiveError`) on what the hellos heard say, or on evidence of another key."""
-        problems = {}
+        problems: dict[str, list[int]] = {}
         for i, entries in sorted(heard.items()):
             for m, _ in entries:
                 problem = self._mismatch(m)

@@ -100,7 +100,7 @@ class AltitudeModel(MotionModel):
     def F(self) -> np.ndarray:
         """The constant transition of a linear model (CV, CA): the planar ``F`` and the altitude block."""
         F = np.zeros((self.dim, self.dim))
-        F[np.ix_(self.planar_index, self.planar_index)] = self.planar.F
+        F[np.ix_(self.planar_index, self.planar_index)] = self.planar.F  # type: ignore[attr-defined]  # a linear planar model (CV, CA)
         F[np.ix_(self.vertical_index, self.vertical_index)] = self.vertical_F
         F.flags.writeable = False
         return F

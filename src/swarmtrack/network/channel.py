@@ -80,6 +80,7 @@ class Channel:
         k = round(t / self.dt)
         wait = np.full(edge_list(links)[0].size, self.delay)
         if self.delay_max > self.delay:
+            assert self.delay_rng is not None, "random delays draw from delay_rng"
             wait += (self.delay_max - self.delay) * self.delay_rng.random(wait.size)
         steps = delay_steps(wait, self.dt)
         for m in np.unique(steps[steps > 0]):

@@ -27,8 +27,11 @@ class Liar:
         """The outbox with the liar's contribution shifted (a copy; the sender's own arrays are not touched)."""
         if t < self.t0 or "info_vector" not in outbox:
             return outbox
-        shift = np.asarray(self.offset, dtype=float) if self.mode == "bias" else \
-            self.sigma * self.rng.standard_normal(2)
+        if self.mode == "bias":
+            shift = np.asarray(self.offset, dtype=float)
+        else:
+            assert self.rng is not None, "a noisy liar draws from rng"
+            shift = self.sigma * self.rng.standard_normal(2)
         info = outbox["info_vector"].copy()
         info[self.uav] += outbox["info_matrix"][self.uav] @ shift
         return {**outbox, "info_vector": info}

@@ -75,8 +75,9 @@ class Context:
     dt_estimation: float
     dt_control: float
     compiled: bool
-    label_of: Callable[[str, int], int]
-    """``label_of(group, member)``: the label the sensor reports for ``group`` member ``member`` (0-based)."""
+    label_of: Callable[[str, int], int | None]
+    """``label_of(group, member)``: the label the sensor reports for ``group`` member ``member`` (0-based); None
+    for a member it does not see (every sensor sees the targets)."""
     command_width: int = 2
     """What a UAV's controller commands per UAV (the swarm's vehicle kind's ``command_width``): 2 (a planar
     acceleration) or 1 (a fixed wing's yaw acceleration)."""
@@ -109,7 +110,7 @@ class Context:
         return self.resources[name]
 
 
-def context(scenario: Scenario, label_of: Callable[[str, int], int], uavs=None, worlds: int = 1) -> Context:
+def context(scenario: Scenario, label_of: Callable[[str, int], int | None], uavs=None, worlds: int = 1) -> Context:
     """The builders' context of ``scenario``: for the whole swarm, UAVs ``uavs`` of it (0-based) or a batch of
     ``worlds`` worlds of it (world-major); ``label_of`` as :attr:`Context.label_of`. One decision for every compiled
     fast path: ``scenario.kernels`` is not ``numpy``."""

@@ -134,7 +134,9 @@ def _navigation(path: Path, uav: int, sources, counts: dict) -> Iterator[Navigat
                        f"formats: {have})")
     fields = data.data
     candidates = POSITION if field is None else ((f"{field}[0]", f"{field}[1]"), (f"{field}.x", f"{field}.y"))
-    px, py = _pair(fields, candidates, path, name, "position")
+    pair = _pair(fields, candidates, path, name, "position")
+    assert pair is not None  # _pair raises when it has no position to name
+    px, py = pair
     stamp = fields["timestamp"].astype(np.float64)
     if "timestamp_sample" in fields:
         sample = fields["timestamp_sample"]

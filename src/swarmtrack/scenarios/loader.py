@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -184,7 +185,7 @@ def validate(data: dict, origin: str = "scenario") -> Scenario:
         raise ScenarioError(f"{origin}: invalid scenario\n  " + "\n  ".join(lines)) from None
 
 
-def load_scenario(ref: str, overrides: list[str] = (), seed: int | None = None) -> Scenario:
+def load_scenario(ref: str, overrides: Sequence[str] = (), seed: int | None = None) -> Scenario:
     data = load_raw(ref)
     for assignment in overrides:
         apply_override(data, assignment)

@@ -210,5 +210,6 @@ def of_relative(rel: np.ndarray, pos: np.ndarray) -> tuple[np.ndarray, np.ndarra
 def relative_of(det: Detections) -> np.ndarray:
     """``p = A⁻¹ (z − b)`` (solved) of ``det``'s frames, less where the UAVs were: the inverse of
     :func:`of_relative` for any affine frame."""
+    assert det.frame is not None, "needs frames"
     p = np.linalg.solve(det.frame[:, :, :2], (det.z - det.frame[:, :, 2])[..., None])[..., 0]
     return p - det.sensor_pos

@@ -59,6 +59,7 @@ def measure(
     is clipped: a range comparable to ``σr`` can come out negative, an elevation near ±90° can pass it."""
     h = spherical(target_pos, sensor_pos)
     if noise is None:
+        assert rng is not None, "measure needs rng or noise"
         noise = rng.standard_normal(h.shape)
     sigma = np.stack(np.broadcast_arrays(*(np.asarray(s, dtype=float) for s in (sigma_range, sigma_bearing,
                                                                                  sigma_elevation))), axis=-1)
@@ -173,7 +174,7 @@ def sense(objects: np.ndarray, uavs: np.ndarray, stamped: np.ndarray, sigma_rang
     z = measure(objects[None, :, :], uavs[:, None, :], sigma_range, sigma_bearing, sigma_elevation,
                 noise=noise).reshape(n * m, 3)
     owner, source = np.divmod(np.arange(n * m), m) if m else (np.zeros(0, int), np.zeros(0, int))
-    grid = m
+    grid: int | None = m
     if max_range is not None:
         inside = _relative(objects[source], uavs[owner])[4] <= max_range
         owner, source, z = owner[inside], source[inside], z[inside]

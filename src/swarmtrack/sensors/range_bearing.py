@@ -62,6 +62,7 @@ def measure(
     dx, dy, rho = _range_bearing(target_pos, sensor_pos)
     beta = np.arctan2(dy, dx)
     if noise is None:
+        assert rng is not None, "measure needs rng or noise"
         noise = rng.standard_normal(rho.shape + (2,))
     z_rho = rho + np.asarray(sigma_range, dtype=float) * noise[..., 0]
     z_beta = wrap_angle(beta + np.asarray(sigma_bearing, dtype=float) * noise[..., 1])
@@ -153,7 +154,7 @@ def sense(
     z = measure(objects[None, :, :], uavs[:, None, :], sigma_range, sigma_bearing, noise=noise)  # (N, M, 2)
     owner, source = _grid(n, m)
     z = z.reshape(n * m, 2)
-    grid = m
+    grid: int | None = m
     if max_range is not None or hidden is not None:
         inside = np.ones(len(owner), dtype=bool) if hidden is None else ~hidden.reshape(-1)
         if max_range is not None:

@@ -74,6 +74,7 @@ def _altitude(scenario: Scenario, kind: str, z0, hold=None) -> GroupAltitude | N
         return None
     if vehicle(kind).physics == "quadrotor":
         p = DEFAULT_PARAMS
+        assert p.max_thrust is not None  # its __post_init__ sets it
         return GroupAltitude.quadrotor(z0, p.mass, p.g, p.max_thrust, hold=hold)
     return GroupAltitude(np.asarray(z0, dtype=float), hold=None if hold is None else np.asarray(hold, dtype=float))
 
@@ -164,6 +165,7 @@ def truth_side(scenario: Scenario) -> Truth:
     tracked = None if followed is None else world.slices["targets"].start + followed - 1
     oracle = None
     if scenario.controller.follows_truth():  # the schema checked there is a target
+        assert followed is not None and tracked is not None
         oracle = _oracle(world, tracked, flown["targets"][followed - 1], scenario.swarm.n_uavs)
     meta = run_meta(scenario, world.slices, flown, dt_est)
     # the label the sensor reports for the tracked target (which detections are of it, for readers of the inputs)

@@ -60,7 +60,7 @@ class TruthOracle:
     def view(self) -> TargetView:
         x = np.asarray(self._truth()[:4], dtype=float)
         known = self._kinematics is not None
-        model, motion = kinematic_model(*self._kinematics()) if known else ("cv", np.zeros(3))
+        model, motion = kinematic_model(*self._kinematics()) if self._kinematics is not None else ("cv", np.zeros(3))
         state = np.broadcast_to(x, (self.n, 4)).copy()
         models = np.full(self.n, model, dtype=object)
         motions = np.broadcast_to(motion, (self.n, 3)).copy()

@@ -4,6 +4,7 @@ truth-side sensors are built in :mod:`.world`)."""
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 from swarmtrack.capabilities.tracking_swarm.settings import (
     FilterSpec,
@@ -54,7 +55,9 @@ def information(spec: FilterSpec, ctx: Context) -> InformationEstimator:
     model = make_model(spec.model, ctx.dt_estimation, spec.q)
     update = s.update_rule(own)
     shared = sharing(spec, ctx)
-    common = {"label": ctx.label_of("targets", spec.target - 1), "sharing": shared,
+    label = ctx.label_of("targets", spec.target - 1)
+    assert label is not None, "every sensor sees the targets"
+    common: dict[str, Any] = {"label": label, "sharing": shared,
               "initial_info": spec.initial_information, "fake_vz_sigma": spec.fake_vz_sigma, "rows": ctx.rows}
     if window:
         return RefilteringEstimator(model, update, len(ctx.uavs), window=window, **common)
@@ -66,10 +69,12 @@ def imm(spec: IMMSpec, ctx: Context) -> IMMInformationEstimator:
     """L24's IMM bank; its members' predictions compiled (numba) or the numpy reference, as ``kernels`` asks."""
     s = ctx.scenario.sensor
     qs = spec.q or [None] * len(spec.models)
+    label = ctx.label_of("targets", spec.target - 1)
+    assert label is not None, "every sensor sees the targets"
     return IMMInformationEstimator(
         [make_model(m, ctx.dt_estimation, q) for m, q in zip(spec.models, qs, strict=True)],
         s.update_rule(), len(ctx.uavs),
-        label=ctx.label_of("targets", spec.target - 1), share=spec.share, markov=spec.markov,
+        label=label, share=spec.share, markov=spec.markov,
         initial_info=spec.initial_information, fake_vz_sigma=spec.fake_vz_sigma, rows=ctx.rows, compiled=ctx.compiled)
 
 

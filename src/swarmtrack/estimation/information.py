@@ -348,8 +348,8 @@ class InformationEstimator:
         self.nis = np.full(n_uavs, np.nan)
         # the rows of F that predict the position, for the NIS: constant for the linear models and for FS (whose
         # position rows are x' = x + dt·vx, y' = y + dt·vy); CT's depend on the state
-        self.F2 = model.F[self.index] if getattr(model, "linear", False) else \
-            model.jacobian(model.initial_state())[self.index] if model.name == "fs" else None
+        self.F2 = (model.F[self.index] if getattr(model, "linear", False) else  # type: ignore[attr-defined]  # linear
+                   model.jacobian(model.initial_state())[self.index] if model.name == "fs" else None)
         self.Q2 = model.Q[position_block(self.index)]
         self.probes = (Probe("estimate", (model.dim,)), Probe("covariance", (model.dim, model.dim)),
                        Probe("detected", ()), Probe("nis", ()), *self.gate.probes)
@@ -359,7 +359,7 @@ class InformationEstimator:
         return self.sharing.centralized
 
     @property
-    def gate(self) -> NeighbourSum:
+    def gate(self) -> NeighbourSum | Chi2Gate:
         """What the filter does with its neighbours' contributions (a fusion centre's sums all it hears)."""
         return self.sharing.neighbours
 

@@ -7,7 +7,8 @@ the beacon of a control step that starts now, which may travel with it), then, f
 (IB21 Sec. 5.3) :meth:`~Exchange.planned` once it has planned.
 
 Implementations: :class:`~swarmtrack.network.exchange.ChannelExchange` (the simulator's channel, and replay's over
-the logged positions) and the live agent's messages (:class:`swarmtrack.live.exchange.LiveExchange`).
+the logged positions), the live agent's messages (:class:`swarmtrack.live.exchange.LiveExchange`) and the warm-up's
+echo (:class:`swarmtrack.onboard.warm.Echo`); :mod:`swarmtrack.conformance` has mypy check each against it.
 """
 
 from __future__ import annotations

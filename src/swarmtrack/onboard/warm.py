@@ -4,9 +4,9 @@ In a fresh process numba's cache takes about a second to load at a kernel's firs
 first real-time steps late. :func:`warm_up` builds a throwaway copy of the UAV's stack (another seed) and steps it
 on made-up inputs: its navigation at rest at its spawn point, a detection of the followed target 5 m east made by the
 sensor's declared measurement (:class:`~swarmtrack.registry.Measurement`; without one, the sensor's frame without
-detections),
-and an exchange in which it hears one neighbour say what it said itself (:class:`Echo`). Nothing of the world, the
-run's truth or its random streams is computed: a companion computer can do this before its swarm starts.
+detections, :attr:`~swarmtrack.registry.Kind.quiet`), and an exchange in which it hears one neighbour say what it
+said itself (:class:`Echo`). Nothing of the world, the run's truth or its random streams is computed: a companion
+computer can do this before its swarm starts.
 """
 
 from __future__ import annotations
@@ -87,8 +87,8 @@ def _detections(scenario: Scenario, nav: np.ndarray, label: int | None) -> Detec
 
 def warm_up(scenario: Scenario, uav: int, label_of) -> None:
     """Step a throwaway copy of UAV ``uav``'s stack (built for it alone with ``label_of``, as its own is, with
-    another seed) :data:`WARM_STEPS` times on made-up inputs. A stack that refuses them (a sensor whose measurements
-    the warm-up cannot make up, e.g. a footprint's) stops the warm-up there: the real run reports real errors."""
+    another seed) :data:`WARM_STEPS` times on made-up inputs. A stack that refuses them stops the warm-up there (a
+    slower start, no more): the real run reports real errors."""
     scenario = scenario.model_copy(update={"seed": scenario.seed + 1})
     clock = clock_of(scenario)
     stack = onboard_stack(context(scenario, label_of, uavs=[uav]))

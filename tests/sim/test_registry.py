@@ -276,3 +276,51 @@ def test_without_the_registration_the_same_file_is_refused_naming_the_kind(tmp_p
     res = CliRunner().invoke(main, ["validate", str(_scenario_file(tmp_path))])
     assert res.exit_code == 2
     assert "sensor: unknown kind 'test-exact'" in res.output
+
+
+class BlindSpec(schema.SensorSpec):
+    """A sensor that, its settings say, sees the decoys only."""
+
+    kind: Literal["test-blind"] = "test-blind"
+    sensed = ("decoys",)
+
+
+class MisdeclaredSpec(schema.SensorSpec):
+    """A sensor whose settings keep the default groups while its truth side senses the targets only."""
+
+    kind: Literal["test-misdeclared"] = "test-misdeclared"
+
+
+class TargetsOnlySensor(ExactSensor):
+    sensed = ("targets",)
+
+
+@pytest.fixture
+def odd_sensors():
+    kinds = [registry.register("sensor", BlindSpec, lambda s, scenario: ExactSensor(50.0)),
+             registry.register("sensor", MisdeclaredSpec, lambda s, scenario: TargetsOnlySensor(50.0))]
+    yield
+    for kind in kinds:
+        registry.unregister(kind.role, kind.name)
+
+
+def _with(sensor: str) -> dict:
+    """l24-cv with ``sensor`` and the centroid estimator, which reads any sensor's detections of its target."""
+    data = load_raw("l24-cv")
+    data["sensor"], data["estimator"] = {"kind": sensor}, {"kind": "test-centroid"}
+    return data
+
+
+def test_an_estimator_following_a_target_its_sensor_does_not_see_is_refused_at_validation(registered, odd_sensors):
+    # the builders take the target's label from what the sensor's settings declare it sees
+    data = _with("test-blind")
+    with pytest.raises(ScenarioError, match="follows estimator.target, which sensor.kind test-blind does not see"):
+        validate(data)
+
+
+def test_a_sensor_whose_truth_side_senses_other_groups_than_its_settings_declare_is_refused_by_name(
+        registered, odd_sensors):
+    # the world labels what its sensor senses, the UAVs' builders what the settings declare: they must agree
+    data = _with("test-misdeclared")
+    with pytest.raises(TypeError, match=r"test-misdeclared: its truth side senses \('targets',\), its settings"):
+        simulate(validate(data))

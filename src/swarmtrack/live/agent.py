@@ -82,7 +82,7 @@ class Agent:
         self.flying = False  # whether it has sent its autopilot a command of its controller
         self.n = scenario.swarm.n_uavs
         self.clock = clock_of(scenario)
-        self.estimator = self.controller = self.stack = None
+        self.stack: OnboardStack | None = None
         self._telemetry = telemetry_of(scenario)
         # its messages; a late share can take the estimation steps of the channel's delay bound
         self.exchange = LiveExchange(node, uav, self.n, int(np.ceil(scenario.network.delay_bound()
@@ -140,7 +140,6 @@ class Agent:
     def build(self, labels: dict[str, list[int]]) -> None:
         """Its stack, built for this UAV alone (``labels``: the world's, from its ``start``)."""
         self.stack = build_onboard(self.scenario, self.i, labels)
-        self.estimator, self.controller = self.stack.estimator, self.stack.controller
 
     def _greet(self, hello: wire.Hello) -> wire.Start:
         """Say ``hello`` until the world starts this process (a ``start`` bound to its hello); said again at once when
@@ -195,7 +194,7 @@ class Agent:
         got = node.wait("navigation", [wire.WORLD], k, timeout=PATIENCE)[wire.WORLD]
         nav = self._navigation(got)
         detections = Detections(**{name: wire.unpack(v) for name, v in got.detections.items()})
-        exchange = self.exchange.at(k, 0, got, dt, self.controller)
+        exchange = self.exchange.at(k, 0, got, dt, self.stack.controller)
         beacon = self.stack.estimation_step(k * dt, nav, detections, exchange, got.control)
         exchange.forget(k)
         sample, view = self._sample(k)
@@ -212,7 +211,7 @@ class Agent:
         """A control step between estimation steps: its navigation and beacon radio from the world, its command
         back."""
         got = self.node.wait("navigation", [wire.WORLD], k, c, timeout=PATIENCE)[wire.WORLD]
-        exchange = self.exchange.at(k, c, got, self.clock.dt_control, self.controller)
+        exchange = self.exchange.at(k, c, got, self.clock.dt_control, self.stack.controller)
         u = self._command(got.taken, self._navigation(got), view, exchange)
         self.node.send(wire.WORLD, wire.Command(k=k, c=c, taken=got.taken, u=wire.pack(u)))
 
@@ -249,10 +248,10 @@ class Agent:
     def _sample(self, k: int) -> tuple[wire.Sample, TargetView]:
         """The step's probes, and where a gimballed sensor should aim at the next frame (its latest estimate); and
         the estimator's view, which the controller follows until the next step."""
-        probes = {} if k < 0 else {**self.estimator.sample(), **self.controller.sample()}
-        view = self.estimator.view()
-        reports = {role: self._telemetry[role].report(component) for role, component in
-                   (("estimator", self.estimator), ("controller", self.controller)) if role in self._telemetry}
+        stack = self.stack
+        probes = {} if k < 0 else stack.sample()
+        view = stack.estimator.view()
+        reports = {role: telemetry.report(getattr(stack, role)) for role, telemetry in self._telemetry.items()}
         now = time.process_time()
         cpu, self._cpu = now - self._cpu, now
         return wire.Sample(k=k, probes=pack(probes), aim=wire.pack(view.state[:, :2]),

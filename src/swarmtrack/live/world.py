@@ -64,18 +64,17 @@ def check_live(scenario: Scenario) -> None:
         if kind.monitors is not None and kind.telemetry is None:
             raise LiveError(f"{role} {kind.name}: its truth-side checks read the onboard component, which runs in "
                             "the UAVs' processes, and it registers no telemetry for them")
-    labels = {g: list(range(getattr(scenario, g).size())) for g in ("targets", "decoys")}
     try:
-        build_onboard(scenario, 0, labels)
+        build_onboard(scenario, 0, labels_of(scenario))
     except NotImplementedError as exc:
         raise LiveError(f"cannot run live: {exc}") from None
 
 
-def labels_of(world) -> dict[str, list[int]]:
-    """The sensor's label of every member of every sensed group (what each UAV's sensor reports, told to it at
-    start)."""
-    return {g: [world.label_of(sl.start + m) for m in range(sl.stop - sl.start)] for g, sl in world.slices.items()
-            if g != "uavs"}
+def labels_of(scenario: Scenario) -> dict[str, list[int | None]]:
+    """The sensor's label of every member of the targets and decoys (None: not sensed), what each UAV's sensor
+    reports, told to it at start (:func:`~swarmtrack.onboard.context.sensor_labels`)."""
+    label_of = sensor_labels(scenario)
+    return {g: [label_of(g, m) for m in range(getattr(scenario, g).size())] for g in ("targets", "decoys")}
 
 
 @dataclass
@@ -253,7 +252,7 @@ class LockstepWorld:
         self.processes[i] = (hello.pid, hello.started)
         self.node.current[i] = hello.proc
         self._joiners.pop(i, None)
-        self.node.send(i, wire.Start(k=k, to=hello.proc, labels=labels_of(self.truth.world), realtime=self.realtime,
+        self.node.send(i, wire.Start(k=k, to=hello.proc, labels=labels_of(self.scenario), realtime=self.realtime,
                                      mavlink=self.fleet is not None))
 
     def _leave(self, exc: BaseException, hello: bool = False) -> None:

@@ -96,6 +96,13 @@ class Context:
         """The UAVs of the build (:class:`~swarmtrack.network.rows.Rows`)."""
         return Rows(self.uavs, self.n_uavs, self.worlds)
 
+    def target_label(self, member: int):
+        """The label the sensor reports for ``targets`` member ``member`` (0-based): it sees the targets whenever an
+        estimator follows one (:func:`~swarmtrack.scenarios.contract.sensor_sees_followed_target`)."""
+        label = self.label_of("targets", member)
+        assert label is not None, "validation checked that the sensor sees the targets"
+        return label
+
     def whole_swarm_only(self, kind: str, why: str) -> None:
         """Refuse a build for a subset of the swarm's UAVs (``NotImplementedError`` naming the kind and why)."""
         if len(self.uavs) != self.n_uavs:

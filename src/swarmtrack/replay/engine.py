@@ -40,15 +40,13 @@ def replay(scenario: Scenario, steps: Iterable[StepInputs], record_to: Path | No
     (:func:`truth_coverage`). ``phases=False``: the log does not know the scenario's profile phases; the tracked
     target's steps are one phase, ``logged`` (phase 0 of the steps). ``progress`` gets the fraction done; ``planned``
     the number of steps before the first, when the reader knows it (:class:`~swarmtrack.replay.steps.Planned`)."""
-    clock, label_of, rows = clock_of(scenario), sensor_labels(scenario), layout(scenario)
-    stack = onboard_stack(context(scenario, label_of), controller=False)
+    clock, rows = clock_of(scenario), layout(scenario)
+    stack = onboard_stack(context(scenario, sensor_labels(scenario)), controller=False)
     exchange, dt = ChannelExchange(channel_of(scenario, clock.dt_estimation)), clock.dt_estimation
     n, n_objects = scenario.swarm.n_uavs, rows["uavs"].stop
-    followed = scenario.estimator.followed_target()
     meta = run_meta(scenario, rows, {g: profiles(scenario, g) for g in ("targets", "decoys")}, dt)
     # the controller was not run: its kind's metrics and figures have nothing to read
-    meta.update(tracked_label=None if followed is None else label_of("targets", followed - 1), controller=None,
-                replay=source or {})
+    meta.update(controller=None, replay=source or {})
     if not phases:
         meta["phase_names"] = [LOGGED] if meta["tracked"] is not None else []
         meta["object_phases"] = [[LOGGED] if j == meta["tracked"] else [] for j in range(n_objects)]

@@ -245,9 +245,7 @@ def on_grid(messages: Iterable[Message], scenario, counts: dict, window: float =
         raise LogError(f"estimator.kind {scenario.estimator.kind} follows no single target: a replay from "
                        "time-stamped logs gives detections of one target")
     tracked = layout(scenario)["targets"].start + followed - 1
-    label = sensor_labels(scenario)("targets", followed - 1)
-    if label is None:
-        raise LogError(f"sensor.kind {kind} does not see the followed target (estimator.target {followed})")
+    label = sensor_labels(scenario)("targets", followed - 1)  # seen: validation checked it
     grid = _Grid(scenario, counts, window, start, label, registry.resolve(measurement.of_relative), tracked,
                  n_steps, truth_gap)
     return grid.run(messages)

@@ -65,6 +65,14 @@ def sensor_feeds_estimator(scenario: Scenario) -> None:
                      + (f"; sensor.kind {_they(fit, 'give')} it" if fit else ""))
 
 
+def sensor_sees_followed_target(scenario: Scenario) -> None:
+    """An estimator that follows a target has a sensor that sees the targets (its settings' ``sensed``: the builders
+    take the target's label from it, :meth:`~swarmtrack.onboard.context.Context.target_label`)."""
+    if scenario.estimator.followed_target() is not None and "targets" not in scenario.sensor.sensed:
+        raise ValueError(f"estimator.kind {scenario.estimator.kind} follows estimator.target, which sensor.kind "
+                         f"{scenario.sensor.kind} does not see (it sees {', '.join(scenario.sensor.sensed) or 'none'})")
+
+
 def controller_drives_vehicle(scenario: Scenario) -> None:
     """The controller commands as many numbers per UAV as the swarm's vehicle takes."""
     commands = scenario.controller.commands

@@ -785,6 +785,7 @@ class Scenario(Strict):
         contract.truth_has_a_profile(self)
         self._heights_need_3d()
         contract.sensor_feeds_estimator(self)
+        contract.sensor_sees_followed_target(self)
         self.estimator.check(self)
         self.sensor.check(self)
         self.controller.check(self)

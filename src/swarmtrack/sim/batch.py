@@ -22,13 +22,14 @@ import numpy as np
 from swarmtrack import registry
 from swarmtrack.estimation.base import TargetView
 from swarmtrack.network.channel import Channel, WorldsChannel
-from swarmtrack.onboard.build import component, onboard_stack
+from swarmtrack.onboard.build import onboard_stack
 from swarmtrack.onboard.context import clock_of, context
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sim.build import (
     Simulation,
     _group,
     _oracle,
+    sensor_of,
     spawn_positions,
 )
 from swarmtrack.sim.engine import step_loop
@@ -120,7 +121,7 @@ def build_batch(scenarios: list[Scenario]) -> tuple[Simulation, list[dict]]:
                  np.concatenate([spawn_positions(s, stream(s.seed, "spawn")) for s in scenarios]),
                  params=vehicle(first.swarm.vehicle).make_params(first.swarm))
     groups = [_concat_group("targets", scenarios, flown), _concat_group("decoys", scenarios, flown), uavs]
-    world = World(groups, component("sensor", first, first), dt=clock.dt,
+    world = World(groups, sensor_of(first), dt=clock.dt,
                   ticks=clock.steps * clock.ticks_estimation,
                   nav_std=(first.swarm.nav_position_std, first.swarm.nav_velocity_std),
                   streams=[lambda purpose, seed=s.seed: stream(seed, purpose) for s in scenarios],
@@ -146,7 +147,7 @@ def build_batch(scenarios: list[Scenario]) -> tuple[Simulation, list[dict]]:
     local = {name: slice(int(end - per[name]), int(end)) for name, end in zip(per, ends, strict=True)}  # one world's
     metas = [run_meta(s, local, f, clock.dt_estimation) for s, f in zip(scenarios, flown, strict=True)]
     batch_meta = {**metas[0], "seed": None, "groups": {k: [v.start, v.stop] for k, v in world.slices.items()},
-                  "tracked": None, "worlds": worlds}
+                  "tracked": None, "tracked_label": None, "worlds": worlds}
     sim = Simulation(world, stack, channel, clock, batch_meta)
     return sim, metas
 

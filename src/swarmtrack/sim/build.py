@@ -25,7 +25,7 @@ from swarmtrack.scenarios.spawn import on_lattice
 from swarmtrack.sim.clock import Clock
 from swarmtrack.sim.meta import profiles, run_meta
 from swarmtrack.sim.oracle import TruthOracle
-from swarmtrack.sim.sensors import Occluder, hidden_by
+from swarmtrack.sim.sensors import Occluder, Sensor, hidden_by
 from swarmtrack.sim.streams import stream
 from swarmtrack.sim.world import Group, ProfileDriver, World, vehicle
 from swarmtrack.vehicles.altitude import GroupAltitude
@@ -35,6 +35,17 @@ from swarmtrack.vehicles.quadrotor import DEFAULT_PARAMS
 def occluders(s: SensorSpec) -> tuple[Occluder, ...]:
     """The world's occluders of a sensor's settings (0-based UAVs)."""
     return tuple(Occluder(o.region, o.window, tuple(u - 1 for u in o.uavs)) for o in s.occluders)
+
+
+def sensor_of(scenario: Scenario) -> Sensor:
+    """The world's sensor (its kind's truth-side builder). It senses the groups its settings declare
+    (:attr:`SensorSpec.sensed <swarmtrack.scenarios.schema.SensorSpec.sensed>`), whose labels the UAVs' builders
+    get (:func:`~swarmtrack.onboard.context.sensor_labels`): a kind whose two sides disagree is refused by name."""
+    sensor = component("sensor", scenario, scenario)
+    if tuple(sensor.sensed) != tuple(scenario.sensor.sensed):
+        raise TypeError(f"sensor kind {scenario.sensor.kind}: its truth side senses {sensor.sensed}, its settings "
+                        f"declare sensed = {scenario.sensor.sensed}")
+    return sensor
 
 
 def spawn_positions(scenario: Scenario, rng: np.random.Generator) -> np.ndarray:
@@ -157,20 +168,17 @@ def truth_side(scenario: Scenario) -> Truth:
     flown = {g: profiles(scenario, g) for g in ("targets", "decoys")}
     groups = [_group("targets", scenario.targets, flown["targets"], seed, scenario),
               _group("decoys", scenario.decoys, flown["decoys"], seed, scenario), _uavs(scenario)]
-    world = World(groups, component("sensor", scenario, scenario),
+    world = World(groups, sensor_of(scenario),
                   dt=dt_phys, ticks=clock.steps * clock.ticks_estimation,
                   nav_std=(scenario.swarm.nav_position_std, scenario.swarm.nav_velocity_std),
                   streams=lambda purpose: stream(seed, purpose), compiled=compiled)
-    followed = scenario.estimator.followed_target()  # 1-based member of targets, checked by the schema
-    tracked = None if followed is None else world.slices["targets"].start + followed - 1
     oracle = None
-    if scenario.controller.follows_truth():  # the schema checked there is a target
-        assert followed is not None and tracked is not None
-        oracle = _oracle(world, tracked, flown["targets"][followed - 1], scenario.swarm.n_uavs)
-    meta = run_meta(scenario, world.slices, flown, dt_est)
-    # the label the sensor reports for the tracked target (which detections are of it, for readers of the inputs)
-    meta["tracked_label"] = None if followed is None else sensor_labels(scenario)("targets", followed - 1)
-    return Truth(world, channel_of(scenario, dt_est), clock, meta, oracle)
+    if scenario.controller.follows_truth():
+        followed = scenario.estimator.followed_target()  # 1-based member of targets
+        assert followed is not None, "the schema checked that the estimator follows a target"
+        oracle = _oracle(world, world.slices["targets"].start + followed - 1, flown["targets"][followed - 1],
+                         scenario.swarm.n_uavs)
+    return Truth(world, channel_of(scenario, dt_est), clock, run_meta(scenario, world.slices, flown, dt_est), oracle)
 
 
 def build(scenario: Scenario) -> Simulation:

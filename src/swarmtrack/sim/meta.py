@@ -5,6 +5,7 @@ alike (replay without building a world)."""
 from __future__ import annotations
 
 from swarmtrack import registry
+from swarmtrack.onboard.context import sensor_labels
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sim.streams import stream
 
@@ -32,6 +33,8 @@ def run_meta(scenario: Scenario, slices: dict[str, slice], flown: dict[str, tupl
         "r_comm": net.r_comm, "liar": None if net.liar is None else net.liar.uav - 1,
         "groups": {name: [sl.start, sl.stop] for name, sl in slices.items()},
         "tracked": None if followed is None else slices["targets"].start + followed - 1,
+        # the label the sensor reports for the tracked target (which detections are of it, for readers of the inputs)
+        "tracked_label": None if followed is None else sensor_labels(scenario)("targets", followed - 1),
         "phase_names": [] if followed is None or not flown["targets"]
         else list(flown["targets"][followed - 1].phase_names),
         # each object's phases, in the world's order (targets, decoys, UAVs); kinematic vehicles fly no profile

@@ -25,12 +25,10 @@ def multimodel(spec: MultiModelSpec, ctx: Context) -> MultiModelEstimator:
     names = [spec.models[i % len(spec.models)] for i in ctx.uavs]  # a batch of worlds: every world's UAVs
     models = [make_model(m, ctx.dt_estimation, diag(m, spec.q, spec.q_turn_rate)) for m in names]
     s = ctx.scenario.sensor
-    label = ctx.label_of("targets", spec.target - 1)
-    assert label is not None, "every sensor sees the targets"
     measurement = CameraFrameMeasurement(spec.r) if isinstance(s, CameraSpec) else \
         RangeBearingMeasurement(s.sigma_range, s.sigma_bearing)  # type: ignore[attr-defined]  # range-bearing
     return MultiModelEstimator(
-        models, measurement, label=label, fusion_rule=spec.fusion,
+        models, measurement, label=ctx.target_label(spec.target - 1), fusion_rule=spec.fusion,
         occlusion=spec.occlusion, window=spec.window, solo_steps=spec.solo_steps, markov=spec.markov,
         P0={m: np.diag(diag(m, spec.p0, spec.p0_turn_rate)) for m in set(spec.models)},
         x0_hidden={m: np.asarray(W20_HIDDEN_START[m]) for m in set(spec.models)}, compiled=ctx.compiled,

@@ -55,10 +55,9 @@ def information(spec: FilterSpec, ctx: Context) -> InformationEstimator:
     model = make_model(spec.model, ctx.dt_estimation, spec.q)
     update = s.update_rule(own)
     shared = sharing(spec, ctx)
-    label = ctx.label_of("targets", spec.target - 1)
-    assert label is not None, "every sensor sees the targets"
-    common: dict[str, Any] = {"label": label, "sharing": shared,
-              "initial_info": spec.initial_information, "fake_vz_sigma": spec.fake_vz_sigma, "rows": ctx.rows}
+    common: dict[str, Any] = {"label": ctx.target_label(spec.target - 1), "sharing": shared,
+                              "initial_info": spec.initial_information, "fake_vz_sigma": spec.fake_vz_sigma,
+                              "rows": ctx.rows}
     if window:
         return RefilteringEstimator(model, update, len(ctx.uavs), window=window, **common)
     cycle = compiled_cycle(model, update, shared) if ctx.compiled else None
@@ -69,12 +68,10 @@ def imm(spec: IMMSpec, ctx: Context) -> IMMInformationEstimator:
     """L24's IMM bank; its members' predictions compiled (numba) or the numpy reference, as ``kernels`` asks."""
     s = ctx.scenario.sensor
     qs = spec.q or [None] * len(spec.models)
-    label = ctx.label_of("targets", spec.target - 1)
-    assert label is not None, "every sensor sees the targets"
     return IMMInformationEstimator(
         [make_model(m, ctx.dt_estimation, q) for m, q in zip(spec.models, qs, strict=True)],
         s.update_rule(), len(ctx.uavs),
-        label=label, share=spec.share, markov=spec.markov,
+        label=ctx.target_label(spec.target - 1), share=spec.share, markov=spec.markov,
         initial_info=spec.initial_information, fake_vz_sigma=spec.fake_vz_sigma, rows=ctx.rows, compiled=ctx.compiled)
 
 

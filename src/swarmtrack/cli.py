@@ -28,7 +28,17 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "agent": ("swarmtrack.live.commands:agent_cmd",
               "Run UAV --uav's onboard stack (estimator, controller) of SCENARIO, as on its companion computer: its "
               "navigation, detections and radio from the world (or its navigation from its autopilot, --autopilot), "
-              "its neighbours' messages over Zenoh."),
+              "its neighbours' messages over Zenoh; with --field, no world: its own sensor's topic and the real "
+              "network."),
+    "monitor": ("swarmtrack.field.commands:monitor_cmd",
+                "Join SCENARIO's field swarm read-only and record what its agents publish (their probes, commands and "
+                "counts, and the truth when --truth is given) into the run folder --out; Ctrl-C keeps the steps "
+                "recorded."),
+    "stand-in": ("swarmtrack.field.commands:standin_cmd",
+                 "Run SCENARIO as a field deployment on this machine, with nothing a real one lacks: each UAV's "
+                 "vehicle over MAVLink, its camera on its own Zenoh topic, its agent (swarmtrack agent --field) "
+                 "hearing the others directly, and a monitor recording into --out; no world process plays the "
+                 "radio."),
     "engage": ("swarmtrack.live.commands:engage_cmd",
                "Ask UAV --uav's swarmtrack agent to fly its vehicle again after a handover to the operator (or, with "
                "--release, to hand it back), through the autopilot's ground-station link at --to."),

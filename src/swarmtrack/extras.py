@@ -9,6 +9,8 @@ estimator too) and its analysis. The drivers are extras (pyproject.toml's ``[pro
     autopilot  swarmtrack engage; serial links (agent --autopilot serial://)
     logs       swarmtrack replay of ROS bags and PX4 ULog files (a run folder or CSV needs neither);
                swarmtrack export --format mcap|rosbag2 (csv needs neither)
+    field      swarmtrack agent --field | monitor | stand-in: the live swarm's, and rosbags for the ROS 2 messages
+               its sources carry (docs/field.md)
     dask       swarmtrack sweep | reproduce --cluster (without it they run on a local process pool)
     all        every one of them (``make run`` and ``make test`` install ``.[dev]``, which has ``all``)
 
@@ -29,6 +31,7 @@ EXTRAS: dict[str, dict[str, str]] = {
     "live": {"eclipse-zenoh": "zenoh", "msgspec": "msgspec", "pymavlink": "pymavlink"},
     "autopilot": {"pymavlink": "pymavlink", "pyserial": "serial"},
     "logs": {"rosbags": "rosbags", "pyulog": "pyulog"},
+    "field": {"eclipse-zenoh": "zenoh", "msgspec": "msgspec", "pymavlink": "pymavlink", "rosbags": "rosbags"},
     "dask": {"dask": "dask", "distributed": "distributed"},
 }
 

@@ -27,7 +27,7 @@ from swarmtrack.autopilot.authority import Authority
 from swarmtrack.autopilot.link import AutopilotError, AutopilotLink, AutopilotRefused
 from swarmtrack.estimation.base import TargetView
 from swarmtrack.live import wire
-from swarmtrack.live.exchange import PATIENCE, LiveExchange, pack
+from swarmtrack.live.exchange import PATIENCE, LiveExchange, late_steps, pack
 from swarmtrack.live.node import EVIDENCE, EVIDENCE_SPAN, LOST_AFTER, Mismatch, Node, Refused, Stopped
 from swarmtrack.onboard.build import onboard_stack
 from swarmtrack.onboard.context import clock_of, context
@@ -85,8 +85,7 @@ class Agent:
         self.stack: OnboardStack | None = None
         self._telemetry = telemetry_of(scenario)
         # its messages; a late share can take the estimation steps of the channel's delay bound
-        self.exchange = LiveExchange(node, uav, self.n, int(np.ceil(scenario.network.delay_bound()
-                                                                    / self.clock.dt_estimation - 1e-9)))
+        self.exchange = LiveExchange(node, uav, self.n, late_steps(scenario, self.clock.dt_estimation))
         self._cpu = time.process_time()
 
     def run(self, rejoin: bool = False) -> None:
@@ -194,7 +193,7 @@ class Agent:
         got = node.wait("navigation", [wire.WORLD], k, timeout=PATIENCE)[wire.WORLD]
         nav = self._navigation(got)
         detections = Detections(**{name: wire.unpack(v) for name, v in got.detections.items()})
-        exchange = self.exchange.at(k, 0, got, dt, self.stack.controller)
+        exchange = self.exchange.at(k, 0, got.radio, got.due, dt, self.stack.controller)
         beacon = self.stack.estimation_step(k * dt, nav, detections, exchange, got.control)
         exchange.forget(k)
         sample, view = self._sample(k)
@@ -211,7 +210,8 @@ class Agent:
         """A control step between estimation steps: its navigation and beacon radio from the world, its command
         back."""
         got = self.node.wait("navigation", [wire.WORLD], k, c, timeout=PATIENCE)[wire.WORLD]
-        exchange = self.exchange.at(k, c, got, self.clock.dt_control, self.stack.controller)
+        exchange = self.exchange.at(k, c, got.radio, got.due, self.clock.dt_control,
+                                          self.stack.controller)
         u = self._command(got.taken, self._navigation(got), view, exchange)
         self.node.send(wire.WORLD, wire.Command(k=k, c=c, taken=got.taken, u=wire.pack(u)))
 

@@ -147,11 +147,30 @@ def keygen_cmd(file: Path) -> None:
     "DANGEROUS, opt-in: engage the vehicle again by itself after the autopilot's offboard-loss failsafe that followed "
     "a silence of this link (never after a mode change while the link was heard, never a disarmed or landed vehicle): "
     "a pilot who took the vehicle while the link was down loses it again (docs/autopilot.md)"))
+@click.option("--field", is_flag=True, help=(
+    "no world: navigation from --autopilot or --navigation, detections from --detections (or a --map), the "
+    "neighbours heard directly over Zenoh, steps on this machine's clock from --start (docs/field.md)"))
+@click.option("--start", default="next:10", show_default=True, metavar="TIME", help=(
+    "--field: the swarm's t = 0 on the wall clock: Unix seconds, an ISO 8601 time with its zone, or next:S (the "
+    "next multiple of S s); the same on every process of the swarm"))
+@click.option("--navigation", metavar="URL", default=None,
+              help="--field: its navigation's source, zenoh://KEY or ros2:///TOPIC (default: its autopilot's)")
+@click.option("--detections", metavar="URL", default=None,
+              help="--field: its detections' source, zenoh://KEY or ros2:///TOPIC (docs/field.md)")
+@click.option("--map", "map", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="--field: a map file naming its sources (the format of swarmtrack replay --map)")
+@click.option("--wait", type=click.FloatRange(min=0, min_open=True), default=10.0, show_default=True,
+              metavar="SECONDS", help="--field: give up on a source whose first message does not come within this time")
 @_security_options
 def agent_cmd(**options) -> None:
     """Run UAV --uav's onboard stack (estimator, controller) of SCENARIO, as on its companion computer: its
     navigation, detections and radio from the world (or its navigation from its autopilot, --autopilot), its
-    neighbours' messages over Zenoh."""
+    neighbours' messages over Zenoh; with --field, no world: its own sensor's topic and the real network."""
+    if options["field"]:
+        from swarmtrack.field.commands import run_field_agent
+
+        run_field_agent(SimpleNamespace(**options))
+        return
     require("live", "swarmtrack agent")
     if (options["autopilot"] or "").startswith("serial://"):
         require("autopilot", "swarmtrack agent --autopilot serial://", ["pyserial"])

@@ -27,6 +27,11 @@ PATIENCE = 60.0
 FUSE_BY, PUBLISH_BY, PLAN_BY = 0.3, 0.5, 0.6
 
 
+def late_steps(scenario, dt: float) -> int:
+    """The estimation steps (of ``dt`` s) a late share can take: the scenario's delay bound."""
+    return int(np.ceil(scenario.network.delay_bound() / dt - 1e-9))
+
+
 class LiveExchange:
     """UAV ``i``'s rounds of messages on ``node`` (of a swarm of ``n``): :meth:`at` sets the step they belong to
     (its navigation message: the radio's word and, in real time, when it was due); ``late_steps``: the estimation
@@ -44,10 +49,12 @@ class LiveExchange:
         self.due: float | None = None
         self.period = 0.0
 
-    def at(self, k: int, c: int, got: wire.Navigation, period: float, controller) -> LiveExchange:
-        """The rounds of step ``(k, c)`` (``got``: its navigation message; ``period``: the step's, s) of the stack
-        whose controller is ``controller`` (one that plans in sequence hears its lower neighbours' plans)."""
-        self.k, self.c, self.radio, self.due, self.period = k, c, got.radio, got.due, period
+    def at(self, k: int, c: int, radio: wire.Radio | None, due: float | None, period: float,
+           controller) -> LiveExchange:
+        """The rounds of step ``(k, c)`` (``radio``: whose messages may come; ``due``: in real time, the wall-clock
+        time the step is due at, None in lockstep; ``period``: the step's, s) of the stack whose controller is
+        ``controller`` (one that plans in sequence hears its lower neighbours' plans)."""
+        self.k, self.c, self.radio, self.due, self.period = k, c, radio, due, period
         self.controller = controller
         return self
 

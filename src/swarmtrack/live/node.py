@@ -46,10 +46,12 @@ class Refused(Mismatch):
 
 
 class Node:
-    """``me``: this process's UAV index, or :data:`~swarmtrack.live.wire.WORLD`."""
+    """``me``: this process's UAV index, or :data:`~swarmtrack.live.wire.WORLD`; ``world``: whether a world process
+    runs the swarm (a UAV's process stops when it is no longer heard); in the field none does
+    (:mod:`swarmtrack.field`), and a process is told of nobody's absence: it judges its peers by their heartbeats."""
 
-    def __init__(self, transport: Transport, seal: Seal, swarm: str, me: int):
-        self.transport, self.seal, self.swarm, self.me = transport, seal, swarm, me
+    def __init__(self, transport: Transport, seal: Seal, swarm: str, me: int, world: bool = True):
+        self.transport, self.seal, self.swarm, self.me, self.world = transport, seal, swarm, me, world
         self._box: dict[tuple[str, int, int, int], Message] = {}
         self._cond = threading.Condition()
         self.stopped: str | None = None
@@ -240,7 +242,7 @@ class Node:
                 missing = [s for s in senders if (channel, s, k, c) not in self._box and s not in self.absent]
                 if not missing:
                     break
-                if self.me != WORLD:
+                if self.me != WORLD and self.world:
                     quiet = time.monotonic() - self.seen.get(WORLD, time.monotonic())
                     if self.stopped is None and quiet > LOST_AFTER and (
                             quiet > PARENT_PATIENCE or not self.world_runs()):

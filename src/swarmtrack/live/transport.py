@@ -177,6 +177,28 @@ class ZenohTransport:
         def handler(sample) -> None:
             callback(str(sample.key_expr), sample.payload.to_bytes())
 
+        return self._declare(key_expr, handler)
+
+    def subscribe_typed(self, key_expr: str, callback: Callable[[str, bytes, str | None], None]) -> object:
+        """:meth:`subscribe`, the callback also given the schema of each sample's encoding (``application/cdr;T``:
+        ``T``; None when its encoding has none): a field source's message type (:mod:`swarmtrack.field.sources`)."""
+        def handler(sample) -> None:
+            _, _, schema = str(sample.encoding).partition(";")
+            callback(str(sample.key_expr), sample.payload.to_bytes(), schema or None)
+
+        return self._declare(key_expr, handler)
+
+    def put_typed(self, key: str, data: bytes, msgtype: str) -> None:
+        """Put ``data``, a ROS 2 message of type ``msgtype`` (``pkg/msg/Type``) serialised as CDR, with the encoding
+        that says so (``application/cdr;pkg/msg/Type``), best effort (a field stand-in's camera and truth)."""
+        pub = self._publishers.get(key)
+        if pub is None:
+            pub = self._publishers[key] = self.session.declare_publisher(
+                key, encoding=self._zenoh.Encoding("application/cdr").with_schema(msgtype),
+                congestion_control=self._zenoh.CongestionControl.DROP, express=True)
+        pub.put(data)
+
+    def _declare(self, key_expr: str, handler) -> object:
         before = set(threading.enumerate())
         sub = self.session.declare_subscriber(key_expr, handler)
         # the thread zenoh-python started for this subscription's callbacks (joined by close)

@@ -185,6 +185,12 @@ class Sample(Message, tag="sample"):
     autopilot: list[dict[str, Any]] = []
     """With an autopilot: its handovers to the operator and engagements so far
     (:attr:`swarmtrack.autopilot.authority.Authority.events`)."""
+    nav: Any = None
+    """In the field (:mod:`swarmtrack.field`): its navigation solution (1, d) of the step, which the monitor records
+    where the world's truth would be."""
+    skipped: dict[str, int] = {}
+    """In the field: the messages of its sources it skipped so far, by cause and topic
+    (:func:`swarmtrack.replay.grid.skip`)."""
 
 
 class Alive(Message, tag="alive"):

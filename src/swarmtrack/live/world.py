@@ -106,6 +106,9 @@ class LiveReport:
     late: dict[str, int] = field(default_factory=dict)
     """Real time: the messages that missed their deadline, by channel (``share_fused_late``: of the shares, those
     fused afterwards at their time stamps, within the scenario's delay bound)."""
+    skipped: dict[str, int] = field(default_factory=dict)
+    """In the field: the messages of the UAVs' sources they skipped, by cause and topic (summed over their
+    processes)."""
     autopilot: dict[str, list[dict]] = field(default_factory=dict)
     """With autopilots: each UAV's (1-based) handovers to its operator and engagements, in order: ``t`` (simulated s,
     the step that saw it), ``event`` (``handover`` or ``engaged``), for a handover the ``mode`` the vehicle went to,
@@ -123,6 +126,11 @@ class LiveReport:
         if self.interrupted is not None:
             out.append({"check": "live", "message": f"interrupted at t = {self.interrupted:.2f} s: the recording "
                         "holds the steps completed before"})
+        if self.skipped:
+            from swarmtrack.replay.grid import remedy
+
+            out += [{"check": "live", "message": f"{n} message(s) skipped: {cause} ({remedy(cause)})"}
+                    for cause, n in sorted(self.skipped.items())]
         out += [{"check": "live", "message": f"UAV {e['uav']}: process {e['pid']} refused at t = {e['t']:.2f} s: "
                  f"{e['reason']}"} for e in self.refused]
         out += [{"check": "live", "message": f"a stop the world did not send came at t = {t:.2f} s, unsealed: this run "

@@ -115,6 +115,16 @@ SKIPS = {
                                                                           "rates.physics)",
     "covariance not positive definite": "the message's x-y covariance is not a covariance (an all-zero one is read "
                                         "as not given): fix the logger, or map a topic without one",
+    "stamped before an earlier message of its topic": "the field: its sender's clock went backwards (a restarted "
+                                                      "sensor, a clock stepped by NTP): fix the sender's clock "
+                                                      "synchronisation (docs/field.md, \"Clocks\")",
+    "stamped more than the window before its step": "the field: it came too late to be fused (a slow link, or the "
+                                                    "sender's clock behind this UAV's): check NTP/PTP, or raise the "
+                                                    "map's window",
+    "message of another type than its source names": "the field: the source's samples say they are of another type: "
+                                                     "name the type its publisher sends (?type=)",
+    "message that does not decode as its type": "the field: the bytes are not CDR of the source's type: name the type "
+                                                "its publisher sends (?type=)",
     "a damaged stretch of": "pyulog skipped it; copy the log from the vehicle again if you can",
     "xy_valid false": "PX4 had no valid horizontal position then (EKF converging, GPS lost): nothing to do, or map "
                       "another message in uavs.N.navigation",

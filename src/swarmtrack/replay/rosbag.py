@@ -87,20 +87,23 @@ def _covariance_ok(msg, msgtype: str) -> bool:
     return abs(b - c) <= 1e-9 * max(abs(a), abs(d), 1e-300) and a > 0.0 and a * d - b * c > 0.0
 
 
-class _Topics:
-    """The map's topics: what each one feeds (navigation / detections of a UAV, truth) and how it is read."""
+class Topics:
+    """The map's topics: what each one feeds (navigation / detections of a UAV, truth) and how a message decoded
+    by ``rosbags`` (or one with the same fields: the field agent's ROS 2 and Zenoh sources) is read."""
 
-    def __init__(self, mapping):
+    def __init__(self, mapping=None):
         self.roles: dict[str, list] = {}
-        for number, sources in mapping.uavs.items():
+        for number, sources in ({} if mapping is None else mapping.uavs).items():
             if sources.log is None:  # a UAV with a log of its own (a ULog) has its navigation there
-                self.roles.setdefault(sources.navigation.topic, []).append(("navigation", number - 1,
-                                                                             sources.navigation))
-            if sources.detections is not None:
-                self.roles.setdefault(sources.detections.topic, []).append(("detections", number - 1,
-                                                                             sources.detections))
-        if mapping.truth is not None:
-            self.roles.setdefault(mapping.truth.topic, []).append(("truth", None, mapping.truth))
+                self.add("navigation", number - 1, sources.navigation)
+            self.add("detections", number - 1, sources.detections)
+        self.add("truth", None, None if mapping is None else mapping.truth)
+
+    def add(self, role: str, uav: int | None, source) -> None:
+        """``source`` (a map's :class:`~swarmtrack.replay.mapping.Source` or ``DetectionSource``; None: none)
+        feeds ``role`` (``navigation``, ``detections`` or ``truth``) of UAV ``uav`` (0-based)."""
+        if source is not None:
+            self.roles.setdefault(source.topic, []).append((role, uav, source))
 
     def read(self, topic: str, msgtype: str, msg, logged: int, counts: dict) -> Iterator:
         stamp = _stamp(msg, logged)
@@ -136,7 +139,7 @@ def messages(paths: list[Path], mapping, counts: dict) -> Iterator:
     from rosbags.highlevel import AnyReader, AnyReaderError
     from rosbags.typesys import Stores, get_typestore
 
-    topics = _Topics(mapping)
+    topics = Topics(mapping)
     try:
         reader = AnyReader([Path(p) for p in paths], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
         reader.open()

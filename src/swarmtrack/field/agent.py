@@ -32,7 +32,7 @@ from swarmtrack.live import wire
 from swarmtrack.live.agent import Agent
 from swarmtrack.live.exchange import PATIENCE, late_steps
 from swarmtrack.live.node import LOST_AFTER, Node
-from swarmtrack.live.world import labels_of
+from swarmtrack.onboard.context import labels_of
 from swarmtrack.onboard.warm import warm_up
 from swarmtrack.replay.rosbag import Topics
 

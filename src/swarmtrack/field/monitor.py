@@ -25,9 +25,9 @@ from swarmtrack.field.inputs import FieldInputs
 from swarmtrack.live import wire
 from swarmtrack.live.node import LOST_AFTER, Node
 from swarmtrack.live.realtime import RECORD_BY
-from swarmtrack.live.world import LiveReport, _percentiles, labels_of
+from swarmtrack.live.report import LiveReport, percentiles, timing
 from swarmtrack.onboard.build import onboard_stack
-from swarmtrack.onboard.context import clock_of, context, layout
+from swarmtrack.onboard.context import clock_of, context, labels_of, layout
 from swarmtrack.sim.meta import profiles, run_meta
 from swarmtrack.sim.recorder import Recorder, Recording
 from swarmtrack.streams.frame import frame_of
@@ -60,6 +60,7 @@ class Monitor:
         self.steps: list[tuple] = []  # (uav, k, done after its time (s), CPU (s))
         self.messages: list[tuple] = []  # (channel, sender, receiver, k, c, sent after the epoch (s), latency (s))
         self.stop = False  # Ctrl-C: the steps recorded so far are kept
+        self.tables: dict[str, pd.DataFrame] = {}  # live/latency and live/steps, made when the run is over
 
     def run(self) -> tuple[Recording, LiveReport, dict[str, pd.DataFrame]]:
         """Record from the current step to the scenario's end (or :attr:`stop`)."""
@@ -82,7 +83,7 @@ class Monitor:
                 self.progress((k + 1 - first) / (steps - first))
         for tap in self.taps:
             tap.close()
-        return self.recorder.close(), self._finish(), self._tables()
+        return self.recorder.close(), self._finish(), self.tables
 
     def _record(self, k: int, t: float, samples: dict[int, wire.Sample]) -> None:
         self.node.forget(k - 1)
@@ -146,19 +147,6 @@ class Monitor:
                     into[cause] = into.get(cause, 0) + n
         report.rejected, report.late = rejected, late
         report.skipped = skipped
-        steps = self.steps
-        report.cpu_per_step_ms = _percentiles(1e3 * np.array([s[3] for s in steps]))
-        report.step_lateness = _percentiles(np.array([s[2] for s in steps]) / dt)
-        latency = self._latency()
-        report.latency_ms = {ch: _percentiles(1e3 * lat.to_numpy())
-                             for ch, lat in latency.groupby("channel", observed=True)["latency"]}
+        report.cpu_per_step_ms = percentiles(1e3 * np.array([s[3] for s in self.steps]))
+        self.tables = timing(report, self.steps, self.messages, dt)
         return report
-
-    def _latency(self) -> pd.DataFrame:
-        latency = pd.DataFrame(self.messages, columns=["channel", "sender", "receiver", "k", "c", "sent", "latency"])
-        latency["channel"] = latency["channel"].astype("category")
-        return latency
-
-    def _tables(self) -> dict[str, pd.DataFrame]:
-        """``latency`` and ``steps`` as a live run at wall-clock rate keeps them (``live/*.parquet``)."""
-        return {"latency": self._latency(), "steps": pd.DataFrame(self.steps, columns=["uav", "k", "done", "cpu"])}

@@ -29,7 +29,8 @@ import pandas as pd
 
 from swarmtrack.analysis.sweep import warm
 from swarmtrack.live import wire
-from swarmtrack.live.world import LockstepWorld, _percentiles, safe_command
+from swarmtrack.live.report import percentiles, timing
+from swarmtrack.live.world import LockstepWorld, safe_command
 
 #: Seconds between the UAVs' stacks being built and the first step.
 LEAD = 0.5
@@ -136,13 +137,8 @@ class RealtimeWorld(LockstepWorld):
         dt = self.truth.clock.dt_estimation
         self.messages += [(ch, s, wire.WORLD, k, c, sent - self.epoch, lat) for ch, s, k, c, sent, lat in
                           self.node.log()]
-        latency = pd.DataFrame(self.messages, columns=["channel", "sender", "receiver", "k", "c", "sent", "latency"])
-        latency["channel"] = latency["channel"].astype("category")
-        self._tables = {"latency": latency, "steps": pd.DataFrame(self.steps, columns=["uav", "k", "done", "cpu"])}
-        self.report.latency_ms = {ch: _percentiles(1e3 * lat.to_numpy())
-                                  for ch, lat in latency.groupby("channel", observed=True)["latency"]}
-        self.report.step_lateness = _percentiles(np.array([s[2] for s in self.steps]) / dt)
-        self.report.world_lateness = _percentiles(np.array(self.world_late) / dt)
+        self._tables = timing(self.report, self.steps, self.messages, dt)
+        self.report.world_lateness = percentiles(np.array(self.world_late) / dt)
         late = Counter()
         for counts in self._late.values():
             late.update(counts)

@@ -18,7 +18,6 @@ import time
 from collections import Counter
 from collections.abc import Callable
 from contextlib import contextmanager
-from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -27,9 +26,10 @@ from swarmtrack.autopilot.fleet import Fleet
 from swarmtrack.live import wire
 from swarmtrack.live.agent import HELLO_EVERY, PATIENCE, scenario_hash, telemetry_of
 from swarmtrack.live.node import LOST_AFTER, Node
+from swarmtrack.live.report import LiveReport, percentiles
 from swarmtrack.network.links import neighbour_lists
 from swarmtrack.onboard.build import component, onboard_stack
-from swarmtrack.onboard.context import command_width, context, sensor_labels
+from swarmtrack.onboard.context import command_width, context, labels_of, sensor_labels
 from swarmtrack.outputs import Terminated
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sensors.detections import Detections
@@ -68,87 +68,6 @@ def check_live(scenario: Scenario) -> None:
         build_onboard(scenario, 0, labels_of(scenario))
     except NotImplementedError as exc:
         raise LiveError(f"cannot run live: {exc}") from None
-
-
-def labels_of(scenario: Scenario) -> dict[str, list[int | None]]:
-    """The sensor's label of every member of the targets and decoys (None: not sensed), what each UAV's sensor
-    reports, told to it at start (:func:`~swarmtrack.onboard.context.sensor_labels`)."""
-    label_of = sensor_labels(scenario)
-    return {g: [label_of(g, m) for m in range(getattr(scenario, g).size())] for g in ("targets", "decoys")}
-
-
-@dataclass
-class LiveReport:
-    """What a live run adds to ``metrics.json`` (under ``live``): the UAVs lost and rejoined (1-based, simulated
-    time), the messages dropped by every process's seal (by cause), the CPU time of a UAV's process per estimation
-    step; in real time also the latencies, how late the steps were done and the messages that missed their
-    deadlines. Percentiles are ``{median, p90, p99, max, count}``."""
-
-    mode: str = "lockstep"
-    lost: list[dict] = field(default_factory=list)
-    rejoined: list[dict] = field(default_factory=list)
-    rejected: dict[str, int] = field(default_factory=dict)
-    interrupted: float | None = None
-    """The simulated time at which Ctrl-C or SIGTERM stopped the run (the recording holds the steps before it)."""
-    refused: list[dict] = field(default_factory=list)
-    """Processes refused during the run (1-based UAV, its pid, simulated time, why): a second process for a UAV that
-    is flown, one of another scenario, one without ``--rejoin`` for a lost UAV."""
-    unsealed_stops: list[float] = field(default_factory=list)
-    """Simulated times at which a stop the world did not send came on its keys (an ``--insecure`` run)."""
-    cpu_per_step_ms: dict | None = None
-    """A UAV's process's CPU time per estimation step (ms, over UAVs and steps; its start-up left out)."""
-    latency_ms: dict[str, dict] = field(default_factory=dict)
-    """Real time: each channel's latency (ms, from the sender's wall clock to the receiver's callback)."""
-    step_lateness: dict | None = None
-    """Real time: how late after its time each UAV's step was done (its sample sent), in estimation periods."""
-    world_lateness: dict | None = None
-    """Real time: how late after its time the world began each step, in estimation periods."""
-    late: dict[str, int] = field(default_factory=dict)
-    """Real time: the messages that missed their deadline, by channel (``share_fused_late``: of the shares, those
-    fused afterwards at their time stamps, within the scenario's delay bound)."""
-    skipped: dict[str, int] = field(default_factory=dict)
-    """In the field: the messages of the UAVs' sources they skipped, by cause and topic (summed over their
-    processes)."""
-    autopilot: dict[str, list[dict]] = field(default_factory=dict)
-    """With autopilots: each UAV's (1-based) handovers to its operator and engagements, in order: ``t`` (simulated s,
-    the step that saw it), ``event`` (``handover`` or ``engaged``), for a handover the ``mode`` the vehicle went to,
-    whether it stayed ``armed`` and the believed ``cause`` (:func:`swarmtrack.autopilot.authority.cause`), for an
-    engagement ``by`` whom."""
-
-    def warnings(self) -> list[dict]:
-        out = [{"check": "live", "message": f"UAV {e['uav']} stopped answering at t = {e['t']:.2f} s; it was flown "
-                f"safely from then (the world's safe command, or with --mavlink its autopilot's failsafe)"
-                f"{self._back(e['uav'])}"} for e in self.lost]
-        if self.step_lateness is not None and self.step_lateness["p99"] > 1:
-            out.append({"check": "live", "message": f"real time not kept: 1 % of the UAVs' steps were done more than "
-                        f"{self.step_lateness['p99']:.1f} estimation periods late (the machine is too slow for "
-                        "this swarm, or too busy)"})
-        if self.interrupted is not None:
-            out.append({"check": "live", "message": f"interrupted at t = {self.interrupted:.2f} s: the recording "
-                        "holds the steps completed before"})
-        if self.skipped:
-            from swarmtrack.replay.grid import remedy
-
-            out += [{"check": "live", "message": f"{n} message(s) skipped: {cause} ({remedy(cause)})"}
-                    for cause, n in sorted(self.skipped.items())]
-        out += [{"check": "live", "message": f"UAV {e['uav']}: process {e['pid']} refused at t = {e['t']:.2f} s: "
-                 f"{e['reason']}"} for e in self.refused]
-        out += [{"check": "live", "message": f"a stop the world did not send came at t = {t:.2f} s, unsealed: this run "
-                 "is --insecure, so anyone on the network can stop its UAVs (those that obeyed were lost and flown "
-                 "safely)"} for t in self.unsealed_stops]
-        out += [{"check": "live", "message": f"UAV {uav}'s vehicle was handed to its operator at t = {e['t']:.2f} s "
-                 f"({e['mode']}, cause: {e['cause']}): its controller's commands were not flown from then"
-                 f"{self._engaged(uav, e['t'])} (its estimates still count)"} for uav, events in self.autopilot.items()
-                for e in events if e["event"] == "handover"]
-        return out
-
-    def _engaged(self, uav: str, t: float) -> str:
-        back = [e["t"] for e in self.autopilot[uav] if e["event"] == "engaged" and e["t"] >= t]
-        return f" until it was engaged again at t = {back[0]:.2f} s" if back else ""
-
-    def _back(self, uav: int) -> str:
-        back = [e["t"] for e in self.rejoined if e["uav"] == uav]
-        return f" (it rejoined at t = {back[0]:.2f} s)" if back else ""
 
 
 def safe_command(nav: np.ndarray, width: int) -> np.ndarray:
@@ -250,7 +169,7 @@ class LockstepWorld:
         self.report.rejected = dict(total)
         for (i, *_), events in sorted(self._autopilot.items(), key=lambda item: item[0][0]):
             self.report.autopilot.setdefault(str(i + 1), []).extend(events)
-        self.report.cpu_per_step_ms = _percentiles(1e3 * np.asarray(self.cpu))
+        self.report.cpu_per_step_ms = percentiles(1e3 * np.asarray(self.cpu))
         self._finish()
         return self.recorder.close(), self.report
 
@@ -658,14 +577,6 @@ def _row_of_view(view, i: int) -> dict:
     """UAV i's row of a :class:`~swarmtrack.estimation.base.TargetView` (its state, model and motion), packed."""
     return {name: wire.pack(getattr(view, name)[i:i + 1]) for name in ("state", "model", "motion")
             if getattr(view, name) is not None}
-
-
-def _percentiles(x: np.ndarray) -> dict[str, float] | None:
-    """Median, 90th and 99th percentiles and maximum of ``x`` (None: empty)."""
-    if not len(x):
-        return None
-    p50, p90, p99 = np.percentile(x, [50, 90, 99])
-    return {"median": float(p50), "p90": float(p90), "p99": float(p99), "max": float(np.max(x)), "count": len(x)}
 
 
 def _stacked(rows: list[dict]) -> dict[str, np.ndarray]:

@@ -49,6 +49,13 @@ def sensor_labels(scenario: Scenario) -> Callable[[str, int], int | None]:
     return lambda group, member: label.get(rows[group].start + member)
 
 
+def labels_of(scenario: Scenario) -> dict[str, list[int | None]]:
+    """The sensor's label of every member of the targets and decoys (None: not sensed), what each UAV's sensor
+    reports (:func:`sensor_labels` as a table: the live world tells it to its UAVs at their start)."""
+    label_of = sensor_labels(scenario)
+    return {g: [label_of(g, m) for m in range(getattr(scenario, g).size())] for g in ("targets", "decoys")}
+
+
 def clock_of(scenario: Scenario) -> Clock:
     """The scenario's clock: its physics, estimation and control rates over its run's duration."""
     r = scenario.rates

@@ -302,6 +302,13 @@ class _Logger:
                     channel.log(data, log_time=ns)
 
 
+def _ns(seconds: float) -> int:
+    """``seconds`` (since the Unix epoch) in ns, its whole seconds apart (a float of ~1.7e18 ns is off by up to
+    128 ns)."""
+    whole, fraction = divmod(float(seconds), 1.0)
+    return int(whole) * 1_000_000_000 + round(fraction * 1e9)
+
+
 def _n_uavs(meta: dict) -> int:
     start, stop = meta["groups"]["uavs"]
     return stop - start
@@ -353,8 +360,8 @@ class FoxgloveView:
 
     @property
     def port(self) -> int:
-        """The port the server listens on (the one asked for until :meth:`open`)."""
-        return self._port if self._server is None else self._server.port
+        """The port the server listens on (the one asked for until :meth:`open`; a free one for 0)."""
+        return self._port
 
     @property
     def url(self) -> str:
@@ -383,12 +390,13 @@ class FoxgloveView:
                 self._server = _start_server(self.host, self._port, self._live.context,
                                              f"swarmtrack {meta.get('scenario', '')}".strip())
                 stack.callback(self._server.stop)
+                self._port = self._server.port  # the one chosen for port 0
         except BaseException as exc:
             self._live = self._file = self._server = None
             stack.__exit__(type(exc), exc, exc.__traceback__)  # the MCAP's temporary file removed (partial_files)
             raise
         self._stack = stack
-        self._logger = _Logger(round(self.stamp_epoch * 1e9))
+        self._logger = _Logger(_ns(self.stamp_epoch))
 
     def watched(self) -> set[str]:
         """The topics a live client is subscribed to now."""
@@ -437,7 +445,7 @@ def write_mcap(recording: Recording, path: Path, stamp_epoch: float = 0.0) -> in
     path = Path(path)
     check_new_destination(path, option="mcap", rule="an export never replaces anything")
     sink = _Sink(_n_uavs(recording.meta), _plots_of(recording.meta))
-    logger = _Logger(round(stamp_epoch * 1e9))
+    logger = _Logger(_ns(stamp_epoch))
     steps = 0
     try:
         with partial_files([path], keep_suffix=True, overwrite=False) as [tmp]:

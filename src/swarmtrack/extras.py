@@ -11,6 +11,9 @@ estimator too) and its analysis. The drivers are extras (pyproject.toml's ``[pro
                swarmtrack export --format mcap|rosbag2 (csv needs neither)
     field      swarmtrack agent --field | monitor | stand-in: the live swarm's, and rosbags for the ROS 2 messages
                its sources carry (docs/field.md)
+    foxglove   --foxglove: the live view over Foxglove's WebSocket protocol, and its MCAP files (foxglove-sdk)
+    ros2       --ros2 and ros2:/// sources: ROS 2 topics through cyclonedds (no ROS installation), their message
+               definitions from rosbags
     dask       swarmtrack sweep | reproduce --cluster (without it they run on a local process pool)
     all        every one of them (``make run`` and ``make test`` install ``.[dev]``, which has ``all``)
 
@@ -33,6 +36,8 @@ EXTRAS: dict[str, dict[str, str]] = {
     "logs": {"rosbags": "rosbags", "pyulog": "pyulog"},
     "field": {"eclipse-zenoh": "zenoh", "msgspec": "msgspec", "pymavlink": "pymavlink", "rosbags": "rosbags"},
     "dask": {"dask": "dask", "distributed": "distributed"},
+    "foxglove": {"foxglove-sdk": "foxglove"},
+    "ros2": {"cyclonedds": "cyclonedds", "rosbags": "rosbags"},
 }
 
 

@@ -21,6 +21,7 @@ import click
 from swarmtrack.cli_support import UsageFailure, report_run, warn_run, write_run
 from swarmtrack.extras import require
 from swarmtrack.live.commands import ENV, _load, _scenario_options, _security_options, check_wire, read_key, stop_agents
+from swarmtrack.streams.options import announce, foxglove_option, ros2_options, taps_of
 
 #: Seconds between the stand-in's start and the swarm's t = 0 (its agents and monitor start, warm up and subscribe).
 LEAD = 10.0
@@ -152,6 +153,8 @@ def _field_options(f):
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path), required=True, help="the run folder")
 @click.option("--overwrite", is_flag=True, help="replace an earlier run in --out")
 @click.option("--no-plots", is_flag=True, help="skip the PNG figures")
+@foxglove_option
+@ros2_options
 @_security_options
 def monitor_cmd(**options) -> None:
     """Join SCENARIO's field swarm read-only and record what its agents publish (their probes, commands and counts,
@@ -171,6 +174,8 @@ def monitor_cmd(**options) -> None:
         check_destination(o.out.absolute(), o.overwrite)
     except OutputError as exc:
         raise UsageFailure(str(exc)) from None
+    taps = taps_of(o.foxglove, o.ros2, o.ros2_namespace, o.ros2_domain, stamp_epoch=epoch)
+    announce(taps)
     node = _node(scn, o, MONITOR, epoch)
     inputs = None
     try:
@@ -178,7 +183,7 @@ def monitor_cmd(**options) -> None:
             inputs = FieldInputs(scn, None, epoch)
             _open_truth(truth, node, inputs, Topics())
         with run_folder(o.out, o.overwrite) as tmp:
-            monitor = Monitor(scn, node, epoch, inputs, record_to=tmp / "recording")
+            monitor = Monitor(scn, node, epoch, inputs, record_to=tmp / "recording", taps=taps)
             previous = signal.signal(signal.SIGINT, lambda *_: setattr(monitor, "stop", True))
             try:
                 rec, report, tables = monitor.run()

@@ -30,7 +30,6 @@ from swarmtrack.onboard.build import onboard_stack
 from swarmtrack.onboard.context import clock_of, context, labels_of, layout
 from swarmtrack.sim.meta import profiles, run_meta
 from swarmtrack.sim.recorder import Recorder, Recording
-from swarmtrack.streams.frame import frame_of
 
 #: The monitor's id on the swarm's keys (it sends nothing; its node must be neither a UAV nor the world).
 MONITOR = -2
@@ -52,8 +51,7 @@ class Monitor:
         meta = run_meta(scenario, self.rows, self.flown, self.clock.dt_estimation)
         labels = labels_of(scenario)
         self.probes = onboard_stack(context(scenario, lambda g, m: labels[g][m], uavs=[0])).probes
-        self.recorder = Recorder(meta, self.m, self.n, self.probes, record_to, presence=True)
-        self.taps = list(taps)
+        self.recorder = Recorder(meta, self.m, self.n, self.probes, record_to, presence=True, taps=taps)
         self.report = LiveReport(mode="field")
         self.lost: set[int] = set()
         self.samples: dict[tuple, wire.Sample] = {}  # each UAV process's latest sample
@@ -65,8 +63,6 @@ class Monitor:
     def run(self) -> tuple[Recording, LiveReport, dict[str, pd.DataFrame]]:
         """Record from the current step to the scenario's end (or :attr:`stop`)."""
         self.node.listen(("uav", "*", "sample"), ("uav", "*", "alive"))
-        for tap in self.taps:
-            tap.open(self.recorder.meta)
         dt = self.clock.dt_estimation
         first = max(0, math.ceil((time.time() - self.epoch) / dt - 1e-9))
         steps = self.clock.steps
@@ -81,8 +77,6 @@ class Monitor:
             self._record(k, t, self.node.wait("sample", range(self.n), k, timeout=0.0, missing_ok=True))
             if self.progress is not None:
                 self.progress((k + 1 - first) / (steps - first))
-        for tap in self.taps:
-            tap.close()
         return self.recorder.close(), self._finish(), self.tables
 
     def _record(self, k: int, t: float, samples: dict[int, wire.Sample]) -> None:
@@ -109,10 +103,6 @@ class Monitor:
         for i, sample in samples.items():
             self._account(i, sample, k)
         self._watch(t)
-        if self.taps:
-            frame = frame_of(self.recorder.meta, t, truth, probes, present)
-            for tap in self.taps:
-                tap.send(frame)
 
     def _account(self, i: int, sample: wire.Sample, k: int) -> None:
         """What a sample says of its process: its counts (the latest of each process), its step's lateness and CPU,

@@ -25,6 +25,7 @@ import click
 from swarmtrack.cli_support import UsageFailure, report_run, warn_run, write_run
 from swarmtrack.extras import require
 from swarmtrack.scenarios.loader import ScenarioError, load_scenario
+from swarmtrack.streams.options import announce, foxglove_option, ros2_options, taps_of
 
 #: Seconds the processes a run started get to end after SIGTERM before they are killed.
 GRACE = 2.0
@@ -255,6 +256,7 @@ def engage_cmd(**options) -> None:
 
 
 def _live_options(f):
+    f = ros2_options(foxglove_option(f))
     f = click.option("--mavlink-gcs", type=click.IntRange(1, 65535), default=None, metavar="PORT", help=(
         "with --mavlink, the vehicles' ground-station links send to 127.0.0.1:PORT (as PX4 SITL's to 14550, where "
         "QGroundControl listens); without it, a ground station claims UAV i's by sending to its port, "
@@ -320,6 +322,8 @@ def _serve(o: SimpleNamespace, spawn: bool) -> None:
                 raise UsageFailure(f"--mavlink flies planar acceleration setpoints: swarm.vehicle "
                                    f"{scn.swarm.vehicle} is commanded otherwise")
             key = read_key(o.key_file, o.insecure)
+            taps = taps_of(o.foxglove, o.ros2, o.ros2_namespace, o.ros2_domain)
+            announce(taps)
             if o.mavlink:
                 try:
                     check_ports(scn.swarm.n_uavs, o.mavlink_port)
@@ -352,7 +356,8 @@ def _serve(o: SimpleNamespace, spawn: bool) -> None:
             children = {p.pid: p for p in procs}
             rec, live, tables = run_live(scn, node, record_to=tmp / "recording", realtime=o.realtime,
                                          mavlink=(o.mavlink_port, "127.0.0.1", o.mavlink_gcs) if o.mavlink else None,
-                                         running=lambda pid: pid in children and children[pid].poll() is None)
+                                         running=lambda pid: pid in children and children[pid].poll() is None,
+                                         taps=taps)
             stop_agents(procs)  # within GRACE s of the end (or of Ctrl-C), before the files are written
             if live.interrupted is not None and not rec.meta["n_steps"]:
                 raise _NothingRecorded()  # stopped before its first step: there is no run to write

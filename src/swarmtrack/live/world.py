@@ -98,7 +98,7 @@ class LockstepWorld:
 
     def __init__(self, scenario: Scenario, node: Node, record_to=None, patience: float = PATIENCE,
                  progress: Callable[[float], None] | None = None, mavlink: tuple | None = None,
-                 running: Callable[[int], bool] | None = None):
+                 running: Callable[[int], bool] | None = None, taps=()):
         self.scenario, self.node, self.patience, self.progress = scenario, node, patience, progress
         self.running = running  # whether the process of a pid is one this world started and it runs
         self.truth = truth = truth_side(scenario)
@@ -115,7 +115,7 @@ class LockstepWorld:
         # a run folder keeps the UAVs' inputs (navigation, detections) as swarmtrack run's does: it can be replayed
         self.recorder = Recorder(truth.meta, truth.world.n_objects, self.n, {**self.probes,
                                  **dict.fromkeys(self.monitors, ())}, record_to, presence=True,
-                                 inputs=record_to is not None)
+                                 inputs=record_to is not None, taps=taps)
         self.last: dict[int, wire.Sample] = {}  # each UAV's latest sample (its aim and telemetry when lost)
         self.u = np.zeros((self.n, command_width(scenario)))
         # each UAV process's latest counts of the messages it dropped, by (UAV, its process): a process lost and

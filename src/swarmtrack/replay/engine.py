@@ -33,13 +33,14 @@ REPLAY_CHUNK_STEPS = 4096
 
 def replay(scenario: Scenario, steps: Iterable[StepInputs], record_to: Path | None = None,
            progress: Callable[[float], None] | None = None, source: dict | None = None,
-           phases: bool = True, planned: Callable[[int], None] | None = None) -> Recording:
+           phases: bool = True, planned: Callable[[int], None] | None = None, taps=()) -> Recording:
     """Run ``scenario``'s estimator on ``steps`` (in time order, on its estimation grid) and return the recording:
     the estimator's probes, and the log's ground truth where it has one. ``source`` (what was replayed) goes into the
     recording's ``meta`` under ``replay``, with ``truth``: the steps where the followed target's truth is known
     (:func:`truth_coverage`). ``phases=False``: the log does not know the scenario's profile phases; the tracked
     target's steps are one phase, ``logged`` (phase 0 of the steps). ``progress`` gets the fraction done; ``planned``
-    the number of steps before the first, when the reader knows it (:class:`~swarmtrack.replay.steps.Planned`)."""
+    the number of steps before the first, when the reader knows it (:class:`~swarmtrack.replay.steps.Planned`);
+    ``taps`` live outputs sent each recorded step (:mod:`swarmtrack.streams`)."""
     clock, rows = clock_of(scenario), layout(scenario)
     stack = onboard_stack(context(scenario, sensor_labels(scenario)), controller=False)
     exchange, dt = ChannelExchange(channel_of(scenario, clock.dt_estimation)), clock.dt_estimation
@@ -53,7 +54,7 @@ def replay(scenario: Scenario, steps: Iterable[StepInputs], record_to: Path | No
     # a replay keeps its inputs too (a replayed run folder can be replayed again, with another estimator)
     # chunks of at most REPLAY_CHUNK_STEPS steps: a long log of a small swarm streams in bounded memory
     recorder = Recorder(meta, n_objects, n, stack.probes, record_to, inputs=record_to is not None,
-                        max_chunk_steps=REPLAY_CHUNK_STEPS)
+                        max_chunk_steps=REPLAY_CHUNK_STEPS, taps=taps)
     n_steps = getattr(steps, "n_steps", None)
     if n_steps is not None and planned is not None:
         planned(n_steps)
@@ -85,7 +86,7 @@ def truth_coverage(with_truth: int, steps: int, dt: float) -> dict:
 
 def replay_logs(logs, scenario: Scenario, mapping=None, fmt: str | None = None, record_to: Path | None = None,
                 progress: Callable[[float], None] | None = None,
-                planned: Callable[[int], None] | None = None) -> Recording:
+                planned: Callable[[int], None] | None = None, taps=()) -> Recording:
     """Replay ``logs`` (paths: a run folder, ROS bags, ULog or CSV files) through ``scenario``'s estimator:
     ``mapping`` is a map file's path, its contents as a dict, or None (a run folder needs none); ``fmt`` a registered
     reader's name (default: recognised from the first log). The recording's ``meta["replay"]`` says what was
@@ -106,4 +107,4 @@ def replay_logs(logs, scenario: Scenario, mapping=None, fmt: str | None = None, 
     skipped: dict[str, int] = {}
     source = {"format": reader.name, "logs": [str(p) for p in logs], "map": source_map, "skipped": skipped}
     return replay(scenario, reader.open(logs, scenario, mapping, skipped), record_to, progress, source,
-                  phases=reader.phases, planned=planned)
+                  phases=reader.phases, planned=planned, taps=taps)

@@ -24,15 +24,16 @@ from swarmtrack.sim.recorder import Recorder, Recording
 
 def simulate(scenario: Scenario, progress: Callable[[float], None] | None = None,
              record_to: Path | None = None, on_step: Callable[[Simulation], None] | None = None,
-             inputs: bool | None = None) -> Recording:
+             inputs: bool | None = None, taps=()) -> Recording:
     """Run one closed-loop simulation and return its recording (kept in memory, or streamed to ``record_to``).
     Same scenario and seed, same numbers. ``on_step``: see :func:`step_loop`. ``inputs``: keep the onboard
     stack's inputs (navigation and detections, :mod:`swarmtrack.sim.inputs`) so the run can be replayed; by
-    default a recording streamed to ``record_to`` keeps them and one in memory does not."""
+    default a recording streamed to ``record_to`` keeps them and one in memory does not. ``taps``: live outputs
+    sent each recorded step (:class:`~swarmtrack.streams.frame.Tap`)."""
     sim = build(scenario)
     probes = {**sim.stack.probes, **dict.fromkeys(sim.monitors, ())}
     recorder = Recorder(sim.meta, sim.world.n_objects, scenario.swarm.n_uavs, probes, record_to,
-                        inputs=record_to is not None if inputs is None else inputs)
+                        inputs=record_to is not None if inputs is None else inputs, taps=taps)
     return step_loop(sim, recorder, progress, on_step)
 
 

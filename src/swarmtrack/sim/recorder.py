@@ -19,6 +19,7 @@ import numpy as np
 
 from swarmtrack.sensors.detections import Detections
 from swarmtrack.sim.inputs import InputLog, arrow, arrow_strings, numpy_of, read_inputs, writer_options
+from swarmtrack.streams.frame import frame_of
 
 #: Version of the on-disk layout (``meta.json`` and the two Parquet files).
 FORMAT = 1
@@ -200,7 +201,7 @@ class Recorder:
 
     def __init__(self, meta: dict, n_objects: int, n_uavs: int, probes: dict[str, tuple[int, ...]],
                  path: Path | None = None, inputs: bool = False, max_chunk_steps: int | None = None,
-                 presence: bool = False):
+                 presence: bool = False, taps=()):
         self.meta = {**meta, "format": FORMAT, "n_objects": n_objects, "n_uavs": n_uavs,
                      "probes": {k: list(v) for k, v in probes.items()}}
         if presence:  # a driver whose samples may not come (live, replay): each step says which came
@@ -225,6 +226,11 @@ class Recorder:
         self._t_last = 0.0
         #: The onboard stack's inputs (:mod:`swarmtrack.sim.inputs`), kept when ``inputs`` (a run to replay).
         self.inputs = InputLog(self.path, None if self.path is None else self._submit) if inputs else None
+        #: Live outputs (:class:`~swarmtrack.streams.frame.Tap`: ROS 2 topics, the Foxglove view), opened with the
+        #: recording's meta now and sent each step once it is recorded; they read, never change, what is recorded.
+        self.taps = list(taps)
+        for tap in self.taps:
+            tap.open(self.meta)
 
     def record(self, t: float, truth: np.ndarray, phase: np.ndarray, probes: dict[str, np.ndarray],
                present: np.ndarray | None = None) -> None:
@@ -244,6 +250,10 @@ class Recorder:
             self._blocks.append(block)
         block.put(t, truth, phase, probes, present)
         self._pending += 1
+        if self.taps:
+            frame = frame_of(self.meta, t, truth, probes, present)
+            for tap in self.taps:
+                tap.send(frame)
         if self._pending == self.chunk_steps:
             self._flush()
 
@@ -312,7 +322,9 @@ class Recorder:
             self._writers[name].write_table(table, row_group_size=len(table))
 
     def close(self) -> Recording:
-        """Finish the recording (files closed, ``meta.json`` written last) and return it."""
+        """Finish the recording (files closed, ``meta.json`` written last; the taps closed) and return it."""
+        for tap in self.taps:
+            tap.close()
         self._flush()
         if self.inputs is not None:
             self.inputs.flush()

@@ -76,7 +76,7 @@ def test_unusable_messages_are_skipped_and_counted_by_cause_and_topic(l24):
         "NaN or infinite value in a message on /uav_1/pose": 1,
         "stamped more than the window before its step on /uav_1/target": 1,
         "detection with no navigation of its UAV at its time on /uav_1/target": 1,
-        "a second detection of the target by one UAV in one estimation step on /uav_1/target": 1}
+        "a frame that came after its step, superseded by the next on /uav_1/target": 1}
 
 
 def test_what_was_stamped_before_the_uavs_first_step_is_dropped_uncounted(l24):

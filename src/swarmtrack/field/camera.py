@@ -4,7 +4,8 @@ deployment, and nothing else.
 It runs the scenario's truth side (:func:`~swarmtrack.sim.build.truth_side`: targets, physics, sensors) at the wall
 clock's pace from the swarm's epoch, with each UAV's vehicle a simulated autopilot over MAVLink
 (:class:`~swarmtrack.autopilot.fleet.Fleet`: the UAV's navigation from it, its setpoints flown by it), and plays
-every UAV's camera as a sensor plugin would: each estimation step, the UAV's detections of the followed target are
+every UAV's camera as a sensor plugin would: each estimation step (a little ahead of its time: :data:`AHEAD`), the
+UAV's detections of the followed target are
 published on its own Zenoh key as ``geometry_msgs/msg/PointStamped`` (the target relative to the UAV along the map
 frame's axes, stamped when the frame was taken), and the target's truth as ``geometry_msgs/msg/PoseStamped`` (for
 the monitor, as motion capture would give it). It plays no radio: the agents hear each other over Zenoh directly. A
@@ -27,6 +28,11 @@ from swarmtrack.live.realtime import RECORD_BY
 from swarmtrack.sim.build import truth_side
 
 DETECTION_TYPE, TRUTH_TYPE = "geometry_msgs/msg/PointStamped", "geometry_msgs/msg/PoseStamped"
+#: How far ahead of a step's time (a fraction of the period) its navigation and camera frame go out: as soon as the
+#: vehicles' setpoints of the step before are in (:data:`~swarmtrack.live.realtime.RECORD_BY`), so that a busy
+#: machine's scheduling does not push a frame past its agent's step (a frame is stamped when it was taken, which
+#: the agent fuses it at; a camera's latency of more than this is the scenario's ``sensor.latency``).
+AHEAD = 1.0 - RECORD_BY
 
 
 def detections_key(prefix: str, uav: int) -> str:
@@ -70,6 +76,7 @@ class CameraWorld:
         self.label = self.truth.meta["tracked_label"]
         self.aim = np.full((self.n, 2), np.nan)  # a gimbal's aim: none until its agent says
         self.stop = False
+        self.published: dict[tuple[int, int], float] = {}  # when (wall clock) each UAV's detection of a step went out
 
     def _now(self) -> float:
         """The vehicles' clock: monotonic from the stand-in's start."""
@@ -78,12 +85,13 @@ class CameraWorld:
     def run(self) -> None:
         """Every step to the scenario's end (or :attr:`stop`)."""
         self.node.listen(("uav", "*", "sample"))
+        self.node.heard = []  # every sample's arrival is logged (end_to_end)
         world, clock = self.truth.world, self.truth.clock
         u = np.zeros((self.n, 2))  # what the vehicles fly until their first control step
         tracked = self.truth.meta["tracked"]
         for k in range(clock.steps):
             t = k * clock.dt_estimation
-            if not self._sleep_until(t):
+            if not self._sleep_until(t - AHEAD * clock.dt_estimation):
                 return
             truth, nav = world.truth(), world.navigation()
             self.fleet.publish(t, nav, range(self.n))
@@ -97,6 +105,7 @@ class CameraWorld:
                 for rel in self.relative_of(mine)[ours]:
                     self.node.transport.put_typed(detections_key(self.prefix, i + 1),
                                                   stamped(DETECTION_TYPE, self.epoch + taken, rel), DETECTION_TYPE)
+                    self.published[(i, k)] = time.time()
             if tracked is not None:
                 self.node.transport.put_typed(truth_key(self.prefix),
                                               stamped(TRUTH_TYPE, self.epoch + t, truth[tracked, :2]), TRUTH_TYPE)
@@ -105,7 +114,7 @@ class CameraWorld:
                 if control_now:
                     tc = world.t
                     if offset:
-                        if not self._sleep_until(tc):
+                        if not self._sleep_until(tc - AHEAD * clock.dt_control):
                             return
                         nav = world.navigation()
                         self.fleet.publish(tc, nav, range(self.n))
@@ -115,6 +124,12 @@ class CameraWorld:
                     u = self.fleet.commands(nav, self._now())
                 world.advance({"uavs": u}, ticks)
                 offset += ticks
+
+    def end_to_end(self) -> np.ndarray:
+        """Seconds from each detection's publication to the sample of the step that fused it heard on the network
+        (its agent's estimate, as the monitor hears it), over UAVs and steps: what a detection costs end to end."""
+        return np.array([sent + latency - self.published[(s, k)] for channel, s, k, _, sent, latency in
+                         self.node.log() if channel == "sample" and (s, k) in self.published])
 
     def _sleep_until(self, t: float) -> bool:
         """Wait for run time ``t`` on the wall clock; False when stopped meanwhile."""

@@ -17,6 +17,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import click
+import numpy as np
 
 from swarmtrack.cli_support import UsageFailure, report_run, warn_run, write_run
 from swarmtrack.extras import require
@@ -336,3 +337,7 @@ def _run_camera(camera, kills: dict[int, float], procs: dict, epoch: float) -> N
     camera.run()
     camera.stop = True
     thread.join(1.0)
+    e2e = 1e3 * camera.end_to_end()
+    if len(e2e):
+        click.echo(f"stand-in: a detection's publication to its fused estimate heard on the network: median "
+                   f"{np.median(e2e):.2f} ms, p99 {np.percentile(e2e, 99):.2f} ms ({len(e2e)} steps)", err=True)

@@ -7,7 +7,8 @@ the wall clock's pace.
 - **Navigation** at step k is the UAV's navigation at the step's time: interpolated between the samples around it,
   else the latest held for up to ``window`` s (:class:`~swarmtrack.replay.grid._Track`); the autopilot's is put as a
   sample at each step's time.
-- **Detections** are those that came since the previous step (the latest if several: the others are counted), taken
+- **Detections** are those that came since the previous step (the latest if several: a frame that came after its
+  own step is superseded, and counted), taken
   from where the UAV's navigation put it at their stamp and made the scenario sensor's measurement
   (:class:`~swarmtrack.registry.Measurement`), stamped with their time (:attr:`Detections.taken`).
 - **Skipped, counted and named** as in replay (:func:`~swarmtrack.replay.grid.skip`): a message with a NaN or
@@ -127,8 +128,8 @@ class FieldInputs:
                 else:
                     rows.append((stamp, det, where))
             if len(rows) > 1:
-                skip(self.counts, "a second detection of the target by one UAV in one estimation step",
-                     f" on {rows[-1][1].topic}", len(rows) - 1)
+                skip(self.counts, "a frame that came after its step, superseded by the next", f" on {rows[-1][1].topic}",
+                     len(rows) - 1)
         if not rows:
             return Detections(np.zeros(0, dtype=np.int64), np.zeros((0, 2)), np.zeros((0, 2)),
                               np.zeros(0, dtype=np.int64), 1, frame=self._frame_of_none())

@@ -71,7 +71,8 @@ class LiveExchange:
             return None
         assert self.radio is not None, "at() sets the step first"
         heard = self._wait("publish", self.radio.links, self.k, -1, PUBLISH_BY)
-        return self._assemble(self.radio.links, {s: m.payloads for s, m in heard.items()}, posteriors)
+        # a neighbour that published nothing this step (its stack not sharing yet: one started later) is not heard
+        return self._assemble(self.radio.links, {s: m.payloads for s, m in heard.items() if m.payloads}, posteriors)
 
     def beacons(self, t: float, beacon: Outbox) -> Inbox:
         assert self.radio is not None, "at() sets the step first"

@@ -121,6 +121,11 @@ SKIPS = {
     "stamped more than the window before its step": "the field: it came too late to be fused (a slow link, or the "
                                                     "sender's clock behind this UAV's): check NTP/PTP, or raise the "
                                                     "map's window",
+    "a frame that came after its step, superseded by the next": "the field: the sensor's detection came after the "
+                                                                  "step it was taken for (a busy machine or a slow "
+                                                                  "link), beside the next one; the latest is used: "
+                                                                  "fix the load, or raise the scenario's "
+                                                                  "rates.estimation",
     "message of another type than its source names": "the field: the source's samples say they are of another type: "
                                                      "name the type its publisher sends (?type=)",
     "message that does not decode as its type": "the field: the bytes are not CDR of the source's type: name the type "

@@ -128,8 +128,8 @@ class FieldInputs:
                 else:
                     rows.append((stamp, det, where))
             if len(rows) > 1:
-                skip(self.counts, "a frame that came after its step, superseded by the next", f" on {rows[-1][1].topic}",
-                     len(rows) - 1)
+                skip(self.counts, "a frame that came after its step, superseded by the next",
+                     f" on {rows[-1][1].topic}", len(rows) - 1)
         if not rows:
             return Detections(np.zeros(0, dtype=np.int64), np.zeros((0, 2)), np.zeros((0, 2)),
                               np.zeros(0, dtype=np.int64), 1, frame=self._frame_of_none())

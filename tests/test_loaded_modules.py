@@ -63,6 +63,29 @@ for name in {AGENT_SCENARIOS!r}:
 
 
 @pytest.mark.slow
+def test_a_field_agent_loads_its_stack_its_sources_and_nothing_of_the_world():
+    # what `swarmtrack agent --field` imports, its inputs placed and its stack built and stepped (the warm-up)
+    loaded = _loaded("""
+import swarmtrack.field.commands, swarmtrack.field.agent, swarmtrack.field.sources, swarmtrack.autopilot.link
+from swarmtrack.field.inputs import FieldInputs
+from swarmtrack.field.sources import parse, typestore
+from swarmtrack.live.agent import build_onboard
+from swarmtrack.onboard.context import labels_of, sensor_labels
+from swarmtrack.onboard.warm import warm_up
+from swarmtrack.replay.rosbag import Topics
+from swarmtrack.scenarios.loader import load_scenario
+parse("zenoh://a/b?type=geometry_msgs/msg/PointStamped")
+for name in ("l24-ct", "w20-switching"):
+    s = load_scenario(name)
+    FieldInputs(s, 0, 0.0).detections(0.0)
+    warm_up(s, 0, sensor_labels(s))
+    build_onboard(s, 0, labels_of(s))
+""")
+    assert {"swarmtrack.field.agent", "swarmtrack.field.inputs", "swarmtrack.estimation.multimodel"} <= set(loaded)
+    assert not _world_side(loaded)
+
+
+@pytest.mark.slow
 def test_a_replay_loads_its_stack_its_readers_and_nothing_of_the_world(tmp_path):
     folder = tmp_path / "run"
     subprocess.run([sys.executable, "-m", "swarmtrack", "run", "l24-cv", "--set", "duration=2", "--no-plots",

@@ -14,6 +14,8 @@ from swarmtrack.cli import main
 from swarmtrack.field.camera import DETECTION_TYPE, TRUTH_TYPE, stamped
 from swarmtrack.live.transport import ZenohTransport, free_port
 
+pytestmark = pytest.mark.xdist_group("field")
+
 
 @pytest.mark.parametrize(("args", "says"), [
     (["--detections", "udp://1.2.3.4:5"], "--detections 'udp://1.2.3.4:5' is not a source"),

@@ -14,7 +14,8 @@ import pytest
 from swarmtrack.autopilot.endpoint import free_base
 from swarmtrack.sim.recorder import Recording
 
-pytestmark = [pytest.mark.xdist_group("live-2"), pytest.mark.slow]
+#: A group of their own: real time, beside the live groups' (tests/live), on the spare worker (Makefile)
+pytestmark = [pytest.mark.xdist_group("field"), pytest.mark.slow]
 
 
 def test_a_field_swarm_tracks_without_a_world_and_goes_on_when_an_agent_dies(tmp_path):
@@ -40,3 +41,20 @@ def test_a_field_swarm_tracks_without_a_world_and_goes_on_when_an_agent_dies(tmp
     error = np.hypot(*(rec.estimate[:, :2, :2] - rec.target[:, None, :2]).transpose(2, 0, 1))
     assert np.nanmax(error[t > 8.0]) < 0.5  # the two left still track (the simulator's: about 0.1 m)
     assert metrics["rmse"]["total"]["x"] < 0.5
+
+
+def test_a_field_w20_swarm_tracks_from_its_camera_topics(tmp_path):
+    """W20's multi-model team, each UAV fed by its own gimballed camera's topic (aimed where its agent says)."""
+    out = tmp_path / "w20"
+    proc = subprocess.run([sys.executable, "-m", "swarmtrack", "stand-in", "w20-switching", "--set", "duration=8",
+                           "--mavlink-port", str(free_base(3)), "--out", str(out), "--no-plots"],
+                          capture_output=True, text=True, timeout=150)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["live"]["lost"] == [] and metrics["live"]["rejected"] == {}
+    rec = Recording.load(out / "recording")
+    present = np.concatenate([c.present for c in rec.chunks()])
+    assert present[rec.t > 2.0].all()
+    error = np.hypot(*(rec.estimate[:, :, :2] - rec.target[:, None, :2]).transpose(2, 0, 1))
+    assert np.nanmax(error[rec.t > 4.0]) < 0.5  # the simulator's: within 0.1 m
+    assert metrics["rmse"]["total"]["x"] < 0.2 and metrics["rmse"]["total"]["y"] < 0.2

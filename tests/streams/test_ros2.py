@@ -343,3 +343,59 @@ def test_a_closed_output_leaves_the_network_and_a_failing_callback_is_raised_by_
     with pytest.raises(TopicNotPublished):  # its writers went with it
         Ros2Source("/uav_1/pose", None, print, domain_id=domain, timeout=0.5)
     assert domain not in ros2._DOMAINS  # every participant of the domain ended
+
+
+def test_a_source_closed_from_its_own_callback_stops_delivering(domain):
+    out = Ros2Out(domain_id=domain)
+    out.open({})
+    out.send(_frame(0.0))
+    calls: list = []
+    first = threading.Event()
+
+    def once(msgtype, message, received):
+        calls.append(message)
+        source.close()
+        first.set()
+
+    source = Ros2Source("/uav_1/pose", None, once, domain_id=domain, timeout=5)
+    try:
+        deadline = time.monotonic() + 5
+        while not first.wait(0.02) and time.monotonic() < deadline:
+            out.send(_frame(0.1))
+        for _ in range(20):
+            out.send(_frame(0.2))
+        time.sleep(0.1)
+        source.close()  # again, from here: nothing left to end
+    finally:
+        out.close()
+    assert len(calls) == 1
+
+
+def test_a_3d_estimate_carries_the_targets_altitude_and_its_xyz_covariance(domain):
+    assert ros2.altitude_column({"model": "ct3d"}) == 4  # [x, y, vx, vy, z, vz, omega]
+    assert ros2.altitude_column({"estimator": {"models": ["cv3d", "ct3d", "fs3d"]}}) == 4
+    assert ros2.altitude_column({"model": "ct"}) is None and ros2.altitude_column({}) is None
+    assert ros2.altitude_column({"estimator": {"models": ["cv", "cv3d"]}}) is None
+    rng = np.random.default_rng(3)
+    a = rng.normal(size=(3, 7, 7))
+    covariance = a @ a.transpose(0, 2, 1) + np.eye(7)
+    estimate = rng.normal(size=(3, 7))
+    step = _frame(1.0, estimate=estimate, covariance=covariance, uav_altitude=np.array([5.0, 6.0, np.nan]))
+    inbox = Inbox()
+    out = Ros2Out(domain_id=domain)
+    out.open({"model": "ct3d"})
+    out.send(step)
+    sources = _sources(inbox, domain, ["/uav_2/estimate", "/uav_2/pose"])
+    try:
+        estimated = inbox.wait("/uav_2/estimate", bool, poke=lambda: out.send(step))[0][1]
+        pose = inbox.wait("/uav_2/pose", bool, poke=lambda: out.send(step))[0][1]
+    finally:
+        for source in sources:
+            source.close()
+        out.close()
+    position = estimated.pose.pose.position
+    assert (position.x, position.y, position.z) == tuple(estimate[1, [0, 1, 4]])
+    full = estimated.pose.covariance.reshape(6, 6)
+    np.testing.assert_array_equal(full[:3, :3], covariance[1][np.ix_([0, 1, 4], [0, 1, 4])])
+    assert np.all(full[:3, 3:] == 0) and np.all(np.diag(full)[3:] == ros2.UNESTIMATED_VARIANCE)
+    assert pose.pose.position.z == 6.0

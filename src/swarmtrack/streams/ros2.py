@@ -559,11 +559,12 @@ class Ros2Source:
     def close(self) -> None:
         """Stop the delivery and delete the reader (idempotent); raise the callback's exception if it failed."""
         self._closing.set()
-        if self._participant is not None:
-            self._wake.set(True)
-            if threading.current_thread() is not self._thread:
-                self._thread.join()
-                self._finish()
+        with self._lock:  # not after _finish deleted it
+            if self._participant is not None:
+                self._wake.set(True)
+        if threading.current_thread() is not self._thread:  # from the callback: the thread ends it on its way out
+            self._thread.join()
+            self._finish()
         error, self._error = self._error, None
         if error is not None:
             raise error

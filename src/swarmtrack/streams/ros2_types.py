@@ -21,8 +21,9 @@ pkg/Name                             the generated class of ``pkg/msg/Name``
 ===================================  =================================================================
 
 :func:`idl_type` builds (once per type) the class DDS topics are made with; messages are written with rosbags'
-serializer (:func:`cdr`, :func:`writer_type`: about ten times faster than cyclonedds' pure Python one and byte
-for byte the same, as the tests hold) and read into rosbags' classes (:func:`reader_type`).
+serializer (:func:`cdr`, :func:`writer_type`: 4 µs for a PoseWithCovarianceStamped where cyclonedds' pure Python
+one takes 20 to 40 µs, and byte for byte the same, as the tests hold) and read into rosbags' classes
+(:func:`reader_type`).
 """
 
 from __future__ import annotations

@@ -312,8 +312,9 @@ def test_a_topic_nobody_publishes_or_of_another_type_is_refused_naming_it(domain
     try:
         out.send(_frame(0.0))
         with pytest.raises(TypeMismatch, match="/uav_1/pose: published as geometry_msgs/msg/PoseStamped, not "
-                                               "geometry_msgs/msg/PointStamped"):
+                                               "geometry_msgs/msg/PointStamped") as refused:
             Ros2Source("/uav_1/pose", "geometry_msgs/PointStamped", print, domain_id=domain, timeout=5)
+        assert isinstance(refused.value, ValueError)  # as a type unknown: the callers' one refusal of a bad type
         with pytest.raises(ValueError, match="not a ROS 2 message type"):
             Ros2Source("/uav_1/pose", "geometry_msgs/msg/Nothing", print, domain_id=domain, timeout=5)
     finally:

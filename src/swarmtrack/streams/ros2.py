@@ -90,8 +90,9 @@ class TopicNotPublished(TimeoutError):
     """Nobody published the topic within the time asked."""
 
 
-class TypeMismatch(TypeError):
-    """A topic's publishers use another type (or another definition of it) than the one asked for."""
+class TypeMismatch(ValueError):
+    """A topic's publishers use another type (or another definition of it) than the one asked for (a ValueError:
+    the type asked for, or the topic, is wrong, as for an unknown type)."""
 
 
 # --- discovery and participants -----------------------------------------------------------------------------------

@@ -147,3 +147,57 @@ def test_the_definitions_swarmtrack_writes_are_the_installed_ros2_packages():
             assert store.fielddefs[name][1] == fields, name
             checked += 1
     assert checked > 100
+
+
+def test_an_rclpy_node_feeds_a_field_agent_and_hears_its_fused_estimates(domain, node, tmp_path):
+    """A ROS 2 node publishes UAV 1's navigation (PoseStamped) and its detections of a target standing 3 m east and 4 m
+    north of it (PointStamped); ``swarmtrack agent --field --ros2`` (its own process, no world, its neighbours
+    absent) fuses them and publishes its estimate on /uav_1/estimate, which the node receives near the target."""
+    import subprocess
+    import sys
+
+    from geometry_msgs.msg import PoseStamped
+
+    made, executor = node
+    pose_pub = made.create_publisher(PoseStamped, "/uav_1/pose_in", 10)
+    detection_pub = made.create_publisher(PointStamped, "/uav_1/detections", 10)
+    estimates: list = []
+    made.create_subscription(PoseWithCovarianceStamped, "/uav_1/estimate", estimates.append, 10)
+    env = {**os.environ, "ROS_DOMAIN_ID": str(domain)}
+    start = time.time() + 1.0
+    agent = subprocess.Popen([sys.executable, "-m", "swarmtrack", "agent", "l24-ct", "--uav", "1", "--field",
+                              "--insecure", "--set", "duration=60", "--start", repr(start), "--navigation",
+                              "/uav_1/pose_in", "--detections", "/uav_1/detections", "--wait", "20", "--ros2"],
+                             env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+    def publish() -> None:  # the UAV hovering at (1, 2), the target at (4, 6): 20 Hz, stamped now
+        now = time.time()
+        pose, point = PoseStamped(), PointStamped()
+        for msg in (pose, point):
+            msg.header.stamp.sec, msg.header.stamp.nanosec = int(now), int((now % 1) * 1e9)
+            msg.header.frame_id = "map"
+        pose.pose.position.x, pose.pose.position.y = 1.0, 2.0
+        point.point.x, point.point.y = 3.0, 4.0
+        pose_pub.publish(pose)
+        detection_pub.publish(point)
+
+    try:
+        deadline = time.monotonic() + 60
+        last = 0.0
+        while (not estimates or time.time() < start + 5.0) and time.monotonic() < deadline:
+            if time.monotonic() - last >= 0.05:
+                publish()
+                last = time.monotonic()
+            executor.spin_once(timeout_sec=0.01)
+            assert agent.poll() is None, agent.communicate()[1][-3000:]
+    finally:
+        agent.terminate()
+        try:
+            agent.wait(10)
+        except subprocess.TimeoutExpired:
+            agent.kill()
+            agent.wait()
+    assert estimates, "no estimate came"
+    late = estimates[-1].pose.pose.position
+    assert abs(late.x - 4.0) < 0.2 and abs(late.y - 6.0) < 0.2
+    assert estimates[-1].header.frame_id == "map" and estimates[-1].pose.covariance[0] > 0.0

@@ -35,6 +35,7 @@ from swarmtrack.live.node import LOST_AFTER, Node
 from swarmtrack.onboard.context import labels_of
 from swarmtrack.onboard.warm import warm_up
 from swarmtrack.replay.rosbag import Topics
+from swarmtrack.replay.steps import LogError
 
 #: Seconds without a message after which a source, or the UAV's neighbours, are said to be silent.
 QUIET_AFTER = 2.0
@@ -90,12 +91,18 @@ class FieldAgent(Agent):
         self.nav_source = None if navigation is None else navigation.topic
         self._silent: set[str] = set()
         self.opened: list = []
+        self.problem: str | None = None  # a source whose messages the field cannot read (from its thread)
 
     def _open_sources(self) -> None:
         """Subscribe to every source and wait for each one's first message (:attr:`wait` s)."""
         for text, url in self.urls.items():
             def on_message(msgtype, msg, received, text=text):
-                for item in self.topics.read(text, msgtype, msg, int(received * 1e9), self.inputs.counts):
+                try:
+                    items = list(self.topics.read(text, msgtype, msg, int(received * 1e9), self.inputs.counts))
+                except LogError as exc:  # a type the field cannot read (no position, no point): the agent stops
+                    self.problem = self.problem or str(exc)
+                    return
+                for item in items:
                     self.inputs.put(item)
 
             self.opened.append(open_source(url, self.node.transport, on_message,
@@ -107,6 +114,8 @@ class FieldAgent(Agent):
                                   "on this network, and is the topic or key spelt as it publishes?)")
             if source.problem is not None:
                 raise SourceError(source.problem)
+        if self.problem is not None:
+            raise SourceError(self.problem)
 
     def run(self, rejoin: bool = False) -> None:
         """Open its autopilot and sources, build its stack, and step from the current step (the epoch's, or the one
@@ -122,6 +131,9 @@ class FieldAgent(Agent):
         labels = labels_of(self.scenario)
         warm_up(self.scenario, self.i, lambda group, member: labels[group][member])
         self.build(labels)
+        for tap in self.taps:  # what the outputs read of the run (the estimator's settings, its probes)
+            tap.open({"scenario": self.scenario.name, "estimator": self.scenario.estimator.model_dump(mode="json"),
+                      "probes": {name: list(shape) for name, shape in self.stack.probes.items()}})
         self._open_sources()
         node.heard = []  # every message's latency is logged and reported
         dt = self.clock.dt_estimation
@@ -148,6 +160,8 @@ class FieldAgent(Agent):
         dt = self.clock.dt_estimation
         t = k * dt
         self._sleep_until(t + INPUTS_BY * dt)
+        if self.problem is not None:
+            raise SourceError(self.problem)
         segments = list(self.clock.control_segments(k))
         nav = self._own_navigation(t)
         self._say(t)

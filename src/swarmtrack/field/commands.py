@@ -116,9 +116,10 @@ def run_field_agent(o: SimpleNamespace) -> None:
         FieldInputs(scn, o.uav - 1, epoch)  # its sensor and estimator take planar detections of one target
     except ValueError as exc:
         raise UsageFailure(f"--field: {exc}") from None
+    taps = taps_of(None, o.ros2, o.ros2_namespace, o.ros2_domain, stamp_epoch=epoch)
     node = _node(scn, o, o.uav - 1, epoch)
     agent = FieldAgent(scn, o.uav - 1, node, epoch, navigation, detections, window or 1.0, o.autopilot, o.reengage,
-                       o.wait)
+                       o.wait, taps)
     try:
         agent.run()
     except (SourceError, AutopilotError) as exc:
@@ -129,6 +130,10 @@ def run_field_agent(o: SimpleNamespace) -> None:
     except KeyboardInterrupt:
         sys.exit(130)
     finally:
+        for source in agent.opened:
+            source.close()
+        for tap in taps:
+            tap.close()
         if agent.link is not None:
             agent.link.close()
         node.close()
@@ -163,6 +168,7 @@ def monitor_cmd(**options) -> None:
     require("field", "swarmtrack monitor")
     from swarmtrack.field.inputs import FieldInputs
     from swarmtrack.field.monitor import MONITOR, Monitor
+    from swarmtrack.field.sources import SourceError
     from swarmtrack.outputs import OutputError, Terminated, check_destination, run_folder
     from swarmtrack.replay.rosbag import Topics
 
@@ -178,11 +184,11 @@ def monitor_cmd(**options) -> None:
     taps = taps_of(o.foxglove, o.ros2, o.ros2_namespace, o.ros2_domain, stamp_epoch=epoch)
     announce(taps)
     node = _node(scn, o, MONITOR, epoch)
-    inputs = None
+    inputs = source = None
     try:
         if truth is not None:
             inputs = FieldInputs(scn, None, epoch)
-            _open_truth(truth, node, inputs, Topics())
+            source = _open_truth(truth, node, inputs, Topics())
         with run_folder(o.out, o.overwrite) as tmp:
             monitor = Monitor(scn, node, epoch, inputs, record_to=tmp / "recording", taps=taps)
             previous = signal.signal(signal.SIGINT, lambda *_: setattr(monitor, "stop", True))
@@ -199,12 +205,16 @@ def monitor_cmd(**options) -> None:
 
             metrics = write_run(rec, scn, tmp, no_plots=o.no_plots, extra={"live": dataclasses.asdict(report)},
                                 warnings=report.warnings())
-    except OutputError as exc:
+    except (OutputError, SourceError) as exc:
         raise UsageFailure(str(exc)) from None
     except (KeyboardInterrupt, Terminated):
         click.echo("interrupted; nothing was written", err=True)
         sys.exit(130)
     finally:
+        if source is not None:
+            source.close()
+        for tap in taps:
+            tap.close()
         node.close()
     report_run(metrics, scn, o.out)
     warn_run(metrics, strict=False)
@@ -214,19 +224,19 @@ def monitor_cmd(**options) -> None:
         sys.exit(130)
 
 
-def _open_truth(truth, node, inputs, topics) -> None:
-    """Subscribe the monitor's truth source (waiting for its first message up to 10 s)."""
+def _open_truth(truth, node, inputs, topics):
+    """The monitor's truth source, subscribed (a ROS 2 topic waits up to 10 s for its publisher); what it says
+    goes into ``inputs``."""
     from swarmtrack.field.sources import open_source, parse
 
     topics.add("truth", None, truth)
-    url = parse(truth.topic)
 
     def on_message(msgtype, msg, received):
         for item in topics.read(truth.topic, msgtype, msg, int(received * 1e9), inputs.counts):
             inputs.put(item)
 
-    source = open_source(url, node.transport, on_message, lambda cause: inputs.skip(cause, truth.topic), 10.0)
-    del source
+    return open_source(parse(truth.topic), node.transport, on_message, lambda cause: inputs.skip(cause, truth.topic),
+                       10.0)
 
 
 @click.command("stand-in")

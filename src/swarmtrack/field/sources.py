@@ -136,15 +136,33 @@ class ZenohSource:
         """Its subscription ends with the transport."""
 
 
+class Ros2Input:
+    """A ROS 2 topic through ``cyclonedds`` (:class:`~swarmtrack.streams.ros2.Ros2Source`): it waits up to
+    ``timeout`` s for a publisher and takes its type (a type named that differs, or no publisher: a
+    :class:`SourceError` naming the source)."""
+
+    def __init__(self, url: SourceUrl, on_message: OnMessage, timeout: float):
+        from swarmtrack.streams.ros2 import Ros2Source
+
+        self.url, self.problem, self.first = url, None, threading.Event()
+
+        def deliver(msgtype: str, msg, received: float) -> None:
+            self.first.set()
+            on_message(msgtype, msg, received)
+
+        try:
+            self.source = Ros2Source(url.topic, url.msgtype, deliver, timeout=timeout)
+        except (TimeoutError, ValueError) as exc:
+            raise SourceError(f"{url.text}: {exc}") from None
+
+    def close(self) -> None:
+        self.source.close()
+
+
 def open_source(url: SourceUrl, transport, on_message: OnMessage, on_skip: Callable[[str], None],
-                timeout: float):
-    """A running source for ``url``: Zenoh on ``transport``, ROS 2 through ``cyclonedds``
-    (:class:`~swarmtrack.streams.ros2.Ros2Source`, which learns a type not named within ``timeout`` s)."""
+                timeout: float) -> ZenohSource | Ros2Input:
+    """A running source for ``url``: Zenoh on ``transport``, or a ROS 2 topic (which waits up to ``timeout`` s for
+    its publisher)."""
     if url.scheme == "zenoh":
         return ZenohSource(url, transport, on_message, on_skip)
-    from swarmtrack.streams.ros2 import Ros2Source
-
-    try:
-        return Ros2Source(url.topic, url.msgtype, on_message, timeout=timeout)
-    except (TimeoutError, ValueError) as exc:
-        raise SourceError(f"{url.text}: {exc}") from None
+    return Ros2Input(url, on_message, timeout)

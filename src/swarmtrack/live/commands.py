@@ -162,6 +162,7 @@ def keygen_cmd(file: Path) -> None:
               help="--field: a map file naming its sources (the format of swarmtrack replay --map)")
 @click.option("--wait", type=click.FloatRange(min=0, min_open=True), default=10.0, show_default=True,
               metavar="SECONDS", help="--field: give up on a source whose first message does not come within this time")
+@ros2_options
 @_security_options
 def agent_cmd(**options) -> None:
     """Run UAV --uav's onboard stack (estimator, controller) of SCENARIO, as on its companion computer: its
@@ -172,6 +173,9 @@ def agent_cmd(**options) -> None:
 
         run_field_agent(SimpleNamespace(**options))
         return
+    if options["ros2"]:
+        raise UsageFailure("--ros2 on an agent needs --field (a live world publishes its whole swarm: swarmtrack live "
+                           "--ros2)")
     require("live", "swarmtrack agent")
     if (options["autopilot"] or "").startswith("serial://"):
         require("autopilot", "swarmtrack agent --autopilot serial://", ["pyserial"])

@@ -54,7 +54,7 @@ def taps_of(foxglove: str | None = None, ros2: bool = False, namespace: str = "u
         try:
             taps.append(Ros2Out(namespace, domain_id=domain, stamp_epoch=stamp_epoch or 0.0))
         except ValueError as exc:
-            raise UsageFailure(f"--ros2-namespace {exc}") from None
+            raise UsageFailure(f"--ros2-namespace: {exc}") from None
     return taps
 
 

@@ -17,6 +17,10 @@ Goal: the view costs a lockstep run at most 5 %. A lockstep ``l24-ct`` with 5 UA
 time at 20 Hz, about 10 ms a step (docs/live.md); the reference printed here is the in-process simulator's step,
 20 times shorter, so a ratio under 100 % here is under 5 % of a lockstep step.
 
+**Lockstep** (the goal, measured): whole ``swarmtrack live l24-ct --insecure --no-plots`` processes (the world and
+its 3 UAV processes, lockstep) with ``--foxglove`` and a client subscribed to every topic, against the same without,
+alternated, best of ``repeat``; goal: at most 5 % more wall time.
+
 Usage: ``PYTHONPATH=src .venv/bin/python benchmarks/bench_foxglove.py [--quick] [--json] [--repeat N]``.
 ``--quick``: 5 s runs and 2 repeats (about 30 s); default 20 s runs, best of 5 (about 1 min).
 """
@@ -105,6 +109,54 @@ def _with_client(meta, steps, repeat: int, rate, pace) -> tuple[float, int]:
     return best, int(out.split()[-1])
 
 
+#: A client that connects as soon as the run's view is up (retrying), subscribes and reads to the end.
+LOCKSTEP_CLIENT = CLIENT.replace(
+    'with connect(sys.argv[1], subprotocols=["foxglove.sdk.v1"], open_timeout=30, max_queue=None) as ws:',
+    """import time
+deadline = time.monotonic() + 120
+while True:
+    try:
+        ws = connect(sys.argv[1], subprotocols=["foxglove.sdk.v1"], open_timeout=30, max_queue=None)
+        break
+    except OSError:
+        if time.monotonic() > deadline:
+            raise
+        time.sleep(0.05)
+with ws:""")
+#: The lockstep goal: the view with a client costs a lockstep run at most this much more wall time.
+LOCKSTEP_GOAL = 0.05
+
+
+def lockstep(repeat: int, duration: float, progress) -> dict:
+    """Best wall time (s) of a whole lockstep ``swarmtrack live l24-ct`` process without and with ``--foxglove``
+    (a client subscribed to every topic), alternated."""
+    from swarmtrack.live.transport import free_port
+
+    walls: dict[str, list[float]] = {"without": [], "with": []}
+    with tempfile.TemporaryDirectory() as tmp:
+        for r in range(repeat):
+            for case in ("without", "with"):
+                port = free_port()
+                extra = ["--foxglove", f"127.0.0.1:{port}"] if case == "with" else []
+                cmd = [sys.executable, "-m", "swarmtrack", "live", "l24-ct", "--insecure", "--no-plots", "--set",
+                       f"duration={duration:g}", "--out", str(Path(tmp) / f"{case}{r}"), *extra]
+                t0 = time.perf_counter()
+                run = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                client = None if case == "without" else subprocess.Popen(
+                    [sys.executable, "-c", LOCKSTEP_CLIENT, f"ws://127.0.0.1:{port}"], stdout=subprocess.PIPE,
+                    text=True)
+                assert run.wait(timeout=600) == 0, f"swarmtrack live {case} --foxglove failed"
+                walls[case].append(time.perf_counter() - t0)
+                if client is not None:
+                    out, _ = client.communicate(timeout=TIMEOUT)
+                    assert int(out.split()[-1]) > 0, "the client received nothing"
+                progress(f"lockstep {case} --foxglove, round {r + 1}: {walls[case][-1]:.2f} s")
+    best = {case: min(w) for case, w in walls.items()}
+    return {"duration_s": duration, "without_s": best["without"], "with_s": best["with"],
+            "cost": best["with"] / best["without"] - 1, "goal": LOCKSTEP_GOAL,
+            "met": best["with"] / best["without"] - 1 <= LOCKSTEP_GOAL}
+
+
 def measure(repeat: int, duration: float, progress) -> dict:
     from swarmtrack.scenarios.loader import load_scenario
     from swarmtrack.sim.engine import simulate
@@ -181,9 +233,11 @@ def main(argv: list[str] | None = None) -> None:
 
     load = os.getloadavg()
     figs = measure(repeat, 5.0 if args.quick else 20.0, progress)
+    step = lockstep(2 if args.quick else 3, 10.0 if args.quick else 60.0, progress)
     load_end = os.getloadavg()
     if args.json:
-        print(json.dumps({"figures": figs, "load_average_start": load, "load_average_end": load_end}, indent=2))
+        print(json.dumps({"figures": figs, "lockstep": step, "load_average_start": load,
+                          "load_average_end": load_end}, indent=2))
         return
     print(f"FoxgloveView.send, µs per step (best of {repeat}), beside the simulator's own step (same scenario, "
           f"this run); load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} at start, {load_end[0]:.2f} at end, "
@@ -196,6 +250,9 @@ def main(argv: list[str] | None = None) -> None:
             print(f"  {text:50s} {fig[key]:9.1f} µs  ({100 * fig[key] / sim:5.1f} % of a simulator step)")
         print(f"  (the client received {fig['one_client_every_step_messages']} messages every step, "
               f"{fig['one_client_50hz_messages']} capped)")
+    print(f"lockstep swarmtrack live l24-ct ({step['duration_s']:g} s, whole process, best of "
+          f"{2 if args.quick else 3}): {step['without_s']:.2f} s without, {step['with_s']:.2f} s with --foxglove and "
+          f"a client: {step['cost']:+.1%} (goal at most {step['goal']:.0%}: {'MET' if step['met'] else 'NOT MET'})")
 
 
 if __name__ == "__main__":

@@ -21,7 +21,17 @@ import numpy as np
 
 from swarmtrack.cli_support import UsageFailure, report_run, warn_run, write_run
 from swarmtrack.extras import require
-from swarmtrack.live.commands import ENV, _load, _scenario_options, _security_options, check_wire, read_key, stop_agents
+from swarmtrack.live.commands import (
+    ENV,
+    _load,
+    _scenario_options,
+    _security_options,
+    agent_scenario,
+    check_wire,
+    open_transport,
+    read_key,
+    stop_agents,
+)
 from swarmtrack.streams.options import announce, foxglove_option, ros2_options, taps_of
 
 #: Seconds between the stand-in's start and the swarm's t = 0 (its agents and monitor start, warm up and subscribe).
@@ -43,17 +53,11 @@ def _node(scn, o: SimpleNamespace, me: int, epoch: float):
     from swarmtrack.field.exchange import field_run
     from swarmtrack.live.agent import scenario_hash
     from swarmtrack.live.node import Node
-    from swarmtrack.live.transport import TransportError, ZenohTransport
     from swarmtrack.live.wire import Seal
 
     key = read_key(o.key_file, o.insecure)
-    try:
-        transport = ZenohTransport(listen=list(o.listen), connect=list(o.connect), timeout=o.connect_timeout,
-                                   tls=o.tls)
-    except TransportError as exc:
-        raise UsageFailure(str(exc)) from None
     seal = Seal(key, scn.swarm.n_uavs, run=field_run(scenario_hash(scn), epoch))
-    return Node(transport, seal, o.swarm or scn.name, me, world=False)
+    return Node(open_transport(o), seal, o.swarm or scn.name, me, world=False)
 
 
 def _source(option: str, url: str | None, detection: bool = False):
@@ -77,15 +81,10 @@ def run_field_agent(o: SimpleNamespace) -> None:
     from swarmtrack.autopilot.link import AutopilotError, AutopilotRefused
     from swarmtrack.field.agent import FieldAgent
     from swarmtrack.field.sources import SourceError
-    from swarmtrack.live.commands import check_autopilot
     from swarmtrack.replay.steps import LogError
 
-    check_wire(o.tls, connect=o.connect, listen=o.listen)
-    check_autopilot(o.autopilot)
+    scn = agent_scenario(o)
     epoch = _start(o.start)
-    scn = _load(o.scenario, o.overrides, o.seed)
-    if not 1 <= o.uav <= scn.swarm.n_uavs:
-        raise UsageFailure(f"--uav {o.uav}: the swarm of {scn.name} has UAVs 1..{scn.swarm.n_uavs}")
     navigation, detections, window = _source("--navigation", o.navigation), \
         _source("--detections", o.detections, detection=True), None
     if o.map is not None:

@@ -86,6 +86,28 @@ def check_autopilot(url: str | None) -> None:
         raise UsageFailure(f"--autopilot {url}: expected serial://DEVICE[:BAUD] with a positive BAUD")
 
 
+def agent_scenario(o: SimpleNamespace):
+    """What every agent checks first (``o``: its options): its endpoints, its autopilot's URL, its scenario and its
+    UAV's number; returns the scenario."""
+    check_wire(o.tls, connect=o.connect, listen=o.listen)
+    check_autopilot(o.autopilot)
+    scn = _load(o.scenario, o.overrides, o.seed)
+    if not 1 <= o.uav <= scn.swarm.n_uavs:
+        raise UsageFailure(f"--uav {o.uav}: the swarm of {scn.name} has UAVs 1..{scn.swarm.n_uavs}")
+    return scn
+
+
+def open_transport(o: SimpleNamespace):
+    """The process's Zenoh transport (``o``: its ``--listen``, ``--connect``, ``--connect-timeout`` and ``--tls``);
+    one that cannot start is a :class:`~swarmtrack.cli_support.UsageFailure` naming the cause."""
+    from swarmtrack.live.transport import TransportError, ZenohTransport
+
+    try:
+        return ZenohTransport(listen=list(o.listen), connect=list(o.connect), timeout=o.connect_timeout, tls=o.tls)
+    except TransportError as exc:
+        raise UsageFailure(str(exc)) from None
+
+
 def read_key(key_file: Path | None, insecure: bool) -> bytes | None:
     """The swarm key in ``key_file`` (hex), None with ``insecure``; refuses to run with neither."""
     if key_file is None:
@@ -182,23 +204,13 @@ def agent_cmd(**options) -> None:
     from swarmtrack.autopilot.link import AutopilotError, AutopilotRefused
     from swarmtrack.live.agent import Agent
     from swarmtrack.live.node import Mismatch, Node, Stopped
-    from swarmtrack.live.transport import TransportError, ZenohTransport
     from swarmtrack.live.wire import Seal
 
     o = SimpleNamespace(**options)
     uav = o.uav
-    check_wire(o.tls, connect=o.connect, listen=o.listen)
-    check_autopilot(o.autopilot)
-    scn = _load(o.scenario, o.overrides, o.seed)
-    if not 1 <= uav <= scn.swarm.n_uavs:
-        raise UsageFailure(f"--uav {uav}: the swarm of {scn.name} has UAVs 1..{scn.swarm.n_uavs}")
+    scn = agent_scenario(o)
     key = read_key(o.key_file, o.insecure)
-    try:
-        transport = ZenohTransport(listen=list(o.listen), connect=list(o.connect), timeout=o.connect_timeout,
-                                   tls=o.tls)
-    except TransportError as exc:
-        raise UsageFailure(str(exc)) from None
-    node = Node(transport, Seal(key, scn.swarm.n_uavs), o.swarm or scn.name, uav - 1)
+    node = Node(open_transport(o), Seal(key, scn.swarm.n_uavs), o.swarm or scn.name, uav - 1)
     agent = Agent(scn, uav - 1, node, o.autopilot, o.reengage)
     try:
         agent.run(o.rejoin)

@@ -16,6 +16,7 @@ console once, when it happens (and when it is over), and counted in the samples.
 
 from __future__ import annotations
 
+import functools
 import math
 import sys
 import time
@@ -71,6 +72,8 @@ def start_time(text: str, now: float | None = None) -> float:
 
 
 class FieldAgent(Agent):
+    exchange: FieldExchange
+
     """UAV ``uav`` of ``scenario`` on ``node`` (a node without a world), on the clock that starts at ``epoch``;
     ``navigation`` and ``detections``: its sources (a map's :class:`~swarmtrack.replay.mapping.Source` and
     ``DetectionSource``, topics written as URLs; ``navigation`` None: its autopilot's), ``window`` (s) the map's;
@@ -106,7 +109,7 @@ class FieldAgent(Agent):
                     self.inputs.put(item)
 
             self.opened.append(open_source(url, self.node.transport, on_message,
-                                           lambda cause, text=text: self.inputs.skip(cause, text), self.wait))
+                                           functools.partial(self.inputs.skip, topic=text), self.wait))
         deadline = time.monotonic() + self.wait
         for source in self.opened:
             if not source.first.wait(max(0.0, deadline - time.monotonic())):
@@ -131,9 +134,11 @@ class FieldAgent(Agent):
         labels = labels_of(self.scenario)
         warm_up(self.scenario, self.i, lambda group, member: labels[group][member])
         self.build(labels)
+        assert self.stack is not None
+        probes = {name: list(shape) for name, shape in self.stack.probes.items()}
         for tap in self.taps:  # what the outputs read of the run (the estimator's settings, its probes)
             tap.open({"scenario": self.scenario.name, "estimator": self.scenario.estimator.model_dump(mode="json"),
-                      "probes": {name: list(shape) for name, shape in self.stack.probes.items()}})
+                      "probes": probes})
         self._open_sources()
         node.heard = []  # every message's latency is logged and reported
         dt = self.clock.dt_estimation
@@ -169,8 +174,10 @@ class FieldAgent(Agent):
             return
         detections = self.inputs.detections(t)
         control = t if segments[0][0] else None
-        exchange = self.exchange.step(k, 0, t, dt, self.stack.controller)
-        beacon = self.stack.estimation_step(t, nav, detections, exchange, control)
+        stack = self.stack
+        assert stack is not None, "run() builds it first"
+        exchange = self.exchange.step(k, 0, t, dt, stack.controller)
+        beacon = stack.estimation_step(t, nav, detections, exchange, control)
         exchange.forget(k)
         sample, view = self._sample(k)
         sample.nav, sample.skipped = wire.pack(nav), dict(self.inputs.counts)
@@ -183,11 +190,11 @@ class FieldAgent(Agent):
         offset = 0
         for c, (control_now, ticks) in enumerate(segments):
             if control_now and c:
-                tc = t + offset * self.clock.dt_physics
+                tc = t + offset * self.clock.dt
                 self._sleep_until(tc)
                 nav_c = self._own_navigation(tc)
                 if nav_c is not None:
-                    exchange = self.exchange.step(k, c, tc, self.clock.dt_control, self.stack.controller)
+                    exchange = self.exchange.step(k, c, tc, self.clock.dt_control, stack.controller)
                     self._command(tc, nav_c, view, exchange)
             offset += ticks
 
@@ -197,6 +204,7 @@ class FieldAgent(Agent):
             return
         from swarmtrack.streams.frame import StepFrame
 
+        assert self.stack is not None
         probes = self.stack.sample()  # its own row: (1, ...)
         frame = StepFrame(t=t, uavs=np.array([self.i + 1]), uav=np.asarray(nav, dtype=float)[:, :4],
                           present=np.ones(1, dtype=bool), estimate=probes.get("estimate"),

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 import time
+from typing import cast
 
 import numpy as np
 
@@ -25,6 +26,7 @@ from swarmtrack.field.sources import typestore
 from swarmtrack.live import wire
 from swarmtrack.live.node import Node
 from swarmtrack.live.realtime import RECORD_BY
+from swarmtrack.live.transport import ZenohTransport
 from swarmtrack.sim.build import truth_side
 
 DETECTION_TYPE, TRUTH_TYPE = "geometry_msgs/msg/PointStamped", "geometry_msgs/msg/PoseStamped"
@@ -68,6 +70,7 @@ class CameraWorld:
 
     def __init__(self, scenario, node: Node, epoch: float, prefix: str, base_port: int, host: str = "127.0.0.1"):
         self.scenario, self.node, self.epoch, self.prefix = scenario, node, epoch, prefix
+        self.transport = cast(ZenohTransport, node.transport)  # it puts typed samples (their encoding says so)
         self.truth = truth_side(scenario)
         self.n = scenario.swarm.n_uavs
         self._boot = time.monotonic()
@@ -96,18 +99,18 @@ class CameraWorld:
             truth, nav = world.truth(), world.navigation()
             self.fleet.publish(t, nav, range(self.n))
             for sample in self.node.older("sample", k):  # the gimbals' latest aims
-                if sample.aim is not None:
+                if isinstance(sample, wire.Sample) and sample.aim is not None:
                     self.aim[sample.sender] = wire.unpack(sample.aim)[0]
             detections, _ = world.sense(aim=self.aim if world.aims else None)
             taken = t if detections.taken is None else detections.taken
             for i, mine in enumerate(detections.of_each_uav()):
                 ours = mine.label == self.label
                 for rel in self.relative_of(mine)[ours]:
-                    self.node.transport.put_typed(detections_key(self.prefix, i + 1),
+                    self.transport.put_typed(detections_key(self.prefix, i + 1),
                                                   stamped(DETECTION_TYPE, self.epoch + taken, rel), DETECTION_TYPE)
                     self.published[(i, k)] = time.time()
             if tracked is not None:
-                self.node.transport.put_typed(truth_key(self.prefix),
+                self.transport.put_typed(truth_key(self.prefix),
                                               stamped(TRUTH_TYPE, self.epoch + t, truth[tracked, :2]), TRUTH_TYPE)
             offset = 0
             for control_now, ticks in clock.control_segments(k):

@@ -24,6 +24,7 @@ import math
 import threading
 import time
 from bisect import bisect_right
+from collections.abc import Callable
 
 import numpy as np
 
@@ -60,7 +61,8 @@ class FieldInputs:
         self._pending: list[tuple[float, Detection]] = []  # detections since the previous step
         # run times from which navigation, and detections, are the run's (what was stamped before its start is not)
         self.since = self.start = -math.inf
-        self._measure = self._label = None
+        self._measure: Callable | None = None
+        self._label: int | None = None
         if uav is not None:
             measurement = registry.get("sensor", scenario.sensor.kind).measurement
             followed = scenario.estimator.followed_target()
@@ -130,6 +132,7 @@ class FieldInputs:
             if len(rows) > 1:
                 skip(self.counts, "a frame that came after its step, superseded by the next",
                      f" on {rows[-1][1].topic}", len(rows) - 1)
+        assert self._measure is not None, "a monitor's inputs (uav None) hold truth only"
         if not rows:
             return Detections(np.zeros(0, dtype=np.int64), np.zeros((0, 2)), np.zeros((0, 2)),
                               np.zeros(0, dtype=np.int64), 1, frame=self._frame_of_none())
@@ -137,6 +140,7 @@ class FieldInputs:
         if det.relative is not None:
             rel = np.asarray([det.relative], dtype=float)
         else:
+            assert det.range_bearing is not None  # a detection carries one or the other
             r, b = det.range_bearing
             rel = np.array([[r * math.cos(b), r * math.sin(b)]])
         pos = np.asarray([where[:2]], dtype=float)
@@ -145,6 +149,7 @@ class FieldInputs:
 
     def _frame_of_none(self):
         """The frame of no detection: an empty one for a sensor that stamps frames, else None."""
+        assert self._measure is not None
         _, frame = self._measure(np.zeros((0, 2)), np.zeros((0, 2)))
         return frame
 

@@ -17,6 +17,7 @@ import math
 import sys
 import time
 from collections.abc import Callable
+from typing import cast
 
 import numpy as np
 import pandas as pd
@@ -74,7 +75,8 @@ class Monitor:
             if self.stop:
                 self.report.interrupted = round(t, 9)
                 break
-            self._record(k, t, self.node.wait("sample", range(self.n), k, timeout=0.0, missing_ok=True))
+            self._record(k, t, cast(dict[int, wire.Sample],
+                                    self.node.wait("sample", range(self.n), k, timeout=0.0, missing_ok=True)))
             if self.progress is not None:
                 self.progress((k + 1 - first) / (steps - first))
         return self.recorder.close(), self._finish(), self.tables

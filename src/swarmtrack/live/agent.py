@@ -51,7 +51,7 @@ def scenario_hash(scenario: Scenario) -> str:
     return hashlib.sha256(json.dumps(scenario.model_dump(mode="json"), sort_keys=True).encode()).hexdigest()[:16]
 
 
-def build_onboard(scenario: Scenario, uav: int, labels: dict[str, list[int]]) -> OnboardStack:
+def build_onboard(scenario: Scenario, uav: int, labels: dict[str, list[int | None]]) -> OnboardStack:
     """UAV ``uav``'s stack, built for it alone; ``labels`` the sensor's label of each member of each sensed group
     (the world's ``start`` message)."""
     return onboard_stack(context(scenario, lambda group, member: labels[group][member], uavs=[uav]))
@@ -136,7 +136,7 @@ class Agent:
                       file=sys.stderr, flush=True)
             raise
 
-    def build(self, labels: dict[str, list[int]]) -> None:
+    def build(self, labels: dict[str, list[int | None]]) -> None:
         """Its stack, built for this UAV alone (``labels``: the world's, from its ``start``)."""
         self.stack = build_onboard(self.scenario, self.i, labels)
 

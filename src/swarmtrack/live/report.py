@@ -98,7 +98,8 @@ def timing(report: LiveReport, steps: list[tuple], messages: list[tuple], dt: fl
     time) of a run with estimation period ``dt``; returns them as the tables ``latency`` and ``steps``."""
     latency = pd.DataFrame(messages, columns=["channel", "sender", "receiver", "k", "c", "sent", "latency"])
     latency["channel"] = latency["channel"].astype("category")
-    report.latency_ms = {ch: percentiles(1e3 * lat.to_numpy())
-                         for ch, lat in latency.groupby("channel", observed=True)["latency"]}
+    by_channel = {ch: percentiles(1e3 * lat.to_numpy()) for ch, lat in latency.groupby("channel", observed=True)[
+        "latency"]}
+    report.latency_ms = {ch: p for ch, p in by_channel.items() if p is not None}
     report.step_lateness = percentiles(np.array([s[2] for s in steps]) / dt)
     return {"latency": latency, "steps": pd.DataFrame(steps, columns=["uav", "k", "done", "cpu"])}

@@ -19,9 +19,12 @@ pytestmark = [pytest.mark.xdist_group("field"), pytest.mark.slow]
 
 
 def test_a_field_swarm_tracks_without_a_world_and_goes_on_when_an_agent_dies(tmp_path):
+    """l24-ct's three agents, UAV 3's killed at t = 5 s: the two others track on, the monitor says UAV 3 is lost."""
     out = tmp_path / "field"
-    proc = subprocess.run([sys.executable, "-m", "swarmtrack", "stand-in", "l24-ct", "--set", "duration=10",
-                           "--mavlink-port", str(free_base(3)), "--out", str(out), "--no-plots", "--kill", "3@5"],
+    # control at 50 Hz, estimation at 20: control steps between estimation steps too
+    proc = subprocess.run([sys.executable, "-m", "swarmtrack", "stand-in", "l24-ct", "--set", "duration=10", "--set",
+                           "rates.control=50", "--mavlink-port", str(free_base(3)), "--out", str(out), "--no-plots",
+                           "--kill", "3@5"],
                           capture_output=True, text=True, timeout=150)
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert "killing UAV 3's agent" in proc.stderr and "monitor: UAV 3 not heard" in proc.stderr

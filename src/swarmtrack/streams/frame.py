@@ -80,19 +80,22 @@ def errors(estimate: np.ndarray | None, covariance: np.ndarray | None,
 def frame_of(meta: dict, t: float, truth: np.ndarray, probes: dict[str, np.ndarray],
              present: np.ndarray | None = None, uavs: np.ndarray | None = None) -> StepFrame:
     """The frame of one recorded step: ``meta`` the recording's, ``truth`` (M, 4 or 6) every object's, ``probes``
-    ``name → (N, ...)``, ``present`` (N,) (None: all came); ``uavs`` the UAVs' 1-based numbers (default 1..N)."""
+    ``name → (N, ...)``, ``present`` (N,) (None: all came); ``uavs`` the UAVs' 1-based numbers (default 1..N). A
+    formation controller's ``setpoint`` probe (W20 Ch. 5: where each UAV is meant to be) is the frame's
+    ``formation``."""
     start, stop = meta["groups"]["uavs"]
     n = stop - start
     truth = np.asarray(truth, dtype=float)
     tracked = meta.get("tracked")
     target = None if tracked is None else truth[tracked, :4].copy()
-    estimate, covariance = probes.get("estimate"), probes.get("covariance")
+    estimate, covariance, setpoint = probes.get("estimate"), probes.get("covariance"), probes.get("setpoint")
     return StepFrame(t=float(t), uavs=np.arange(1, n + 1) if uavs is None else np.asarray(uavs),
                      uav=truth[start:stop, :4].copy(),
                      present=np.ones(n, dtype=bool) if present is None else np.asarray(present, dtype=bool),
                      estimate=None if estimate is None else np.asarray(estimate, dtype=float),
                      covariance=None if covariance is None else np.asarray(covariance, dtype=float),
                      target=target, uav_altitude=truth[start:stop, 4] if truth.shape[1] > 4 else None,
+                     formation=None if setpoint is None else np.asarray(setpoint, dtype=float),
                      plots=errors(estimate, covariance, target))
 
 

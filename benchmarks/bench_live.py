@@ -169,7 +169,8 @@ def _live(uavs: int, duration: float, realtime: bool, progress=None, mavlink: bo
     """A live run of ``l24-ct`` with ``uavs`` UAV processes (through simulated autopilots with ``mavlink``): the
     scenario, the report and the world's CPU per step (ms)."""
     from swarmtrack import load_scenario
-    from swarmtrack.live.commands import start_agents, stop_agents
+    from swarmtrack.live.commands import start_agents
+    from swarmtrack.live.launch import stop_agents
     from swarmtrack.live.session import run_live
 
     overrides = [f"duration={duration}", f"swarm.n_uavs={uavs}"]

@@ -136,8 +136,8 @@ print(json.dumps({"swarmtrack": swarmtrack.__file__, "found": found}))
 """
 
 #: Modules that are a driver themselves (they import an extra's package at module level): the live swarm, the
-#: autopilot side, Stone Soup's interop (the stonesoup extra). Every other module imports without any extra.
-DRIVER_MODULES = ("swarmtrack.live.", "swarmtrack.autopilot.", "swarmtrack.interop.stonesoup")
+#: autopilot side, Stone Soup's interop (the stonesoup extra), the field. Every other module imports without any extra.
+DRIVER_MODULES = ("swarmtrack.live.", "swarmtrack.autopilot.", "swarmtrack.interop.stonesoup", "swarmtrack.field.")
 _IMPORT_EVERY_CORE_MODULE = """\
 import importlib, json, pkgutil, sys
 import swarmtrack
@@ -193,6 +193,11 @@ REFUSED = [
     (["world", "l24-cv", "--out", "out", "--insecure"], "live", "eclipse-zenoh, msgspec, pymavlink"),
     (["agent", "l24-cv", "--uav", "1", "--insecure"], "live", "eclipse-zenoh, msgspec, pymavlink"),
     (["keygen", "swarm.key"], "live", "msgspec"),
+    (["agent", "l24-cv", "--uav", "1", "--field", "--insecure"], "field", "eclipse-zenoh, msgspec, pymavlink, rosbags"),
+    (["monitor", "l24-cv", "--out", "out", "--insecure"], "field", "eclipse-zenoh, msgspec, pymavlink, rosbags"),
+    (["stand-in", "l24-cv", "--out", "out"], "field", "eclipse-zenoh, msgspec, pymavlink, rosbags"),
+    (["run", "l24-cv", "--out", "out", "--foxglove"], "foxglove", "foxglove-sdk"),
+    (["run", "l24-cv", "--out", "out", "--ros2"], "ros2", "cyclonedds, rosbags"),
     (["engage", "--uav", "1", "--to", "127.0.0.1:18570"], "autopilot", "pymavlink"),
     (["export", "run", "--out", "out"], "logs", "rosbags"),
     (["export", "run", "--format", "rosbag2", "--out", "out"], "logs", "rosbags"),

@@ -20,7 +20,7 @@ from swarmtrack import registry
 from swarmtrack.cli_support import UsageFailure, progress_bar, report_run, warn_run, write_run
 from swarmtrack.extras import require
 from swarmtrack.scenarios.loader import ScenarioError, builtin_names, load_raw, load_scenario
-from swarmtrack.streams.options import announce, foxglove_option, ros2_options, taps_of
+from swarmtrack.streams.options import Outputs, output_options
 
 
 @click.command("scenarios")
@@ -51,13 +51,10 @@ def scenarios_cmd() -> None:
               help="simulated time between frames  [default: 1]")
 @click.option("--animate-uav", type=click.IntRange(min=1), default=None, metavar="N",
               help="show UAV N's own sets (default: the union of every UAV's sets)")
-@foxglove_option
-@ros2_options
+@output_options()
 def run_cmd(scenario: str, out: Path | None, overwrite: bool, seed: int | None, overrides: tuple[str, ...],
             no_plots: bool, strict: bool, formats: tuple[str, ...], animate: Path | None,
-            animate_every: float | None, animate_uav: int | None,
-            foxglove: str | None = None, ros2: bool = False, ros2_namespace: str = "uav_{n}",
-            ros2_domain: int | None = None) -> None:
+            animate_every: float | None, animate_uav: int | None, outputs: Outputs) -> None:
     """Run one closed-loop simulation of SCENARIO (a built-in name or a YAML file).
 
     Writes scenario.yaml (resolved), metrics.json, recording/ (Parquet; load it with
@@ -79,8 +76,7 @@ def run_cmd(scenario: str, out: Path | None, overwrite: bool, seed: int | None, 
     try:
         scn = load_scenario(scenario, list(overrides), seed)
         _check_animation(scn, animate, animate_every, animate_uav, overwrite)
-        taps = taps_of(foxglove, ros2, ros2_namespace, ros2_domain)
-        announce(taps)
+        taps = outputs.taps()
         out = out or Path("runs") / f"{scn.name}-seed{scn.seed}-{run_key(scn)[:8]}"
         with run_folder(out, overwrite) as tmp:
             with progress_bar(f"simulating {scn.name}") as advance:

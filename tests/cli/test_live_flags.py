@@ -7,7 +7,7 @@ import pytest
 from click.testing import CliRunner
 
 from swarmtrack.cli import main
-from swarmtrack.live import commands
+from swarmtrack.live import commands, launch
 
 RUNS = {"live": ["live", "l24-ct", "--insecure"], "world": ["world", "l24-ct", "--insecure"],
         "agent": ["agent", "l24-ct", "--uav", "1", "--insecure"]}
@@ -17,7 +17,8 @@ def _refused(tmp_path, monkeypatch, args: list[str], flag: str) -> str:
     def loaded(*_a, **_k):
         raise AssertionError("a scenario was loaded: the flag was not checked first")
 
-    monkeypatch.setattr(commands, "_load", loaded)
+    monkeypatch.setattr(commands, "load_live", loaded)  # the world's (live, world)
+    monkeypatch.setattr(launch, "load_live", loaded)  # an agent's (agent_scenario)
     out = tmp_path / "out"
     res = CliRunner().invoke(main, [*args, *(["--out", str(out)] if args[0] != "agent" else [])])
     assert res.exit_code == 2, res.output

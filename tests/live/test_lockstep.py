@@ -23,7 +23,8 @@ import swarmtrack
 from swarmtrack.cli import main
 from swarmtrack.live import wire
 from swarmtrack.live.agent import scenario_hash
-from swarmtrack.live.commands import GRACE, stop_agents, swarm_processes
+from swarmtrack.live.commands import swarm_processes
+from swarmtrack.live.launch import GRACE, stop_agents
 from swarmtrack.live.node import LOST_AFTER, Node
 from swarmtrack.live.transport import free_port, key
 

@@ -75,5 +75,5 @@ def test_a_run_exports_as_the_live_views_mcap(tmp_path):
     with out.open("rb") as f:
         summary = make_reader(f).get_summary()
     topics = {c.topic for c in summary.channels.values()}
-    assert {"/scene", "/plot/error", "/plot/nees"} <= topics
-    assert summary.statistics.message_count == 3 * 20  # scene, error, NEES at each of 20 steps
+    assert topics == {"/scene", "/plot/error", "/plot/nees", "/plot/nis"}
+    assert summary.statistics.message_count == 4 * 20  # scene, error, NEES, NIS at each of 20 steps

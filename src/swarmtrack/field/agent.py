@@ -35,6 +35,7 @@ from swarmtrack.live.exchange import PATIENCE, late_steps
 from swarmtrack.live.node import LOST_AFTER, Node
 from swarmtrack.onboard.context import labels_of
 from swarmtrack.onboard.warm import warm_up
+from swarmtrack.replay.grid import remedy
 from swarmtrack.replay.rosbag import Topics
 from swarmtrack.replay.steps import LogError
 
@@ -93,6 +94,7 @@ class FieldAgent(Agent):
         self.urls: dict[str, SourceUrl] = {s.topic: parse(s.topic) for s in (navigation, detections) if s is not None}
         self.nav_source = None if navigation is None else navigation.topic
         self._silent: set[str] = set()
+        self._told: set[str] = set()  # the skip counts' keys said on the console
         self.opened: list = []
         self.problem: str | None = None  # a source whose messages the field cannot read (from its thread)
 
@@ -213,10 +215,14 @@ class FieldAgent(Agent):
             tap.send(frame)
 
     def _say(self, t: float) -> None:
-        """Say on the console a source that fell silent or came back, and a UAV that hears none of its
-        neighbours."""
+        """Say on the console a source that fell silent or came back, a UAV that hears none of its neighbours, and
+        the first message skipped for each cause on each topic (with what to do; the counts go on in its samples)."""
         now = time.monotonic()
-        watched = [text for text in self.urls if text != self.nav_source or self.link is None] + ["neighbours"]
+        for key in sorted(set(self.inputs.counts) - self._told):
+            self._told.add(key)
+            print(f"UAV {self.i + 1}: a message skipped at t = {t:.2f} s: {key} ({remedy(key)}); such messages are "
+                  "counted in its samples", file=sys.stderr, flush=True)
+        watched = [*self.urls, "neighbours"]
         quiet = set(self.inputs.quiet(list(self.urls), now, QUIET_AFTER))
         if self.exchange.peers and not self.exchange.heard():
             last = max((self.node.seen.get(s, -math.inf) for s in self.exchange.peers), default=-math.inf)

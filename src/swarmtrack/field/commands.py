@@ -21,18 +21,18 @@ import numpy as np
 
 from swarmtrack.cli_support import UsageFailure, report_run, warn_run, write_run
 from swarmtrack.extras import require
-from swarmtrack.live.commands import (
+from swarmtrack.live.launch import (
     ENV,
-    _load,
-    _scenario_options,
-    _security_options,
     agent_scenario,
     check_wire,
+    load_live,
     open_transport,
     read_key,
+    scenario_options,
+    security_options,
     stop_agents,
 )
-from swarmtrack.streams.options import announce, foxglove_option, ros2_options, taps_of
+from swarmtrack.streams.options import output_options
 
 #: Seconds between the stand-in's start and the swarm's t = 0 (its agents and monitor start, warm up and subscribe).
 LEAD = 10.0
@@ -115,7 +115,7 @@ def run_field_agent(o: SimpleNamespace) -> None:
         FieldInputs(scn, o.uav - 1, epoch)  # its sensor and estimator take planar detections of one target
     except ValueError as exc:
         raise UsageFailure(f"--field: {exc}") from None
-    taps = taps_of(None, o.ros2, o.ros2_namespace, o.ros2_domain, stamp_epoch=epoch)
+    taps = o.outputs.taps(stamp_epoch=epoch)
     node = _node(scn, o, o.uav - 1, epoch)
     agent = FieldAgent(scn, o.uav - 1, node, epoch, navigation, detections, window or 1.0, o.autopilot, o.reengage,
                        o.wait, taps)
@@ -150,7 +150,7 @@ def _field_options(f):
 
 
 @click.command("monitor")
-@_scenario_options
+@scenario_options
 @_field_options
 @click.option("--truth", metavar="URL", default=None, help=(
     "the followed target's ground truth (motion capture, a simulator's topic): zenoh://KEY or ros2:///TOPIC, a pose "
@@ -158,9 +158,8 @@ def _field_options(f):
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path), required=True, help="the run folder")
 @click.option("--overwrite", is_flag=True, help="replace an earlier run in --out")
 @click.option("--no-plots", is_flag=True, help="skip the PNG figures")
-@foxglove_option
-@ros2_options
-@_security_options
+@output_options()
+@security_options
 def monitor_cmd(**options) -> None:
     """Join SCENARIO's field swarm read-only and record what its agents publish (their probes, commands and counts,
     and the truth when --truth is given) into the run folder --out; Ctrl-C keeps the steps recorded."""
@@ -174,14 +173,13 @@ def monitor_cmd(**options) -> None:
     o = SimpleNamespace(**options)
     check_wire(o.tls, connect=o.connect, listen=o.listen)
     epoch = _start(o.start)
-    scn = _load(o.scenario, o.overrides, o.seed)
+    scn = load_live(o.scenario, o.overrides, o.seed)
     truth = _source("--truth", o.truth)
     try:
         check_destination(o.out.absolute(), o.overwrite)
     except OutputError as exc:
         raise UsageFailure(str(exc)) from None
-    taps = taps_of(o.foxglove, o.ros2, o.ros2_namespace, o.ros2_domain, stamp_epoch=epoch)
-    announce(taps)
+    taps = o.outputs.taps(stamp_epoch=epoch)
     node = _node(scn, o, MONITOR, epoch)
     inputs = source = None
     try:
@@ -239,7 +237,7 @@ def _open_truth(truth, node, inputs, topics):
 
 
 @click.command("stand-in")
-@_scenario_options
+@scenario_options
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path), required=True,
               help="the monitor's run folder")
 @click.option("--overwrite", is_flag=True, help="replace an earlier run in --out")
@@ -263,7 +261,7 @@ def standin_cmd(**options) -> None:
     from swarmtrack.outputs import OutputError, check_destination
 
     o = SimpleNamespace(**options)
-    scn = _load(o.scenario, o.overrides, o.seed)
+    scn = load_live(o.scenario, o.overrides, o.seed)
     kills = {}
     for text in o.kills:
         uav, _, at = text.partition("@")

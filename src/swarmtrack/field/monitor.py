@@ -34,6 +34,9 @@ from swarmtrack.sim.recorder import Recorder, Recording
 
 #: The monitor's id on the swarm's keys (it sends nothing; its node must be neither a UAV nor the world).
 MONITOR = -2
+#: What the monitor records of each UAV's step beside its probes (plotted live, :data:`~swarmtrack.streams.frame.
+#: PLOTTED`): how late it was done (periods after its time) and the median latency of the messages it heard (ms).
+TIMING = ("lateness", "latency_ms")
 
 
 class Monitor:
@@ -52,7 +55,8 @@ class Monitor:
         meta = run_meta(scenario, self.rows, self.flown, self.clock.dt_estimation)
         labels = labels_of(scenario)
         self.probes = onboard_stack(context(scenario, lambda g, m: labels[g][m], uavs=[0])).probes
-        self.recorder = Recorder(meta, self.m, self.n, self.probes, record_to, presence=True, taps=taps)
+        self.recorder = Recorder(meta, self.m, self.n, {**self.probes, **dict.fromkeys(TIMING, ())}, record_to,
+                                 presence=True, taps=taps)
         self.report = LiveReport(mode="field")
         self.lost: set[int] = set()
         self.samples: dict[tuple, wire.Sample] = {}  # each UAV process's latest sample
@@ -101,10 +105,21 @@ class Monitor:
                                         else np.full((1, *shape), np.nan) for i in range(self.n)])
                   for name, shape in self.probes.items()}
         present = np.array([i in samples for i in range(self.n)])
-        self.recorder.record(t, truth, phase, probes, present=present)
+        self.recorder.record(t, truth, phase, {**probes, **self._timing(k, samples)}, present=present)
         for i, sample in samples.items():
             self._account(i, sample, k)
         self._watch(t)
+
+    def _timing(self, k: int, samples: dict[int, wire.Sample]) -> dict[str, np.ndarray]:
+        """Each UAV's :data:`TIMING` of step ``k`` (NaN without its sample, or without a message heard)."""
+        late, latency = np.full(self.n, np.nan), np.full(self.n, np.nan)
+        dt = self.clock.dt_estimation
+        for i, sample in samples.items():
+            late[i] = (sample.sent - self.epoch - k * dt) / dt
+            heard = [lat for _, _, kk, _, _, lat in sample.heard if kk == k]
+            if heard:
+                latency[i] = 1e3 * float(np.median(heard))
+        return {"lateness": late, "latency_ms": latency}
 
     def _account(self, i: int, sample: wire.Sample, k: int) -> None:
         """What a sample says of its process: its counts (the latest of each process), its step's lateness and CPU,

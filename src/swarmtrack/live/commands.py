@@ -13,10 +13,8 @@ from __future__ import annotations
 
 import dataclasses
 import os
-import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -24,117 +22,18 @@ import click
 
 from swarmtrack.cli_support import UsageFailure, report_run, warn_run, write_run
 from swarmtrack.extras import require
-from swarmtrack.scenarios.loader import ScenarioError, load_scenario
-from swarmtrack.streams.options import announce, foxglove_option, ros2_options, taps_of
-
-#: Seconds the processes a run started get to end after SIGTERM before they are killed.
-GRACE = 2.0
-
-#: The environment variables the options below are read from when not given (``live`` starts its UAV processes so):
-#: a command line is visible to every local user (``ps``), a process's environment to its owner only.
-ENV = {"key": "SWARMTRACK_KEY_FILE", "swarm": "SWARMTRACK_SWARM", "tls": "SWARMTRACK_TLS"}
-
-
-def _scenario_options(f):
-    f = click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
-                     help="override a scenario key (repeatable); the same on every process of a swarm")(f)
-    f = click.option("--seed", type=int, default=None, help="override the scenario's seed")(f)
-    return click.argument("scenario", default="l24-ct")(f)
-
-
-def _security_options(f):
-    f = click.option("--tls", "tls", type=click.Path(path_type=Path), default=None, envvar=ENV["tls"],
-                     metavar="DIR", help=(
-                         "encrypt every link with Zenoh's mutual TLS: DIR holds ca.pem, cert.pem and key.pem "
-                         f"(docs/live.md, \"TLS\"); endpoints are then tls/HOST:PORT [env {ENV['tls']}]"))(f)
-    f = click.option("--insecure", is_flag=True, help="run without a swarm key: messages are not authenticated")(f)
-    f = click.option("--key", "key_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
-                     envvar=ENV["key"], help=(
-                         "the swarm key (swarmtrack keygen FILE): messages are sealed and checked with it "
-                         f"[env {ENV['key']}]"))(f)
-    return click.option("--swarm", default=None, envvar=ENV["swarm"],
-                        help=f"the swarm's name in the key space (default: the scenario's) [env {ENV['swarm']}]")(f)
-
-
-def check_wire(tls: Path | None, **endpoints) -> None:
-    """Refuse, naming the flag, a TLS folder without its files and an endpoint Zenoh would not take
-    (``endpoints``: each flag's name, without its dashes, and the endpoints given to it)."""
-    from swarmtrack.live.transport import endpoint_problem, tls_problem
-
-    if tls is not None and (problem := tls_problem(tls)):
-        raise UsageFailure(f"--tls {problem}")
-    for flag, given in endpoints.items():
-        for endpoint in given:
-            if problem := endpoint_problem(endpoint, tls is not None):
-                raise UsageFailure(f"--{flag.replace('_', '-')} {problem}")
-
-
-def check_autopilot(url: str | None) -> None:
-    """Refuse, naming the flag, an ``--autopilot`` URL the link could not open as written."""
-    if url is None:
-        return
-    from swarmtrack.autopilot.link import device_of
-
-    try:
-        device, baud = device_of(url)
-    except ValueError as exc:
-        raise UsageFailure(f"--autopilot {exc}") from None
-    port = device.rpartition(":")[2] if url.startswith("udp://") else None
-    if port is not None and not 0 < int(port) < 65536:
-        raise UsageFailure(f"--autopilot {url}: port {port} is not a UDP port (1..65535)")
-    if port is None and (not device or baud <= 0):
-        raise UsageFailure(f"--autopilot {url}: expected serial://DEVICE[:BAUD] with a positive BAUD")
-
-
-def agent_scenario(o: SimpleNamespace):
-    """What every agent checks first (``o``: its options): its endpoints, its autopilot's URL, its scenario and its
-    UAV's number; returns the scenario."""
-    check_wire(o.tls, connect=o.connect, listen=o.listen)
-    check_autopilot(o.autopilot)
-    scn = _load(o.scenario, o.overrides, o.seed)
-    if not 1 <= o.uav <= scn.swarm.n_uavs:
-        raise UsageFailure(f"--uav {o.uav}: the swarm of {scn.name} has UAVs 1..{scn.swarm.n_uavs}")
-    return scn
-
-
-def open_transport(o: SimpleNamespace):
-    """The process's Zenoh transport (``o``: its ``--listen``, ``--connect``, ``--connect-timeout`` and ``--tls``);
-    one that cannot start is a :class:`~swarmtrack.cli_support.UsageFailure` naming the cause."""
-    from swarmtrack.live.transport import TransportError, ZenohTransport
-
-    try:
-        return ZenohTransport(listen=list(o.listen), connect=list(o.connect), timeout=o.connect_timeout, tls=o.tls)
-    except TransportError as exc:
-        raise UsageFailure(str(exc)) from None
-
-
-def read_key(key_file: Path | None, insecure: bool) -> bytes | None:
-    """The swarm key in ``key_file`` (hex), None with ``insecure``; refuses to run with neither."""
-    if key_file is None:
-        if not insecure:
-            raise UsageFailure("no swarm key: give --key FILE (make one with swarmtrack keygen FILE), or --insecure "
-                               "to run with unauthenticated messages")
-        return None
-    try:
-        key = bytes.fromhex(key_file.read_text().strip())
-    except OSError as exc:
-        raise UsageFailure(f"--key {key_file}: {exc.strerror or exc}") from None
-    except ValueError:
-        raise UsageFailure(f"--key {key_file}: not a key written by swarmtrack keygen (hex)") from None
-    if len(key) < 16:
-        raise UsageFailure(f"--key {key_file}: a key of {len(key)} bytes is too short (at least 16)")
-    return key
-
-
-def _load(scenario: str, overrides, seed):
-    from swarmtrack.live.world import LiveError, check_live
-
-    try:
-        scn = load_scenario(scenario, list(overrides), seed)
-        check_live(scn)
-    except (ScenarioError, LiveError) as exc:
-        raise UsageFailure(str(exc)) from None
-    return scn
+from swarmtrack.live.launch import (
+    ENV,
+    agent_scenario,
+    check_wire,
+    load_live,
+    open_transport,
+    read_key,
+    scenario_options,
+    security_options,
+    stop_agents,
+)
+from swarmtrack.streams.options import output_options
 
 
 @click.command("keygen")
@@ -156,7 +55,7 @@ def keygen_cmd(file: Path) -> None:
 
 
 @click.command("agent")
-@_scenario_options
+@scenario_options
 @click.option("--uav", type=int, required=True, help="which UAV this process is (1..N)")
 @click.option("--connect", multiple=True, metavar="ENDPOINT", help="a peer to join, e.g. tcp/127.0.0.1:7447")
 @click.option("--listen", multiple=True, metavar="ENDPOINT", help="listen there too (other peers may join)")
@@ -184,8 +83,8 @@ def keygen_cmd(file: Path) -> None:
               help="--field: a map file naming its sources (the format of swarmtrack replay --map)")
 @click.option("--wait", type=click.FloatRange(min=0, min_open=True), default=10.0, show_default=True,
               metavar="SECONDS", help="--field: give up on a source whose first message does not come within this time")
-@ros2_options
-@_security_options
+@output_options(foxglove=False)
+@security_options
 def agent_cmd(**options) -> None:
     """Run UAV --uav's onboard stack (estimator, controller) of SCENARIO, as on its companion computer: its
     navigation, detections and radio from the world (or its navigation from its autopilot, --autopilot), its
@@ -195,7 +94,7 @@ def agent_cmd(**options) -> None:
 
         run_field_agent(SimpleNamespace(**options))
         return
-    if options["ros2"]:
+    if options["outputs"].ros2:
         raise UsageFailure("--ros2 on an agent needs --field (a live world publishes its whole swarm: swarmtrack live "
                            "--ros2)")
     require("live", "swarmtrack agent")
@@ -272,7 +171,7 @@ def engage_cmd(**options) -> None:
 
 
 def _live_options(f):
-    f = ros2_options(foxglove_option(f))
+    f = output_options()(f)
     f = click.option("--mavlink-gcs", type=click.IntRange(1, 65535), default=None, metavar="PORT", help=(
         "with --mavlink, the vehicles' ground-station links send to 127.0.0.1:PORT (as PX4 SITL's to 14550, where "
         "QGroundControl listens); without it, a ground station claims UAV i's by sending to its port, "
@@ -296,9 +195,9 @@ def _live_options(f):
 
 
 @click.command("live")
-@_scenario_options
+@scenario_options
 @_live_options
-@_security_options
+@security_options
 def live_cmd(**options) -> None:
     """Run SCENARIO with every UAV's onboard stack in its own process (swarmtrack agent --uav I), talking over
     Eclipse Zenoh on loopback with this world process: in lockstep (the run folder of swarmtrack run, with the same
@@ -308,9 +207,9 @@ def live_cmd(**options) -> None:
 
 
 @click.command("world")
-@_scenario_options
+@scenario_options
 @_live_options
-@_security_options
+@security_options
 def world_cmd(**options) -> None:
     """Run the truth side of SCENARIO alone (world, sensors, simulated radio, recorder) and wait for its UAVs'
     processes (swarmtrack agent --uav I --connect ENDPOINT) to join."""
@@ -333,13 +232,12 @@ def _serve(o: SimpleNamespace, spawn: bool) -> None:
     check_wire(o.tls, listen=o.listen)
     try:
         with terminate_as_exception():  # Ctrl-C or SIGTERM while it starts: one message, exit 130
-            scn = _load(o.scenario, o.overrides, o.seed)
+            scn = load_live(o.scenario, o.overrides, o.seed)
             if o.mavlink and command_width(scn) != 2:
                 raise UsageFailure(f"--mavlink flies planar acceleration setpoints: swarm.vehicle "
                                    f"{scn.swarm.vehicle} is commanded otherwise")
             key = read_key(o.key_file, o.insecure)
-            taps = taps_of(o.foxglove, o.ros2, o.ros2_namespace, o.ros2_domain)
-            announce(taps)
+            taps = o.outputs.taps()
             if o.mavlink:
                 try:
                     check_ports(scn.swarm.n_uavs, o.mavlink_port)
@@ -449,20 +347,6 @@ def start_agents(scn, scenario: str, seed, overrides, endpoints: list[str], swar
 
     return [subprocess.Popen([sys.executable, "-m", "swarmtrack", "agent", "--uav", str(i + 1), *common, *autopilot(i)],
                              env=env) for i in range(scn.swarm.n_uavs)]
-
-
-def stop_agents(procs: list) -> None:
-    """End the processes by their ids: SIGTERM, then SIGKILL after :data:`GRACE` s."""
-    for p in procs:
-        if p.poll() is None:
-            p.send_signal(signal.SIGTERM)
-    deadline = time.monotonic() + GRACE
-    for p in procs:
-        try:
-            p.wait(max(0.0, deadline - time.monotonic()))
-        except subprocess.TimeoutExpired:
-            p.kill()
-            p.wait()
 
 
 def swarm_processes(swarm: str) -> list[str]:

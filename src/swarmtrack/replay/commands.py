@@ -9,7 +9,7 @@ from pathlib import Path
 import click
 
 from swarmtrack.cli_support import UsageFailure, report_run, warn_run, write_run
-from swarmtrack.streams.options import announce, foxglove_option, ros2_options, taps_of
+from swarmtrack.streams.options import Outputs, output_options
 
 
 @click.command("replay")
@@ -29,12 +29,10 @@ from swarmtrack.streams.options import announce, foxglove_option, ros2_options, 
               help="override a scenario key, e.g. --set estimator.model=cv (repeatable)")
 @click.option("--no-plots", is_flag=True, help="skip the PNG figures")
 @click.option("--strict", is_flag=True, help="exit with code 3 when the replay has warnings")
-@foxglove_option
-@ros2_options
+@output_options()
 def replay_cmd(logs: tuple[Path, ...], scenario: str | None, map_file: Path | None, fmt: str | None,
                out: Path | None, overwrite: bool, seed: int | None, overrides: tuple[str, ...], no_plots: bool,
-               strict: bool, foxglove: str | None = None, ros2: bool = False, ros2_namespace: str = "uav_{n}",
-               ros2_domain: int | None = None) -> None:
+               strict: bool, outputs: Outputs) -> None:
     """Run a scenario's onboard stack (its estimator; the controller is not run) on recorded navigation and
     detections instead of a simulated world: LOGS are a swarmtrack run folder, ROS bags (ROS 1, ROS 2 sqlite3 or
     MCAP), PX4 ULog files or CSV files. The messages between UAVs are computed by the scenario's channel, as the
@@ -58,8 +56,7 @@ def replay_cmd(logs: tuple[Path, ...], scenario: str | None, map_file: Path | No
                 raise UsageFailure("--scenario FILE|NAME is needed (only a run folder brings its own)")
             scenario = str(logs[0] / "scenario.yaml")
         scn = load_scenario(scenario, list(overrides), seed)
-        taps = taps_of(foxglove, ros2, ros2_namespace, ros2_domain)
-        announce(taps)
+        taps = outputs.taps()
         out = out or Path("runs") / f"replay-{scn.name}-seed{scn.seed}"
         with run_folder(out, overwrite) as tmp:
             columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn())

@@ -48,6 +48,11 @@ class StepFrame:
     plots: dict[str, np.ndarray] = field(default_factory=dict)
 
 
+#: Per-UAV recorded columns a frame plots as they are (beside the errors it computes): the NIS of a filter, and what
+#: a field monitor records of each UAV's step (its lateness in periods, the median latency of what it heard, ms).
+PLOTTED = ("nis", "lateness", "latency_ms")
+
+
 class Tap(Protocol):
     """A live output: :meth:`open` once with the recording's meta, :meth:`send` each step, :meth:`close` at the
     end (idempotent; after a Ctrl-C too)."""
@@ -96,7 +101,8 @@ def frame_of(meta: dict, t: float, truth: np.ndarray, probes: dict[str, np.ndarr
                      covariance=None if covariance is None else np.asarray(covariance, dtype=float),
                      target=target, uav_altitude=truth[start:stop, 4] if truth.shape[1] > 4 else None,
                      formation=None if setpoint is None else np.asarray(setpoint, dtype=float),
-                     plots=errors(estimate, covariance, target))
+                     plots={**errors(estimate, covariance, target),
+                            **{name: np.asarray(probes[name], dtype=float) for name in PLOTTED if name in probes}})
 
 
 def frames(recording: Recording) -> Iterator[StepFrame]:

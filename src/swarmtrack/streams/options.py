@@ -4,6 +4,8 @@
 from __future__ import annotations
 
 import errno
+import functools
+from dataclasses import dataclass
 
 import click
 
@@ -12,6 +14,38 @@ from swarmtrack.extras import require
 
 #: Where ``--foxglove`` alone serves (Foxglove's own default port).
 FOXGLOVE_DEFAULT = "127.0.0.1:8765"
+
+
+@dataclass(frozen=True)
+class Outputs:
+    """The live outputs a command was asked for: ``--foxglove [HOST:PORT]`` (None: none) and ``--ros2`` with its
+    namespace and domain."""
+
+    foxglove: str | None = None
+    ros2: bool = False
+    namespace: str = "uav_{n}"
+    domain: int | None = None
+
+    def taps(self, stamp_epoch: float | None = None) -> list:
+        """The taps asked for (:func:`taps_of`), said where they are (:func:`announce`)."""
+        taps = taps_of(self.foxglove, self.ros2, self.namespace, self.domain, stamp_epoch)
+        announce(taps)
+        return taps
+
+
+def output_options(foxglove: bool = True):
+    """The options of the live outputs (``--foxglove`` unless ``foxglove`` is False, the ``--ros2`` ones), given to
+    the command as one ``outputs`` argument (:class:`Outputs`)."""
+    def decorate(f):
+        @functools.wraps(f)
+        def command(*args, foxglove: str | None = None, ros2: bool = False, ros2_namespace: str = "uav_{n}",
+                    ros2_domain: int | None = None, **kwargs):
+            return f(*args, outputs=Outputs(foxglove, ros2, ros2_namespace, ros2_domain), **kwargs)
+
+        command = ros2_options(command)
+        return foxglove_option(command) if foxglove else command
+
+    return decorate
 
 
 def foxglove_option(f):
@@ -37,8 +71,10 @@ def taps_of(foxglove: str | None = None, ros2: bool = False, namespace: str = "u
     """The taps the options ask for (not opened: the recorder opens them); bad input is a
     :class:`~swarmtrack.cli_support.UsageFailure` naming the option."""
     taps: list = []
+    ctx = click.get_current_context(silent=True)  # the command that asks: named in a refusal
+    who = "" if ctx is None else f"swarmtrack {ctx.info_name} "
     if foxglove is not None:
-        require("foxglove", "--foxglove")
+        require("foxglove", f"{who}--foxglove")
         from swarmtrack.streams.foxglove import FoxgloveView
 
         host, _, port = foxglove.rpartition(":")
@@ -48,7 +84,7 @@ def taps_of(foxglove: str | None = None, ros2: bool = False, namespace: str = "u
         _check_free(host, int(port))
         taps.append(FoxgloveView(host, int(port), stamp_epoch=stamp_epoch))
     if ros2:
-        require("ros2", "--ros2")
+        require("ros2", f"{who}--ros2")
         from swarmtrack.streams.ros2 import Ros2Out
 
         try:

@@ -34,6 +34,8 @@ TIMEOUT = 10.0  # s: a bound on every wait (the whole exchange takes well under 
 EPOCH = 1_700_000_000  # stamp_epoch of the tests: log time = EPOCH s + the run's time
 TOL = 1e-9
 SUBPROTOCOL = "foxglove.sdk.v1"
+#: The topics of an l24-ct run: its scene, the errors computed and the filter's NIS recorded.
+TOPICS = ("/scene", "/plot/error", "/plot/nees", "/plot/nis")
 
 
 @pytest.fixture(scope="module")
@@ -157,7 +159,7 @@ def watch(view: fx.FoxgloveView, feed) -> tuple[dict[str, dict], list[tuple[str,
         info = json.loads(ws.recv(timeout=TIMEOUT))
         assert info["op"] == "serverInfo"
         channels: dict[str, dict] = {}
-        while {"/scene", "/plot/error", "/plot/nees"} - set(channels):
+        while set(TOPICS) - set(channels):
             msg = json.loads(ws.recv(timeout=max(0.01, deadline - time.monotonic())))
             if msg["op"] == "advertise":
                 channels.update({c["topic"]: c for c in msg["channels"]})
@@ -259,7 +261,7 @@ def check_messages(messages, schemas: dict[str, tuple[str, bytes]], steps) -> No
     """``(topic, log time, payload)`` of every step on ``/scene``, ``/plot/error`` and ``/plot/nees``, decoded per
     ``schemas`` (topic → (encoding, schema)) and checked against ``steps``."""
     by_time = {_log_time(f.t): f for f in steps}
-    seen = {topic: 0 for topic in ("/scene", "/plot/error", "/plot/nees")}
+    seen = {topic: 0 for topic in TOPICS}
     types = descriptors(schemas["/scene"][1])
     assert schemas["/scene"][0] == "protobuf"
     for topic, log_time, payload in messages:
@@ -288,7 +290,7 @@ def test_a_websocket_client_receives_every_step_as_the_recording_has_it(live, st
 def test_the_mcap_written_beside_the_live_view_holds_the_same_messages_byte_for_byte(live):
     _, got, path = live
     channels, messages = read_mcap(path)
-    assert set(channels) == {"/scene", "/plot/error", "/plot/nees"}
+    assert set(channels) == set(TOPICS)
     assert sorted(messages) == sorted(got)
     assert not [p.name for p in path.parent.iterdir() if p != path]  # its temporary file renamed, nothing else
 
@@ -300,7 +302,8 @@ def test_write_mcap_writes_every_step_through_the_live_views_channels(rec, steps
     channels, messages = read_mcap(path)
     check_messages(messages, {t: (enc, data) for t, (enc, _, data) in channels.items()}, steps)
     assert {t: name for t, (_, name, _) in channels.items()} == {
-        "/scene": "foxglove.SceneUpdate", "/plot/error": "swarmtrack.plot.error", "/plot/nees": "swarmtrack.plot.nees"}
+        "/scene": "foxglove.SceneUpdate", "/plot/error": "swarmtrack.plot.error", "/plot/nees": "swarmtrack.plot.nees",
+        "/plot/nis": "swarmtrack.plot.nis"}
     assert sorted(messages) == sorted(read_mcap(live[2])[1])  # what the live view's MCAP holds, byte for byte
 
 
@@ -387,7 +390,7 @@ def test_close_is_idempotent_and_a_closed_or_unopened_view_ignores_steps(rec, st
     view.close()
     view.send(steps[1])
     assert [p.name for p in tmp_path.iterdir()] == ["run.mcap"]
-    assert len(read_mcap(tmp_path / "run.mcap")[1]) == 3
+    assert len(read_mcap(tmp_path / "run.mcap")[1]) == len(TOPICS)
 
 
 def test_with_no_client_subscribed_a_step_builds_no_message(rec, steps, monkeypatch):
@@ -413,8 +416,8 @@ def test_the_rate_cap_thins_the_live_view_and_not_the_mcap(rec, steps, tmp_path)
         _, got = watch(view, lambda: [view.send(f) for f in steps])
     finally:
         view.close()
-    assert sorted(topic for topic, _, _ in got) == ["/plot/error", "/plot/nees", "/scene"]  # the first step only
-    assert len(read_mcap(tmp_path / "run.mcap")[1]) == 3 * len(steps)
+    assert sorted(topic for topic, _, _ in got) == sorted(TOPICS)  # the first step only
+    assert len(read_mcap(tmp_path / "run.mcap")[1]) == len(TOPICS) * len(steps)
 
 
 def test_the_rate_cap_says_yes_at_most_rate_times_a_second():

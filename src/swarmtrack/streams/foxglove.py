@@ -58,7 +58,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from swarmtrack.outputs import check_new_destination, partial_files
-from swarmtrack.streams.frame import StepFrame, frames
+from swarmtrack.streams.frame import PLOTTED, StepFrame, frames
 
 if TYPE_CHECKING:
     import foxglove
@@ -315,10 +315,12 @@ def _n_uavs(meta: dict) -> int:
 
 
 def _plots_of(meta: dict) -> list[str]:
-    """The series every step of a run with these ``meta`` carries (:func:`~swarmtrack.streams.frame.errors`: a
-    followed target and an estimate with its covariance), advertised from the start."""
+    """The series every step of a run with these ``meta`` carries, advertised from the start: the errors
+    (:func:`~swarmtrack.streams.frame.errors`: a followed target and an estimate with its covariance) and the
+    recorded columns a frame plots as they are (:data:`~swarmtrack.streams.frame.PLOTTED`)."""
     probes = meta.get("probes", {})
-    return ["error", "nees"] if meta.get("tracked") is not None and {"estimate", "covariance"} <= set(probes) else []
+    errors = meta.get("tracked") is not None and {"estimate", "covariance"} <= set(probes)
+    return ["error", "nees"] * errors + [name for name in PLOTTED if list(probes.get(name, [None])) == []]
 
 
 def _writer(path: Path, context: foxglove.Context, meta: dict, stamp_epoch: float):

@@ -160,6 +160,9 @@ class Kind:
     """A sensor's frame without detections, as it hands it to UAVs with navigation ``nav`` (R, d):
     ``quiet(settings, nav) → Detections`` (a sensor that stamps what it explored, e.g. IB21's footprints, stamps
     them); None: a frame without detections is empty."""
+    shapes: Ref | None = None
+    """What a live view draws of the component's state: ``shapes(component) → [(uav, vertices (K, 2))]``, outlines
+    in the map frame (:attr:`~swarmtrack.streams.frame.StepFrame.polygons`; IB21's sets); None: nothing."""
     module: str = field(default="", compare=False)
 
     def builder(self) -> Callable:
@@ -215,7 +218,7 @@ def _load() -> None:
 def register(role: str, settings: type, build: Ref, *, metrics: Declared = (), health: Declared = (),
              figures: Declared = (), animated: bool = False,
              batched: bool = False, monitors: Ref | None = None, telemetry: Ref | None = None,
-             measurement: Measurement | None = None, quiet: Ref | None = None) -> Kind:
+             measurement: Measurement | None = None, quiet: Ref | None = None, shapes: Ref | None = None) -> Kind:
     """Register a kind for ``role``: its name is the default of ``settings.kind`` (a string literal), ``settings``
     subclasses the role's base settings class (declared by the schema, :func:`declare_role`), and ``build`` makes
     the component (estimator and controller: ``build(settings, context)``; sensor: ``build(settings, scenario)``).
@@ -238,7 +241,7 @@ def register(role: str, settings: type, build: Ref, *, metrics: Declared = (), h
                                                            for d in (metrics, health, figures))
     kind = Kind(role, name, settings, build, declared_metrics, declared_health, declared_figures,
                 animated=animated, batched=batched, monitors=monitors, telemetry=telemetry, measurement=measurement,
-                quiet=quiet, module=settings.__module__)
+                quiet=quiet, shapes=shapes, module=settings.__module__)
     _KINDS[role][name] = kind
     return kind
 

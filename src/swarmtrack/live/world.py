@@ -35,6 +35,7 @@ from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sensors.detections import Detections
 from swarmtrack.sim.build import monitors, truth_side
 from swarmtrack.sim.recorder import Recorder, Recording
+from swarmtrack.streams.frame import shapes_of
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -115,7 +116,9 @@ class LockstepWorld:
         # a run folder keeps the UAVs' inputs (navigation, detections) as swarmtrack run's does: it can be replayed
         self.recorder = Recorder(truth.meta, truth.world.n_objects, self.n, {**self.probes,
                                  **dict.fromkeys(self.monitors, ())}, record_to, presence=True,
-                                 inputs=record_to is not None, taps=taps)
+                                 inputs=record_to is not None, taps=taps,
+                                 shapes=shapes_of(scenario.estimator.kind, self.components.get("estimator"))
+                                 if taps else None)
         self.last: dict[int, wire.Sample] = {}  # each UAV's latest sample (its aim and telemetry when lost)
         self.u = np.zeros((self.n, command_width(scenario)))
         # each UAV process's latest counts of the messages it dropped, by (UAV, its process): a process lost and

@@ -23,6 +23,7 @@ from swarmtrack.replay.steps import LogError, StepInputs
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sim.meta import profiles, run_meta
 from swarmtrack.sim.recorder import Recorder, Recording
+from swarmtrack.streams.frame import shapes_of
 
 #: The one phase of a log that does not know the scenario's profile phases.
 LOGGED = "logged"
@@ -54,7 +55,8 @@ def replay(scenario: Scenario, steps: Iterable[StepInputs], record_to: Path | No
     # a replay keeps its inputs too (a replayed run folder can be replayed again, with another estimator)
     # chunks of at most REPLAY_CHUNK_STEPS steps: a long log of a small swarm streams in bounded memory
     recorder = Recorder(meta, n_objects, n, stack.probes, record_to, inputs=record_to is not None,
-                        max_chunk_steps=REPLAY_CHUNK_STEPS, taps=taps)
+                        max_chunk_steps=REPLAY_CHUNK_STEPS, taps=taps,
+                        shapes=shapes_of(scenario.estimator.kind, stack.estimator) if taps else None)
     n_steps = getattr(steps, "n_steps", None)
     if n_steps is not None and planned is not None:
         planned(n_steps)

@@ -20,6 +20,7 @@ from swarmtrack.network.exchange import ChannelExchange
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sim.build import Simulation, build
 from swarmtrack.sim.recorder import Recorder, Recording
+from swarmtrack.streams.frame import shapes_of
 
 
 def simulate(scenario: Scenario, progress: Callable[[float], None] | None = None,
@@ -33,7 +34,8 @@ def simulate(scenario: Scenario, progress: Callable[[float], None] | None = None
     sim = build(scenario)
     probes = {**sim.stack.probes, **dict.fromkeys(sim.monitors, ())}
     recorder = Recorder(sim.meta, sim.world.n_objects, scenario.swarm.n_uavs, probes, record_to,
-                        inputs=record_to is not None if inputs is None else inputs, taps=taps)
+                        inputs=record_to is not None if inputs is None else inputs, taps=taps,
+                        shapes=shapes_of(scenario.estimator.kind, sim.stack.estimator) if taps else None)
     return step_loop(sim, recorder, progress, on_step)
 
 

@@ -10,7 +10,10 @@ chunks of steps (one row group per chunk), so memory does not grow with duration
 
 from __future__ import annotations
 
+import dataclasses
 import json
+import math
+import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,6 +28,8 @@ from swarmtrack.streams.frame import frame_of
 FORMAT = 1
 #: Rows per chunk (a Parquet row group), about 8-40 MB of columns.
 CHUNK_ROWS = 1 << 18
+#: How often (per second of wall clock) the taps' shapes are drawn again (a live view's rate, as Foxglove's).
+DRAW_RATE = 50.0
 
 
 #: The truth columns of every object, and those a 3-D world adds (its altitude channel).
@@ -201,7 +206,7 @@ class Recorder:
 
     def __init__(self, meta: dict, n_objects: int, n_uavs: int, probes: dict[str, tuple[int, ...]],
                  path: Path | None = None, inputs: bool = False, max_chunk_steps: int | None = None,
-                 presence: bool = False, taps=()):
+                 presence: bool = False, taps=(), shapes=None):
         self.meta = {**meta, "format": FORMAT, "n_objects": n_objects, "n_uavs": n_uavs,
                      "probes": {k: list(v) for k, v in probes.items()}}
         if presence:  # a driver whose samples may not come (live, replay): each step says which came
@@ -229,6 +234,8 @@ class Recorder:
         #: Live outputs (:class:`~swarmtrack.streams.frame.Tap`: ROS 2 topics, the Foxglove view), opened with the
         #: recording's meta now and sent each step once it is recorded; they read, never change, what is recorded.
         self.taps = list(taps)
+        self.shapes = shapes  # what the taps draw of the onboard state each step (streams.frame.shapes_of), or None
+        self._drawn: tuple[float, list] = (-math.inf, [])  # the shapes last drawn, and when (monotonic s)
         for tap in self.taps:
             tap.open(self.meta)
 
@@ -252,10 +259,20 @@ class Recorder:
         self._pending += 1
         if self.taps:
             frame = frame_of(self.meta, t, truth, probes, present)
+            if self.shapes is not None:
+                frame = dataclasses.replace(frame, polygons=self._draw())
             for tap in self.taps:
                 tap.send(frame)
         if self._pending == self.chunk_steps:
             self._flush()
+
+    def _draw(self) -> list:
+        """The taps' shapes, drawn again at most :data:`DRAW_RATE` times a second of wall clock (a view's rate;
+        drawing IB21's raster sets costs milliseconds, a step of the simulator a fraction of one)."""
+        now = time.monotonic()
+        if now - self._drawn[0] >= 1.0 / DRAW_RATE:
+            self._drawn = (now, self.shapes())
+        return self._drawn[1]
 
     def record_inputs(self, k: int, t: float, nav: np.ndarray, detections: Detections) -> None:
         """Keep step ``k``'s onboard inputs (when the recorder keeps them: ``inputs=True``)."""

@@ -8,7 +8,7 @@ records nothing, hands its own row to the same taps (``uavs``: its own 1-based n
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Protocol
 
@@ -62,6 +62,18 @@ class Tap(Protocol):
     def send(self, frame: StepFrame) -> None: ...
 
     def close(self) -> None: ...
+
+
+def shapes_of(kind: str, estimator) -> Callable[[], list] | None:
+    """What a live view draws of ``estimator`` (of estimator kind ``kind``) each step, as a call (its registered
+    ``shapes``: IB21's sets), or None when its kind draws nothing."""
+    from swarmtrack import registry
+
+    ref = registry.get("estimator", kind).shapes
+    if ref is None or estimator is None:
+        return None
+    draw = registry.resolve(ref)
+    return lambda: draw(estimator)
 
 
 def errors(estimate: np.ndarray | None, covariance: np.ndarray | None,

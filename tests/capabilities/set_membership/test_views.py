@@ -36,7 +36,7 @@ def test_the_outlines_are_each_uavs_sets_and_nothing_else():
     b.identified[0, 0] = shapely.MultiPolygon([shapely.box(1, 1, 2, 2), shapely.box(5, 5, 6, 6)])
     drawn = shapes(sim.stack.estimator)
     assert sorted(uav for uav, _ in drawn) == [1, 1, 2]
-    for uav, vertices in drawn:
+    for _, vertices in drawn:
         assert vertices.shape[1] == 2 and np.array_equal(vertices[0], vertices[-1])  # a closed ring in the plane
     assert shapely.Polygon(drawn[-1][1]).equals(shapely.box(0, 0, 10, 20))
 

@@ -141,9 +141,6 @@ class Kind:
     declared_metrics: Declared = ()
     declared_health: Declared = ()
     declared_figures: Declared = ()
-    animated: bool = False
-    """Whether its runs can be animated (``swarmtrack run --animate``: a set-valued estimator's sets frame by frame,
-    :mod:`swarmtrack.analysis.animation`)."""
     batched: bool = False
     """Whether its component runs several worlds as one batch (per-UAV state only, no UAV named in its settings:
     :mod:`swarmtrack.sim.batch`)."""
@@ -162,8 +159,15 @@ class Kind:
     them); None: a frame without detections is empty."""
     shapes: Ref | None = None
     """What a live view draws of the component's state: ``shapes(component) → [(uav, vertices (K, 2))]``, outlines
-    in the map frame (:attr:`~swarmtrack.streams.frame.StepFrame.polygons`; IB21's sets); None: nothing."""
+    in the map frame (:attr:`~swarmtrack.streams.frame.StepFrame.polygons`; IB21's sets); None: nothing. A kind
+    that draws its sets is :attr:`animated` too."""
     module: str = field(default="", compare=False)
+
+    @property
+    def animated(self) -> bool:
+        """Whether its runs can be animated (``swarmtrack run --animate``: a set-valued estimator's sets frame by
+        frame, :mod:`swarmtrack.analysis.animation`): a kind that draws its sets (:attr:`shapes`)."""
+        return self.shapes is not None
 
     def builder(self) -> Callable:
         return resolve(self.build)
@@ -216,8 +220,7 @@ def _load() -> None:
 
 
 def register(role: str, settings: type, build: Ref, *, metrics: Declared = (), health: Declared = (),
-             figures: Declared = (), animated: bool = False,
-             batched: bool = False, monitors: Ref | None = None, telemetry: Ref | None = None,
+             figures: Declared = (), batched: bool = False, monitors: Ref | None = None, telemetry: Ref | None = None,
              measurement: Measurement | None = None, quiet: Ref | None = None, shapes: Ref | None = None) -> Kind:
     """Register a kind for ``role``: its name is the default of ``settings.kind`` (a string literal), ``settings``
     subclasses the role's base settings class (declared by the schema, :func:`declare_role`), and ``build`` makes
@@ -240,7 +243,7 @@ def register(role: str, settings: type, build: Ref, *, metrics: Declared = (), h
     declared_metrics, declared_health, declared_figures = (d if isinstance(d, str) else tuple(d)
                                                            for d in (metrics, health, figures))
     kind = Kind(role, name, settings, build, declared_metrics, declared_health, declared_figures,
-                animated=animated, batched=batched, monitors=monitors, telemetry=telemetry, measurement=measurement,
+                batched=batched, monitors=monitors, telemetry=telemetry, measurement=measurement,
                 quiet=quiet, shapes=shapes, module=settings.__module__)
     _KINDS[role][name] = kind
     return kind

@@ -11,6 +11,6 @@ _WORLD = "swarmtrack.capabilities.set_membership.world:"  # the truth side
 registry.register("sensor", settings.FootprintSpec, _WORLD + "footprint_sensor", quiet=_BUILD + "quiet_frame")
 registry.register("estimator", settings.SetMembershipSpec, _BUILD + "setmembership",
                   monitors=_WORLD + "guarantee_monitor", metrics=_METRICS + "METRICS", figures=_METRICS + "FIGURES",
-                  animated=True, telemetry="swarmtrack.capabilities.set_membership.telemetry:TELEMETRY",
+                  telemetry="swarmtrack.capabilities.set_membership.telemetry:TELEMETRY",
                   shapes="swarmtrack.capabilities.set_membership.views:shapes")
 registry.register("controller", settings.SMMPCSpec, _BUILD + "sm_mpc")

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
-from swarmtrack.sensors import camera, elevation_bearing_range, footprint, range_bearing
+from swarmtrack.sensors import camera, clutter, elevation_bearing_range, footprint, range_bearing
 from swarmtrack.sensors.detections import Detections
 from swarmtrack.vehicles import fixed_wing, ground_walker
 
@@ -85,6 +85,14 @@ class Scene:
         """(N, M) standard normal noise of every pair for a further ``purpose``, from its own streams."""
         return self._world.extra_normal(purpose)
 
+    def extra_uniform(self, purpose: str) -> np.ndarray:
+        """(N, M) uniform draws in [0, 1) of every pair for a further ``purpose`` (misses), from its own streams."""
+        return self._world.extra_uniform(purpose)
+
+    def uav_streams(self, purpose: str) -> list:
+        """Each UAV's own stream for ``purpose`` (its clutter)."""
+        return self._world.uav_streams(purpose)
+
     def uniforms(self) -> np.ndarray:
         """(N, M, 2) uniform noise in [0, 1) of every (UAV, sensed object) pair."""
         return self._world.frame_uniforms()
@@ -132,9 +140,24 @@ class RangeBearingSensor(Sensor):
     latency: float = 0.0
     occluders: tuple[Occluder, ...] = ()
     sensed: tuple[str, ...] = ("targets", "decoys")
+    #: Issue 40's misses and clutter (:mod:`swarmtrack.sensors.clutter`): each object in view detected with this
+    #: probability (draws: ``sensor/range_bearing/detection/<group>/<member>``), and a Poisson number of false
+    #: detections a scan over the disk of ``max_range`` (draws: ``sensor/range_bearing/clutter/uavs/<i>``).
+    detection_probability: float = 1.0
+    clutter_rate: float = 0.0
     name: ClassVar[str] = "range_bearing"
 
     def sense(self, scene: Scene) -> tuple[Detections, np.ndarray]:
+        det, source = self._sense(scene)
+        if self.detection_probability < 1.0:
+            det, source = clutter.thin(det, source, scene.extra_uniform("detection"), self.detection_probability)
+        if self.clutter_rate > 0.0:
+            assert self.max_range is not None, "validation: clutter needs a field of view (max_range)"
+            counts, z = clutter.polar_clutter(scene.uav_streams("clutter"), self.clutter_rate, self.max_range)
+            det, source = clutter.add_clutter(det, source, counts, z, scene.stamped())
+        return det, source
+
+    def _sense(self, scene: Scene) -> tuple[Detections, np.ndarray]:
         objects, uavs = scene.objects, scene.uavs
         stamped, noise = scene.stamped(), scene.normal()
         if scene.worlds > 1:  # each world's UAVs towards its own objects (no occluders: they name one world's UAVs)

@@ -273,6 +273,7 @@ class World:
         self._extra_rngs = {}
         self._extra_stream = lambda purpose, o: world_streams[self.world_of[o]](
             "sensor/{}/{}/{}/{}".format(sensor.name, purpose, *local[o]))
+        self._uav_stream = lambda purpose, i: world_streams[0](f"sensor/{sensor.name}/{purpose}/uavs/{i}")
         self._uniforms: _Uniforms | None = None  # their uniforms, for a sensor that takes them (frame_uniforms)
         # a batch: each world's UAV rows (contiguous) and its sensed objects' labels (B, M)
         n = self.groups["uavs"].size // self.worlds
@@ -463,7 +464,10 @@ class World:
         :class:`~swarmtrack.sim.sensors.Scene`. ``aim`` (N, 2): where each UAV points a gimballed sensor (its latest
         estimate; NaN rows: none yet); others ignore it."""
         det, source = self.sensor.sense(Scene(self, aim))
-        return det, self._sensed[source]
+        came = np.full(len(source), -1, dtype=np.int64)  # −1: a false detection (clutter), from no object
+        real = source >= 0
+        came[real] = self._sensed[source[real]]
+        return det, came
 
     def lagged_positions(self) -> tuple[np.ndarray, float]:
         """Every object's position ``sensor.latency`` ago (M, 2) and the time it was taken (a ring buffer)."""
@@ -508,6 +512,25 @@ class World:
         for j, rng in enumerate(self._sensor_rngs):
             noise[:, j] = rng.standard_normal((n, 2))
         return noise
+
+    def extra_uniform(self, purpose: str) -> np.ndarray:
+        """(N, M) uniform draws in [0, 1) of this frame for a sensor's ``purpose`` (its misses), each sensed object's
+        (N,) from its own stream ``sensor/<name>/<purpose>/<group>/<member>``. One world at a time."""
+        if purpose not in self._extra_rngs:
+            self._extra_rngs[purpose] = [self._extra_stream(purpose, o) for o in self._sensed]
+        n = self.groups["uavs"].size
+        out = np.empty((n, len(self._sensed)))
+        for j, rng in enumerate(self._extra_rngs[purpose]):
+            out[:, j] = rng.random(n)
+        return out
+
+    def uav_streams(self, purpose: str) -> list:
+        """Each UAV's stream for a sensor's ``purpose`` (its clutter): ``sensor/<name>/<purpose>/uavs/<i>``. One world
+        at a time."""
+        key = ("uavs", purpose)
+        if key not in self._extra_rngs:
+            self._extra_rngs[key] = [self._uav_stream(purpose, i) for i in range(self.groups["uavs"].size)]
+        return self._extra_rngs[key]
 
     def extra_normal(self, purpose: str) -> np.ndarray:
         """(N, M) standard normal draws of this frame for a sensor's further noise ``purpose`` (the 3-D sensor's

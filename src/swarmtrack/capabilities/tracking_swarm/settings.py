@@ -38,6 +38,18 @@ class RangeBearingSpec(SensorSpec):
         "position", description="position: converted measurement with the paper's R_i; polar: EKF on [ρ, β]")
     max_range: Length | None = Field(None, gt=0, description=(
         "m (at most 1e6 m); a UAV farther from the target measures nothing"))
+    detection_probability: float = Field(1.0, gt=0, le=1, description=(
+        "probability that an object in view is detected at a scan (issue 40; the papers: 1)"))
+    clutter_rate: float = Field(0.0, ge=0, le=1e4, description=(
+        "false detections per UAV per scan, Poisson, uniform over the disk of max_range; unlabelled (issue 40; the "
+        "papers: 0)"))
+
+    @field_validator("clutter_rate")
+    @classmethod
+    def _clutter_needs_a_field_of_view(cls, v: float, info: ValidationInfo) -> float:
+        if v > 0 and info.data.get("max_range") is None:
+            raise ValueError("clutter is spread over the sensor's field of view: give max_range too")
+        return v
 
     def update_rule(self, own_sigma: float = 0.0):
         """How its measurements enter an information filter (:class:`~swarmtrack.estimation.information

@@ -1,0 +1,59 @@
+"""A sensor that misses and is fooled: each sensed object in view is detected with probability ``Pd``, and each UAV
+sees a Poisson number of false detections a scan, uniform over its field of view (issue 40). The false ones carry
+no label (:data:`~swarmtrack.sensors.detections.UNLABELLED`) and come from no object (source −1); a detection kept
+keeps its label (a sensor that labels its detections still does).
+
+The draws are the caller's, each from a stream of its own (the world's), so that a sensor without misses or clutter
+draws nothing more and its runs stay bit for bit.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from swarmtrack.sensors.detections import UNLABELLED, Detections
+
+#: The source of a false detection (it came from no object).
+CLUTTER = -1
+
+
+def thin(det: Detections, source: np.ndarray, uniform: np.ndarray,
+         probability: float) -> tuple[Detections, np.ndarray]:
+    """Keep each detection when its pair's ``uniform`` (N, M) draw (UAV ``owner``, object ``source``) is below the
+    detection ``probability``."""
+    keep = uniform[det.owner, source] < probability
+    return _rows(det, keep), source[keep]
+
+
+def add_clutter(det: Detections, source: np.ndarray, counts: np.ndarray, z: np.ndarray,
+                stamped: np.ndarray) -> tuple[Detections, np.ndarray]:
+    """Append ``counts[i]`` false detections to each UAV i (``z`` their measurements, UAV-major, already drawn over
+    its field of view), stamped where its navigation put it (``stamped`` (N, d))."""
+    if not len(z):
+        return det, source
+    owner = np.repeat(np.arange(len(counts)), counts)
+    out = Detections(np.concatenate([det.owner, owner]), np.concatenate([det.z, z]),
+                     np.concatenate([det.sensor_pos, stamped[owner]]),
+                     np.concatenate([det.label, np.full(len(owner), UNLABELLED, dtype=det.label.dtype)]),
+                     det.n_uavs, None, None, det.footprint, det.taken)
+    return out, np.concatenate([source, np.full(len(owner), CLUTTER, dtype=source.dtype)])
+
+
+def polar_clutter(rngs: list, rate: float, max_range: float) -> tuple[np.ndarray, np.ndarray]:
+    """Each UAV's false detections of one scan from its own stream (``rngs``, one per UAV): a Poisson(``rate``)
+    count, each uniform over the disk of radius ``max_range`` around it, as ``[range, bearing]`` (bearing in
+    (−π, π]). Returns the counts (N,) and the measurements (Σ counts, 2), UAV-major."""
+    counts = np.array([rng.poisson(rate) for rng in rngs], dtype=np.int64)
+    z = np.empty((int(counts.sum()), 2))
+    at = 0
+    for rng, c in zip(rngs, counts.tolist(), strict=True):
+        u = rng.random((c, 2))
+        z[at:at + c, 0] = max_range * np.sqrt(u[:, 0])  # uniform over the disk's area
+        z[at:at + c, 1] = np.pi - 2 * np.pi * u[:, 1]
+        at += c
+    return counts, z
+
+
+def _rows(det: Detections, keep: np.ndarray) -> Detections:
+    return Detections(det.owner[keep], det.z[keep], det.sensor_pos[keep], det.label[keep], det.n_uavs, None,
+                      None if det.frame is None else det.frame[keep], det.footprint, det.taken)

@@ -134,6 +134,9 @@ class LockstepWorld:
         self.fleet = None if mavlink is None else Fleet(self.n, self._now, *mavlink)
         self.node.seal.run = self.node.seal.run or wire.new_run()  # this run's identity: every message carries it
         self._joiners: dict[int, wire.Hello] = {}  # UAVs whose new process (--rejoin) starts at the next step
+        # the processes (their proc) it started: a hello of one of them heard again is an old one (said before its
+        # start, within LOST_AFTER), never a second process for its UAV, even once another replaced it
+        self._started: set[int] = set()
         self._refused: dict[int, float] = {}  # processes refused (their proc), and when they were last told
 
     def run(self) -> tuple[Recording, LiveReport]:
@@ -181,6 +184,7 @@ class LockstepWorld:
         flies from now (what another process of the UAV sends is dropped)."""
         self.processes[i] = (hello.pid, hello.started)
         self.node.current[i] = hello.proc
+        self._started.add(hello.proc)
         self._joiners.pop(i, None)
         self.node.send(i, wire.Start(k=k, to=hello.proc, labels=labels_of(self.scenario), realtime=self.realtime,
                                      mavlink=self.fleet is not None))
@@ -327,8 +331,8 @@ class LockstepWorld:
         for i, entries in self._heard_hellos(refused=True).items():
             for hello, _ in entries:
                 joiner = self._joiners.get(i)
-                if hello.proc == self.node.current.get(i) or (joiner is not None and joiner.proc == hello.proc):
-                    continue
+                if hello.proc in self._started or (joiner is not None and joiner.proc == hello.proc):
+                    continue  # a process it started (the one flying, or one replaced since: its hello is old)
                 flown = i in self.alive and i not in self._joiners
                 reason = self._mismatch(hello)
                 if reason is None and not hello.rejoin:

@@ -46,7 +46,7 @@ def test_a_field_swarm_tracks_without_a_world_and_goes_on_when_an_agent_dies(tmp
     assert not present[t > 6.0, 2].any()  # UAV 3 gone
     error = np.hypot(*(rec.estimate[:, :2, :2] - rec.target[:, None, :2]).transpose(2, 0, 1))
     assert np.nanmax(error[t > 8.0]) < 0.5  # the two left still track (the simulator's: about 0.1 m)
-    assert metrics["rmse"]["total"]["x"] < 0.5
+    assert metrics["rmse"]["total"]["x"] < 0.25  # measured, quiet: 0.083 m (the simulator's: 0.08)
 
 
 def test_a_field_w20_swarm_tracks_from_its_camera_topics(tmp_path):
@@ -63,4 +63,4 @@ def test_a_field_w20_swarm_tracks_from_its_camera_topics(tmp_path):
     assert present[rec.t > 2.0].mean() > 0.95  # on a busy machine a sample can miss the monitor's deadline
     error = np.hypot(*(rec.estimate[:, :, :2] - rec.target[:, None, :2]).transpose(2, 0, 1))
     assert np.nanmax(error[rec.t > 4.0]) < 0.5  # the simulator's: within 0.1 m
-    assert metrics["rmse"]["total"]["x"] < 0.2 and metrics["rmse"]["total"]["y"] < 0.2
+    assert metrics["rmse"]["total"]["x"] < 0.1 and metrics["rmse"]["total"]["y"] < 0.1  # measured, quiet: 0.035, 0.026

@@ -32,8 +32,8 @@ from swarmtrack.field.sources import SourceError, SourceUrl, open_source, parse
 from swarmtrack.live import wire
 from swarmtrack.live.agent import Agent
 from swarmtrack.live.exchange import PATIENCE, late_steps
-from swarmtrack.live.node import LOST_AFTER, Node
-from swarmtrack.onboard.context import labels_of
+from swarmtrack.live.node import Node
+from swarmtrack.onboard.context import labels_of, sensor_labels
 from swarmtrack.onboard.warm import warm_up
 from swarmtrack.replay.grid import remedy
 from swarmtrack.replay.rosbag import Topics
@@ -73,13 +73,13 @@ def start_time(text: str, now: float | None = None) -> float:
 
 
 class FieldAgent(Agent):
-    exchange: FieldExchange
-
     """UAV ``uav`` of ``scenario`` on ``node`` (a node without a world), on the clock that starts at ``epoch``;
     ``navigation`` and ``detections``: its sources (a map's :class:`~swarmtrack.replay.mapping.Source` and
     ``DetectionSource``, topics written as URLs; ``navigation`` None: its autopilot's), ``window`` (s) the map's;
     ``autopilot``: its MAVLink link's URL; ``wait``: how long it waits for a first message of each source before it
     gives up (:class:`SourceError`); ``taps``: live outputs of its own row (:mod:`swarmtrack.streams`)."""
+
+    exchange: FieldExchange
 
     def __init__(self, scenario, uav: int, node: Node, epoch: float, navigation, detections, window: float,
                  autopilot: str | None = None, reengage: bool = False, wait: float = 10.0, taps=()):
@@ -133,9 +133,8 @@ class FieldAgent(Agent):
             self.link = AutopilotLink(self.autopilot, self.i)
             self.authority = Authority(self.link, self.reengage)
             self.authority.engage()
-        labels = labels_of(self.scenario)
-        warm_up(self.scenario, self.i, lambda group, member: labels[group][member])
-        self.build(labels)
+        warm_up(self.scenario, self.i, sensor_labels(self.scenario))
+        self.build(labels_of(self.scenario))
         assert self.stack is not None
         probes = {name: list(shape) for name, shape in self.stack.probes.items()}
         for tap in self.taps:  # what the outputs read of the run (the estimator's settings, its probes)
@@ -188,7 +187,7 @@ class FieldAgent(Agent):
             u = self._command(t, nav, view, exchange, beacon)
             sample.u = wire.pack(u)
         self.node.send(wire.WORLD, sample)
-        self._tap(t, nav, u)
+        self._tap(t, nav, u, sample.probes)
         offset = 0
         for c, (control_now, ticks) in enumerate(segments):
             if control_now and c:
@@ -200,17 +199,17 @@ class FieldAgent(Agent):
                     self._command(tc, nav_c, view, exchange)
             offset += ticks
 
-    def _tap(self, t: float, nav: np.ndarray, u) -> None:
-        """Its own row to the live outputs (ROS 2, Foxglove)."""
+    def _tap(self, t: float, nav: np.ndarray, u, probes: dict) -> None:
+        """Its own row to the live outputs (ROS 2, Foxglove); ``probes`` its sample's (packed)."""
         if not self.taps:
             return
         from swarmtrack.streams.frame import StepFrame
 
-        assert self.stack is not None
-        probes = self.stack.sample()  # its own row: (1, ...)
+        estimate, covariance = (wire.unpack(probes[name]) if name in probes else None
+                                for name in ("estimate", "covariance"))
         frame = StepFrame(t=t, uavs=np.array([self.i + 1]), uav=np.asarray(nav, dtype=float)[:, :4],
-                          present=np.ones(1, dtype=bool), estimate=probes.get("estimate"),
-                          covariance=probes.get("covariance"), command=None if u is None else np.asarray(u))
+                          present=np.ones(1, dtype=bool), estimate=estimate, covariance=covariance,
+                          command=None if u is None else np.asarray(u))
         for tap in self.taps:
             tap.send(frame)
 
@@ -224,10 +223,9 @@ class FieldAgent(Agent):
                   "counted in its samples", file=sys.stderr, flush=True)
         watched = [*self.urls, "neighbours"]
         quiet = set(self.inputs.quiet(list(self.urls), now, QUIET_AFTER))
-        if self.exchange.peers and not self.exchange.heard():
-            last = max((self.node.seen.get(s, -math.inf) for s in self.exchange.peers), default=-math.inf)
-            if now - last > max(QUIET_AFTER, LOST_AFTER):
-                quiet.add("neighbours")
+        peers = self.exchange.peers
+        if peers and now - max(self.node.seen.get(s, -math.inf) for s in peers) > QUIET_AFTER:
+            quiet.add("neighbours")
         for text in watched:
             what = "none of its neighbours heard" if text == "neighbours" else f"no message on {text}"
             if text in quiet and text not in self._silent:

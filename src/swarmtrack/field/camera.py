@@ -107,11 +107,11 @@ class CameraWorld:
                 ours = mine.label == self.label
                 for rel in self.relative_of(mine)[ours]:
                     self.transport.put_typed(detections_key(self.prefix, i + 1),
-                                                  stamped(DETECTION_TYPE, self.epoch + taken, rel), DETECTION_TYPE)
+                                             stamped(DETECTION_TYPE, self.epoch + taken, rel), DETECTION_TYPE)
                     self.published[(i, k)] = time.time()
             if tracked is not None:
                 self.transport.put_typed(truth_key(self.prefix),
-                                              stamped(TRUTH_TYPE, self.epoch + t, truth[tracked, :2]), TRUTH_TYPE)
+                                         stamped(TRUTH_TYPE, self.epoch + t, truth[tracked, :2]), TRUTH_TYPE)
             offset = 0
             for control_now, ticks in clock.control_segments(k):
                 if control_now:

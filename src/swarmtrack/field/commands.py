@@ -19,7 +19,7 @@ from types import SimpleNamespace
 import click
 import numpy as np
 
-from swarmtrack.cli_support import UsageFailure, report_run, warn_run, write_run
+from swarmtrack.cli_support import UsageFailure, report_run, warn_run
 from swarmtrack.extras import require
 from swarmtrack.live.launch import (
     ENV,
@@ -27,10 +27,13 @@ from swarmtrack.live.launch import (
     check_wire,
     load_live,
     open_transport,
+    peer_options,
     read_key,
     scenario_options,
     security_options,
+    start_option,
     stop_agents,
+    write_live,
 )
 from swarmtrack.streams.options import output_options
 
@@ -81,6 +84,7 @@ def run_field_agent(o: SimpleNamespace) -> None:
     from swarmtrack.autopilot.link import AutopilotError, AutopilotRefused
     from swarmtrack.field.agent import FieldAgent
     from swarmtrack.field.sources import SourceError
+    from swarmtrack.replay.grid import followed_measurement
     from swarmtrack.replay.steps import LogError
 
     scn = agent_scenario(o)
@@ -109,11 +113,9 @@ def run_field_agent(o: SimpleNamespace) -> None:
         raise UsageFailure("--field: no navigation: give --autopilot URL, --navigation URL, or a --map naming it")
     if detections is None:
         raise UsageFailure("--field: no detections: give --detections URL, or a --map naming them")
-    try:
-        from swarmtrack.field.inputs import FieldInputs
-
-        FieldInputs(scn, o.uav - 1, epoch)  # its sensor and estimator take planar detections of one target
-    except ValueError as exc:
+    try:  # its sensor's measurements made from a relative position, of the one target its estimator follows
+        followed_measurement(scn, "the field", "as replay does")
+    except LogError as exc:
         raise UsageFailure(f"--field: {exc}") from None
     taps = o.outputs.taps(stamp_epoch=epoch)
     node = _node(scn, o, o.uav - 1, epoch)
@@ -138,20 +140,10 @@ def run_field_agent(o: SimpleNamespace) -> None:
         node.close()
 
 
-def _field_options(f):
-    f = click.option("--connect-timeout", type=click.FloatRange(min=0, min_open=True), default=5.0,
-                     show_default=True, metavar="SECONDS",
-                     help="give up on a --connect peer that does not answer within this time")(f)
-    f = click.option("--listen", multiple=True, metavar="ENDPOINT", help="listen there (other peers may join)")(f)
-    f = click.option("--connect", multiple=True, metavar="ENDPOINT", help="a peer to join, e.g. tcp/10.0.0.2:7447")(f)
-    return click.option("--start", default="next:10", show_default=True, metavar="TIME", help=(
-        "the swarm's t = 0 on the wall clock: Unix seconds, an ISO 8601 time with its zone, or next:S (the next "
-        "multiple of S s); the same on every process of the swarm"))(f)
-
-
 @click.command("monitor")
 @scenario_options
-@_field_options
+@start_option()
+@peer_options
 @click.option("--truth", metavar="URL", default=None, help=(
     "the followed target's ground truth (motion capture, a simulator's topic): zenoh://KEY or ros2:///TOPIC, a pose "
     "type (docs/field.md); without it, no errors are computed"))
@@ -195,13 +187,7 @@ def monitor_cmd(**options) -> None:
                 signal.signal(signal.SIGINT, previous)
             if not rec.meta["n_steps"]:
                 raise UsageFailure("monitor: stopped before its first step; nothing was written")
-            (tmp / "live").mkdir()
-            for name, table in tables.items():
-                table.to_parquet(tmp / "live" / f"{name}.parquet", index=False)
-            import dataclasses
-
-            metrics = write_run(rec, scn, tmp, no_plots=o.no_plots, extra={"live": dataclasses.asdict(report)},
-                                warnings=report.warnings())
+            metrics = write_live(tmp, rec, scn, report, tables, o.no_plots)
     except (OutputError, SourceError) as exc:
         raise UsageFailure(str(exc)) from None
     except (KeyboardInterrupt, Terminated):

@@ -5,7 +5,7 @@ the wall clock's pace.
 - **Time.** A message's time is its stamp; the run's t = 0 is the swarm's epoch (``--start``), so step k is at
   ``epoch + k·dt`` on every UAV's clock.
 - **Navigation** at step k is the UAV's navigation at the step's time: interpolated between the samples around it,
-  else the latest held for up to ``window`` s (:class:`~swarmtrack.replay.grid._Track`); the autopilot's is put as a
+  else the latest held for up to ``window`` s (:class:`~swarmtrack.replay.grid.Track`); the autopilot's is put as a
   sample at each step's time.
 - **Detections** are those that came since the previous step (the latest if several: a frame that came after its
   own step is superseded, and counted), taken
@@ -23,23 +23,20 @@ from __future__ import annotations
 import math
 import threading
 import time
-from bisect import bisect_right
 from collections.abc import Callable
 
 import numpy as np
 
-from swarmtrack import registry
-from swarmtrack.onboard.context import sensor_labels
 from swarmtrack.replay.grid import (
-    ON_SAMPLE,
     TRUTH_GAP,
     WINDOW,
     Detection,
     Message,
     Navigation,
+    Track,
     Truth,
-    _finite,
-    _Track,
+    finite,
+    followed_measurement,
     skip,
 )
 from swarmtrack.sensors.detections import Detections
@@ -57,20 +54,14 @@ class FieldInputs:
         self.counts: dict[str, int] = {}  # skipped messages, by cause and topic
         self.heard: dict[str, float] = {}  # when each topic last gave a message (monotonic s)
         self._latest: dict[str, float] = {}  # the latest stamp of each topic
-        self._nav, self.truth = _Track(), _Track()
+        self._nav, self.truth = Track(), Track()
         self._pending: list[tuple[float, Detection]] = []  # detections since the previous step
         # run times from which navigation, and detections, are the run's (what was stamped before its start is not)
         self.since = self.start = -math.inf
         self._measure: Callable | None = None
         self._label: int | None = None
-        if uav is not None:
-            measurement = registry.get("sensor", scenario.sensor.kind).measurement
-            followed = scenario.estimator.followed_target()
-            if measurement is None or followed is None or scenario.sensor.three_d:
-                raise ValueError(f"sensor.kind {scenario.sensor.kind} with estimator.kind {scenario.estimator.kind}: "
-                                 "the field takes planar detections of one followed target (as replay does)")
-            self._measure = registry.resolve(measurement.of_relative)
-            self._label = sensor_labels(scenario)("targets", followed - 1)
+        if uav is not None:  # a LogError when the field cannot place its sensor's detections (as replay cannot)
+            self._measure, self._label, _ = followed_measurement(scenario, "the field", "as replay does")
 
     def skip(self, cause: str, topic: str) -> None:
         with self._lock:
@@ -78,7 +69,7 @@ class FieldInputs:
 
     def put(self, msg: Message) -> None:
         """A message of a source (any thread): checked, then kept for the step it belongs to."""
-        if not _finite(msg):
+        if not finite(msg):
             self.skip("NaN or infinite value in a message", msg.topic)
             return
         t = msg.stamp - self.epoch
@@ -137,14 +128,8 @@ class FieldInputs:
             return Detections(np.zeros(0, dtype=np.int64), np.zeros((0, 2)), np.zeros((0, 2)),
                               np.zeros(0, dtype=np.int64), 1, frame=self._frame_of_none())
         stamp, det, where = rows[-1]
-        if det.relative is not None:
-            rel = np.asarray([det.relative], dtype=float)
-        else:
-            assert det.range_bearing is not None  # a detection carries one or the other
-            r, b = det.range_bearing
-            rel = np.array([[r * math.cos(b), r * math.sin(b)]])
         pos = np.asarray([where[:2]], dtype=float)
-        z, frame = self._measure(rel, pos)
+        z, frame = self._measure(det.offset()[None], pos)
         return Detections(np.zeros(1, dtype=np.int64), z, pos, np.array([self._label]), 1, frame=frame, taken=stamp)
 
     def _frame_of_none(self):
@@ -155,15 +140,10 @@ class FieldInputs:
 
     def truth_at(self, t: float) -> np.ndarray | None:
         """The truth ``[x, y, vx, vy]`` at run time ``t``: interpolated between the two samples around it when they are
-        at most ``truth_gap`` apart, the sample itself on one, else None (absent)."""
+        at most ``truth_gap`` apart, or on a sample, else None (absent; :meth:`~swarmtrack.replay.grid.Track.between`,
+        replay's rule)."""
         with self._lock:
-            s = self.truth.samples
-            i = bisect_right(s, t, key=lambda sample: sample[0]) - 1
-            got = None
-            if i >= 0 and i + 1 < len(s) and s[i + 1][0] - s[i][0] <= self.truth_gap:
-                got = self.truth.at(t, 0.0)
-            elif i >= 0 and t - s[i][0] <= ON_SAMPLE:
-                got = self.truth.at(t, ON_SAMPLE)
+            got = self.truth.between(t, self.truth_gap)
             self.truth.forget(t - self.truth_gap)
         return None if got is None else np.asarray(got, dtype=float)
 

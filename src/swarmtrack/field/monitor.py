@@ -27,8 +27,8 @@ from swarmtrack.live import wire
 from swarmtrack.live.node import LOST_AFTER, Node
 from swarmtrack.live.realtime import RECORD_BY
 from swarmtrack.live.report import LiveReport, percentiles, timing
-from swarmtrack.onboard.build import onboard_stack
-from swarmtrack.onboard.context import clock_of, context, labels_of, layout
+from swarmtrack.onboard.build import probes_of
+from swarmtrack.onboard.context import clock_of, layout
 from swarmtrack.sim.meta import profiles, run_meta
 from swarmtrack.sim.recorder import Recorder, Recording
 
@@ -53,8 +53,7 @@ class Monitor:
         self.m = max(sl.stop for sl in self.rows.values())
         self.flown = {g: profiles(scenario, g) for g in ("targets", "decoys")}
         meta = run_meta(scenario, self.rows, self.flown, self.clock.dt_estimation)
-        labels = labels_of(scenario)
-        self.probes = onboard_stack(context(scenario, lambda g, m: labels[g][m], uavs=[0])).probes
+        self.probes = probes_of(scenario)
         self.recorder = Recorder(meta, self.m, self.n, {**self.probes, **dict.fromkeys(TIMING, ())}, record_to,
                                  presence=True, taps=taps)
         self.report = LiveReport(mode="field")
@@ -104,29 +103,23 @@ class Monitor:
         probes = {name: np.concatenate([wire.unpack(samples[i].probes[name]) if i in samples
                                         else np.full((1, *shape), np.nan) for i in range(self.n)])
                   for name, shape in self.probes.items()}
-        present = np.array([i in samples for i in range(self.n)])
-        self.recorder.record(t, truth, phase, {**probes, **self._timing(k, samples)}, present=present)
+        timing = {name: np.full(self.n, np.nan) for name in TIMING}  # NaN: no sample, or no message heard
         for i, sample in samples.items():
-            self._account(i, sample, k)
+            timing["lateness"][i], timing["latency_ms"][i] = self._account(i, sample, k)
+        present = np.array([i in samples for i in range(self.n)])
+        self.recorder.record(t, truth, phase, {**probes, **timing}, present=present)
         self._watch(t)
 
-    def _timing(self, k: int, samples: dict[int, wire.Sample]) -> dict[str, np.ndarray]:
-        """Each UAV's :data:`TIMING` of step ``k`` (NaN without its sample, or without a message heard)."""
-        late, latency = np.full(self.n, np.nan), np.full(self.n, np.nan)
-        dt = self.clock.dt_estimation
-        for i, sample in samples.items():
-            late[i] = (sample.sent - self.epoch - k * dt) / dt
-            heard = [lat for _, _, kk, _, _, lat in sample.heard if kk == k]
-            if heard:
-                latency[i] = 1e3 * float(np.median(heard))
-        return {"lateness": late, "latency_ms": latency}
-
-    def _account(self, i: int, sample: wire.Sample, k: int) -> None:
+    def _account(self, i: int, sample: wire.Sample, k: int) -> tuple[float, float]:
         """What a sample says of its process: its counts (the latest of each process), its step's lateness and CPU,
-        the latency of the messages it heard."""
+        the latency of the messages it heard; returns its :data:`TIMING` of step ``k``."""
+        dt = self.clock.dt_estimation
         self.samples[(i, sample.proc)] = sample
-        self.steps.append((i, k, sample.sent - self.epoch - k * self.clock.dt_estimation, sample.cpu))
+        done = sample.sent - self.epoch - k * dt
+        self.steps.append((i, k, done, sample.cpu))
         self.messages += [(ch, s, i, kk, c, sent - self.epoch, lat) for ch, s, kk, c, sent, lat in sample.heard]
+        heard = [lat for _, _, kk, _, _, lat in sample.heard if kk == k]
+        return done / dt, 1e3 * float(np.median(heard)) if heard else np.nan
 
     def _watch(self, t: float) -> None:
         """Say a UAV lost (not heard for LOST_AFTER s) or back."""

@@ -11,7 +11,6 @@ file, the swarm's name and the TLS folder that way, never on their command lines
 
 from __future__ import annotations
 
-import dataclasses
 import os
 import subprocess
 import sys
@@ -20,7 +19,7 @@ from types import SimpleNamespace
 
 import click
 
-from swarmtrack.cli_support import UsageFailure, report_run, warn_run, write_run
+from swarmtrack.cli_support import UsageFailure, report_run, warn_run
 from swarmtrack.extras import require
 from swarmtrack.live.launch import (
     ENV,
@@ -28,10 +27,13 @@ from swarmtrack.live.launch import (
     check_wire,
     load_live,
     open_transport,
+    peer_options,
     read_key,
     scenario_options,
     security_options,
+    start_option,
     stop_agents,
+    write_live,
 )
 from swarmtrack.streams.options import output_options
 
@@ -57,10 +59,7 @@ def keygen_cmd(file: Path) -> None:
 @click.command("agent")
 @scenario_options
 @click.option("--uav", type=int, required=True, help="which UAV this process is (1..N)")
-@click.option("--connect", multiple=True, metavar="ENDPOINT", help="a peer to join, e.g. tcp/127.0.0.1:7447")
-@click.option("--listen", multiple=True, metavar="ENDPOINT", help="listen there too (other peers may join)")
-@click.option("--connect-timeout", type=click.FloatRange(min=0, min_open=True), default=5.0, show_default=True,
-              metavar="SECONDS", help="give up on a --connect peer that does not answer within this time")
+@peer_options
 @click.option("--rejoin", is_flag=True, help="this UAV's earlier process was lost: start afresh where the swarm is")
 @click.option("--autopilot", metavar="URL", default=None, help=(
     "fly through this UAV's autopilot over MAVLink: udp://[HOST]:PORT (listen there, as PX4 SITL's 14540 + i) or "
@@ -72,9 +71,7 @@ def keygen_cmd(file: Path) -> None:
 @click.option("--field", is_flag=True, help=(
     "no world: navigation from --autopilot or --navigation, detections from --detections (or a --map), the "
     "neighbours heard directly over Zenoh, steps on this machine's clock from --start (docs/field.md)"))
-@click.option("--start", default="next:10", show_default=True, metavar="TIME", help=(
-    "--field: the swarm's t = 0 on the wall clock: Unix seconds, an ISO 8601 time with its zone, or next:S (the "
-    "next multiple of S s); the same on every process of the swarm"))
+@start_option("--field: ")
 @click.option("--navigation", metavar="URL", default=None,
               help="--field: its navigation's source, zenoh://KEY or ros2:///TOPIC (default: its autopilot's)")
 @click.option("--detections", metavar="URL", default=None,
@@ -275,12 +272,7 @@ def _serve(o: SimpleNamespace, spawn: bool) -> None:
             stop_agents(procs)  # within GRACE s of the end (or of Ctrl-C), before the files are written
             if live.interrupted is not None and not rec.meta["n_steps"]:
                 raise _NothingRecorded()  # stopped before its first step: there is no run to write
-            if tables:
-                (tmp / "live").mkdir()
-                for name, table in tables.items():
-                    table.to_parquet(tmp / "live" / f"{name}.parquet", index=False)
-            metrics = write_run(rec, scn, tmp, no_plots=o.no_plots, extra={"live": dataclasses.asdict(live)},
-                                warnings=live.warnings())
+            metrics = write_live(tmp, rec, scn, live, tables, o.no_plots)
     except (OutputError, LiveError, VehicleError) as exc:
         raise UsageFailure(str(exc)) from None
     except TimeoutError as exc:

@@ -3,6 +3,7 @@ transport: the live swarm's and the field's), and how a command ends the process
 
 from __future__ import annotations
 
+import dataclasses
 import signal
 import subprocess
 import time
@@ -11,7 +12,7 @@ from types import SimpleNamespace
 
 import click
 
-from swarmtrack.cli_support import UsageFailure
+from swarmtrack.cli_support import UsageFailure, write_run
 from swarmtrack.scenarios.loader import ScenarioError, load_scenario
 
 #: Seconds the processes a run started get to end after SIGTERM before they are killed.
@@ -41,6 +42,35 @@ def security_options(f):
                          f"[env {ENV['key']}]"))(f)
     return click.option("--swarm", default=None, envvar=ENV["swarm"],
                         help=f"the swarm's name in the key space (default: the scenario's) [env {ENV['swarm']}]")(f)
+
+
+def peer_options(f):
+    """Where a process joins the swarm: ``--connect``, ``--listen``, ``--connect-timeout`` (:func:`open_transport`)."""
+    f = click.option("--connect-timeout", type=click.FloatRange(min=0, min_open=True), default=5.0,
+                     show_default=True, metavar="SECONDS",
+                     help="give up on a --connect peer that does not answer within this time")(f)
+    f = click.option("--listen", multiple=True, metavar="ENDPOINT", help="listen there too (other peers may join)")(f)
+    return click.option("--connect", multiple=True, metavar="ENDPOINT",
+                        help="a peer to join, e.g. tcp/127.0.0.1:7447")(f)
+
+
+def start_option(when: str = ""):
+    """``--start``: a field swarm's t = 0 on the wall clock (``when``: the help's prefix, e.g. ``--field: ``)."""
+    return click.option("--start", default="next:10", show_default=True, metavar="TIME", help=(
+        f"{when}the swarm's t = 0 on the wall clock: Unix seconds, an ISO 8601 time with its zone, or next:S (the "
+        "next multiple of S s); the same on every process of the swarm"))
+
+
+def write_live(folder: Path, rec, scn, report, tables: dict, no_plots: bool) -> dict:
+    """A live run's files besides its recording, into ``folder`` (staged): ``live/<table>.parquet`` (latencies,
+    steps), then the run's own (:func:`~swarmtrack.cli_support.write_run`, ``report`` under ``live`` in
+    ``metrics.json`` with its warnings); returns the metrics."""
+    if tables:
+        (folder / "live").mkdir()
+        for name, table in tables.items():
+            table.to_parquet(folder / "live" / f"{name}.parquet", index=False)
+    return write_run(rec, scn, folder, no_plots=no_plots, extra={"live": dataclasses.asdict(report)},
+                     warnings=report.warnings())
 
 
 def check_wire(tls: Path | None, **endpoints) -> None:

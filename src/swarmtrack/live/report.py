@@ -48,8 +48,9 @@ class LiveReport:
     engagement ``by`` whom."""
 
     def warnings(self) -> list[dict]:
-        out = [{"check": "live", "message": f"UAV {e['uav']} stopped answering at t = {e['t']:.2f} s; it was flown "
-                f"safely from then (the world's safe command, or with --mavlink its autopilot's failsafe)"
+        flown = ("its autopilot's failsafe flies its vehicle" if self.mode == "field" else
+                 "it was flown safely from then (the world's safe command, or with --mavlink its autopilot's failsafe)")
+        out = [{"check": "live", "message": f"UAV {e['uav']} stopped answering at t = {e['t']:.2f} s; {flown}"
                 f"{self._back(e['uav'])}"} for e in self.lost]
         if self.step_lateness is not None and self.step_lateness["p99"] > 1:
             out.append({"check": "live", "message": f"real time not kept: 1 % of the UAVs' steps were done more than "
@@ -59,10 +60,9 @@ class LiveReport:
             out.append({"check": "live", "message": f"interrupted at t = {self.interrupted:.2f} s: the recording "
                         "holds the steps completed before"})
         if self.skipped:
-            from swarmtrack.replay.grid import remedy
+            from swarmtrack.replay.grid import skipped_lines
 
-            out += [{"check": "live", "message": f"{n} message(s) skipped: {cause} ({remedy(cause)})"}
-                    for cause, n in sorted(self.skipped.items())]
+            out += [{"check": "live", "message": line} for line in skipped_lines(self.skipped)]
         out += [{"check": "live", "message": f"UAV {e['uav']}: process {e['pid']} refused at t = {e['t']:.2f} s: "
                  f"{e['reason']}"} for e in self.refused]
         out += [{"check": "live", "message": f"a stop the world did not send came at t = {t:.2f} s, unsealed: this run "

@@ -28,7 +28,7 @@ from swarmtrack.live.agent import HELLO_EVERY, PATIENCE, scenario_hash, telemetr
 from swarmtrack.live.node import LOST_AFTER, Node
 from swarmtrack.live.report import LiveReport, percentiles
 from swarmtrack.network.links import neighbour_lists
-from swarmtrack.onboard.build import component, onboard_stack
+from swarmtrack.onboard.build import component, probes_of
 from swarmtrack.onboard.context import command_width, context, labels_of, sensor_labels
 from swarmtrack.outputs import Terminated
 from swarmtrack.scenarios.schema import Scenario
@@ -109,7 +109,7 @@ class LockstepWorld:
         label_of = sensor_labels(scenario)
         # what every UAV's sample carries (a UAV's stack declares it); the truth side builds of the UAVs' components
         # only those its monitors read, as copies the UAVs' telemetry is mirrored into
-        self.probes = onboard_stack(context(scenario, label_of, uavs=[0])).probes
+        self.probes = probes_of(scenario)
         self.telemetries = telemetry_of(scenario)
         self.components = {role: component(role, scenario, context(scenario, label_of)) for role in self.telemetries}
         self.monitors = monitors(scenario, truth.world, self.components)
@@ -117,8 +117,7 @@ class LockstepWorld:
         self.recorder = Recorder(truth.meta, truth.world.n_objects, self.n, {**self.probes,
                                  **dict.fromkeys(self.monitors, ())}, record_to, presence=True,
                                  inputs=record_to is not None, taps=taps,
-                                 shapes=shapes_of(scenario.estimator.kind, self.components.get("estimator"))
-                                 if taps else None)
+                                 shapes=shapes_of(scenario.estimator.kind, self.components.get("estimator")))
         self.last: dict[int, wire.Sample] = {}  # each UAV's latest sample (its aim and telemetry when lost)
         self.u = np.zeros((self.n, command_width(scenario)))
         # each UAV process's latest counts of the messages it dropped, by (UAV, its process): a process lost and

@@ -26,3 +26,11 @@ def onboard_stack(ctx: Context, controller: bool = True) -> OnboardStack:
     which follows the estimator (a simulation that follows the truth swaps in its oracle as the guide)."""
     estimator = component("estimator", ctx.scenario, ctx)
     return OnboardStack(estimator, component("controller", ctx.scenario, ctx) if controller else None, estimator)
+
+
+def probes_of(scenario: Scenario) -> dict[str, tuple[int, ...]]:
+    """What each UAV's sample of ``scenario`` carries (its stack's probes, by name and shape per UAV): read off one
+    UAV's stack, as the processes that record the samples of others (the live world, the field's monitor) need."""
+    from swarmtrack.onboard.context import context, sensor_labels
+
+    return onboard_stack(context(scenario, sensor_labels(scenario), uavs=[0])).probes

@@ -97,8 +97,7 @@ def _readers(reader, logs) -> set[str]:
 def _warnings(counts: dict[str, int]) -> list[dict]:
     """One warning per kind of message skipped mid-log (they are counted, not fatal), with what the user can do
     about it (:data:`swarmtrack.replay.grid.SKIPS`)."""
-    from swarmtrack.replay.grid import remedy
+    from swarmtrack.replay.grid import skipped_lines
 
-    return [{"kind": "replay_skipped", "t_start": None, "t_end": None,
-             "message": f"replay: {n} message(s) skipped: {why}: {remedy(why)}"}
-            for why, n in sorted(counts.items()) if n]
+    return [{"kind": "replay_skipped", "t_start": None, "t_end": None, "message": f"replay: {line}"}
+            for line in skipped_lines(counts)]

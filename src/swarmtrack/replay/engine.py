@@ -56,7 +56,7 @@ def replay(scenario: Scenario, steps: Iterable[StepInputs], record_to: Path | No
     # chunks of at most REPLAY_CHUNK_STEPS steps: a long log of a small swarm streams in bounded memory
     recorder = Recorder(meta, n_objects, n, stack.probes, record_to, inputs=record_to is not None,
                         max_chunk_steps=REPLAY_CHUNK_STEPS, taps=taps,
-                        shapes=shapes_of(scenario.estimator.kind, stack.estimator) if taps else None)
+                        shapes=shapes_of(scenario.estimator.kind, stack.estimator))
     n_steps = getattr(steps, "n_steps", None)
     if n_steps is not None and planned is not None:
         planned(n_steps)

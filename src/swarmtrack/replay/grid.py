@@ -72,6 +72,14 @@ class Detection:
     relative: tuple[float, float] | None = None
     range_bearing: tuple[float, float] | None = None
 
+    def offset(self) -> np.ndarray:
+        """``(dx, dy)`` of the target from the UAV along the map frame's axes, from whichever the message carries."""
+        if self.relative is not None:
+            return np.asarray(self.relative, dtype=float)
+        assert self.range_bearing is not None, "a detection carries a relative position or a range and bearing"
+        r, b = self.range_bearing
+        return np.array([r * math.cos(b), r * math.sin(b)])
+
 
 @dataclass(frozen=True)
 class Truth:
@@ -160,7 +168,7 @@ def _stamp(sample: tuple) -> float:
 
 
 @dataclass
-class _Track:
+class Track:
     """A time-ordered buffer of one stream's (stamp, position, velocity) samples, for interpolation."""
 
     samples: list = field(default_factory=list)
@@ -194,6 +202,19 @@ class _Track:
             tp, (xp, yp), _ = s[i - 1]
             return x0, y0, (x0 - xp) / (t0 - tp), (y0 - yp) / (t0 - tp)
         return x0, y0, 0.0, 0.0
+
+    def between(self, t: float, gap: float):
+        """``(x, y, vx, vy)`` at ``t`` between the two samples around it when they are at most ``gap`` s apart, or
+        on a sample (with the one before it, at most ``gap`` s earlier, for its velocity); None otherwise."""
+        s = self.samples
+        i = bisect_right(s, t, key=_stamp) - 1  # the last sample at or before t
+        if i < 0:
+            return None
+        if i + 1 < len(s) and s[i + 1][0] - s[i][0] <= gap:
+            return self.at(t, 0.0)
+        if t - s[i][0] <= ON_SAMPLE and i > 0 and s[i][0] - s[i - 1][0] <= gap:  # on a sample: the pair before it
+            return Track(s[i - 1:i + 1]).at(t, ON_SAMPLE)
+        return None
 
     def forget(self, before: float) -> None:
         """Drop the samples not needed to interpolate at ``before`` or later."""
@@ -249,24 +270,37 @@ def on_grid(messages: Iterable[Message], scenario, counts: dict, window: float =
     """The estimation steps of ``messages`` (see the module's docstring); ``counts`` gets what was skipped. ``start``
     and ``n_steps`` (from :func:`plan`): t = 0 and the number of steps, else found as the messages come. The
     scenario is checked at once (its sensor makes measurements from relative positions; it follows one target)."""
+    measure, label, tracked = followed_measurement(scenario, "a replay from time-stamped logs",
+                                                   "replay a run folder for other sensors")
+    grid = _Grid(scenario, counts, window, start, label, measure, tracked, n_steps, truth_gap)
+    return grid.run(messages)
+
+
+def followed_measurement(scenario, who: str, otherwise: str) -> tuple:
+    """What turns a message's relative position into the scenario sensor's measurement (its registration's
+    :class:`~swarmtrack.registry.Measurement`), the sensor's label of the followed target and its row: what ``who``
+    (a replay of logs, the field) needs; a :class:`LogError` saying what ``who`` takes (and ``otherwise``) when the
+    sensor makes no such measurement or the estimator follows no single target."""
     kind = scenario.sensor.kind
     measurement = registry.get("sensor", kind).measurement
     if measurement is None:
         known = [name for name, k in registry.kinds("sensor").items() if k.measurement is not None]
-        raise LogError(f"sensor.kind {kind}: a replay from time-stamped logs makes {', '.join(known)} "
-                       "measurements (replay a run folder for other sensors)")
+        raise LogError(f"sensor.kind {kind}: {who} makes {', '.join(known)} measurements ({otherwise})")
     followed = scenario.estimator.followed_target()
     if followed is None:
-        raise LogError(f"estimator.kind {scenario.estimator.kind} follows no single target: a replay from "
-                       "time-stamped logs gives detections of one target")
+        raise LogError(f"estimator.kind {scenario.estimator.kind} follows no single target: {who} gives "
+                       "detections of one target")
     tracked = layout(scenario)["targets"].start + followed - 1
     label = sensor_labels(scenario)("targets", followed - 1)  # seen: validation checked it
-    grid = _Grid(scenario, counts, window, start, label, registry.resolve(measurement.of_relative), tracked,
-                 n_steps, truth_gap)
-    return grid.run(messages)
+    return registry.resolve(measurement.of_relative), label, tracked
 
 
-def _finite(msg: Message) -> bool:
+def skipped_lines(counts: dict[str, int]) -> list[str]:
+    """One line per kind of message skipped (:func:`skip`), with what the user can do about it."""
+    return [f"{n} message(s) skipped: {why}: {remedy(why)}" for why, n in sorted(counts.items()) if n]
+
+
+def finite(msg: Message) -> bool:
     """Every number of the message is finite (its stamp and its pairs)."""
     if not math.isfinite(msg.stamp):
         return False
@@ -288,8 +322,8 @@ class _Grid:
         self.m = sum(sl.stop - sl.start for sl in self.rows.values())
         self.counts, self.window, self.t0, self.label = counts, window, start, label
         self.measure, self.tracked = measure, tracked
-        self.navs = [_Track() for _ in range(self.n)]
-        self.truth = _Track()
+        self.navs = [Track() for _ in range(self.n)]
+        self.truth = Track()
         self.pending: list = []  # (stamp, order, Detection) heap
         self.latest: dict[str, float] = {}  # the latest stamp of each topic
         self.newest = -math.inf  # the latest stamp of the log so far
@@ -304,7 +338,7 @@ class _Grid:
         yield from self.finish()
 
     def put(self, msg: Message) -> Iterator[StepInputs]:
-        if not _finite(msg):
+        if not finite(msg):
             skip(self.counts, "NaN or infinite value in a message", f" on {msg.topic}")
             return
         last = self.latest.get(msg.topic, -math.inf)
@@ -364,16 +398,12 @@ class _Grid:
     def _truth_at(self, t: float, final: bool):
         """The truth at ``t`` (between two samples at most ``truth_gap`` apart), None (absent), or False (not known
         yet: the sample after ``t`` may still come)."""
+        got = self.truth.between(t, self.truth_gap)
+        if got is not None:
+            return got
         s = self.truth.samples
         i = bisect_right(s, t, key=_stamp) - 1  # the last sample at or before t: no other can come (it would be late)
-        if i < 0:
-            return None
-        gap = self.truth_gap
-        if i + 1 < len(s) and s[i + 1][0] - s[i][0] <= gap:
-            return self.truth.at(t, 0.0)
-        if t - s[i][0] <= ON_SAMPLE and i > 0 and s[i][0] - s[i - 1][0] <= gap:  # on a sample: the pair before it
-            return _Track(s[i - 1:i + 1]).at(t, ON_SAMPLE)
-        if i + 1 < len(s) or final or (self.k - 0.5) * self.dt - s[i][0] > gap:
+        if i < 0 or i + 1 < len(s) or final or (self.k - 0.5) * self.dt - s[i][0] > self.truth_gap:
             return None  # the next sample is (or will be) more than truth_gap after this one
         return False
 
@@ -410,13 +440,8 @@ class _Grid:
             if where is None:
                 skip(self.counts, "detection with no navigation of its UAV at its time")
                 continue
-            if det.relative is not None:
-                d = np.asarray(det.relative, dtype=float)
-            else:
-                r, b = det.range_bearing
-                d = np.array([r * math.cos(b), r * math.sin(b)])
             owners.append(det.uav)
-            rel.append(d)
+            rel.append(det.offset())
             pos.append(where[:2])
         truth = np.full((self.m, 4), np.nan)  # the followed target's when it is known (_release)
         uavs = self.rows["uavs"]

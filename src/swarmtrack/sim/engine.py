@@ -35,7 +35,7 @@ def simulate(scenario: Scenario, progress: Callable[[float], None] | None = None
     probes = {**sim.stack.probes, **dict.fromkeys(sim.monitors, ())}
     recorder = Recorder(sim.meta, sim.world.n_objects, scenario.swarm.n_uavs, probes, record_to,
                         inputs=record_to is not None if inputs is None else inputs, taps=taps,
-                        shapes=shapes_of(scenario.estimator.kind, sim.stack.estimator) if taps else None)
+                        shapes=shapes_of(scenario.estimator.kind, sim.stack.estimator))
     return step_loop(sim, recorder, progress, on_step)
 
 

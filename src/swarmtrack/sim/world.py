@@ -516,13 +516,7 @@ class World:
     def extra_uniform(self, purpose: str) -> np.ndarray:
         """(N, M) uniform draws in [0, 1) of this frame for a sensor's ``purpose`` (its misses), each sensed object's
         (N,) from its own stream ``sensor/<name>/<purpose>/<group>/<member>``. One world at a time."""
-        if purpose not in self._extra_rngs:
-            self._extra_rngs[purpose] = [self._extra_stream(purpose, o) for o in self._sensed]
-        n = self.groups["uavs"].size
-        out = np.empty((n, len(self._sensed)))
-        for j, rng in enumerate(self._extra_rngs[purpose]):
-            out[:, j] = rng.random(n)
-        return out
+        return self._extra(purpose, lambda rng, n: rng.random(n))
 
     def uav_streams(self, purpose: str) -> list:
         """Each UAV's stream for a sensor's ``purpose`` (its clutter): ``sensor/<name>/<purpose>/uavs/<i>``. One world
@@ -536,13 +530,17 @@ class World:
         """(N, M) standard normal draws of this frame for a sensor's further noise ``purpose`` (the 3-D sensor's
         elevation), each sensed object's (N,) from its own stream ``sensor/<name>/<purpose>/<group>/<member>``: the
         draws of :meth:`normal_noise` are left as they are. One world at a time."""
+        return self._extra(purpose, lambda rng, n: rng.standard_normal(n))
+
+    def _extra(self, purpose: str, draw) -> np.ndarray:
+        """(N, M): ``draw(rng, N)`` from each sensed object's stream for ``purpose``, made when first asked for."""
         if purpose not in self._extra_rngs:
             self._extra_rngs[purpose] = [self._extra_stream(purpose, o) for o in self._sensed]
         n = self.groups["uavs"].size
-        noise = np.empty((n, len(self._sensed)))
+        out = np.empty((n, len(self._sensed)))
         for j, rng in enumerate(self._extra_rngs[purpose]):
-            noise[:, j] = rng.standard_normal(n)
-        return noise
+            out[:, j] = draw(rng, n)
+        return out
 
     # --- physics -----------------------------------------------------------------------------------------
     def advance(self, commands: dict[str, np.ndarray], ticks: int) -> None:

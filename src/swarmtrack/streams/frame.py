@@ -66,31 +66,30 @@ class Tap(Protocol):
 
 def shapes_of(kind: str, estimator) -> Callable[[], list] | None:
     """What a live view draws of ``estimator`` (of estimator kind ``kind``) each step, as a call (its registered
-    ``shapes``: IB21's sets), or None when its kind draws nothing."""
+    ``shapes``: IB21's sets; imported at the first call, a run without a view never loads it), or None when its kind
+    draws nothing."""
     from swarmtrack import registry
 
     ref = registry.get("estimator", kind).shapes
     if ref is None or estimator is None:
         return None
-    draw = registry.resolve(ref)
-    return lambda: draw(estimator)
+    return lambda: registry.resolve(ref)(estimator)
 
 
 def errors(estimate: np.ndarray | None, covariance: np.ndarray | None,
            target: np.ndarray | None) -> dict[str, np.ndarray]:
     """``error`` (N,) the estimates' position error (m) and ``nees`` (N,) their NEES of ``[x, y, vx, vy]``
-    (solved, not inverted); empty without an estimate or a target."""
+    (:func:`~swarmtrack.analysis.nees.nees_per_uav`, as the run's metrics compute it); empty
+    without an estimate or a target."""
     if estimate is None or covariance is None or target is None or not np.all(np.isfinite(target[:4])):
         return {}
+    from swarmtrack.analysis.nees import nees_per_uav
+
     e = estimate[:, :4] - target[None, :4]
-    p = covariance[:, :4, :4]
-    nees = np.full(len(e), np.nan)
-    ok = np.all(np.isfinite(e), axis=1) & np.all(np.isfinite(p), axis=(1, 2))
-    if ok.any():
-        try:
-            nees[ok] = np.einsum("ni,ni->n", e[ok], np.linalg.solve(p[ok], e[ok][..., None])[..., 0])
-        except np.linalg.LinAlgError:  # a singular covariance: its NEES is not defined
-            pass
+    try:  # the metrics' own NEES (a NaN gives NaN)
+        nees = nees_per_uav(e, covariance[:, :4, :4])
+    except np.linalg.LinAlgError:  # a singular covariance: not defined
+        nees = np.full(len(e), np.nan)
     return {"error": np.hypot(e[:, 0], e[:, 1]), "nees": nees}
 
 

@@ -15,12 +15,12 @@ def shapes(estimator) -> list[tuple[int, np.ndarray]]:
     b = estimator.beliefs
     numbers = (np.arange(len(b.unidentified)) if estimator.uavs is None else estimator.uavs) + 1
     grid = getattr(b, "grid", None)
+    if grid is not None:
+        from swarmtrack.estimation.raster_field import to_polygon
     out = []
     for row, number in enumerate(numbers.tolist()):
         for geometry in (b.unidentified[row], *b.identified[row]):
             if grid is not None:
-                from swarmtrack.estimation.raster_field import to_polygon
-
                 geometry = to_polygon(grid, geometry)
             for part in shapely.get_parts(geometry):
                 if isinstance(part, shapely.Polygon) and not part.is_empty:

@@ -19,7 +19,7 @@ missed-detection component plus one Kalman-updated component per gated detection
 which is exact when the association is certain.
 
 The update's hot loop (gating, likelihoods, Kalman updates, LBP, moment matching) runs either as the readable numpy
-reference or as a numba kernel (``compiled=True``, ``@numba.njit(cache=True)``, serial, no fastmath); the tests
+reference or as numba kernels (``compiled=True``, ``@numba.njit(cache=True)``, serial, no fastmath); the tests
 hold the two to the same numbers.
 
 Multi-sensor use (iterated corrector): :meth:`LMBFilter.predict` once per step, :meth:`LMBFilter.correct` once per
@@ -185,60 +185,37 @@ def _update_reference(r, m, P, z, R, pd, kappa, gate, tol, max_iter):
 
 
 @numba.njit(cache=True, fastmath=False)
-def _kalman_pair(m, P, z, R, gate, m_out, P_out, A, Kg):
-    """Gate, likelihood and Joseph-form Kalman update of one track (``m`` (n,), symmetric ``P`` (n, n)) with one
-    detection ``z`` (2,), ``R`` (2, 2), as :func:`_likelihoods_reference`; ``A`` (n, n), ``Kg`` (n, 2) scratch.
-
-    Returns ``g`` (0 when the pair is gated out; ``m_out``, ``P_out`` then untouched). ``S = L Lᵀ`` by Cholesky;
-    ``S⁻¹ν`` and the gain ``K = P Hᵀ S⁻¹`` by solves with ``L``.
-    """
-    n = m.shape[0]
-    s00 = P[0, 0] + R[0, 0]
-    s01 = P[0, 1] + 0.5 * (R[0, 1] + R[1, 0])
-    s11 = P[1, 1] + R[1, 1]
-    if not s00 > 0.0:
-        return 0.0
-    l00 = math.sqrt(s00)
-    l10 = s01 / l00
-    d = s11 - l10 * l10
-    if not d > 0.0:
-        return 0.0
-    l11 = math.sqrt(d)
-    v0 = z[0] - m[0]
-    v1 = z[1] - m[1]
-    w0 = v0 / l00  # L w = ν
-    w1 = (v1 - l10 * w0) / l11
-    d2 = w0 * w0 + w1 * w1
-    if not d2 <= gate:
-        return 0.0
-    g = math.exp(-0.5 * d2 - _LOG_2PI - math.log(l00 * l11))
-    t1 = w1 / l11  # Lᵀ t = w: t = S⁻¹ ν
-    t0 = (w0 - l10 * t1) / l00
+def _kalman_pair(m, P, R, i, j, chol, t, m_upd, P_upd):
+    """Joseph-form Kalman update of track ``i`` (``m[i]``, symmetric ``P[i]``) with detection ``j`` (covariance
+    ``R[j]``) into ``m_upd[i, j]``, ``P_upd[i, j]``, as :func:`_likelihoods_reference`, given ``chol = (l00, l10,
+    l11)`` the Cholesky factor of ``S = H P Hᵀ + R_j`` and ``t = S⁻¹ ν``: the gain ``K = P Hᵀ S⁻¹`` by solves with
+    ``L``, ``m + K ν = m + P Hᵀ t``, ``(I − K H) P (I − K H)ᵀ + K R Kᵀ``."""
+    n = m.shape[1]
+    l00, l10, l11 = chol
+    Kg = np.empty((n, 2))
+    A = np.empty((n, n))
     for a in range(n):
-        # row a of K = P Hᵀ S⁻¹: solve S k = (P[a, 0], P[a, 1]) with the Cholesky factor
-        y0 = P[a, 0] / l00
-        y1 = (P[a, 1] - l10 * y0) / l11
-        k1 = y1 / l11
-        k0 = (y0 - l10 * k1) / l00
-        Kg[a, 0] = k0
-        Kg[a, 1] = k1
-        m_out[a] = m[a] + P[a, 0] * t0 + P[a, 1] * t1
+        # row a of K: solve S k = (P[a, 0], P[a, 1])
+        y0 = P[i, a, 0] / l00
+        y1 = (P[i, a, 1] - l10 * y0) / l11
+        Kg[a, 1] = y1 / l11
+        Kg[a, 0] = (y0 - l10 * Kg[a, 1]) / l00
+        m_upd[i, j, a] = m[i, a] + P[i, a, 0] * t[0] + P[i, a, 1] * t[1]
     for a in range(n):  # A = I − K H
         for b in range(n):
             A[a, b] = (1.0 if a == b else 0.0) - (Kg[a, b] if b < MEAS_DIM else 0.0)
-    for a in range(n):  # Joseph form A P Aᵀ + K R Kᵀ, lower triangle mirrored
+    for a in range(n):  # Joseph form, lower triangle mirrored
         for b in range(a + 1):
             acc = 0.0
             for c in range(n):
                 row = 0.0
                 for e in range(n):
-                    row += A[a, e] * P[e, c]
+                    row += A[a, e] * P[i, e, c]
                 acc += row * A[b, c]
-            acc += Kg[a, 0] * (R[0, 0] * Kg[b, 0] + R[0, 1] * Kg[b, 1]) \
-                + Kg[a, 1] * (R[1, 0] * Kg[b, 0] + R[1, 1] * Kg[b, 1])
-            P_out[a, b] = acc
-            P_out[b, a] = acc
-    return g
+            acc += Kg[a, 0] * (R[j, 0, 0] * Kg[b, 0] + R[j, 0, 1] * Kg[b, 1]) \
+                + Kg[a, 1] * (R[j, 1, 0] * Kg[b, 0] + R[j, 1, 1] * Kg[b, 1])
+            P_upd[i, j, a, b] = acc
+            P_upd[i, j, b, a] = acc
 
 
 @numba.njit(cache=True, fastmath=False)
@@ -264,11 +241,10 @@ def _moment_match(w, m, P, m_upd, P_upd, m_out, P_out):
 
 
 @numba.njit(cache=True, fastmath=False)
-def _update_kernel(r, m, P, z, R, pd, kappa, gate, tol, max_iter):
-    """The update of :func:`update`, compiled: gating, likelihoods and Kalman updates (:func:`_kalman_pair`),
-    association weights ``ψ``, LBP (:func:`~swarmtrack.estimation.lbp.lbp`), posterior existence and moment
-    matching (:func:`_moment_match`). Returns ``(r', m', P', p_free)``; same numbers as
-    :func:`_update_reference`."""
+def _likelihood_kernel(r, m, P, z, R, pd, kappa, gate):
+    """Gating, likelihoods, association weights and Kalman updates of every pair, compiled (as
+    :func:`_likelihoods_reference` and the weights of :func:`_update_reference`): ``(psi0, psi, Ps, m_upd, P_upd)``
+    with ``Ps`` the symmetric parts of ``P``; ``m_upd, P_upd`` are set for the gated pairs only (``psi > 0``)."""
     K, n = m.shape
     M = z.shape[0]
     Ps = np.empty((K, n, n))
@@ -278,17 +254,38 @@ def _update_kernel(r, m, P, z, R, pd, kappa, gate, tol, max_iter):
                 Ps[i, a, b] = 0.5 * (P[i, a, b] + P[i, b, a])
     m_upd = np.empty((K, M, n))
     P_upd = np.empty((K, M, n, n))
-    A = np.empty((n, n))
-    Kg = np.empty((n, 2))
     psi0 = np.empty(K)
     psi = np.zeros((K, M))
     for i in range(K):
         psi0[i] = 1.0 - r[i] * pd[i]
         for j in range(M):
-            g = _kalman_pair(m[i], Ps[i], z[j], R[j], gate, m_upd[i, j], P_upd[i, j], A, Kg)
-            if g > 0.0:
-                psi[i, j] = r[i] * pd[i] * g / kappa[j]
-    p, p_free = lbp(psi0, psi, tol, max_iter)
+            # gate first, in registers (most pairs are out): S = H P Hᵀ + R_j = L Lᵀ, d² = |L⁻¹ ν|²
+            s00 = Ps[i, 0, 0] + R[j, 0, 0]
+            s01 = Ps[i, 0, 1] + R[j, 0, 1]
+            d = Ps[i, 1, 1] + R[j, 1, 1] - s01 * s01 / s00 if s00 > 0.0 else 0.0
+            if not d > 0.0:
+                continue
+            l00 = math.sqrt(s00)
+            l10 = s01 / l00
+            l11 = math.sqrt(d)
+            w0 = (z[j, 0] - m[i, 0]) / l00
+            w1 = (z[j, 1] - m[i, 1] - l10 * w0) / l11
+            d2 = w0 * w0 + w1 * w1
+            if not d2 <= gate:
+                continue
+            g = math.exp(-0.5 * d2 - _LOG_2PI - math.log(l00 * l11))  # N(ν; 0, S), det S = (l00 l11)²
+            psi[i, j] = r[i] * pd[i] * g / kappa[j]
+            t1 = w1 / l11  # Lᵀ t = w: t = S⁻¹ ν
+            _kalman_pair(m, Ps, R, i, j, (l00, l10, l11), ((w0 - l10 * t1) / l00, t1), m_upd, P_upd)
+    return psi0, psi, Ps, m_upd, P_upd
+
+
+@numba.njit(cache=True, fastmath=False)
+def _posterior_kernel(r, pd, p, m, Ps, m_upd, P_upd):
+    """Posterior existence and moment-matched density of every track, compiled (as :func:`_posterior_reference`):
+    ``(r', m', P')``."""
+    K, n = m.shape
+    M = p.shape[1] - 1
     r_new = np.empty(K)
     m_new = m.copy()
     P_new = Ps.copy()
@@ -306,6 +303,18 @@ def _update_kernel(r, m, P, z, R, pd, kappa, gate, tol, max_iter):
             for c in range(M + 1):
                 w[c] /= total
             _moment_match(w, m[i], Ps[i], m_upd[i], P_upd[i], m_new[i], P_new[i])
+    return r_new, m_new, P_new
+
+
+def _update_compiled(r, m, P, z, R, pd, kappa, gate, tol, max_iter):
+    """The update of :func:`update` by the numba kernels: :func:`_likelihood_kernel`, LBP
+    (:func:`~swarmtrack.estimation.lbp.lbp`), :func:`_posterior_kernel`; same numbers as :func:`_update_reference`.
+
+    The three are called from here, not from one kernel: numba's cache of a kernel is keyed on its own module's
+    source only, so a kernel calling ``lbp`` would keep running a cached old ``lbp`` after lbp.py changed."""
+    psi0, psi, Ps, m_upd, P_upd = _likelihood_kernel(r, m, P, z, R, pd, kappa, gate)
+    p, p_free = lbp(psi0, psi, tol, max_iter)
+    r_new, m_new, P_new = _posterior_kernel(r, pd, p, m, Ps, m_upd, P_upd)
     return r_new, m_new, P_new, p_free
 
 
@@ -374,7 +383,7 @@ def update(tracks: Tracks, z, R, pd, kappa, gate: float, compiled: bool = True, 
     m = np.ascontiguousarray(tracks.m)
     P = np.ascontiguousarray(tracks.P)
     if compiled:
-        r_new, m_new, P_new, p_free = _update_kernel(r, m, P, z, R, pd, kappa, float(gate), float(tol),
+        r_new, m_new, P_new, p_free = _update_compiled(r, m, P, z, R, pd, kappa, float(gate), float(tol),
                                                      int(max_iter))
     else:
         r_new, m_new, P_new, p_free = _update_reference(r, m, symmetrize(P), z, R, pd, kappa, float(gate),

@@ -93,8 +93,9 @@ def test_the_existence_of_an_undetected_target_decays_as_r_1_minus_pd_over_1_min
 
 
 def _two_targets_in_clutter(seed, steps=30, compiled=True):
-    """Two targets 1.5 m/s apart in a 1 km square, 10 clutter detections a scan, p_D = 0.95, σ = 1 m. Yields
-    the filter and the truth after every step."""
+    """Two targets about 130 m apart in a 1 km square, 10 clutter detections a scan, p_D = 0.95, σ = 1 m; births
+    weak (λ_B = 0.005, existence ~4e-4 each): a clutter track needs coincidences on consecutive scans. Yields the
+    filter and the truth after every step."""
     rng = np.random.default_rng(seed)
     F, Q = lmb.cv_model(DT, 0.2)
     half, clutter, pd = 500.0, 10, 0.95

@@ -44,10 +44,10 @@ MEAS_DIM = 2
 _LOG_2PI = math.log(2.0 * math.pi)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Tracks:
     """K labelled Bernoulli tracks with Gaussian densities: ``label`` (K,) int64, existence probabilities ``r``
-    (K,), means ``m`` (K, n), covariances ``P`` (K, n, n)."""
+    (K,), means ``m`` (K, n), covariances ``P`` (K, n, n). Compared by identity (``eq=False``): compare the arrays."""
 
     label: np.ndarray
     r: np.ndarray
@@ -93,7 +93,7 @@ class Tracks:
 def cv_model(dt: float, accel_std: float) -> tuple[np.ndarray, np.ndarray]:
     """Planar constant-velocity model of the state ``[x, y, vx, vy]``: ``(F, Q)``, both (4, 4).
 
-    ``Q`` is the discretised white-noise acceleration model (Bar-Shalom, Li & Kirubarajan 2001, Sec. 6.3.2):
+    ``Q`` is the discrete white-noise acceleration model (Bar-Shalom, Li & Kirubarajan 2001, Sec. 6.3.2):
     ``σ² [[dt⁴/4, dt³/2], [dt³/2, dt²]]`` per axis, ``σ = accel_std``.
     """
     dt = float(dt)
@@ -365,7 +365,7 @@ def update(tracks: Tracks, z, R, pd, kappa, gate: float, compiled: bool = True, 
     gate : float
         Threshold on the squared Mahalanobis distance ``d²``.
     compiled : bool
-        Run the numba kernel (default) or the numpy reference; both give the same numbers.
+        Run the numba kernels (default) or the numpy reference; both give the same numbers.
     tol, max_iter
         LBP's convergence tolerance and iteration bound (:func:`~swarmtrack.estimation.lbp.lbp`).
 
@@ -398,6 +398,10 @@ def births(z, R, weight, birth_rate: float, r_max: float, velocity_std: float, f
     (``p_free`` of the update of the same batch) and ``λ_B = birth_rate`` the expected number of births; the density
     ``N([z_j, 0, 0], blockdiag(R_j, velocity_std² I₂))`` (state ``[x, y, vx, vy]``); labels ``first_label``,
     ``first_label + 1``, ... in detection order. No weight at all (``Σ w = 0``) gives ``r_B = 0``.
+
+    The weights are normalised over the batch (Reuter et al.'s rule): a batch whose detections the tracks all
+    explain still gives births of total existence up to ``λ_B``; they lose to the established tracks at the next
+    update and are pruned.
     """
     z, R, _ = _detections(z, R, 1.0)
     M = z.shape[0]
@@ -436,13 +440,13 @@ class LMBFilter:
     Parameters
     ----------
     compiled : bool
-        Run the update's numba kernel (default) or its numpy reference.
-    n : int
-        State dimension; births (:func:`births`) are planar constant-velocity tracks, ``n = 4``.
+        Run the update's numba kernels (default) or its numpy reference.
+
+    The tracks are planar constant-velocity ones, state ``[x, y, vx, vy]`` (as :func:`births` makes them).
     """
 
-    def __init__(self, compiled: bool = True, n: int = 4) -> None:
-        self.tracks = Tracks.empty(n)
+    def __init__(self, compiled: bool = True) -> None:
+        self.tracks = Tracks.empty(4)
         self.next_label = 0
         self.compiled = compiled
 

@@ -47,6 +47,7 @@ BUILTIN = (
     "swarmtrack.capabilities.multi_model",
     "swarmtrack.capabilities.mpc",
     "swarmtrack.capabilities.set_membership",
+    "swarmtrack.capabilities.multi_target",
     "swarmtrack.capabilities.vehicles",
     "swarmtrack.capabilities.readers",
 )

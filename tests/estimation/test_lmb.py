@@ -204,14 +204,14 @@ def test_empty_inputs_no_tracks_and_no_detections(compiled):
     tracks, p_free = lmb.update(Tracks.empty(), np.ones((3, 2)), np.repeat(np.eye(2)[None], 3, 0), 0.9, 1e-3, GATE,
                                 compiled=compiled)
     assert len(tracks) == 0 and p_free.tolist() == [1.0, 1.0, 1.0]
-    assert len(lmb.births(none, no_R, np.zeros(0), 0.1, 0.5, 2.0, first_label=7)) == 0
+    assert len(lmb.births(none, no_R, np.zeros(0), 0.1, 0.5, 2.0, labels=7)) == 0
     assert len(lmb.prune(Tracks.empty())) == 0 and len(lmb.estimates(Tracks.empty())) == 0
 
 
 def test_births_follow_the_adaptive_birth_rule_with_consecutive_labels():
     z = np.array([[1.0, 2.0], [3.0, 4.0], [5.0, 6.0]])
     R = np.stack([np.eye(2), 2 * np.eye(2), [[1.0, 0.3], [0.3, 2.0]]])
-    born = lmb.births(z, R, [0.5, 0.02, 0.48], birth_rate=0.6, r_max=0.2, velocity_std=2.0, first_label=40)
+    born = lmb.births(z, R, [0.5, 0.02, 0.48], birth_rate=0.6, r_max=0.2, velocity_std=2.0, labels=40)
     assert born.label.tolist() == [40, 41, 42]
     np.testing.assert_allclose(born.r, [0.2, 0.012, 0.2], rtol=1e-15)  # min(r_max, λ_B w / Σ w)
     np.testing.assert_array_equal(born.m, np.column_stack([z, np.zeros((3, 2))]))

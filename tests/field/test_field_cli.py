@@ -35,7 +35,7 @@ def test_a_field_agent_refuses_bad_sources_in_one_line(args, says):
 def test_a_field_agent_refuses_a_scenario_it_cannot_place_detections_for():
     res = CliRunner().invoke(main, ["agent", "ib21-fleet-2", "--uav", "1", "--field", "--insecure", "--navigation",
                                     "zenoh://b", "--detections", "zenoh://a"])
-    assert res.exit_code == 2 and "the field makes camera, range_bearing measurements" in res.output
+    assert res.exit_code == 2 and "the field makes camera, position, range_bearing measurements" in res.output
 
 
 def _agent(*args, timeout=60):

@@ -104,5 +104,6 @@ def test_truth_is_interpolated_between_close_samples_and_absent_across_a_gap(l24
 
 def test_a_sensor_the_field_cannot_place_is_refused():
     ib21 = load_scenario("ib21-fleet-2", ["duration=2"])
-    with pytest.raises(LogError, match="sensor.kind footprint: the field makes camera, range_bearing measurements"):
+    with pytest.raises(LogError, match="sensor.kind footprint: the field makes camera, position, range_bearing "
+                                       "measurements"):
         FieldInputs(ib21, 0, EPOCH)

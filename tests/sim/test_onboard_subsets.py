@@ -160,9 +160,7 @@ def not_yet_planned(inbox: Inbox, uav: int) -> Inbox:
 
 
 def view_of(view: TargetView, uavs) -> TargetView:
-    rows = [None if a is None else a[uavs] for a in (view.state, view.model, view.motion)]
-    region = None if view.region is None else Regions(view.region.sets[uavs], view.region.grid)
-    return TargetView(*rows, region=region)
+    return view.of_rows(uavs)
 
 
 def same_set(a, b) -> bool:
@@ -298,6 +296,10 @@ CASES = {
     # IB21's estimator (raster and polygon sets) and SM-MPC (its plans as messages)
     "setmembership-raster": ("ib21-fleet-6", ["estimator.sets=raster"]),
     "setmembership-polygons": ("ib21-fleet-6", ["estimator.sets=polygons"]),
+    # issue 40's LMB filter (its detections as messages; a lossy ring, the numpy reference alone)
+    "lmb-ring-lossy": ("mtt-box-hard", ["network.topology=ring", "network.loss_probability=0.3"]),
+    "lmb-numpy-alone": ("mtt-box-easy", ["kernels=numpy", "estimator.share=none"]),
+    "lmb-track-assignment": ("mtt-swarm", ["network.r_comm=60"]),
     "setmembership-raster-delays": ("ib21-fleet-6", ["estimator.sets=raster", "estimator.delayed_data=refilter",
                                                      "network.delay_max=1.2", "network.loss_probability=0.2"]),
 }

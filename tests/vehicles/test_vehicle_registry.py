@@ -98,7 +98,7 @@ def test_an_unregistered_or_misplaced_vehicle_is_refused_in_one_line(unicycle):
         swarmtrack.load_scenario("l24-cv", ["swarm.vehicle=boat"])
     with pytest.raises(ScenarioError, match="vehicle 'fixed_wing' is not for a group; a group can use: "):
         swarmtrack.load_scenario("l24-cv", ["target.vehicle=fixed_wing"])
-    with pytest.raises(ScenarioError, match="count is used only with vehicle: walker"):
+    with pytest.raises(ScenarioError, match="count is used only with vehicle: nearly_cv or walker"):
         swarmtrack.load_scenario("l24-cv", [f"target.vehicle={NAME}", "decoys.count=3"])
 
 

@@ -6,6 +6,8 @@
 ``double_integrator``  planar double integrator, the flocking agents' model (L24 Sec. 2; L23 Sec. 2)
 ``walker``             IB21 Sec. 6's ground targets and decoys: constant speed, random-walk yaw rate, kept in the
                        area by reflection (:mod:`swarmtrack.vehicles.ground_walker`); groups only
+``nearly_cv``          issue 40's box targets: nearly constant velocity (white-noise acceleration), reflected at the
+                       area's border (:mod:`swarmtrack.vehicles.nearly_cv`); groups only
 ``fixed_wing``         IB21 Sec. 6's UAV at constant speed and altitude, steered by its yaw acceleration
                        (:mod:`swarmtrack.vehicles.fixed_wing`); the swarm only
 =====================  ==========================================================================================
@@ -24,6 +26,13 @@ def walker_params(spec):
     from swarmtrack.vehicles.ground_walker import WalkerParams
 
     return WalkerParams(spec.speed, spec.yaw_accel_bound, tuple(spec.area))
+
+
+def nearly_cv_params(spec):
+    """A nearly-constant-velocity group's :class:`~swarmtrack.vehicles.nearly_cv.NearlyCVParams` (issue 40)."""
+    from swarmtrack.vehicles.nearly_cv import NearlyCVParams
+
+    return NearlyCVParams(spec.speed, spec.accel_noise, tuple(spec.area))
 
 
 def fixed_wing_params(spec):
@@ -55,6 +64,10 @@ registry.register_vehicle(Vehicle(
     "walker", "constant speed, random-walk yaw rate, reflected at the area's border (IB21 Sec. 6)",
     kinematic="swarmtrack.vehicles.ground_walker", pack="walker", uav=False, params=walker_params,
     keys=("count", "speed", "yaw_accel_bound", "area")))
+registry.register_vehicle(Vehicle(
+    "nearly_cv", "nearly constant velocity (white-noise acceleration), reflected at the area's border (issue 40)",
+    kinematic="swarmtrack.vehicles.nearly_cv", uav=False, params=nearly_cv_params,
+    keys=("count", "speed", "accel_noise", "area")))
 registry.register_vehicle(Vehicle(
     "fixed_wing", "constant speed and altitude, steered by its yaw acceleration (IB21 Sec. 6)",
     kinematic="swarmtrack.vehicles.fixed_wing", pack="fixed_wing", command_width=1, group=False,

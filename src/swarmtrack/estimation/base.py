@@ -39,12 +39,23 @@ class TargetView:
     """What controllers read: each UAV's estimate of the target it follows, ``[x, y, vx, vy]`` (N, 4); where the
     estimate follows a motion model (W20 Ch. 4's T-test winner), that model's name per UAV (N,) and its states
     beyond ``[x, y, vx, vy]`` as ``[ax, ay, ω]`` (N, 3), zero where the model has none (what W20 eq. 5.23 propagates
-    the target with); a set-valued estimator's aggregated set per UAV (IB21 eq. 43, :class:`Regions`)."""
+    the target with); a set-valued estimator's aggregated set per UAV (IB21 eq. 43, :class:`Regions`); a
+    multi-target estimator's confirmed tracks."""
 
     state: np.ndarray
     model: np.ndarray | None = None
     motion: np.ndarray | None = None
     region: Regions | None = None
+    #: A multi-target estimator's confirmed tracks per UAV, ``[x, y, vx, vy]`` (N, K, 4), and their labels (N, K),
+    #: NaN past each UAV's last (issue 40).
+    tracks: np.ndarray | None = None
+    track_labels: np.ndarray | None = None
+
+    def of_rows(self, rows) -> TargetView:
+        """The view of the UAVs at ``rows`` (their rows of every field)."""
+        pick = [None if a is None else a[rows] for a in (self.model, self.motion, self.tracks, self.track_labels)]
+        region = None if self.region is None else Regions(self.region.sets[rows], self.region.grid)
+        return TargetView(self.state[rows], pick[0], pick[1], region, pick[2], pick[3])
 
 
 @dataclass(frozen=True)

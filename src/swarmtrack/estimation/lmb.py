@@ -391,28 +391,29 @@ def update(tracks: Tracks, z, R, pd, kappa, gate: float, compiled: bool = True, 
     return Tracks(tracks.label.copy(), r_new, m_new, P_new), p_free
 
 
-def births(z, R, weight, birth_rate: float, r_max: float, velocity_std: float, first_label: int) -> Tracks:
+def births(z, R, weight, birth_rate: float, r_max: float, velocity_std: float, labels) -> Tracks:
     """Adaptive birth (Reuter et al. 2014, adaptive birth distribution): one Bernoulli per detection.
 
-    ``r_B(z_j) = min(r_max, λ_B w_j / Σ_j' w_j')`` with ``w_j`` the probability that no track took detection ``j``
-    (``p_free`` of the update of the same batch) and ``λ_B = birth_rate`` the expected number of births; the density
-    ``N([z_j, 0, 0], blockdiag(R_j, velocity_std² I₂))`` (state ``[x, y, vx, vy]``); labels ``first_label``,
-    ``first_label + 1``, ... in detection order. No weight at all (``Σ w = 0``) gives ``r_B = 0``.
+    ``r_B(z_j) = min(r_max, λ_B w_j / max(1, Σ_j' w_j'))`` with ``w_j`` the probability that no track took
+    detection ``j`` (``p_free`` of the update of the same batch) and ``λ_B = birth_rate`` the expected number of
+    births; the density ``N([z_j, 0, 0], blockdiag(R_j, velocity_std² I₂))`` (state ``[x, y, vx, vy]``); labels
+    ``labels`` (M,), one per detection (an int: ``labels``, ``labels + 1``, ... in detection order).
 
-    The weights are normalised over the batch (Reuter et al.'s rule): a batch whose detections the tracks all
-    explain still gives births of total existence up to ``λ_B``; they lose to the established tracks at the next
-    update and are pruned.
+    Reuter et al. normalise the weights by ``Σ w`` whatever it is; here by at least 1, so that a batch whose
+    detections the tracks explain (``Σ w`` small: a lone detection of a known object from another UAV's sensor)
+    begets births of total existence ``λ_B Σ w``, not ``λ_B``: otherwise each such detection would start a twin of
+    the track that explains it, which the next batches confirm beside it.
     """
     z, R, _ = _detections(z, R, 1.0)
     M = z.shape[0]
     w = np.broadcast_to(np.asarray(weight, dtype=np.float64), (M,))
-    total = w.sum()
-    r = np.minimum(r_max, birth_rate * w / total) if total > 0.0 else np.zeros(M)
+    r = np.minimum(r_max, birth_rate * w / max(1.0, float(w.sum())))
     m = np.concatenate([z, np.zeros((M, 2))], axis=1)
     P = np.zeros((M, 4, 4))
     P[:, :2, :2] = R
     P[:, 2, 2] = P[:, 3, 3] = float(velocity_std) ** 2
-    return Tracks(np.arange(first_label, first_label + M, dtype=np.int64), r, m, P)
+    labels = np.arange(labels, labels + M, dtype=np.int64) if np.ndim(labels) == 0 else labels
+    return Tracks(labels, r, m, P)
 
 
 def prune(tracks: Tracks, threshold: float = 1e-3, max_tracks: int | None = None) -> Tracks:
@@ -424,6 +425,26 @@ def prune(tracks: Tracks, threshold: float = 1e-3, max_tracks: int | None = None
         keep = keep[order[:max_tracks]]
     keep = keep[np.argsort(tracks.label[keep], kind="stable")]
     return tracks.take(keep)
+
+
+def merge_twins(tracks: Tracks, gate: float) -> Tracks:
+    """Tracks that are one object's twice (the squared Mahalanobis distance of their positions, with the sum of
+    their position covariances, at most ``gate``) kept once: the likelier (ties: the older label); the other
+    dropped. Twins arise where two UAVs began the same object from different
+    detections and their tracks meet by fusion, and where one batch's birth and another's were of one object."""
+    k = len(tracks)
+    if k < 2:
+        return tracks
+    order = np.lexsort((tracks.label, -tracks.r))  # likeliest first, ties to the older label
+    m, P = tracks.m[order, :2], tracks.P[order, :2, :2]
+    d = m[:, None, :] - m[None, :, :]
+    S = P[:, None] + P[None, :]
+    d2 = np.einsum("abi,abi->ab", d, np.linalg.solve(S, d[..., None])[..., 0])
+    alive = np.ones(k, dtype=bool)
+    for a in range(k):
+        if alive[a]:
+            alive[(d2[a] <= gate) & (np.arange(k) > a)] = False
+    return tracks.take(np.sort(order[alive]))
 
 
 def estimates(tracks: Tracks, threshold: float = 0.5) -> Tracks:
@@ -454,19 +475,23 @@ class LMBFilter:
         """Predict every track (:func:`predict`)."""
         self.tracks = predict(self.tracks, F, Q, survival)
 
-    def correct(self, z, R, pd, kappa, gate: float, birth_rate: float, r_max: float,
-                velocity_std: float) -> np.ndarray:
+    def correct(self, z, R, pd, kappa, gate: float, birth_rate: float, r_max: float, velocity_std: float,
+                labels=None) -> np.ndarray:
         """One sensor batch: :func:`update` with its detections, then :func:`births` from the same detections
-        weighted by their ``p_free``, appended (new labels from the counter). ``pd`` is per track of the tracks
-        before this batch (or a scalar). Returns ``p_free`` (M,)."""
+        weighted by their ``p_free``, appended, labelled ``labels`` (M,) (None: new labels from the counter).
+        ``pd`` is per track of the tracks before this batch (or a scalar). Returns ``p_free`` (M,)."""
         updated, p_free = update(self.tracks, z, R, pd, kappa, gate, compiled=self.compiled)
-        born = births(z, R, p_free, birth_rate, r_max, velocity_std, self.next_label)
-        self.next_label += len(born)
+        if labels is None:
+            labels = self.next_label
+            self.next_label += len(p_free)
+        born = births(z, R, p_free, birth_rate, r_max, velocity_std, labels)
         self.tracks = updated.concat(born)
         return p_free
 
-    def finish(self, threshold: float = 1e-3, max_tracks: int | None = None) -> None:
-        """End of a step: :func:`prune`."""
+    def finish(self, threshold: float = 1e-3, max_tracks: int | None = None, merge: float | None = None) -> None:
+        """End of a step: :func:`merge_twins` within ``merge`` (None: not), then :func:`prune`."""
+        if merge is not None:
+            self.tracks = merge_twins(self.tracks, merge)
         self.tracks = prune(self.tracks, threshold, max_tracks)
 
     def estimates(self, threshold: float = 0.5) -> Tracks:
@@ -474,4 +499,5 @@ class LMBFilter:
         return estimates(self.tracks, threshold)
 
 
-__all__ = ["MEAS_DIM", "LMBFilter", "Tracks", "births", "cv_model", "estimates", "predict", "prune", "update"]
+__all__ = ["MEAS_DIM", "LMBFilter", "Tracks", "births", "cv_model", "estimates", "merge_twins", "predict", "prune",
+           "update"]

@@ -30,6 +30,8 @@ MEASUREMENTS = {
     "range_bearing": "planar range and bearing with Gaussian noise (sigma_range, sigma_bearing)",
     "camera_position": "the target's metric position in a gimballed camera's frame",
     "bounded_detections": "detections with bounded noise, identified from inside a cone (a footprint)",
+    "positions": "each detection as a planar position with its covariance (the sensor settings' position_rule), "
+                 "with the sensor's detection probability and clutter rate over its field of view",
 }
 
 
@@ -71,6 +73,10 @@ def sensor_sees_followed_target(scenario: Scenario) -> None:
     if scenario.estimator.followed_target() is not None and "targets" not in scenario.sensor.sensed:
         raise ValueError(f"estimator.kind {scenario.estimator.kind} follows estimator.target, which sensor.kind "
                          f"{scenario.sensor.kind} does not see (it sees {', '.join(scenario.sensor.sensed) or 'none'})")
+    if scenario.estimator.followed_target() is not None and not getattr(scenario.sensor, "labelled", True):
+        raise ValueError(f"sensor.labelled is false, but estimator.kind {scenario.estimator.kind} recognises "
+                         "estimator.target by the label its sensor reports: use a multi-target estimator (lmb) or "
+                         "a labelled sensor")
 
 
 def controller_drives_vehicle(scenario: Scenario) -> None:

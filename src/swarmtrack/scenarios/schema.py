@@ -329,12 +329,17 @@ class GroupSpec(Strict):
         "random acceleration disturbance std, m/s² (chosen; at most 1e3 m/s²: about 100 g)"))
     members: list[MemberSpec] = Field(default_factory=list)
     count: int = Field(0, ge=0, le=10_000, description=(
-        "walker: members placed at seeded uniform positions in the area with uniform headings (IB21 Sec. 6)"))
-    speed: Speed = Field(1.0, gt=0, description="walker: speed V^t, m/s (IB21: 1; Fig. 9: 1.0-1.8)")
+        "walker, nearly_cv: members placed at seeded uniform positions in the area with uniform headings (IB21 "
+        "Sec. 6)"))
+    speed: Speed = Field(1.0, gt=0, description=(
+        "walker: speed V^t, m/s (IB21: 1; Fig. 9: 1.0-1.8); nearly_cv: initial speed, m/s"))
+    accel_noise: Gain = Field(0.25, gt=0, description=(
+        "nearly_cv: power spectral density of the white-noise acceleration, m²/s³ (the velocity's variance grows by "
+        "it each second; issue 40's box: 0.5² per 1 s step)"))
     yaw_accel_bound: AngularRate = Field(0.39269908169872414, gt=0, description=(
         "walker: yaw acceleration drawn from U(−b, b) every physics step, rad/s² (IB21: π/8)"))
     area: Box = Field((0.0, 0.0, 400.0, 400.0), description=(
-        "walker: [x0, y0, x1, y1], m, where the walkers start and stay (IB21: a 400 m square)"))
+        "walker, nearly_cv: [x0, y0, x1, y1], m, where the members start and stay (IB21: a 400 m square)"))
 
     @model_validator(mode="after")
     def _vehicle_keys(self):

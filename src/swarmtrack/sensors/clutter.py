@@ -54,6 +54,22 @@ def polar_clutter(rngs: list, rate: float, max_range: float) -> tuple[np.ndarray
     return counts, z
 
 
+def square_clutter(rngs: list, rate: float, half_width: float) -> tuple[np.ndarray, np.ndarray]:
+    """Each UAV's false detections of one scan from its own stream (``rngs``, one per UAV): a Poisson(``rate``)
+    count, each uniform over the footprint ``[−half_width, half_width]²`` around it. Returns the counts (N,) and
+    the relative positions (Σ counts, 2), UAV-major."""
+    counts = np.array([rng.poisson(rate) for rng in rngs], dtype=np.int64)
+    z = np.concatenate([half_width * (2.0 * rng.random((c, 2)) - 1.0)
+                        for rng, c in zip(rngs, counts.tolist(), strict=True)]) if len(rngs) else np.zeros((0, 2))
+    return counts, z
+
+
+def unlabelled(det: Detections) -> Detections:
+    """``det`` with every label removed: a sensor that cannot tell the objects apart."""
+    return Detections(det.owner, det.z, det.sensor_pos, np.full(len(det), UNLABELLED, dtype=det.label.dtype),
+                      det.n_uavs, None, det.frame, det.footprint, det.taken)
+
+
 def _rows(det: Detections, keep: np.ndarray) -> Detections:
     return Detections(det.owner[keep], det.z[keep], det.sensor_pos[keep], det.label[keep], det.n_uavs, None,
                       None if det.frame is None else det.frame[keep], det.footprint, det.taken)

@@ -202,3 +202,14 @@ def relative_of(det: Detections) -> np.ndarray:
     """The planar target positions relative to their UAVs (M, 2) that ``det``'s ``[ρ, β]`` say: the inverse of
     :func:`of_relative`."""
     return det.z[:, :1] * np.stack([np.cos(det.z[:, 1]), np.sin(det.z[:, 1])], axis=1)
+
+
+def positions(det: Detections, sigma_range: float, sigma_bearing: float,
+              own_sigma: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Each detection as the position it implies (:func:`to_position`, (M, 2)) and that position's covariance
+    (:func:`position_covariance` at the measured range and bearing, plus ``own_sigma² I`` for the UAV's own
+    navigation error; (M, 2, 2)): what a tracker of unlabelled detections reads (issue 40)."""
+    R = position_covariance(det.z[:, 0], det.z[:, 1], sigma_range, sigma_bearing)
+    R[:, 0, 0] += own_sigma**2
+    R[:, 1, 1] += own_sigma**2
+    return to_position(det.z, det.sensor_pos), R

@@ -65,6 +65,8 @@ def unbatchable(scenarios: list[Scenario]) -> str | None:
         return "occluders and outages name UAVs of one world"
     if getattr(first.sensor, "detection_probability", 1.0) < 1 or getattr(first.sensor, "clutter_rate", 0.0) > 0:
         return "misses and clutter are drawn per world"
+    if not getattr(first.sensor, "labelled", True):
+        return "a batch tells its worlds' objects apart by their labels"
     if first.network.delay_bound() or first.network.liar is not None:
         return "network delays and liars (kept per world)"
     return None

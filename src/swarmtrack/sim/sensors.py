@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
-from swarmtrack.sensors import camera, clutter, elevation_bearing_range, footprint, range_bearing
+from swarmtrack.sensors import camera, clutter, elevation_bearing_range, footprint, position, range_bearing
 from swarmtrack.sensors.detections import Detections
 from swarmtrack.vehicles import fixed_wing, ground_walker
 
@@ -145,10 +145,14 @@ class RangeBearingSensor(Sensor):
     #: detections a scan over the disk of ``max_range`` (draws: ``sensor/range_bearing/clutter/uavs/<i>``).
     detection_probability: float = 1.0
     clutter_rate: float = 0.0
+    #: False: its detections carry no label (a sensor that cannot tell the objects apart; issue 40).
+    labelled: bool = True
     name: ClassVar[str] = "range_bearing"
 
     def sense(self, scene: Scene) -> tuple[Detections, np.ndarray]:
         det, source = self._sense(scene)
+        if not self.labelled:
+            det = clutter.unlabelled(det)
         if self.detection_probability < 1.0:
             det, source = clutter.thin(det, source, scene.extra_uniform("detection"), self.detection_probability)
         if self.clutter_rate > 0.0:
@@ -169,6 +173,38 @@ class RangeBearingSensor(Sensor):
         hidden = hidden_by(self.occluders, objects, len(uavs), scene.t)
         return range_bearing.sense(objects, uavs, stamped, self.sigma_range, self.sigma_bearing, noise,
                                    self.max_range, hidden, scene.taken)
+
+
+@dataclass(frozen=True)
+class PositionSensor(Sensor):
+    """Truth side of the planar position sensor (:mod:`swarmtrack.sensors.position`, issue 40): every UAV measures
+    the relative position of every object of the ``sensed`` groups in its square footprint (half-width
+    ``half_width``; None: everywhere), unlabelled, ``latency`` s late, each detected with ``detection_probability``
+    (draws ``sensor/position/detection/<group>/<member>``), plus a Poisson number ``clutter_rate`` of false
+    detections a scan uniform over the footprint (draws ``sensor/position/clutter/uavs/<i>``); the noise of each
+    object's detections comes from its stream ``sensor/position/<group>/<member>``."""
+
+    sigma: float
+    half_width: float | None = None
+    latency: float = 0.0
+    occluders: tuple[Occluder, ...] = ()
+    sensed: tuple[str, ...] = ("targets", "decoys")
+    detection_probability: float = 1.0
+    clutter_rate: float = 0.0
+    name: ClassVar[str] = "position"
+
+    def sense(self, scene: Scene) -> tuple[Detections, np.ndarray]:
+        objects, uavs = scene.objects, scene.uavs
+        hidden = hidden_by(self.occluders, objects, len(uavs), scene.t)
+        det, source = position.sense(objects, uavs, scene.stamped(), self.sigma, scene.normal(), self.half_width,
+                                     hidden, scene.taken)
+        if self.detection_probability < 1.0:
+            det, source = clutter.thin(det, source, scene.extra_uniform("detection"), self.detection_probability)
+        if self.clutter_rate > 0.0:
+            assert self.half_width is not None, "validation: clutter needs a footprint (half_width)"
+            counts, z = clutter.square_clutter(scene.uav_streams("clutter"), self.clutter_rate, self.half_width)
+            det, source = clutter.add_clutter(det, source, counts, z, scene.stamped())
+        return det, source
 
 
 @dataclass(frozen=True)

@@ -73,7 +73,7 @@ def draw_inputs(rng: np.random.Generator, n_ticks: int, n: int, params: WalkerPa
     return rng.uniform(-b, b, size=(n_ticks, n))
 
 
-def _fold(p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def fold(p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``p`` (..., 2) folded into the box ``[lo, hi]`` by specular reflection at its walls, and per axis whether it
     crossed an odd number of walls (its direction along that axis is reversed)."""
     width = hi - lo
@@ -105,7 +105,7 @@ def step(state, v, params: WalkerParams = WalkerParams(), dt: float = T_D, trig=
     lo, hi = np.array(params.area[:2]), np.array(params.area[2:])
     crossed = (p < lo) | (p > hi)
     if crossed.any():  # most ticks of most objects cross no wall: they skip the folding (and its rounding)
-        folded, flip = _fold(p, lo, hi)
+        folded, flip = fold(p, lo, hi)
         p = np.where(crossed, folded, p)
         flip &= crossed
         mirrored = np.where(flip[:, 1], -heading, heading)

@@ -23,8 +23,9 @@ def applies(rec: Recording) -> bool:
 
 
 def _planned(rec: Recording) -> bool:
-    """The figures need the MPC's ``setpoint``."""
-    return "setpoint" in rec.meta["probes"]
+    """The figures draw the MPC's ``setpoint`` and the formation's slots around the followed target (a run of an
+    estimator that follows none, a multi-target tracker's, has no slots to draw)."""
+    return applies(rec)
 
 
 def _pairs(rec: Recording) -> bool:

@@ -4,6 +4,7 @@ centralized baseline, the IMM bank over models of different sizes, and the flock
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from typing import Annotated, ClassVar, Literal
 
@@ -31,7 +32,7 @@ class RangeBearingSpec(SensorSpec):
     """Range and bearing from each UAV to every object (L24 Sec. 3.2)."""
 
     kind: Literal["range_bearing"] = "range_bearing"
-    gives: ClassVar[frozenset[str]] = frozenset({"information_update", "range_bearing"})
+    gives: ClassVar[frozenset[str]] = frozenset({"information_update", "range_bearing", "positions"})
     sigma_range: Length = Field(0.08, gt=0, description="m (L24: 0.08, L23: 0.4; at most 1e6 m)")
     sigma_bearing: Angle = Field(0.02, gt=0, description="rad (L24: 0.02, L23: 0.1; at most 1e3 rad)")
     update: Literal["position", "polar"] = Field(
@@ -43,6 +44,9 @@ class RangeBearingSpec(SensorSpec):
     clutter_rate: float = Field(0.0, ge=0, le=1e4, description=(
         "false detections per UAV per scan, Poisson, uniform over the disk of max_range; unlabelled (issue 40; the "
         "papers: 0)"))
+    labelled: bool = Field(True, description=(
+        "true: each detection carries its object's label (the papers' cooperative sensor); false: none (a sensor "
+        "that cannot tell the objects apart, read by a multi-target estimator; issue 40)"))
 
     @field_validator("clutter_rate")
     @classmethod
@@ -57,6 +61,26 @@ class RangeBearingSpec(SensorSpec):
         from swarmtrack.estimation.information import RangeBearingUpdate
 
         return RangeBearingUpdate(self.sigma_range, self.sigma_bearing, self.update, own_sigma=own_sigma)
+
+    def position_rule(self, own_sigma: float = 0.0):
+        """Each detection as the position it implies with its covariance (:func:`~swarmtrack.sensors.range_bearing
+        .positions`), what a tracker of unlabelled detections reads; ``own_sigma``: the UAV's navigation error."""
+        from swarmtrack.sensors import range_bearing
+
+        return functools.partial(range_bearing.positions, sigma_range=self.sigma_range,
+                                 sigma_bearing=self.sigma_bearing, own_sigma=own_sigma)
+
+    def field_of_view(self) -> float | None:
+        """The area a UAV's sensor sees, m² (the disk of ``max_range``; None: unbounded)."""
+        return None if self.max_range is None else math.pi * self.max_range**2
+
+    def sees(self, rel):
+        """Whether objects at positions ``rel`` (..., 2) relative to the UAV are within ``max_range`` (...,)."""
+        import numpy as np
+
+        rel = np.asarray(rel, dtype=float)
+        return np.ones(rel.shape[:-1], dtype=bool) if self.max_range is None else \
+            np.hypot(rel[..., 0], rel[..., 1]) <= self.max_range
 
 
 class RangeBearingElevationSpec(SensorSpec):

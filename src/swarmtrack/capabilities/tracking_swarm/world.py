@@ -10,7 +10,8 @@ from swarmtrack.sim.sensors import RangeBearingElevationSensor, RangeBearingSens
 
 def range_bearing(s: RangeBearingSpec, scenario: Scenario) -> RangeBearingSensor:
     return RangeBearingSensor(s.sigma_range, s.sigma_bearing, s.max_range, s.latency, occluders(s),
-                              detection_probability=s.detection_probability, clutter_rate=s.clutter_rate)
+                              detection_probability=s.detection_probability, clutter_rate=s.clutter_rate,
+                              labelled=s.labelled)
 
 
 def range_bearing_elevation(s: RangeBearingElevationSpec, scenario: Scenario) -> RangeBearingElevationSensor:

@@ -195,6 +195,9 @@ def reproduce(paper: str, out: Path, runs: int = 10, workers: int | None = None,
     by_scenario = {name: [results[(name, s)] for s in range(1, runs + 1)] for name in experiments}
     diverged = {name: sum("diverged" in r for r in rs) for name, rs in by_scenario.items()}
     claims, table_md, numbers = spec.analyse(by_scenario)
+    if spec.study is not None and figure is None:
+        more, study_md, numbers["study"] = spec.study(by_scenario, overrides, runs)
+        claims, table_md = [*claims, *more], table_md + study_md
     report = {"paper": paper, "runs": runs, "figure": figure, "overrides": list(overrides), "written_by": version(),
               "diverged": diverged, "numbers": numbers, "claims": [c.as_dict() for c in claims]}
     only = "" if figure is None else f", Fig. {figure}'s experiments only"

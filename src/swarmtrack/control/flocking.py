@@ -319,9 +319,10 @@ class FlockingController:
         # read row j only where the link i <- j delivered it
         beacons = inbox.payloads["nav"]
         receivers = None if len(inbox.receivers) == len(beacons) else inbox.receivers
-        # t counts physics ticks and chase_after estimation steps: their float products can differ by an ulp
-        active = np.full(nav.shape[0], t >= self.chase_after - 1e-9)
+        # t counts physics ticks and chase_after estimation steps: their float products can differ by an ulp;
+        # a UAV whose estimator has no estimate of the target (a multi-target tracker with no track) holds position
         target = view.state
+        active = (t >= self.chase_after - 1e-9) & np.isfinite(target[:, :4]).all(axis=1)
         u, self.state = self._control(beacons[:, :2], beacons[:, 2:4], target[:, :2], target[:, 2:4], inbox.links,
                                       self.state, self.gains, self.variant, dt, active=active, receivers=receivers)
         return u

@@ -32,11 +32,16 @@ def simulate(scenario: Scenario, progress: Callable[[float], None] | None = None
     default a recording streamed to ``record_to`` keeps them and one in memory does not. ``taps``: live outputs
     sent each recorded step (:class:`~swarmtrack.streams.frame.Tap`)."""
     sim = build(scenario)
+    return step_loop(sim, recorder_of(sim, scenario, record_to, inputs, taps), progress, on_step)
+
+
+def recorder_of(sim: Simulation, scenario: Scenario, record_to: Path | None = None, inputs: bool | None = None,
+                taps=()) -> Recorder:
+    """The recorder of a built simulation's run (:func:`simulate`'s arguments)."""
     probes = {**sim.stack.probes, **dict.fromkeys(sim.monitors, ())}
-    recorder = Recorder(sim.meta, sim.world.n_objects, scenario.swarm.n_uavs, probes, record_to,
-                        inputs=record_to is not None if inputs is None else inputs, taps=taps,
-                        shapes=shapes_of(scenario.estimator.kind, sim.stack.estimator))
-    return step_loop(sim, recorder, progress, on_step)
+    return Recorder(sim.meta, sim.world.n_objects, scenario.swarm.n_uavs, probes, record_to,
+                    inputs=record_to is not None if inputs is None else inputs, taps=taps,
+                    shapes=shapes_of(scenario.estimator.kind, sim.stack.estimator))
 
 
 def step_loop(sim: Simulation, recorder: Recorder, progress: Callable[[float], None] | None = None,

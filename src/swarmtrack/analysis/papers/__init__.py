@@ -5,7 +5,7 @@ A paper module holds the published numbers as printed (units converted to metres
 exports them as ``PAPER`` (:class:`Paper`). Adding a paper is one module here and one line below.
 """
 
-from swarmtrack.analysis.papers import ib21, l23, l24, robustness, w20, w20_control
+from swarmtrack.analysis.papers import ib21, l23, l24, mtt, robustness, w20, w20_control
 from swarmtrack.analysis.papers.base import Claim, Paper
 
 PAPERS: dict[str, Paper] = {
@@ -15,6 +15,7 @@ PAPERS: dict[str, Paper] = {
     "w20-control": w20_control.PAPER,  # Wolfe 2020 thesis Ch. 5: Tables 5.6, 5.8, 5.9, 5.11, 5.12, Figs. 5.6-5.14
     "robustness": robustness.PAPER,  # issue 11: loss, delays, dropouts, a liar, time stamps (no paper)
     "ib21": ib21.PAPER,  # Ibenthal et al., Automatica 2021: Sec. 6, Figs. 8-11 (claims, figures from the runs)
+    "mtt": mtt.PAPER,  # issue 40: many targets in clutter, the LMB swarm beside the field's trackers (no paper)
 }
 
 __all__ = ["PAPERS", "Claim", "Paper"]

@@ -31,6 +31,9 @@ class Paper:
     #: Experiments that are a built-in scenario with overrides, by name → ``(scenario, overrides)`` (a study of one
     #: scenario under many settings); the runs are named after the experiment.
     variants: Mapping[str, tuple[str, tuple[str, ...]]] = field(default_factory=dict)
+    #: What a study measures beside its runs' metrics (timings, other libraries on the same inputs):
+    #: ``study(by_scenario, overrides, runs) -> (claims, markdown, numbers)``, run after :attr:`analyse`.
+    study: Callable[..., tuple[list[Claim], str, dict]] | None = None
 
     def resolve(self, experiment: str, overrides: Sequence[str] = ()) -> tuple[str, list[str]]:
         """The built-in scenario and the overrides of ``experiment`` (the user's ``overrides`` last)."""

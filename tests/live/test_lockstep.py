@@ -69,6 +69,8 @@ EQUAL = {
     "w20-mpc-formation": ["duration=3", "controller.start=1"],  # following the target's tracked pose (guide)
     # the SM-MPC's plan messages (the UAVs within each other's range) and the guarantee monitor's telemetry
     "ib21-fleet-2": ["duration=3", "network.r_comm=1000"],
+    # issue 40's LMB filters: detections and tracks as messages, over a lossy network
+    "mtt-box-hard": ["duration=4", "network.loss_probability=0.3"],
 }
 
 
@@ -81,7 +83,7 @@ def test_a_live_run_records_what_run_records(tmp_path, peer):
     port = free_port()
     runs = {name: start_live(tmp_path / name, name, overrides, *(["--listen", f"tcp/127.0.0.1:{port}"] if first
                                                                  else []))
-            for first, (name, overrides) in zip([True, False, False], EQUAL.items(), strict=True)}
+            for first, (name, overrides) in zip([True, False, False, False], EQUAL.items(), strict=True)}
     try:
         proc, swarm = runs["w20-switching"]
         assert peer.flown(port, swarm, 1, 1) >= 1, proc.stderr.read()[-3000:] if proc.poll() is not None else ""

@@ -70,3 +70,11 @@ def test_fused_tracks_travel_beyond_the_neighbours(fuse):
     d = np.linalg.norm(truth[-1, :30, None, :2] - last[None, :, :2], axis=-1).min(axis=1) if len(last) else \
         np.full(30, np.inf)
     assert (d[first] < 2.0).all() if fuse else (d[first] > 10.0).all()
+
+
+def test_a_batch_that_comes_after_its_step_is_dropped_and_counted():
+    _, p, _ = _probes("mtt-box-hard", ["network.delay=1.0"])  # one estimation step: every neighbour's batch late
+    assert (p["late_batches"][1:] == 3).all() and (p["late_batches"][0] == 0).all()
+    _, q, _ = _probes("mtt-box-hard", ["network.delay=1.0", "estimator.fuse_tracks=false"])
+    _, alone, _ = _probes("mtt-box-hard", ["estimator.share=none", "estimator.fuse_tracks=false"])
+    np.testing.assert_array_equal(q["tracks"], alone["tracks"])  # a late batch changes nothing

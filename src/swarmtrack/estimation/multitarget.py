@@ -15,12 +15,14 @@ Per estimation step, for each UAV (row) on its own:
   UAV's silence. Each batch's unexplained detections give birth to tracks the next batches can confirm.
 
 A message that is lost is a batch that does not come: the tracks are corrected with fewer detections, never with a
-stale one (the network's delays are refused by the settings: an LMB correction is at its step's time).
+stale one. A batch delayed past its step (``network.delay``) is dropped and counted (``late_batches``): an LMB
+correction is at its step's time, and a late batch would need a retrodiction this filter does not make.
 
 What is recorded (per UAV, ``K = max_tracks`` rows, NaN past the reported ones): the reported tracks' states
 ``tracks`` ``[x, y, vx, vy]``, their ``track_labels``, ``existence`` and position covariances, how many it reports
 (``n_tracks``), the expected number of targets (``cardinality``, Σ r over every track kept), and what it broadcast
-(``detections_shared`` and ``bytes_shared``, the payload's size at 8 bytes a number).
+(``detections_shared`` and ``bytes_shared``, the payload's size at 8 bytes a number), and the neighbours'
+batches that came after their step (``late_batches``, dropped).
 """
 
 from __future__ import annotations
@@ -113,10 +115,11 @@ class LMBEstimator:
         self.t: float | None = None
         self._own: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         self._sent: np.ndarray = np.zeros(self.n, dtype=np.int64)
+        self._late: np.ndarray = np.zeros(self.n, dtype=np.int64)
         k = settings.max_tracks
         self.probes = (Probe("tracks", (k, 4)), Probe("track_labels", (k,)), Probe("existence", (k,)),
                        Probe("track_position_cov", (k, 2, 2)), Probe("n_tracks"), Probe("cardinality"),
-                       Probe("detections_shared"), Probe("bytes_shared"))
+                       Probe("detections_shared"), Probe("bytes_shared"), Probe("late_batches"))
 
     def share(self, t: float, nav: np.ndarray, own: Detections) -> Outbox:
         """Predict every UAV's tracks to ``t`` and return what each broadcasts: its detections as positions
@@ -159,6 +162,9 @@ class LMBEstimator:
             {int(self.rows.uavs[r]): self._own[r]} for r in range(self.n)]
         if self.centre:  # every UAV's detections, straight to the one filter
             batches = [{k: v for b in batches for k, v in b.items()}]
+        self._late = np.zeros(self.n, dtype=np.int64)
+        for part in inbox.late:  # batches taken at earlier steps: an LMB correction is at its own step's time
+            np.add.at(self._late, part.edges()[0], 1)
         if self.share_detections and "points" in inbox.payloads:
             got = inbox.payloads
             recv, send = inbox.edges()
@@ -256,7 +262,8 @@ class LMBEstimator:
         out = {"tracks": np.full((self.n, k, 4), np.nan), "track_labels": np.full((self.n, k), np.nan),
                "existence": np.full((self.n, k), np.nan), "track_position_cov": np.full((self.n, k, 2, 2), np.nan),
                "n_tracks": np.zeros(self.n), "cardinality": np.zeros(self.n),
-               "detections_shared": self._sent.astype(float), "bytes_shared": self._bytes()}
+               "detections_shared": self._sent.astype(float), "bytes_shared": self._bytes(),
+               "late_batches": self._late.astype(float)}
         for r in range(self.n):
             f = self.filter_of(r)
             tr = f.tracks

@@ -11,7 +11,16 @@ from typing import Any, ClassVar, Literal, Protocol, cast
 from pydantic import Field, ValidationInfo, field_validator
 
 from swarmtrack.capabilities.tracking_swarm.settings import FlockingSpec
-from swarmtrack.scenarios.schema import Acceleration, Box, EstimatorSpec, Length, Scenario, SensorSpec, Speed
+from swarmtrack.scenarios.schema import (
+    LIAR_NEEDS,
+    Acceleration,
+    Box,
+    EstimatorSpec,
+    Length,
+    Scenario,
+    SensorSpec,
+    Speed,
+)
 
 
 class GivesPositions(Protocol):
@@ -131,6 +140,12 @@ class LMBSpec(EstimatorSpec):
 
     def warmup_steps(self) -> int:
         return self.settle_steps
+
+    def check_network(self, scenario: Scenario) -> None:
+        """Delays are let through: a batch of detections that arrives after its step is dropped and counted (an LMB
+        correction is at its step's time), the tracks of the step still fused. A liar is refused (no gate)."""
+        if scenario.network.liar is not None:
+            raise ValueError(LIAR_NEEDS)
 
     def check(self, scenario: Scenario) -> None:
         sensor = positions_sensor(scenario)

@@ -36,6 +36,7 @@ bench: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_sim.py
 	$(VENV)/bin/python benchmarks/bench_mpc.py
 	$(VENV)/bin/python benchmarks/bench_setmembership.py
+	$(VENV)/bin/python benchmarks/bench_mtt.py
 	$(VENV)/bin/python benchmarks/bench_cli.py
 
 bench-large: $(STAMP)

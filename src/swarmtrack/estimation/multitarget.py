@@ -100,18 +100,20 @@ class LMBEstimator:
     turns detections into world positions with covariances; ``sees(rel) → (...,) bool`` says which positions
     relative to a UAV its sensor sees; ``share``: whether the UAVs broadcast their detections; ``centre``: the
     centralised baseline instead, one filter fed every UAV's detections straight (not a UAV's: no message), which
-    every row reports."""
+    every row reports; ``make_filter()``: each UAV's filter, an :class:`~swarmtrack.estimation.lmb.LMBFilter` by
+    default (or one of :mod:`swarmtrack.estimation.classic`'s, with the same interface)."""
 
     def __init__(self, settings: LMBSettings, rows: Rows, positions: Callable, sees: Callable, share: bool = True,
                  max_shared: int = 64, compiled: bool = True, centre: bool = False, fuse_tracks: bool = False,
-                 max_shared_tracks: int = 32):
+                 max_shared_tracks: int = 32, make_filter: Callable | None = None):
         self.settings, self.rows, self.positions, self.sees = settings, rows, positions, sees
         self.share_detections, self.max_shared, self.compiled = share and not centre, max_shared, compiled
         self.fuse_tracks, self.max_shared_tracks = fuse_tracks and not centre, max_shared_tracks
         self._sent_tracks: np.ndarray = np.zeros(len(rows), dtype=np.int64)
         self.n = len(rows)
         self.centre = centre
-        self.filters = [LMBFilter(compiled=compiled) for _ in range(1 if centre else self.n)]
+        make = (lambda: LMBFilter(compiled=compiled)) if make_filter is None else make_filter
+        self.filters = [make() for _ in range(1 if centre else self.n)]
         self.t: float | None = None
         self._own: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         self._sent: np.ndarray = np.zeros(self.n, dtype=np.int64)

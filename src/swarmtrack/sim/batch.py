@@ -63,7 +63,8 @@ def unbatchable(scenarios: list[Scenario]) -> str | None:
         return f"{', '.join(kinematic)}: kinematic vehicles are not batched"
     if first.sensor.occluders or first.network.outages:
         return "occluders and outages name UAVs of one world"
-    if getattr(first.sensor, "detection_probability", 1.0) < 1 or getattr(first.sensor, "clutter_rate", 0.0) > 0:
+    if getattr(first.sensor, "detection_probability", 1.0) < 1 or getattr(first.sensor, "clutter_rate", 0.0) > 0 \
+            or getattr(first.sensor, "detection_falloff", 0.0) > 0:
         return "misses and clutter are drawn per world"
     if not getattr(first.sensor, "labelled", True):
         return "a batch tells its worlds' objects apart by their labels"

@@ -147,14 +147,20 @@ class RangeBearingSensor(Sensor):
     clutter_rate: float = 0.0
     #: False: its detections carry no label (a sensor that cannot tell the objects apart; issue 40).
     labelled: bool = True
+    #: The detection probability falls linearly with the range, to ``detection_probability · (1 − falloff)`` at
+    #: ``max_range`` (:func:`~swarmtrack.sensors.clutter.disk_detection_probability`).
+    detection_falloff: float = 0.0
     name: ClassVar[str] = "range_bearing"
 
     def sense(self, scene: Scene) -> tuple[Detections, np.ndarray]:
         det, source = self._sense(scene)
         if not self.labelled:
             det = clutter.unlabelled(det)
-        if self.detection_probability < 1.0:
-            det, source = clutter.thin(det, source, scene.extra_uniform("detection"), self.detection_probability)
+        if self.detection_probability < 1.0 or self.detection_falloff > 0.0:
+            pd = clutter.disk_detection_probability(scene.objects[source] - scene.uavs[det.owner],
+                                                    self.detection_probability, self.detection_falloff,
+                                                    self.max_range)
+            det, source = clutter.thin(det, source, scene.extra_uniform("detection"), pd)
         if self.clutter_rate > 0.0:
             assert self.max_range is not None, "validation: clutter needs a field of view (max_range)"
             counts, z = clutter.polar_clutter(scene.uav_streams("clutter"), self.clutter_rate, self.max_range)
@@ -182,7 +188,8 @@ class PositionSensor(Sensor):
     ``half_width``; None: everywhere), unlabelled, ``latency`` s late, each detected with ``detection_probability``
     (draws ``sensor/position/detection/<group>/<member>``), plus a Poisson number ``clutter_rate`` of false
     detections a scan uniform over the footprint (draws ``sensor/position/clutter/uavs/<i>``); the noise of each
-    object's detections comes from its stream ``sensor/position/<group>/<member>``."""
+    object's detections comes from its stream ``sensor/position/<group>/<member>``. ``detection_falloff``: the
+    detection probability falls with the distance to the footprint's edge."""
 
     sigma: float
     half_width: float | None = None
@@ -191,6 +198,9 @@ class PositionSensor(Sensor):
     sensed: tuple[str, ...] = ("targets", "decoys")
     detection_probability: float = 1.0
     clutter_rate: float = 0.0
+    #: The detection probability falls linearly with the Chebyshev distance, to ``detection_probability · (1 −
+    #: falloff)`` at the footprint's edge (:func:`~swarmtrack.sensors.clutter.square_detection_probability`).
+    detection_falloff: float = 0.0
     name: ClassVar[str] = "position"
 
     def sense(self, scene: Scene) -> tuple[Detections, np.ndarray]:
@@ -198,8 +208,10 @@ class PositionSensor(Sensor):
         hidden = hidden_by(self.occluders, objects, len(uavs), scene.t)
         det, source = position.sense(objects, uavs, scene.stamped(), self.sigma, scene.normal(), self.half_width,
                                      hidden, scene.taken)
-        if self.detection_probability < 1.0:
-            det, source = clutter.thin(det, source, scene.extra_uniform("detection"), self.detection_probability)
+        if self.detection_probability < 1.0 or self.detection_falloff > 0.0:
+            pd = clutter.square_detection_probability(objects[source] - uavs[det.owner], self.detection_probability,
+                                                      self.detection_falloff, self.half_width)
+            det, source = clutter.thin(det, source, scene.extra_uniform("detection"), pd)
         if self.clutter_rate > 0.0:
             assert self.half_width is not None, "validation: clutter needs a footprint (half_width)"
             counts, z = clutter.square_clutter(scene.uav_streams("clutter"), self.clutter_rate, self.half_width)
@@ -214,7 +226,11 @@ class RangeBearingElevationSensor(Sensor):
     every object of the ``sensed`` groups within ``max_range`` (3-D distance), ``latency`` s late. The range and
     bearing noise comes from the planar sensor's streams (``sensor/range_bearing/<group>/<member>``), the
     elevation's from ``sensor/range_bearing/elevation/<group>/<member>``: a target level with its UAVs gives the
-    planar sensor's measurements, and a 3-D run of a planar scene the planar run's numbers. One world at a time."""
+    planar sensor's measurements, and a 3-D run of a planar scene the planar run's numbers. Misses and clutter as
+    the planar sensor's (issue 40): each object in view detected with ``detection_probability`` (draws
+    ``sensor/range_bearing/detection/<group>/<member>``), a Poisson number ``clutter_rate`` of false detections a
+    scan uniform over the ball of ``max_range`` (draws ``sensor/range_bearing/clutter/uavs/<i>``), unlabelled;
+    ``labelled`` false: no detection carries a label. One world at a time."""
 
     sigma_range: float
     sigma_bearing: float
@@ -222,6 +238,9 @@ class RangeBearingElevationSensor(Sensor):
     max_range: float | None = None
     latency: float = 0.0
     sensed: tuple[str, ...] = ("targets", "decoys")
+    detection_probability: float = 1.0
+    clutter_rate: float = 0.0
+    labelled: bool = True
     name: ClassVar[str] = "range_bearing"  # its streams: the planar sensor's, and the elevation's
     three_d: ClassVar[bool] = True
 
@@ -230,8 +249,18 @@ class RangeBearingElevationSensor(Sensor):
         uavs = np.column_stack([scene.uavs, scene.uav_heights])
         stamped = np.column_stack([scene.stamped(), scene.stamped_heights()])
         noise = np.concatenate([scene.normal(), scene.extra_normal("elevation")[..., None]], axis=-1)
-        return elevation_bearing_range.sense(objects, uavs, stamped, self.sigma_range, self.sigma_bearing,
-                                             self.sigma_elevation, noise, self.max_range, scene.taken)
+        det, source = elevation_bearing_range.sense(objects, uavs, stamped, self.sigma_range, self.sigma_bearing,
+                                                    self.sigma_elevation, noise, self.max_range, scene.taken)
+        if not self.labelled:
+            det = clutter.unlabelled(det)
+        if self.detection_probability < 1.0:
+            det, source = clutter.thin(det, source, scene.extra_uniform("detection"),
+                                       np.full(len(det), self.detection_probability))
+        if self.clutter_rate > 0.0:
+            assert self.max_range is not None, "validation: clutter needs a field of view (max_range)"
+            counts, z = clutter.ball_clutter(scene.uav_streams("clutter"), self.clutter_rate, self.max_range)
+            det, source = clutter.add_clutter(det, source, counts, z, stamped)
+        return det, source
 
 
 @dataclass(frozen=True)

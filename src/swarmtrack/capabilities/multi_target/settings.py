@@ -57,9 +57,21 @@ class PositionSpec(SensorSpec):
         "m, half-width of the square footprint centred on the UAV, along the world's axes; null: it sees "
         "everything (at most 1e6 m)"))
     detection_probability: float = Field(1.0, gt=0, le=1, description=(
-        "probability that an object in view is detected at a scan"))
+        "probability that an object in view is detected at a scan; at the UAV's position when detection_falloff is "
+        "not 0"))
+    detection_falloff: float = Field(0.0, ge=0, lt=1, description=(
+        "the detection probability at the field of view's edge is detection_probability · (1 − detection_falloff), "
+        "falling linearly with the Chebyshev distance max(|x|, |y|) from the UAV's position to the footprint's edge "
+        "(half_width; needed when not 0)"))
     clutter_rate: float = Field(0.0, ge=0, le=1e4, description=(
         "false detections per UAV per scan, Poisson, uniform over the footprint"))
+
+    @field_validator("detection_falloff")
+    @classmethod
+    def _falloff_needs_a_footprint(cls, v: float, info: ValidationInfo) -> float:
+        if v > 0 and info.data.get("half_width") is None:
+            raise ValueError("the detection probability falls to the footprint's edge: give half_width too")
+        return v
 
     @field_validator("clutter_rate")
     @classmethod
@@ -86,6 +98,16 @@ class PositionSpec(SensorSpec):
         rel = np.asarray(rel, dtype=float)
         return np.ones(rel.shape[:-1], dtype=bool) if self.half_width is None else \
             (np.abs(rel) <= self.half_width).all(axis=-1)
+
+    def detection_probability_at(self, rel):
+        """The probability (...,) that objects at planar positions ``rel`` (..., 2) relative to the UAV are detected in
+        a scan: 0 outside the footprint, ``detection_probability · (1 − detection_falloff · max(|x|, |y|) /
+        half_width)`` inside it (:func:`~swarmtrack.sensors.clutter.square_detection_probability`, the law the world
+        senses with)."""
+        from swarmtrack.sensors import clutter
+
+        return clutter.square_detection_probability(rel, self.detection_probability, self.detection_falloff,
+                                                    self.half_width)
 
 
 class LMBSpec(EstimatorSpec):

@@ -10,4 +10,5 @@ from swarmtrack.sim.sensors import PositionSensor
 
 def position(s: PositionSpec, scenario: Scenario) -> PositionSensor:
     return PositionSensor(s.sigma, s.half_width, s.latency, occluders(s),
-                          detection_probability=s.detection_probability, clutter_rate=s.clutter_rate)
+                          detection_probability=s.detection_probability, clutter_rate=s.clutter_rate,
+                          detection_falloff=s.detection_falloff)

@@ -40,7 +40,11 @@ class RangeBearingSpec(SensorSpec):
     max_range: Length | None = Field(None, gt=0, description=(
         "m (at most 1e6 m); a UAV farther from the target measures nothing"))
     detection_probability: float = Field(1.0, gt=0, le=1, description=(
-        "probability that an object in view is detected at a scan (issue 40; the papers: 1)"))
+        "probability that an object in view is detected at a scan (issue 40; the papers: 1); at the UAV's position "
+        "when detection_falloff is not 0"))
+    detection_falloff: float = Field(0.0, ge=0, lt=1, description=(
+        "the detection probability at the field of view's edge is detection_probability · (1 − detection_falloff), "
+        "falling linearly with the range from the UAV's position to the edge (max_range; needed when not 0)"))
     clutter_rate: float = Field(0.0, ge=0, le=1e4, description=(
         "false detections per UAV per scan, Poisson, uniform over the disk of max_range; unlabelled (issue 40; the "
         "papers: 0)"))
@@ -48,12 +52,15 @@ class RangeBearingSpec(SensorSpec):
         "true: each detection carries its object's label (the papers' cooperative sensor); false: none (a sensor "
         "that cannot tell the objects apart, read by a multi-target estimator; issue 40)"))
 
+    @field_validator("detection_falloff")
+    @classmethod
+    def _falloff_needs_a_field_of_view(cls, v: float, info: ValidationInfo) -> float:
+        return _needs_max_range(v, info, "the detection probability falls to the field of view's edge")
+
     @field_validator("clutter_rate")
     @classmethod
     def _clutter_needs_a_field_of_view(cls, v: float, info: ValidationInfo) -> float:
-        if v > 0 and info.data.get("max_range") is None:
-            raise ValueError("clutter is spread over the sensor's field of view: give max_range too")
-        return v
+        return _needs_max_range(v, info, "clutter is spread over the sensor's field of view")
 
     def update_rule(self, own_sigma: float = 0.0):
         """How its measurements enter an information filter (:class:`~swarmtrack.estimation.information
@@ -82,6 +89,22 @@ class RangeBearingSpec(SensorSpec):
         return np.ones(rel.shape[:-1], dtype=bool) if self.max_range is None else \
             np.hypot(rel[..., 0], rel[..., 1]) <= self.max_range
 
+    def detection_probability_at(self, rel):
+        """The probability (...,) that objects at planar positions ``rel`` (..., 2) relative to the UAV are detected in
+        a scan: 0 beyond ``max_range``, ``detection_probability · (1 − detection_falloff · ρ / max_range)`` within
+        it (:func:`~swarmtrack.sensors.clutter.disk_detection_probability`, the law the world senses with)."""
+        from swarmtrack.sensors import clutter
+
+        return clutter.disk_detection_probability(rel, self.detection_probability, self.detection_falloff,
+                                                  self.max_range)
+
+
+def _needs_max_range(v: float, info: ValidationInfo, what: str) -> float:
+    """``v`` unless it is positive and the sensor has no ``max_range``: refused saying ``what`` needs one."""
+    if v > 0 and info.data.get("max_range") is None:
+        raise ValueError(f"{what}: give max_range too")
+    return v
+
 
 class RangeBearingElevationSpec(SensorSpec):
     """Range, bearing and relative elevation from each UAV to every object in a 3-D world: L24 Sec. 3.2's sensor
@@ -101,6 +124,14 @@ class RangeBearingElevationSpec(SensorSpec):
         "spherical: EKF on [ρ, β, ε]"))
     max_range: Length | None = Field(None, gt=0, description=(
         "m (at most 1e6 m); a UAV farther from the target (3-D distance) measures nothing"))
+    detection_probability: float = Field(1.0, gt=0, le=1, description=(
+        "probability that an object in view is detected at a scan (issue 40; L24: 1)"))
+    clutter_rate: float = Field(0.0, ge=0, le=1e4, description=(
+        "false detections per UAV per scan, Poisson, uniform over the ball of max_range around the UAV; unlabelled "
+        "(issue 40; L24: 0)"))
+    labelled: bool = Field(True, description=(
+        "true: each detection carries its object's label (L24's cooperative sensor); false: none (a sensor that "
+        "cannot tell the objects apart; issue 40)"))
 
     @field_validator("occluders")
     @classmethod
@@ -108,6 +139,11 @@ class RangeBearingElevationSpec(SensorSpec):
         if v:
             raise ValueError("are planar regions: the range_bearing_elevation sensor takes none")
         return v
+
+    @field_validator("clutter_rate")
+    @classmethod
+    def _clutter_needs_a_field_of_view(cls, v: float, info: ValidationInfo) -> float:
+        return _needs_max_range(v, info, "clutter is spread over the ball of the sensor's field of view")
 
     def update_rule(self, own_sigma: float = 0.0):
         """:class:`~swarmtrack.estimation.elevation.RangeBearingElevationUpdate` of this sensor."""

@@ -11,8 +11,10 @@ from swarmtrack.sim.sensors import RangeBearingElevationSensor, RangeBearingSens
 def range_bearing(s: RangeBearingSpec, scenario: Scenario) -> RangeBearingSensor:
     return RangeBearingSensor(s.sigma_range, s.sigma_bearing, s.max_range, s.latency, occluders(s),
                               detection_probability=s.detection_probability, clutter_rate=s.clutter_rate,
-                              labelled=s.labelled)
+                              labelled=s.labelled, detection_falloff=s.detection_falloff)
 
 
 def range_bearing_elevation(s: RangeBearingElevationSpec, scenario: Scenario) -> RangeBearingElevationSensor:
-    return RangeBearingElevationSensor(s.sigma_range, s.sigma_bearing, s.sigma_elevation, s.max_range, s.latency)
+    return RangeBearingElevationSensor(s.sigma_range, s.sigma_bearing, s.sigma_elevation, s.max_range, s.latency,
+                                       detection_probability=s.detection_probability, clutter_rate=s.clutter_rate,
+                                       labelled=s.labelled)

@@ -59,3 +59,12 @@ def test_misses_and_clutter_inside_the_footprint():
 def test_bad_values_are_refused_naming_the_field(override, says):
     with pytest.raises(ScenarioError, match=says):
         load_scenario("mtt-box-easy", override)
+
+
+def test_a_frames_true_and_false_detections_carry_one_stamp_per_uav():
+    """The navigation error is drawn once per frame: a UAV's clutter is stamped where its true detections are."""
+    frames = _frames(["swarm.nav_position_std=0.5", "sensor.half_width=60", "sensor.clutter_rate=3"])
+    for det, _source, _ in frames:
+        for i in range(4):
+            stamps = det.sensor_pos[det.owner == i]
+            assert len(stamps) == 0 or (stamps == stamps[0]).all()

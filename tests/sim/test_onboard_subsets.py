@@ -300,6 +300,9 @@ CASES = {
     "lmb-ring-lossy": ("mtt-box-hard", ["network.topology=ring", "network.loss_probability=0.3"]),
     "lmb-numpy-alone": ("mtt-box-easy", ["kernels=numpy", "estimator.share=none"]),
     "lmb-track-assignment": ("mtt-swarm", ["network.r_comm=60"]),
+    "gnn-ring-lossy": ("mtt-box-hard", ["estimator.kind=gnn", "network.topology=ring",
+                                        "network.loss_probability=0.3"]),
+    "jpda-line": ("mtt-box-easy", ["estimator.kind=jpda", "network.topology=line"]),
     "setmembership-raster-delays": ("ib21-fleet-6", ["estimator.sets=raster", "estimator.delayed_data=refilter",
                                                      "network.delay_max=1.2", "network.loss_probability=0.2"]),
 }

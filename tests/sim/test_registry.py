@@ -140,7 +140,7 @@ def test_a_registered_estimator_and_controller_run_through_the_unchanged_engine(
 
 
 def test_an_unregistered_kind_is_a_clear_error_naming_the_known_ones():
-    known = "centralized, imm, information, lmb, multimodel"
+    known = "centralized, gnn, imm, information, jpda, lmb, multimodel"
     with pytest.raises(ScenarioError, match=rf"estimator: unknown kind 'test-centroid'; known: {known}"):
         _scenario({"kind": "test-centroid"}, {"kind": "flocking"})
 

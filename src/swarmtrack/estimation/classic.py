@@ -6,10 +6,11 @@ Both hold Gaussian tracks (:class:`~swarmtrack.estimation.lmb.Tracks`) and have 
 the swarm's estimator (:mod:`swarmtrack.estimation.multitarget`) runs any of the three, with the same messages and
 fusion. A track's ``r`` is its status, not a probability: :data:`TENTATIVE` or :data:`CONFIRMED` (0 once deleted).
 
-Track management (the M-of-N logic of Blackman and Popoli 1999, Sec. 6.2, in its simplest form): a detection no track
-takes starts a tentative track at it (velocity unknown: ``velocity_std``); a track with a detection in its gate is
-hit (GNN: assigned one), one its sensor could see (``pd > 0``) with none is missed; a tentative track is confirmed at its ``confirm``-th
-hit and deleted at its first miss, a confirmed one deleted after ``delete`` misses in a row.
+Track management (the M-of-N logic of Blackman and Popoli 1999, in its simplest form): a detection no track takes
+starts a tentative track at it (velocity unknown: ``velocity_std``); a track is hit when it takes a detection (GNN:
+one is assigned to it; JPDA: it more likely made one than none), missed when its sensor could see it (``pd > 0``)
+and it takes none; a tentative track is confirmed at its ``confirm``-th hit and deleted at its first miss, a
+confirmed one deleted after ``delete`` misses in a row.
 
 * GNN: the assignment of detections to tracks that minimises the sum of ``d² + ln |S|`` over the gated pairs
   (``scipy.optimize.linear_sum_assignment``), each assigned track Kalman-updated with its detection.

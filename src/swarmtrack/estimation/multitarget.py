@@ -12,7 +12,8 @@ Per estimation step, for each UAV (row) on its own:
   corrector of multi-sensor LMB filters: every UAV that has the same batches computes the same tracks, labels
   included). A batch's detection probability is the sensor's for a track its taker could see (its field of view
   around the taker's position) and 0 for one it could not, so a track outside a UAV's view is not weakened by that
-  UAV's silence. Each batch's unexplained detections give birth to tracks the next batches can confirm.
+  UAV's silence (with the sensor's falloff, the probability at the track's distance). Each batch's unexplained
+  detections give birth to tracks the next batches can confirm.
 
 A message that is lost is a batch that does not come: the tracks are corrected with fewer detections, never with a
 stale one. A batch delayed past its step (``network.delay``) is dropped and counted (``late_batches``): an LMB
@@ -59,15 +60,14 @@ SHARED_FROM = 0.1
 @dataclass(frozen=True)
 class LMBSettings:
     """What every UAV's filter runs with: the motion model ``F``, ``Q`` over one estimation step, the survival
-    probability, the detection probability ``pd`` inside a sensor's view and the clutter intensity ``kappa``
-    (per m²), the gate (a χ²(2) quantile), the adaptive birth (``birth_rate`` λ_B, ``birth_existence`` r_B,max,
-    ``birth_velocity_std``), the reporting and pruning thresholds, ``max_tracks``, and the surveillance ``region``
-    ``(x0, y0, x1, y1)`` outside which a predicted track ends (None: none)."""
+    probability, the clutter intensity ``kappa`` (per m²), the gate (a χ²(2) quantile), the adaptive birth
+    (``birth_rate`` λ_B, ``birth_existence`` r_B,max, ``birth_velocity_std``), the reporting and pruning thresholds,
+    ``max_tracks``, the estimation step ``dt``, and the surveillance ``region`` ``(x0, y0, x1, y1)`` outside which a
+    predicted track ends (None: none)."""
 
     F: np.ndarray
     Q: np.ndarray
     survival: float
-    pd: float
     kappa: float
     gate: float
     birth_rate: float
@@ -97,16 +97,17 @@ def _fused(tracks: Tracks, labels: np.ndarray, r: np.ndarray, m: np.ndarray, P: 
 
 class LMBEstimator:
     """One LMB filter per UAV of ``rows`` (module docstring). ``positions(detections) → (p (M, 2), R (M, 2, 2))``
-    turns detections into world positions with covariances; ``sees(rel) → (...,) bool`` says which positions
-    relative to a UAV its sensor sees; ``share``: whether the UAVs broadcast their detections; ``centre``: the
-    centralised baseline instead, one filter fed every UAV's detections straight (not a UAV's: no message), which
-    every row reports; ``make_filter()``: each UAV's filter, an :class:`~swarmtrack.estimation.lmb.LMBFilter` by
-    default (or one of :mod:`swarmtrack.estimation.classic`'s, with the same interface)."""
+    turns detections into world positions with covariances; ``pd_at(rel) → (...,)`` is the detection probability
+    the filter assumes for objects at positions ``rel`` relative to the UAV that scans (0 outside its view);
+    ``share``: whether the UAVs broadcast their detections; ``centre``: the centralised baseline instead, one filter
+    fed every UAV's detections straight (not a UAV's: no message), which every row reports; ``make_filter()``: each
+    UAV's filter, an :class:`~swarmtrack.estimation.lmb.LMBFilter` by default (or one of
+    :mod:`swarmtrack.estimation.classic`'s, with the same interface)."""
 
-    def __init__(self, settings: LMBSettings, rows: Rows, positions: Callable, sees: Callable, share: bool = True,
+    def __init__(self, settings: LMBSettings, rows: Rows, positions: Callable, pd_at: Callable, share: bool = True,
                  max_shared: int = 64, compiled: bool = True, centre: bool = False, fuse_tracks: bool = False,
                  max_shared_tracks: int = 32, make_filter: Callable | None = None):
-        self.settings, self.rows, self.positions, self.sees = settings, rows, positions, sees
+        self.settings, self.rows, self.positions, self.pd_at = settings, rows, positions, pd_at
         self.share_detections, self.max_shared, self.compiled = share and not centre, max_shared, compiled
         self.fuse_tracks, self.max_shared_tracks = fuse_tracks and not centre, max_shared_tracks
         self._sent_tracks: np.ndarray = np.zeros(len(rows), dtype=np.int64)
@@ -181,9 +182,9 @@ class LMBEstimator:
         for f, mine in zip(self.filters, batches, strict=True):
             for j in sorted(mine):
                 z, R, origin = mine[j]
-                pd = np.where(self.sees(f.tracks.m[:, :2] - origin), s.pd, 0.0)
-                f.correct(z, R, pd, np.full(len(z), s.kappa), s.gate, s.birth_rate, s.birth_existence,
-                          s.birth_velocity_std, labels=(step * self.rows.n + j) * BIRTHS + np.arange(len(z)))
+                f.correct(z, R, self.pd_at(f.tracks.m[:, :2] - origin), np.full(len(z), s.kappa), s.gate,
+                          s.birth_rate, s.birth_existence, s.birth_velocity_std,
+                          labels=(step * self.rows.n + j) * BIRTHS + np.arange(len(z)))
             f.finish(s.prune_threshold, s.max_tracks, TWINS)
 
     def publish(self, t: float) -> Outbox:
@@ -229,7 +230,7 @@ class LMBEstimator:
                 P[:, iu[0], iu[1]] = got["track_P"][j, :c]
                 P[:, iu[1], iu[0]] = got["track_P"][j, :c]
                 f.tracks = _fused(f.tracks, got["track_label"][j, :c].astype(np.int64), got["track_r"][j, :c], m, P,
-                                  self.settings, self.sees(m[:, :2] - origin))
+                                  self.settings, self.pd_at(m[:, :2] - origin) > 0.0)
             f.finish(self.settings.prune_threshold, self.settings.max_tracks, TWINS)
 
     def _bytes(self) -> np.ndarray:

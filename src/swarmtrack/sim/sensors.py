@@ -30,12 +30,13 @@ class Scene:
     gimballed sensor. The draws are made when asked for, each from its own streams, so a sensor draws only what it
     uses."""
 
-    __slots__ = ("_world", "aim", "t", "worlds", "_lagged", "_heights")
+    __slots__ = ("_world", "aim", "t", "worlds", "_lagged", "_heights", "_stamped")
 
     def __init__(self, world: World, aim: np.ndarray | None):
         self._world, self.aim, self.t, self.worlds = world, aim, world.t, world.worlds
         self._lagged = None
         self._heights = None
+        self._stamped: np.ndarray | None = None
 
     def _positions(self) -> tuple[np.ndarray, float]:
         if self._lagged is None:  # read when a sensor asks (the footprint sensor reads full states instead)
@@ -55,8 +56,11 @@ class Scene:
         return self._positions()[0][self._world._sensed]
 
     def stamped(self) -> np.ndarray:
-        """(N, 2) the navigation positions stamped on the detections: ``uavs`` with their own navigation error."""
-        return self._world.stamped(self.uavs)
+        """(N, 2) the navigation positions stamped on the detections: ``uavs`` with their own navigation error, drawn
+        once per frame (a frame's true and false detections carry the same stamp)."""
+        if self._stamped is None:
+            self._stamped = self._world.stamped(self.uavs)
+        return self._stamped
 
     def _lagged_heights(self) -> np.ndarray:
         if self._heights is None:

@@ -11,8 +11,9 @@ references (when Stone Soup is installed) and times a UAV's tracker.
 
 Experiments: the two boxes with the fused swarm (each UAV's filter over its own and its neighbours' detections, tracks
 fused), with the centralised filter on the same detections (``-centre``), each UAV alone (``-alone``), each UAV's own
-posterior fused with its neighbours' by geometric average only (``-ga``, the GA-LMB of the anchors), the hard box over
-a lossy network (``-lossy``, 30 % of messages lost); the search-and-track swarm (``mtt-swarm``); and one target on
+posterior fused with its neighbours' by geometric average only (``-ga``, the GA-LMB of the anchors), the classic GNN
+and JPDA trackers in the LMB's place (``-gnn``, ``-jpda``: the same messages and fusion), the hard box over a lossy
+network (``-lossy``, 30 % of messages lost); the search-and-track swarm (``mtt-swarm``); and one target on
 L24's scene with detection probability 1 and no clutter, the LMB swarm against the information filter
 (``l24-ct-lmb``, ``l24-ct-information``, both without L24's sensor latency, which the LMB filter does not model).
 """
@@ -49,11 +50,13 @@ VARIANTS = {
     **{f"mtt-box-{c}-centre": (f"mtt-box-{c}", ("estimator.share=centre",)) for c in CASES},
     **{f"mtt-box-{c}-alone": (f"mtt-box-{c}", ("estimator.share=none", "estimator.fuse_tracks=false")) for c in CASES},
     **{f"mtt-box-{c}-ga": (f"mtt-box-{c}", ("estimator.share=none",)) for c in CASES},
+    **{f"mtt-box-{c}-{k}": (f"mtt-box-{c}", (f"estimator.kind={k}",)) for c in CASES for k in ("gnn", "jpda")},
     "mtt-box-hard-lossy": ("mtt-box-hard", ("network.loss_probability=0.3",)),
     "l24-ct-lmb": ("l24-ct", ("sensor.latency=0", "sensor.labelled=false", "estimator={kind: lmb, accel_std: 1.0}")),
     "l24-ct-information": ("l24-ct", ("sensor.latency=0",)),
 }
-BOX = tuple(f"mtt-box-{c}{v}" for c in CASES for v in ("", "-centre", "-alone", "-ga")) + ("mtt-box-hard-lossy",)
+BOX = tuple(f"mtt-box-{c}{v}" for c in CASES for v in ("", "-centre", "-alone", "-ga", "-gnn", "-jpda")) + \
+    ("mtt-box-hard-lossy",)
 EXPERIMENTS = (*BOX, "mtt-swarm", "l24-ct-lmb", "l24-ct-information")
 #: How many seeds the live references run on (the anchors' 3; Stone Soup's GM-PHD takes a tenth of a second a step).
 REFERENCE_SEEDS = 3

@@ -36,7 +36,7 @@ class GivesPositions(Protocol):
 
     def field_of_view(self) -> float | None: ...
 
-    def sees(self, rel) -> Any: ...
+    def detection_probability_at(self, rel) -> Any: ...
 
 
 def positions_sensor(scenario: Scenario) -> GivesPositions:
@@ -91,14 +91,6 @@ class PositionSpec(SensorSpec):
         """The area a UAV's sensor sees, m² (None: unbounded)."""
         return None if self.half_width is None else (2.0 * self.half_width) ** 2
 
-    def sees(self, rel):
-        """Whether objects at positions ``rel`` (..., 2) relative to the UAV are in its footprint (..,)."""
-        import numpy as np
-
-        rel = np.asarray(rel, dtype=float)
-        return np.ones(rel.shape[:-1], dtype=bool) if self.half_width is None else \
-            (np.abs(rel) <= self.half_width).all(axis=-1)
-
     def detection_probability_at(self, rel):
         """The probability (...,) that objects at planar positions ``rel`` (..., 2) relative to the UAV are detected in
         a scan: 0 outside the footprint, ``detection_probability · (1 − detection_falloff · max(|x|, |y|) /
@@ -110,34 +102,25 @@ class PositionSpec(SensorSpec):
                                                     self.half_width)
 
 
-class LMBSpec(EstimatorSpec):
-    """A labelled multi-Bernoulli filter per UAV (Reuter et al. 2014) over the unlabelled detections of its own
-    sensor and of the neighbours that share theirs, associated by loopy belief propagation (Williams and Lau 2014),
-    tracks born where detections are left unexplained (adaptive birth), a nearly-constant-velocity motion model
-    (docs/multi-target.md)."""
+class MultiTargetSpec(EstimatorSpec):
+    """What every multi-target tracker per UAV shares (:mod:`swarmtrack.estimation.multitarget`): its motion model,
+    the detections it reads and how, what the UAVs tell each other, the region it watches."""
 
-    kind: Literal["lmb"] = "lmb"
+    kind: str
     reads: ClassVar[frozenset[str]] = frozenset({"positions"})
     #: Its view carries every UAV's confirmed tracks (what a controller of many targets reads).
     reports_tracks: ClassVar[bool] = True
     accel_std: Acceleration = Field(0.5, gt=0, description=(
         "m/s², std of the white acceleration of the constant-velocity model, constant over a step (Bar-Shalom's "
         "discretised white-noise acceleration; issue 40's box: 0.5)"))
-    survival_probability: float = Field(0.99, gt=0, le=1, description="P_S, a track's survival per step")
     detection_probability: float | None = Field(None, gt=0, le=1, description=(
-        "P_D the filter assumes inside the sensor's field of view; null: the sensor's"))
+        "P_D the filter assumes inside the sensor's field of view; null: the sensor's law (with its falloff)"))
     clutter_rate: float | None = Field(None, ge=0, le=1e4, description=(
         "false detections per scan the filter assumes, over the sensor's field of view; null: the sensor's"))
     region: Box | None = Field(None, description=(
         "[x0, y0, x1, y1], m: the surveillance region; a track predicted outside it ends (its survival is 0 there); "
         "null: everywhere (issue 40's box: the box)"))
-    birth_rate: float = Field(0.1, gt=0, le=100, description=(
-        "λ_B, the expected births per scan, spread over the detections no track explains (adaptive birth)"))
-    birth_existence: float = Field(0.5, gt=0, lt=1, description="r_B,max, the largest existence of a new track")
     birth_velocity_std: Speed = Field(5.0, gt=0, description="m/s, a new track's velocity std per axis")
-    existence_threshold: float = Field(0.5, gt=0, lt=1, description=(
-        "a track whose existence is above it is reported (an estimate)"))
-    prune_threshold: float = Field(1e-3, gt=0, lt=0.5, description="a track whose existence falls below it is dropped")
     max_tracks: int = Field(64, ge=1, le=10_000, description=(
         "the most tracks a UAV keeps (the likeliest), and reports"))
     gate_probability: float = Field(0.9999, gt=0.5, lt=1, description=(
@@ -164,7 +147,7 @@ class LMBSpec(EstimatorSpec):
         return self.settle_steps
 
     def check_network(self, scenario: Scenario) -> None:
-        """Delays are let through: a batch of detections that arrives after its step is dropped and counted (an LMB
+        """Delays are let through: a batch of detections that arrives after its step is dropped and counted (a
         correction is at its step's time), the tracks of the step still fused. A liar is refused (no gate)."""
         if scenario.network.liar is not None:
             raise ValueError(LIAR_NEEDS)
@@ -172,15 +155,59 @@ class LMBSpec(EstimatorSpec):
     def check(self, scenario: Scenario) -> None:
         sensor = positions_sensor(scenario)
         if getattr(sensor, "labelled", False):
-            raise ValueError(f"sensor.labelled is true: estimator.kind lmb tracks detections that carry no label "
-                             f"(set sensor.labelled: false, or use a sensor that gives none; sensor.kind "
+            raise ValueError(f"sensor.labelled is true: estimator.kind {self.kind} tracks detections that carry no "
+                             f"label (set sensor.labelled: false, or use a sensor that gives none; sensor.kind "
                              f"{sensor.kind} labels each object)")
         if sensor.latency > 0:
-            raise ValueError("sensor.latency: estimator.kind lmb fuses detections as current; use latency 0")
+            raise ValueError(f"sensor.latency: estimator.kind {self.kind} fuses detections as current; use latency 0")
         rate = sensor.clutter_rate if self.clutter_rate is None else self.clutter_rate
         if rate > 0 and sensor.field_of_view() is None:
             raise ValueError("estimator.clutter_rate is spread over the sensor's field of view, which is unbounded: "
                              "give the sensor's max_range or half_width")
+
+
+class LMBSpec(MultiTargetSpec):
+    """A labelled multi-Bernoulli filter per UAV (Reuter et al. 2014) over the unlabelled detections of its own
+    sensor and of the neighbours that share theirs, associated by loopy belief propagation (Williams and Lau 2014),
+    tracks born where detections are left unexplained (adaptive birth), a nearly-constant-velocity motion model
+    (docs/multi-target.md)."""
+
+    kind: Literal["lmb"] = "lmb"
+    survival_probability: float = Field(0.99, gt=0, le=1, description="P_S, a track's survival per step")
+    birth_rate: float = Field(0.1, gt=0, le=100, description=(
+        "λ_B, the expected births per scan, spread over the detections no track explains (adaptive birth)"))
+    birth_existence: float = Field(0.5, gt=0, lt=1, description="r_B,max, the largest existence of a new track")
+    existence_threshold: float = Field(0.5, gt=0, lt=1, description=(
+        "a track whose existence is above it is reported (an estimate)"))
+    prune_threshold: float = Field(1e-3, gt=0, lt=0.5, description="a track whose existence falls below it is dropped")
+
+
+class ClassicSpec(MultiTargetSpec):
+    """A classic tracker per UAV, a baseline beside the LMB filter (:mod:`swarmtrack.estimation.classic`): a
+    detection no track takes starts a tentative track, confirmed at its ``confirm``-th hit and deleted at its first
+    miss, a confirmed one deleted after ``delete`` misses in a row. The swarm's messages and fusion are the LMB's."""
+
+    kind: str
+    #: The filter class, ``"module:attribute"``.
+    tracker: ClassVar[str] = ""
+    confirm: int = Field(3, ge=1, le=1000, description="hits (detections, over the batches) that confirm a track")
+    delete: int = Field(3, ge=1, le=1000, description="misses in a row that delete a confirmed track")
+
+
+class GNNSpec(ClassicSpec):
+    """Global nearest neighbour: the assignment of detections to tracks of least total ``d² + ln |S|``, each
+    assigned track Kalman-updated (:class:`~swarmtrack.estimation.classic.GNNFilter`)."""
+
+    kind: Literal["gnn"] = "gnn"
+    tracker: ClassVar[str] = "swarmtrack.estimation.classic:GNNFilter"
+
+
+class JPDASpec(ClassicSpec):
+    """Joint probabilistic data association, its marginals by loopy belief propagation
+    (:class:`~swarmtrack.estimation.classic.JPDAFilter`)."""
+
+    kind: Literal["jpda"] = "jpda"
+    tracker: ClassVar[str] = "swarmtrack.estimation.classic:JPDAFilter"
 
 
 class TrackAssignmentSpec(FlockingSpec):

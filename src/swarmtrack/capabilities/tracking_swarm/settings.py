@@ -81,14 +81,6 @@ class RangeBearingSpec(SensorSpec):
         """The area a UAV's sensor sees, m² (the disk of ``max_range``; None: unbounded)."""
         return None if self.max_range is None else math.pi * self.max_range**2
 
-    def sees(self, rel):
-        """Whether objects at positions ``rel`` (..., 2) relative to the UAV are within ``max_range`` (...,)."""
-        import numpy as np
-
-        rel = np.asarray(rel, dtype=float)
-        return np.ones(rel.shape[:-1], dtype=bool) if self.max_range is None else \
-            np.hypot(rel[..., 0], rel[..., 1]) <= self.max_range
-
     def detection_probability_at(self, rel):
         """The probability (...,) that objects at planar positions ``rel`` (..., 2) relative to the UAV are detected in
         a scan: 0 beyond ``max_range``, ``detection_probability · (1 − detection_falloff · ρ / max_range)`` within

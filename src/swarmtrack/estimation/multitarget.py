@@ -128,8 +128,9 @@ class LMBEstimator:
         """Predict every UAV's tracks to ``t`` and return what each broadcasts: its detections as positions
         (``points`` (R, S, 2) and ``covariances`` (R, S, 3), NaN past ``count``) and where it was (``origin``)."""
         s = self.settings
-        if self.t is not None:
-            for f in self.filters:
+        steps = 0 if self.t is None else max(1, round((t - self.t) / s.dt))  # a UAV that missed steps catches up
+        for f in self.filters:
+            for _ in range(steps):
                 f.predict(s.F, s.Q, s.survival)
                 if s.region is not None:
                     x0, y0, x1, y1 = s.region

@@ -15,7 +15,7 @@ came, :class:`~swarmtrack.sim.recorder.Chunk`'s ``present``):
   ``track_breaks`` (an object assigned a track at one judged step and none at the next).
 * ``tracking``: the mean number of reported tracks and of objects, and what a UAV broadcast per step (mean and
   largest ``bytes_shared``).
-* ``series``: ``gospa`` and its three parts over time (the mean over the UAVs whose samples came).
+* ``series``: ``gospa`` and its three parts, and ``ospa``, over time (the mean over the UAVs whose samples came).
 
 Warnings: ``tracks_not_finite`` (a present sample reported a track whose state is not finite: a diverged filter) and
 ``targets_missed`` (for at least :data:`MISSED_S` s after settling, the UAVs missed more than half the objects on
@@ -188,13 +188,13 @@ class _Tracking:
 
 
 class Series:
-    """GOSPA and its split over time, from t = 0, the mean over the UAVs whose samples came."""
+    """GOSPA and its split, and OSPA, over time, from t = 0, the mean over the UAVs whose samples came."""
 
-    quantities = ("gospa", "localisation", "missed", "false")
+    quantities = ("gospa", "localisation", "missed", "false", "ospa")
     shares = True
     labels = {"gospa": f"GOSPA (c = {C:g} m, p = {P:g}, α = {ALPHA:g}), mean over UAVs [m]",
               "localisation": "GOSPA localisation part [m]", "missed": "GOSPA missed part [m]",
-              "false": "GOSPA false part [m]"}
+              "false": "GOSPA false part [m]", "ospa": f"OSPA (c = {C:g} m, p = {P:g}), mean over UAVs [m]"}
 
     def __init__(self, rec: Recording):
         self.rec = rec

@@ -66,18 +66,13 @@ class PositionSpec(SensorSpec):
     clutter_rate: float = Field(0.0, ge=0, le=1e4, description=(
         "false detections per UAV per scan, Poisson, uniform over the footprint"))
 
-    @field_validator("detection_falloff")
+    @field_validator("detection_falloff", "clutter_rate")
     @classmethod
-    def _falloff_needs_a_footprint(cls, v: float, info: ValidationInfo) -> float:
+    def _needs_a_footprint(cls, v: float, info: ValidationInfo) -> float:
         if v > 0 and info.data.get("half_width") is None:
-            raise ValueError("the detection probability falls to the footprint's edge: give half_width too")
-        return v
-
-    @field_validator("clutter_rate")
-    @classmethod
-    def _clutter_needs_a_footprint(cls, v: float, info: ValidationInfo) -> float:
-        if v > 0 and info.data.get("half_width") is None:
-            raise ValueError("clutter is spread over the sensor's footprint: give half_width too")
+            what = "clutter is spread over the sensor's footprint" if info.field_name == "clutter_rate" else \
+                "the detection probability falls to the footprint's edge"
+            raise ValueError(f"{what}: give half_width too")
         return v
 
     def position_rule(self, own_sigma: float = 0.0):

@@ -3,11 +3,11 @@
 
 Per estimation step, for each UAV (row) on its own:
 
-* :meth:`LMBEstimator.share`: predict its tracks to ``t`` (the nearly-constant-velocity model, survival P_S, 0
+* :meth:`MultiTargetEstimator.share`: predict its tracks to ``t`` (the nearly-constant-velocity model, survival P_S, 0
   outside the surveillance region); turn
   its own detections into world positions with their covariances (the sensor's ``position_rule``) and broadcast at
   most ``max_shared`` of them (the closest to it), with where it was when it took them: the message is bounded.
-* :meth:`LMBEstimator.fuse`: correct its tracks with each batch of detections it has (its own and every
+* :meth:`MultiTargetEstimator.fuse`: correct its tracks with each batch of detections it has (its own and every
   neighbour's delivered this step), one batch at a time in the order of the UAVs that took them (the iterated
   corrector of multi-sensor LMB filters: every UAV that has the same batches computes the same tracks, labels
   included). A batch's detection probability is the sensor's for a track its taker could see (its field of view
@@ -58,7 +58,7 @@ SHARED_FROM = 0.1
 
 
 @dataclass(frozen=True)
-class LMBSettings:
+class TrackerSettings:
     """What every UAV's filter runs with: the motion model ``F``, ``Q`` over one estimation step, the survival
     probability, the clutter intensity ``kappa`` (per m²), the gate (a χ²(2) quantile), the adaptive birth
     (``birth_rate`` λ_B, ``birth_existence`` r_B,max, ``birth_velocity_std``), the reporting and pruning thresholds,
@@ -80,9 +80,9 @@ class LMBSettings:
     region: tuple[float, float, float, float] | None = None
 
 
-def _fused(tracks: Tracks, labels: np.ndarray, r: np.ndarray, m: np.ndarray, P: np.ndarray, s: LMBSettings,
+def _fused(tracks: Tracks, labels: np.ndarray, r: np.ndarray, m: np.ndarray, P: np.ndarray, s: TrackerSettings,
            in_view: np.ndarray) -> Tracks:
-    """``tracks`` with a neighbour's (``labels``, ``r``, ``m``, ``P``) fused in (:meth:`LMBEstimator.combine`);
+    """``tracks`` with a neighbour's (``labels``, ``r``, ``m``, ``P``) fused in (:meth:`MultiTargetEstimator.combine`);
     ``in_view``: which of the neighbour's tracks the UAV's own sensor sees."""
     pairs, left = match(tracks.label, tracks.m, tracks.P, labels, m, P, s.gate)
     rr, mm, PP = tracks.r.copy(), tracks.m.copy(), tracks.P.copy()
@@ -95,16 +95,16 @@ def _fused(tracks: Tracks, labels: np.ndarray, r: np.ndarray, m: np.ndarray, P: 
     return out.concat(Tracks(labels[adopt], r[adopt], m[adopt], P[adopt])) if len(adopt) else out
 
 
-class LMBEstimator:
-    """One LMB filter per UAV of ``rows`` (module docstring). ``positions(detections) → (p (M, 2), R (M, 2, 2))``
-    turns detections into world positions with covariances; ``pd_at(rel) → (...,)`` is the detection probability
-    the filter assumes for objects at positions ``rel`` relative to the UAV that scans (0 outside its view);
-    ``share``: whether the UAVs broadcast their detections; ``centre``: the centralised baseline instead, one filter
-    fed every UAV's detections straight (not a UAV's: no message), which every row reports; ``make_filter()``: each
-    UAV's filter, an :class:`~swarmtrack.estimation.lmb.LMBFilter` by default (or one of
-    :mod:`swarmtrack.estimation.classic`'s, with the same interface)."""
+class MultiTargetEstimator:
+    """One multi-target filter per UAV of ``rows``, an LMB filter by default (module docstring).
+    ``positions(detections) → (p (M, 2), R (M, 2, 2))`` turns detections into world positions with covariances;
+    ``pd_at(rel) → (...,)`` is the detection probability the filter assumes for objects at positions ``rel`` relative
+    to the UAV that scans (0 outside its view); ``share``: whether the UAVs broadcast their detections; ``centre``:
+    the centralised baseline instead, one filter fed every UAV's detections straight (not a UAV's: no message), which
+    every row reports; ``make_filter()``: each UAV's filter, an :class:`~swarmtrack.estimation.lmb.LMBFilter` by
+    default (or one of :mod:`swarmtrack.estimation.classic`'s, with the same interface)."""
 
-    def __init__(self, settings: LMBSettings, rows: Rows, positions: Callable, pd_at: Callable, share: bool = True,
+    def __init__(self, settings: TrackerSettings, rows: Rows, positions: Callable, pd_at: Callable, share: bool = True,
                  max_shared: int = 64, compiled: bool = True, centre: bool = False, fuse_tracks: bool = False,
                  max_shared_tracks: int = 32, make_filter: Callable | None = None):
         self.settings, self.rows, self.positions, self.pd_at = settings, rows, positions, pd_at

@@ -18,11 +18,11 @@ from swarmtrack.capabilities.multi_target.settings import (
 from swarmtrack.capabilities.tracking_swarm.build import flocking_gains
 from swarmtrack.control.assignment import SearchPattern, TrackAssignmentController, lawnmower
 from swarmtrack.estimation.lmb import cv_model
-from swarmtrack.estimation.multitarget import KAPPA_FLOOR, LMBEstimator, LMBSettings
+from swarmtrack.estimation.multitarget import KAPPA_FLOOR, MultiTargetEstimator, TrackerSettings
 from swarmtrack.onboard.context import Context
 
 
-def multi_target(spec: MultiTargetSpec, ctx: Context) -> LMBEstimator:
+def multi_target(spec: MultiTargetSpec, ctx: Context) -> MultiTargetEstimator:
     """Each UAV's tracker, assuming its sensor's detection law and clutter (or the settings' own), the clutter
     spread evenly over the sensor's field of view; the LMB filter, or a classic one (its ``tracker``)."""
     sensor = positions_sensor(ctx.scenario)
@@ -38,13 +38,13 @@ def multi_target(spec: MultiTargetSpec, ctx: Context) -> LMBEstimator:
     F, Q = cv_model(ctx.dt_estimation, spec.accel_std)
     gate = float(chi2.ppf(spec.gate_probability, 2))
     if isinstance(spec, LMBSpec):
-        settings = LMBSettings(F, Q, spec.survival_probability, kappa, gate, spec.birth_rate, spec.birth_existence,
+        settings = TrackerSettings(F, Q, spec.survival_probability, kappa, gate, spec.birth_rate, spec.birth_existence,
                                spec.birth_velocity_std, spec.existence_threshold, spec.prune_threshold,
                                spec.max_tracks, ctx.dt_estimation, spec.region)
         make = None
     else:
         assert isinstance(spec, ClassicSpec)
-        settings = LMBSettings(F, Q, 1.0, kappa, gate, 0.0, 0.0, spec.birth_velocity_std, 0.5, 1e-3,
+        settings = TrackerSettings(F, Q, 1.0, kappa, gate, 0.0, 0.0, spec.birth_velocity_std, 0.5, 1e-3,
                                spec.max_tracks, ctx.dt_estimation, spec.region)
         tracker, confirm, delete, compiled = registry.resolve(spec.tracker), spec.confirm, spec.delete, ctx.compiled
 
@@ -54,9 +54,10 @@ def multi_target(spec: MultiTargetSpec, ctx: Context) -> LMBEstimator:
     if spec.share == "centre":
         ctx.whole_swarm_only(spec.kind, "share centre is one filter fed every UAV's detections, not a UAV's "
                              "component")
-    return LMBEstimator(settings, ctx.rows, sensor.position_rule(own), pd_at, share=spec.share == "measurements",
-                        max_shared=spec.max_shared, compiled=ctx.compiled, centre=spec.share == "centre",
-                        fuse_tracks=spec.fuse_tracks, max_shared_tracks=spec.max_shared_tracks, make_filter=make)
+    return MultiTargetEstimator(settings, ctx.rows, sensor.position_rule(own), pd_at,
+                                share=spec.share == "measurements", max_shared=spec.max_shared,
+                                compiled=ctx.compiled, centre=spec.share == "centre", fuse_tracks=spec.fuse_tracks,
+                                max_shared_tracks=spec.max_shared_tracks, make_filter=make)
 
 
 def track_assignment(spec: TrackAssignmentSpec, ctx: Context) -> TrackAssignmentController:

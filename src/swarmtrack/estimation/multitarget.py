@@ -80,6 +80,29 @@ class TrackerSettings:
     region: tuple[float, float, float, float] | None = None
 
 
+def _likeliest(tracks: Tracks, above: float, most: int, strictly: bool = False) -> np.ndarray:
+    """The rows of ``tracks`` whose existence is at least ``above`` (above it, ``strictly``), likeliest first, at
+    most ``most`` of them."""
+    r = tracks.r
+    rows = np.flatnonzero(r > above if strictly else r >= above)
+    return rows[np.argsort(-r[rows], kind="stable")][:most]
+
+
+def _packed(P: np.ndarray) -> np.ndarray:
+    """Symmetric matrices (..., n, n) as their upper triangles (..., n(n+1)/2), row by row: what a message carries."""
+    iu = np.triu_indices(P.shape[-1])
+    return P[..., iu[0], iu[1]]
+
+
+def _unpacked(values: np.ndarray, n: int) -> np.ndarray:
+    """:func:`_packed`'s inverse: the symmetric (..., n, n) matrices of upper triangles ``values``."""
+    iu = np.triu_indices(n)
+    out = np.empty((*values.shape[:-1], n, n))
+    out[..., iu[0], iu[1]] = values
+    out[..., iu[1], iu[0]] = values
+    return out
+
+
 def _fused(tracks: Tracks, labels: np.ndarray, r: np.ndarray, m: np.ndarray, P: np.ndarray, s: TrackerSettings,
            in_view: np.ndarray) -> Tracks:
     """``tracks`` with a neighbour's (``labels``, ``r``, ``m``, ``P``) fused in (:meth:`MultiTargetEstimator.combine`);
@@ -153,7 +176,7 @@ class MultiTargetEstimator:
             keep = np.sort(np.argsort(np.hypot(*(pr - o).T), kind="stable")[:most])  # in the sensor's order
             c = len(keep)
             points[r, :c] = pr[keep]
-            cov[r, :c] = Rr[keep][:, [0, 0, 1], [0, 1, 1]]
+            cov[r, :c] = _packed(Rr[keep])
             count[r] = c
         self._sent = count
         return {"points": points, "covariances": cov, "count": count, "origin": origin.copy()}
@@ -174,11 +197,7 @@ class MultiTargetEstimator:
             recv, send = inbox.edges()
             for r, j in zip(recv.tolist(), send.tolist(), strict=True):
                 c = int(got["count"][j])
-                cov = got["covariances"][j, :c]
-                R = np.empty((c, 2, 2))
-                R[:, 0, 0], R[:, 0, 1], R[:, 1, 1] = cov[:, 0], cov[:, 1], cov[:, 2]
-                R[:, 1, 0] = R[:, 0, 1]
-                batches[r][j] = (got["points"][j, :c], R, got["origin"][j])
+                batches[r][j] = (got["points"][j, :c], _unpacked(got["covariances"][j, :c], 2), got["origin"][j])
         step = round(t / s.dt)
         for f, mine in zip(self.filters, batches, strict=True):
             for j in sorted(mine):
@@ -198,16 +217,14 @@ class MultiTargetEstimator:
         out = {"track_label": np.full((self.n, m), np.nan), "track_r": np.full((self.n, m), np.nan),
                "track_m": np.full((self.n, m, 4), np.nan), "track_P": np.full((self.n, m, 10), np.nan),
                "track_count": np.zeros(self.n, dtype=np.int64)}
-        iu = np.triu_indices(4)
         for r, f in enumerate(self.filters):
             tr = f.tracks
-            rows = np.flatnonzero(tr.r >= SHARED_FROM)
-            rows = rows[np.argsort(-tr.r[rows], kind="stable")][:m]
+            rows = _likeliest(tr, SHARED_FROM, m)
             c = len(rows)
             out["track_label"][r, :c] = tr.label[rows]
             out["track_r"][r, :c] = tr.r[rows]
             out["track_m"][r, :c] = tr.m[rows, :4]
-            out["track_P"][r, :c] = tr.P[rows][:, iu[0], iu[1]]
+            out["track_P"][r, :c] = _packed(tr.P[rows])
             out["track_count"][r] = c
         self._sent_tracks = out["track_count"]
         return out
@@ -221,17 +238,14 @@ class MultiTargetEstimator:
             return
         got = inbox.payloads
         recv, send = inbox.edges()
-        iu = np.triu_indices(4)
         for r, f in enumerate(self.filters):
             origin = self._own[r][2]
             for j in sorted(send[recv == r].tolist()):
                 c = int(got["track_count"][j])
                 m = got["track_m"][j, :c]
-                P = np.empty((c, 4, 4))
-                P[:, iu[0], iu[1]] = got["track_P"][j, :c]
-                P[:, iu[1], iu[0]] = got["track_P"][j, :c]
-                f.tracks = _fused(f.tracks, got["track_label"][j, :c].astype(np.int64), got["track_r"][j, :c], m, P,
-                                  self.settings, self.pd_at(m[:, :2] - origin) > 0.0)
+                f.tracks = _fused(f.tracks, got["track_label"][j, :c].astype(np.int64), got["track_r"][j, :c], m,
+                                  _unpacked(got["track_P"][j, :c], 4), self.settings,
+                                  self.pd_at(m[:, :2] - origin) > 0.0)
             f.finish(self.settings.prune_threshold, self.settings.max_tracks, TWINS)
 
     def _bytes(self) -> np.ndarray:
@@ -247,12 +261,6 @@ class MultiTargetEstimator:
     def filter_of(self, r: int) -> LMBFilter:
         """Row ``r``'s filter (the fusion centre's, for every row, in the centralised baseline)."""
         return self.filters[0 if self.centre else r]
-
-    def _reported(self, f: LMBFilter) -> np.ndarray:
-        """The rows of ``f``'s tracks it reports (existence above the threshold), likeliest first."""
-        r = f.tracks.r
-        rows = np.flatnonzero(r > self.settings.existence_threshold)
-        return rows[np.argsort(-r[rows], kind="stable")][:self.settings.max_tracks]
 
     def view(self) -> TargetView:
         """Each UAV's reported tracks (``tracks``, ``track_labels``, as sampled) and the likeliest of them as
@@ -271,7 +279,7 @@ class MultiTargetEstimator:
         for r in range(self.n):
             f = self.filter_of(r)
             tr = f.tracks
-            rows = self._reported(f)
+            rows = _likeliest(tr, self.settings.existence_threshold, k, strictly=True)  # the reported
             c = len(rows)
             out["tracks"][r, :c] = tr.m[rows, :4]
             out["track_labels"][r, :c] = tr.label[rows]

@@ -11,6 +11,7 @@ from. The world builds the scene; onboard code never sees either.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, ClassVar
 
@@ -132,6 +133,22 @@ class Sensor:
         raise NotImplementedError
 
 
+def missed_and_fooled(scene: Scene, det: Detections, source: np.ndarray, pd, false,
+                      stamped: np.ndarray) -> tuple[Detections, np.ndarray]:
+    """Issue 40's misses and clutter on a frame's detections (:mod:`swarmtrack.sensors.clutter`), each drawn from
+    the scene's streams of its own only when asked, so that a sensor without them draws nothing more: each detection
+    kept with probability ``pd(rel)`` at its object's true planar position relative to its UAV (None: every one
+    kept); the false detections ``false(rngs) → (counts, z)`` from each UAV's own stream (None: none), stamped
+    ``stamped``."""
+    if pd is not None:
+        rel = scene.objects[source] - scene.uavs[det.owner]
+        det, source = clutter.thin(det, source, scene.extra_uniform("detection"), pd(rel))
+    if false is not None:
+        counts, z = false(scene.uav_streams("clutter"))
+        det, source = clutter.add_clutter(det, source, counts, z, stamped)
+    return det, source
+
+
 @dataclass(frozen=True)
 class RangeBearingSensor(Sensor):
     """Truth side of the range-bearing sensor (L24 Sec. 3.2): every UAV measures every object of the ``sensed``
@@ -160,16 +177,12 @@ class RangeBearingSensor(Sensor):
         det, source = self._sense(scene)
         if not self.labelled:
             det = clutter.unlabelled(det)
-        if self.detection_probability < 1.0 or self.detection_falloff > 0.0:
-            pd = clutter.disk_detection_probability(scene.objects[source] - scene.uavs[det.owner],
-                                                    self.detection_probability, self.detection_falloff,
-                                                    self.max_range)
-            det, source = clutter.thin(det, source, scene.extra_uniform("detection"), pd)
-        if self.clutter_rate > 0.0:
-            assert self.max_range is not None, "validation: clutter needs a field of view (max_range)"
-            counts, z = clutter.polar_clutter(scene.uav_streams("clutter"), self.clutter_rate, self.max_range)
-            det, source = clutter.add_clutter(det, source, counts, z, scene.stamped())
-        return det, source
+        pd = None if self.detection_probability == 1.0 and self.detection_falloff == 0.0 else \
+            functools.partial(clutter.disk_detection_probability, probability=self.detection_probability,
+                              falloff=self.detection_falloff, max_range=self.max_range)
+        false = None if self.clutter_rate == 0.0 else \
+            functools.partial(clutter.polar_clutter, rate=self.clutter_rate, max_range=self.max_range)
+        return missed_and_fooled(scene, det, source, pd, false, scene.stamped())
 
     def _sense(self, scene: Scene) -> tuple[Detections, np.ndarray]:
         objects, uavs = scene.objects, scene.uavs
@@ -212,15 +225,12 @@ class PositionSensor(Sensor):
         hidden = hidden_by(self.occluders, objects, len(uavs), scene.t)
         det, source = position.sense(objects, uavs, scene.stamped(), self.sigma, scene.normal(), self.half_width,
                                      hidden, scene.taken)
-        if self.detection_probability < 1.0 or self.detection_falloff > 0.0:
-            pd = clutter.square_detection_probability(objects[source] - uavs[det.owner], self.detection_probability,
-                                                      self.detection_falloff, self.half_width)
-            det, source = clutter.thin(det, source, scene.extra_uniform("detection"), pd)
-        if self.clutter_rate > 0.0:
-            assert self.half_width is not None, "validation: clutter needs a footprint (half_width)"
-            counts, z = clutter.square_clutter(scene.uav_streams("clutter"), self.clutter_rate, self.half_width)
-            det, source = clutter.add_clutter(det, source, counts, z, scene.stamped())
-        return det, source
+        pd = None if self.detection_probability == 1.0 and self.detection_falloff == 0.0 else \
+            functools.partial(clutter.square_detection_probability, probability=self.detection_probability,
+                              falloff=self.detection_falloff, half_width=self.half_width)
+        false = None if self.clutter_rate == 0.0 else \
+            functools.partial(clutter.square_clutter, rate=self.clutter_rate, half_width=self.half_width)
+        return missed_and_fooled(scene, det, source, pd, false, scene.stamped())
 
 
 @dataclass(frozen=True)
@@ -257,14 +267,11 @@ class RangeBearingElevationSensor(Sensor):
                                                     self.sigma_elevation, noise, self.max_range, scene.taken)
         if not self.labelled:
             det = clutter.unlabelled(det)
-        if self.detection_probability < 1.0:
-            det, source = clutter.thin(det, source, scene.extra_uniform("detection"),
-                                       np.full(len(det), self.detection_probability))
-        if self.clutter_rate > 0.0:
-            assert self.max_range is not None, "validation: clutter needs a field of view (max_range)"
-            counts, z = clutter.ball_clutter(scene.uav_streams("clutter"), self.clutter_rate, self.max_range)
-            det, source = clutter.add_clutter(det, source, counts, z, stamped)
-        return det, source
+        probability = self.detection_probability
+        pd = None if probability == 1.0 else lambda rel: np.full(len(rel), probability)
+        false = None if self.clutter_rate == 0.0 else \
+            functools.partial(clutter.ball_clutter, rate=self.clutter_rate, max_range=self.max_range)
+        return missed_and_fooled(scene, det, source, pd, false, stamped)
 
 
 @dataclass(frozen=True)

@@ -31,8 +31,9 @@ from scipy.optimize import linear_sum_assignment
 
 def ga_bernoulli(r1: float, m1: np.ndarray, P1: np.ndarray, r2: float, m2: np.ndarray, P2: np.ndarray,
                  w: float = 0.5) -> tuple[float, np.ndarray, np.ndarray]:
-    """The geometric average of two Gaussian Bernoulli components (module docstring): ``(r, m, P)``. Solved with
-    Cholesky factors, never inverted; ``P`` symmetrised."""
+    """The geometric average of two Gaussian Bernoulli components (module docstring): ``(r, m, P)``. Covariance
+    intersection adds information matrices, so each covariance's is formed, by Cholesky solves (4 x 4, both positive
+    definite: a filter's covariances); ``P`` symmetrised."""
     n = len(m1)
     c1, c2 = cho_factor(P1), cho_factor(P2)
     I1, I2 = cho_solve(c1, np.eye(n)), cho_solve(c2, np.eye(n))  # information matrices from the factors

@@ -444,7 +444,9 @@ def say(results: dict) -> None:
         print(f"  {r['uavs']:2d} UAV processes, {'all-to-all' if r['all_to_all'] else 'per-neighbour'}, load "
               f"{r['load'][0]} → {r['load'][1]}: {r['real_time_factor']:.2f}× real time (start-up "
               f"{r['startup_s']:.0f} s); a UAV's receive work per step {r['received_per_uav_step']:g} messages, "
-              f"{r['receive_cpu_per_uav_step_ms']:.3f} ms CPU (median); its CPU per step "
+              f"{r['receive_cpu_per_uav_step_ms']:.3f} ms CPU (median; "
+              f"{1e3 * r['receive_cpu_per_uav_step_ms'] / r['received_per_uav_step']:.0f} µs a message); its CPU "
+              "per step "
               f"{r['cpu_per_uav_step_ms']:.2f} ms; the world {r['world_cpu_per_step_ms']:.2f} ms")
     runs, ref = lined["runs"], lined["all_to_all"]
     spread, counted = lined["receive_cpu_spread"], lined["received_spread"]

@@ -9,6 +9,7 @@ from types import SimpleNamespace
 
 import pytest
 
+from swarmtrack.live import wire
 from swarmtrack.live.transport import ZenohTransport, key
 
 
@@ -28,8 +29,14 @@ def flown(port: int, swarm: str, uav: int, steps: int) -> int:
     """Wait (up to 120 s) until UAV ``uav`` (0-based) of the world on ``port`` has shared ``steps`` estimation steps;
     returns how many it had."""
     listener = join(port)
-    shares = []
-    listener.subscribe(key(swarm, "uav", uav, "share"), lambda k, data: shares.append(data))
+    shares: set[int] = set()  # its steps: a share is addressed to each UAV that hears it (one put each)
+
+    def heard(key_expr, data) -> None:
+        msg = wire.peek(data)
+        if msg is not None:
+            shares.add(msg.k)
+
+    listener.subscribe(key(swarm, "uav", uav, "share") + "/**", heard)  # on its own key, or addressed
     deadline = time.monotonic() + 120
     while len(shares) < steps and time.monotonic() < deadline:
         time.sleep(0.05)

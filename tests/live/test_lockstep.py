@@ -190,7 +190,8 @@ def test_forged_replayed_and_undecodable_messages_are_dropped_counted_and_change
     captured, sent = [], {"forged": 0, "replayed": 0, "undecodable": 0}
     try:
         intruder = peer.join(port)
-        share = key(swarm, "uav", 1, "share")
+        # UAV 2's share addressed to UAV 1 (per-neighbour delivery), and its own key (all-to-all: UAVs hear it too)
+        share, own = key(swarm, "uav", 1, "share", 0), key(swarm, "uav", 1, "share")
         intruder.subscribe(share, lambda k, data: captured.append(data))
         outsider, insider = wire.Seal(wire.keygen(), 3), wire.Seal(secret, 3)
         deadline = time.monotonic() + 60
@@ -198,7 +199,8 @@ def test_forged_replayed_and_undecodable_messages_are_dropped_counted_and_change
             time.sleep(0.05)
         while proc.poll() is None and time.monotonic() < deadline:
             intruder.put(share, outsider.seal(share, wire.Share(sender=1, k=0, payloads={})))
-            intruder.put(share, captured[0])  # a real message of UAV 2, again
+            intruder.put(own, outsider.seal(own, wire.Share(sender=1, k=0, payloads={})))
+            intruder.put(share, captured[0])  # a real message of UAV 2 to UAV 1, again
             intruder.put(share, insider._tag(share, b"\x81\xa1x\x01") + b"\x81\xa1x\x01")
             for cause in sent:
                 sent[cause] += 1

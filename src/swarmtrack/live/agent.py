@@ -36,6 +36,10 @@ from swarmtrack.onboard.warm import warm_up
 from swarmtrack.scenarios.schema import Scenario
 from swarmtrack.sensors.detections import Detections
 
+#: Seconds the interpreter lets the main thread hold the GIL while another thread waits for it (Python's default:
+#: 0.005): a neighbour's message that comes while the stack computes waits at most this long for the callback that
+#: files it (a fifth of a real-time share deadline at Python's default, a twentieth here).
+SWITCH_INTERVAL = 0.001
 #: Seconds between a starting UAV's hellos.
 HELLO_EVERY = 0.5
 #: Seconds a UAV that cannot fly (its autopilot link) says so to the world before it exits, at most.
@@ -87,15 +91,19 @@ class Agent:
         # its messages; a late share can take the estimation steps of the channel's delay bound
         self.exchange = LiveExchange(node, uav, self.n, late_steps(scenario, self.clock.dt_estimation))
         self._cpu = time.process_time()
+        self._received: tuple[int, float] = (0, 0.0)  # its subscriptions' messages and their CPU time so far
 
     def run(self, rejoin: bool = False) -> None:
         """Say hello, build the stack when the world says start, and follow its steps to the end. ``rejoin``: the
         UAV's earlier process was lost (or is to be replaced); this one starts afresh at the step the world gives
         it."""
         node = self.node
+        sys.setswitchinterval(SWITCH_INTERVAL)
         node.greeting = True  # until its start, it takes only what binds to its hello (the run is not known yet)
-        node.listen(("world", str(self.i), "*"), ("world", "all", "*"), ("uav", "*", "share"),
-                    ("uav", "*", "publish"), ("uav", "*", "beacon"), ("uav", "*", "plan"))
+        # its neighbours' messages addressed to it (its world's radio names their receivers), and those on their
+        # own keys (a world asked for all-to-all delivery: every UAV hears every UAV, the radio decides)
+        node.listen(("world", str(self.i), "*"), ("world", "all", "*"), ("uav", "*", "*", str(self.i)),
+                    ("uav", "*", "share"), ("uav", "*", "publish"), ("uav", "*", "beacon"), ("uav", "*", "plan"))
         node.heartbeat()
         hello = wire.Hello(pid=os.getpid(), started=node.seal.started, scenario=scenario_hash(self.scenario),
                            autopilot=self.autopilot is not None, rejoin=rejoin)
@@ -254,8 +262,12 @@ class Agent:
         reports = {role: telemetry.report(getattr(stack, role)) for role, telemetry in self._telemetry.items()}
         now = time.process_time()
         cpu, self._cpu = now - self._cpu, now
+        tally = getattr(self.node.transport, "received", None)
+        got = (0, 0.0) if tally is None else tally()
+        received, self._received = (got[0] - self._received[0], got[1] - self._received[1]), got
         return wire.Sample(k=k, probes=pack(probes), aim=wire.pack(view.state[:, :2]),
                            telemetry={role: pack(r) for role, r in reports.items()},
-                           rejected=dict(self.node.seal.rejected), cpu=cpu, heard=self.node.log(),
+                           rejected=dict(self.node.seal.rejected), cpu=cpu, received=received[0],
+                           receive_cpu=received[1], heard=self.node.log(),
                            late=dict(self.exchange.late), autopilot=[] if self.authority is None else
                            [e for e in self.authority.events if "t" in e]), view  # those its steps saw

@@ -1,7 +1,8 @@
 """The live agent's :class:`~swarmtrack.onboard.exchange.Exchange`: its stack's messages over Zenoh.
 
-Each round is a message of the UAV's own (sent at once) and the neighbours' of the same step, taken from the
-mailbox: those the world's simulated radio names, in lockstep, every one (waited for up to
+Each round is a message of the UAV's own (sent at once: addressed to the UAVs the world's radio says hear it,
+:attr:`~swarmtrack.live.wire.Radio.to`, or on its own key for whoever listens) and the neighbours' of the same step,
+taken from the mailbox: those the world's simulated radio names, in lockstep, every one (waited for up to
 :data:`PATIENCE`); in real time those that came by the round's deadline (:data:`FUSE_BY` ...
 of the step's period after it was due), the others counted late. The beacon of a control step that starts with the
 estimation step travels in the share message (one message fewer per step: 2.3x to 3.5x faster in lockstep,
@@ -61,12 +62,16 @@ class LiveExchange:
     def share(self, t: float, outbox: Outbox, beacon: Outbox | None) -> Inbox:
         k = self.k
         self._own[k] = outbox
+        radio = self.radio
+        receivers = None if radio is None or radio.to is None else \
+            radio.to if beacon is None else sorted({*radio.to, *(radio.beacon_to or ())})
         self.node.send(self.i, wire.Share(k=k, taken=t, payloads=pack(outbox),
-                                          beacon=None if beacon is None else pack(beacon)))
+                                          beacon=None if beacon is None else pack(beacon)), receivers)
         return self._inbox(k, outbox)
 
     def publish(self, t: float, posteriors: Outbox) -> Inbox | None:
-        self.node.send(self.i, wire.Publish(k=self.k, taken=t, payloads=pack(posteriors)))
+        self.node.send(self.i, wire.Publish(k=self.k, taken=t, payloads=pack(posteriors)),
+                       None if self.radio is None else self.radio.to)
         if not posteriors:
             return None
         assert self.radio is not None, "at() sets the step first"
@@ -81,7 +86,7 @@ class LiveExchange:
             heard = self._wait("share", senders, k, -1, FUSE_BY, take=False, count=False)
             heard = {s: m.beacon for s, m in heard.items()}
         else:
-            self.node.send(self.i, wire.Beacon(k=k, c=c, taken=t, payloads=pack(beacon)))
+            self.node.send(self.i, wire.Beacon(k=k, c=c, taken=t, payloads=pack(beacon)), self.radio.beacon_to)
             heard = {s: m.payloads for s, m in self._wait("beacon", senders, k, c, FUSE_BY).items()}
         own_plans = getattr(self.controller, "plans", None)
         if own_plans is None:  # not a SequentialPlanner
@@ -96,7 +101,9 @@ class LiveExchange:
         return inbox
 
     def planned(self, t: float, plans: Outbox) -> None:
-        self.node.send(self.i, wire.Plan(k=self.k, c=self.c, taken=t, payloads=pack(plans)))
+        to = None if self.radio is None or self.radio.beacon_to is None else \
+            [j for j in self.radio.beacon_to if j > self.i]  # those that plan after it (IB21 Sec. 5.3)
+        self.node.send(self.i, wire.Plan(k=self.k, c=self.c, taken=t, payloads=pack(plans)), to)
 
     def forget(self, k: int) -> None:
         """Step ``k`` is over: what is older than the mailbox's window is dropped."""
@@ -174,4 +181,4 @@ class LiveExchange:
 
 
 def pack(outbox: dict | None) -> dict:
-    return {name: wire.pack(np.asarray(v)) for name, v in (outbox or {}).items()}
+    return {name: wire.pack(v if type(v) is np.ndarray else np.asarray(v)) for name, v in (outbox or {}).items()}

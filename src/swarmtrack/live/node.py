@@ -52,6 +52,7 @@ class Node:
 
     def __init__(self, transport: Transport, seal: Seal, swarm: str, me: int, world: bool = True):
         self.transport, self.seal, self.swarm, self.me, self.world = transport, seal, swarm, me, world
+        self._me = str(me)  # as its keys spell it
         self._box: dict[tuple[str, int, int, int], Message] = {}
         self._cond = threading.Condition()
         self.stopped: str | None = None
@@ -76,15 +77,16 @@ class Node:
         # a UAV's process: whether its world still runs though silent (lockstep, a world that is its parent)
         self.world_runs: Callable[[], bool] = lambda: False
 
-    def listen(self, *patterns: tuple[str, str, str]) -> None:
-        """Subscribe to ``(origin, to, channel)`` key patterns of the swarm's space (``*`` wildcards)."""
-        for origin, to, channel in patterns:
-            self.transport.subscribe(key(self.swarm, origin, to, channel), self._arrive)
+    def listen(self, *patterns: tuple[str, ...]) -> None:
+        """Subscribe to ``(origin, to, channel)`` key patterns of the swarm's space (``*`` wildcards), or
+        ``(origin, to, channel, receiver)`` for the messages addressed to one UAV (:func:`~.transport.key`)."""
+        for pattern in patterns:
+            self.transport.subscribe(key(self.swarm, *pattern), self._arrive)
 
     def _arrive(self, key_expr: str, data: bytes) -> None:
         parts = parse(self.swarm, key_expr)
-        if parts is None or (parts[0] == "uav" and parts[1] == str(self.me)):  # not the swarm's, or its own
-            return
+        if parts is None or (parts[0] == "uav" and parts[1] == self._me) or parts[3] not in (None, self._me):
+            return  # not the swarm's, its own, or addressed to another UAV
         unbound = self.me != WORLD and self.seal.run is None and self.greeting  # its run known at its start
         try:
             msg = self.seal.open(key_expr, data, fresh=not unbound)
@@ -92,7 +94,7 @@ class Node:
             if exc.cause == "forged":
                 self._failed(parts, data)
             return
-        origin, to, channel = parts
+        origin, to, channel, _ = parts
         sender = WORLD if origin == "world" else int(to) if to.isdigit() else None
         if msg.sender != sender or channel_of(msg) != channel:  # a member speaking for another, or a wrong key
             self.seal.count("impersonated")
@@ -111,10 +113,10 @@ class Node:
                 self._take(msg, channel)
             self._cond.notify_all()
 
-    def _failed(self, parts: tuple[str, str, str], data: bytes) -> None:
+    def _failed(self, parts: tuple[str, str, str, str | None], data: bytes) -> None:
         """A message that failed the seal: evidence of who sent it when it decodes as what its key says, with a
         process identity (:data:`EVIDENCE`)."""
-        origin, to, channel = parts
+        origin, to, channel, _ = parts
         msg = peek(data)
         sender = WORLD if origin == "world" else int(to) if to.isdigit() else None
         if msg is None or msg.sender != sender or channel_of(msg) != channel or not msg.proc:
@@ -214,10 +216,17 @@ class Node:
                             reverse=True)
         return [run for _, run in recent[:4]]
 
-    def send(self, to: int | str, msg: Message) -> None:
+    def send(self, to: int | str, msg: Message, receivers: list[int] | None = None) -> None:
         """Seal and put ``msg`` on this process's key for ``to`` (a UAV's own keys take their sender as ``to``); a
-        hello answers the worlds heard (:meth:`heard_worlds`)."""
+        hello answers the worlds heard (:meth:`heard_worlds`). ``receivers`` (a UAV's message): put on the key of
+        each of these UAVs alone (encoded once, sealed per key; none: not sent), not on its own key."""
         msg.sender = self.me
+        if receivers is not None:
+            if receivers:
+                keys = [key(self.swarm, "uav", self._me, channel_of(msg), j) for j in receivers]
+                for k, data in zip(keys, self.seal.seal_each(keys, msg), strict=True):
+                    self.transport.put(k, data)
+            return
         if isinstance(msg, Hello):
             msg.worlds = self.heard_worlds()
             self.greeting = True

@@ -143,6 +143,7 @@ class RealtimeWorld(LockstepWorld):
         for counts in self._late.values():
             late.update(counts)
         self.report.late = dict(late)
+        self.report.shares_due = self.shares_due
 
     def tables(self) -> dict[str, pd.DataFrame]:
         """``latency``: every message received, ``channel, sender, receiver, k, c, sent, latency`` (UAVs 0-based,

@@ -29,15 +29,22 @@ class LiveReport:
     """Simulated times at which a stop the world did not send came on its keys (an ``--insecure`` run)."""
     cpu_per_step_ms: dict | None = None
     """A UAV's process's CPU time per estimation step (ms, over UAVs and steps; its start-up left out)."""
+    received_per_step: dict | None = None
+    """A UAV's process's receive work per estimation step (over UAVs and steps): the messages its subscriptions
+    delivered (``messages``) and the CPU time its callbacks spent on them (``cpu_ms``)."""
     latency_ms: dict[str, dict] = field(default_factory=dict)
     """Real time: each channel's latency (ms, from the sender's wall clock to the receiver's callback)."""
     step_lateness: dict | None = None
     """Real time: how late after its time each UAV's step was done (its sample sent), in estimation periods."""
     world_lateness: dict | None = None
-    """Real time: how late after its time the world began each step, in estimation periods."""
+    """Real time: how late after its time the world sent each step's messages (its sensing is done before), in
+    estimation periods."""
     late: dict[str, int] = field(default_factory=dict)
     """Real time: the messages that missed their deadline, by channel (``share_fused_late``: of the shares, those
     fused afterwards at their time stamps, within the scenario's delay bound)."""
+    shares_due: int | None = None
+    """Real time: the neighbours' shares the UAVs' radios named for their steps (``late.share`` counts those of them
+    that missed their deadline)."""
     skipped: dict[str, int] = field(default_factory=dict)
     """In the field: the messages of the UAVs' sources they skipped, by cause and topic (summed over their
     processes)."""

@@ -18,7 +18,7 @@ from swarmtrack.sim.recorder import Recording
 def run_live(scenario: Scenario, node: Node, record_to=None, progress: Callable[[float], None] | None = None,
              patience: float = PATIENCE, realtime: bool = False,
              mavlink: tuple | None = None, running: Callable[[int], bool] | None = None,
-             taps=()) -> tuple[Recording, LiveReport, dict[str, pd.DataFrame]]:
+             taps=(), all_to_all: bool = False) -> tuple[Recording, LiveReport, dict[str, pd.DataFrame]]:
     """Run ``scenario`` with its UAVs' stacks in their own processes (already started, reachable through ``node``),
     in lockstep (:class:`~swarmtrack.live.world.LockstepWorld`) or ``realtime``
     (:class:`~swarmtrack.live.realtime.RealtimeWorld`), each UAV flying through a simulated autopilot with
@@ -26,9 +26,11 @@ def run_live(scenario: Scenario, node: Node, record_to=None, progress: Callable[
     :class:`~swarmtrack.autopilot.fleet.Fleet`); ``running``: whether the process of a pid is one the caller
     started and it still runs (lockstep waits for such a UAV however long it is silent); returns the
     recording (streamed to ``record_to`` when given), the live report and the tables the run folder keeps beside the
-    recording; ``taps``: live outputs sent each recorded step (:mod:`swarmtrack.streams`)."""
+    recording; ``taps``: live outputs sent each recorded step (:mod:`swarmtrack.streams`). ``all_to_all``: each UAV
+    puts its messages on its own key, which every UAV hears (the delivery before issue 41, for comparison), instead
+    of addressing them to the UAVs that hear it."""
     world = (RealtimeWorld if realtime else LockstepWorld)(scenario, node, record_to, patience, progress, mavlink,
-                                                                running, taps)
+                                                                running, taps, all_to_all)
     try:
         recording, report = world.run()
     finally:

@@ -10,8 +10,10 @@ is dropped *towards that peer only* and the queue is marked congested (later mes
 it drains); the other peers get theirs as before. With ``BLOCK`` the put waited for the slowest subscriber, up to
 5 s, then Zenoh closed its link.
 
-Key space (:func:`key`): ``swarmtrack/<swarm>/uav/<i>/<channel>`` for what UAV i sends, and
-``swarmtrack/<swarm>/world/<i>/<channel>`` for what the world sends UAV i (``.../world/all/<channel>`` to every UAV).
+Key space (:func:`key`): ``swarmtrack/<swarm>/uav/<i>/<channel>`` for what UAV i sends to whoever listens,
+``swarmtrack/<swarm>/uav/<i>/<channel>/<j>`` for what UAV i sends UAV j alone (its neighbours' messages, addressed
+to the UAVs that hear it), and ``swarmtrack/<swarm>/world/<i>/<channel>`` for what the world sends UAV i
+(``.../world/all/<channel>`` to every UAV).
 """
 
 from __future__ import annotations
@@ -67,18 +69,22 @@ class Transport(Protocol):
         """Stop (idempotent): no callback runs once it has returned."""
 
 
-def key(swarm: str, origin: str, to: int | str, channel: str) -> str:
+def key(swarm: str, origin: str, to: int | str, channel: str, receiver: int | str | None = None) -> str:
     """``swarmtrack/<swarm>/<origin>/<to>/<channel>``: ``origin`` ``uav`` (then ``to`` is the sender) or ``world``
-    (then ``to`` is the receiver, or ``all``)."""
-    return f"{PREFIX}/{swarm}/{origin}/{to}/{channel}"
+    (then ``to`` is the receiver, or ``all``); with ``receiver``, ``.../uav/<sender>/<channel>/<receiver>``: a UAV's
+    message addressed to one UAV (per-neighbour delivery: only that UAV subscribes to it)."""
+    if receiver is None:
+        return f"{PREFIX}/{swarm}/{origin}/{to}/{channel}"
+    return f"{PREFIX}/{swarm}/{origin}/{to}/{channel}/{receiver}"
 
 
-def parse(swarm: str, key_expr: str) -> tuple[str, str, str] | None:
-    """``(origin, to, channel)`` of a key of ``swarm``'s space, None for any other key."""
+def parse(swarm: str, key_expr: str) -> tuple[str, str, str, str | None] | None:
+    """``(origin, to, channel, receiver)`` of a key of ``swarm``'s space (``receiver`` None but on an addressed key),
+    None for any other key."""
     parts = str(key_expr).split("/")
-    if len(parts) != 5 or parts[0] != PREFIX or parts[1] != swarm:
+    if not 5 <= len(parts) <= 6 or parts[0] != PREFIX or parts[1] != swarm or (len(parts) == 6 and parts[2] != "uav"):
         return None
-    return parts[2], parts[3], parts[4]
+    return parts[2], parts[3], parts[4], parts[5] if len(parts) == 6 else None
 
 
 def free_port(host: str = "127.0.0.1") -> int:
@@ -162,6 +168,7 @@ class ZenohTransport:
         self._zenoh = zenoh
         self._publishers: dict[str, Any] = {}  # zenoh publishers
         self._subscribers: list = []
+        self._tallies: list[list] = []
         self._closed = False
         self.close_timed_out = False
 
@@ -174,10 +181,21 @@ class ZenohTransport:
         pub.put(data)
 
     def subscribe(self, key_expr: str, callback: Callable[[str, bytes], None]) -> object:
+        tally = [0, 0.0]  # this subscription's (its one thread's: no race) messages and their CPU time
+        self._tallies.append(tally)
+
         def handler(sample) -> None:
+            cpu = time.thread_time()
             callback(str(sample.key_expr), sample.payload.to_bytes())
+            tally[0] += 1
+            tally[1] += time.thread_time() - cpu
 
         return self._declare(key_expr, handler)
+
+    def received(self) -> tuple[int, float]:
+        """The messages its subscriptions delivered so far, and the CPU time (s) their callbacks spent on them
+        (taking the message from Zenoh, and all the callback did: a node's seal, decoding and mailbox)."""
+        return sum(t[0] for t in self._tallies), sum(t[1] for t in self._tallies)
 
     def subscribe_typed(self, key_expr: str, callback: Callable[[str, bytes, str | None], None]) -> object:
         """:meth:`subscribe`, the callback also given the schema of each sample's encoding (``application/cdr;T``:

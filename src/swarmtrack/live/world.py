@@ -99,8 +99,12 @@ class LockstepWorld:
 
     def __init__(self, scenario: Scenario, node: Node, record_to=None, patience: float = PATIENCE,
                  progress: Callable[[float], None] | None = None, mavlink: tuple | None = None,
-                 running: Callable[[int], bool] | None = None, taps=()):
+                 running: Callable[[int], bool] | None = None, taps=(), all_to_all: bool = False):
         self.scenario, self.node, self.patience, self.progress = scenario, node, patience, progress
+        # per-neighbour delivery: each UAV's radio names the UAVs that hear it, and it addresses its messages to them
+        # (all_to_all: it puts them on its own key, which every UAV hears; the radio decides what is kept, as before
+        # issue 41: a reference for the benchmark)
+        self.all_to_all = all_to_all
         self.running = running  # whether the process of a pid is one this world started and it runs
         self.truth = truth = truth_side(scenario)
         self.n = scenario.swarm.n_uavs
@@ -128,6 +132,8 @@ class LockstepWorld:
         self.recorded = 0  # estimation steps recorded
         self.processes: dict[int, tuple[int, int]] = {}  # each UAV's process the world knows: (pid, start time)
         self.cpu: list[float] = []  # the CPU time (s) of a UAV's process per estimation step, over UAVs and steps
+        self.receive: list[tuple[int, float]] = []  # its messages received and their CPU time (s), likewise
+        self.shares_due = 0  # the neighbours' shares the UAVs' radios named for their steps (this step's parts)
         # --mavlink (base port, host, ground-station port): each UAV flies through a simulated autopilot its process
         # talks MAVLink to
         self.fleet = None if mavlink is None else Fleet(self.n, self._now, *mavlink)
@@ -175,6 +181,9 @@ class LockstepWorld:
         for (i, *_), events in sorted(self._autopilot.items(), key=lambda item: item[0][0]):
             self.report.autopilot.setdefault(str(i + 1), []).extend(events)
         self.report.cpu_per_step_ms = percentiles(1e3 * np.asarray(self.cpu))
+        if self.receive:
+            got = np.asarray(self.receive)
+            self.report.received_per_step = {"messages": percentiles(got[:, 0]), "cpu_ms": percentiles(1e3 * got[:, 1])}
         self._finish()
         return self.recorder.close(), self.report
 
@@ -380,7 +389,6 @@ class LockstepWorld:
         parts, beacon links) and the guide's view come in the simulator's order."""
         world, channel, clock, oracle = self.truth.world, self.truth.channel, self.truth.clock, self.truth.oracle
         t = k * clock.dt_estimation
-        due = self._due(t)
         truth = world.truth()
         positions = truth[world.slices["uavs"], :2]
         nav = world.navigation()
@@ -392,15 +400,25 @@ class LockstepWorld:
         view = None if oracle is None else oracle.view()
         heard, mine = self._heard(links), detections.of_each_uav()
         parts = [(step, self._heard(part)) for step, part in parts]
+        self.shares_due += sum(len(parts[0][1][i]) for i in self._listeners()) if parts and parts[0][0] == k else 0
         beacons = None if beacons is None else self._heard(beacons)
+        to, beacon_to = self._receivers(heard), self._receivers(beacons)
+        messages = []
         for i in self._listeners():
             radio = wire.Radio(links=heard[i], parts=[(step, senders[i]) for step, senders in parts],
-                               beacons=[] if beacons is None else beacons[i])
-            self.node.send(i, wire.Navigation(
+                               beacons=[] if beacons is None else beacons[i], to=None if to is None else to[i],
+                               beacon_to=None if beacon_to is None else beacon_to[i])
+            messages.append((i, wire.Navigation(
                 k=k, taken=t, nav=self._own_nav(nav, i), radio=radio,
                 detections={f: wire.pack(getattr(mine[i], f)) for f in FIELDS},
                 guide=None if view is None else _row_of_view(view, i),
-                control=None if beacons is None else world.t, due=due))
+                control=None if beacons is None else world.t)))
+        # in real time the step's sensing and radio are ready before its time (they depend on nothing that comes
+        # later): at its time the messages go at once, and the UAVs are not kept waiting for the world's work
+        due = self._due(t)
+        for i, msg in messages:
+            msg.due = due
+            self.node.send(i, msg)
         if self.fleet is not None:
             self.fleet.publish(t, nav, self._listeners(), self._heights())
         until = self._until(due, clock.dt_estimation)
@@ -422,9 +440,10 @@ class LockstepWorld:
     def control_step(self, k: int, c: int, nav: np.ndarray, beacons) -> None:
         t = self.truth.world.t
         due, heard = self._due(t), self._heard(beacons)
+        beacon_to = self._receivers(heard)
         for i in self._listeners():
-            self.node.send(i, wire.Navigation(k=k, c=c, taken=t, nav=self._own_nav(nav, i),
-                                              radio=wire.Radio(beacons=heard[i]), due=due))
+            self.node.send(i, wire.Navigation(k=k, c=c, taken=t, nav=self._own_nav(nav, i), radio=wire.Radio(
+                beacons=heard[i], beacon_to=None if beacon_to is None else beacon_to[i]), due=due))
         if self.fleet is not None:
             self.fleet.publish(t, nav, self._listeners(), self._heights())
         until = self._until(due, self.truth.clock.dt_control)
@@ -454,6 +473,7 @@ class LockstepWorld:
                 self._autopilot[self._process_of(sample.sender)] = sample.autopilot
             if sample.k >= 0:  # the first sample's CPU is the process's start-up
                 self.cpu.append(sample.cpu)
+                self.receive.append((sample.received, sample.receive_cpu))
 
     def _process_of(self, i: int) -> tuple:
         """Which process of UAV ``i`` the world knows now: ``(i, pid, start time)`` (a rejoined UAV's is another)."""
@@ -565,6 +585,20 @@ class LockstepWorld:
         indptr, senders = neighbour_lists(links)
         return [[s for s in senders[indptr[i]:indptr[i + 1]].tolist() if s in self.alive and s != i]
                 for i in range(self.n)]
+
+    def _receivers(self, heard: list[list[int]] | None) -> list[list[int]] | None:
+        """Each UAV's receivers in ``heard`` (each UAV's senders, :meth:`_heard`): the UAVs its message reaches, now or
+        later (the channel's late parts are subsets of the links of their send step), to which it addresses it.
+        Every receiver, lost ones too: a lost UAV's process is gone (nothing subscribes to its key, and Zenoh sends
+        nothing), and a new one (``--rejoin``) hears what its radio will name. None: all-to-all delivery (or no
+        such message this step)."""
+        if heard is None or self.all_to_all:
+            return None
+        out: list[list[int]] = [[] for _ in range(self.n)]
+        for j, senders in enumerate(heard):
+            for s in senders:
+                out[s].append(j)
+        return out
 
     def _probe(self, i: int, name: str, shape: tuple, samples: dict) -> np.ndarray:
         if i in samples:

@@ -192,8 +192,8 @@ class MultiModelEstimator:
         recv, send = self._heard(inbox)
         own_rows, has, fresh = self._start_fresh(recv, send, got)
         upd = has & ~fresh
-        self._loglik[:] = np.nan
-        self._nis[:] = np.nan
+        self._loglik = np.full(self.n, np.nan)  # each step's own arrays: publish() sends them as they are
+        self._nis = np.full(self.n, np.nan)
         self._measured = upd
         if upd.any():
             self._update(upd, mine, own_rows, got, recv, send, t)
@@ -232,7 +232,7 @@ class MultiModelEstimator:
                 bank.x[rows] = np.concatenate([pos[bank.idx[rows]], np.broadcast_to(
                     bank.x0_hidden, (len(rows), len(bank.x0_hidden)))], axis=1)
                 bank.P[rows] = bank.P0
-        self.initialised |= fresh
+        self.initialised = self.initialised | fresh
         self._all_started = bool(self.initialised.all())
 
     def _update(self, upd, mine, own_rows, got, recv, send, t) -> None:
@@ -247,6 +247,7 @@ class MultiModelEstimator:
         I, b, s, logdet_r, count = I[rows], b[rows], s[rows], logdet_r[rows], count[rows]
         # the measurements' sufficient statistic in position space: ν_pos = I⁻¹ b with covariance I⁻¹
         nu_pos, R_pos = _position_solve(I, b)
+        w = self._windows = self._windows.copy()
         for bank in self._banks:
             local = np.flatnonzero(upd[bank.idx])
             if not len(local):
@@ -255,7 +256,6 @@ class MultiModelEstimator:
             loglik, nis, eps = self._bank_update(bank, local, at, nu_pos, R_pos, I, b, s, logdet_r, count, t)
             uav = bank.idx[local]
             self._loglik[uav], self._nis[uav] = loglik, nis
-            w = self._windows
             w[uav, :-1] = w[uav, 1:]
             w[uav, -1] = eps
 
@@ -309,8 +309,8 @@ class MultiModelEstimator:
             self.out_x, self.out_P = x, P
             self._winner = np.where(self.initialised, self._candidate, -1)
             return {}
-        return {"x": x, "P": P, "loglik": self._loglik.copy(), "measured": self._measured.copy(),
-                "started": self.initialised.copy(), "window": self._windows.copy(), "motion": motion}
+        return {"x": x, "P": P, "loglik": self._loglik, "measured": self._measured, "started": self.initialised,
+                "window": self._windows, "motion": motion}
 
     def _common(self) -> tuple[np.ndarray, np.ndarray]:
         x = np.full((self.n, COMMON), np.nan)

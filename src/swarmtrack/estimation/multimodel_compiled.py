@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from swarmtrack.estimation.base import TargetView
 from swarmtrack.estimation.information import FilterDivergence
 from swarmtrack.estimation.measurements import CameraFrameMeasurement, RangeBearingMeasurement
 from swarmtrack.estimation.multimodel_kernels import (
@@ -110,10 +111,10 @@ class CompiledStep:
             fresh = est._start_fresh(*est._heard(inbox), got)[2]
         mine = est._own
         state = (self.X, self.P, self.pos, self.dim, self.motion, est.initialised, est._windows)
-        est._loglik, est._nis, est._measured, est._windows, ok, self.message = fuse_step(
+        est._loglik, est._nis, est._measured, est._windows, (ok, all_ok), self.message = fuse_step(
             self.meas, (mine["z"], self._aux(mine), mine["seen"]), (got["z"], self._aux(got), got["seen"]),
             links_of(inbox.links), self.team, state, fresh)
-        if not ok.all():
+        if not all_ok:
             for bank in est._banks:  # the first bank with a diverged filter, as the reference raises
                 bad = bank.idx[~ok[bank.idx]]
                 if len(bad):
@@ -121,9 +122,11 @@ class CompiledStep:
                                            "covariance is not positive definite or not finite")
 
     def combine_ttest(self, inbox) -> None:
-        """The T-test's winner of each UAV, its output and the switch count (the reference's ``combine`` of
-        ``fusion: ttest``)."""
+        """The T-test's winner of each UAV, its output, the switch count and the view (the reference's ``combine``
+        of ``fusion: ttest`` and ``view``)."""
         est, got = self.est, inbox.payloads
-        est._winner, est.out_x, est.out_P = combine_ttest(
-            (got["x"], got["P"], got["measured"], got["started"], got["window"]), links_of(inbox.links), self.team,
-            (est._candidate, est.initialised, est._winner), self.policy, est.switches)
+        est._winner, est.out_x, est.out_P, motion = combine_ttest(
+            (got["x"], got["P"], got["measured"], got["started"], got["window"], got["motion"]),
+            links_of(inbox.links), self.team, (est._candidate, est.initialised, est._winner), self.policy,
+            est.switches)
+        est._view = TargetView(est.out_x, model=est._names[est._winner], motion=motion)

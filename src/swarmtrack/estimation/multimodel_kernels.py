@@ -282,8 +282,9 @@ def fuse_step(meas, mine, got, links, team, state, fresh):
     that started from this step's measurements (not updated). ``X``, ``P`` are updated in place.
 
     Returns the rows' ``loglik``, ``nis`` (NaN where not updated), ``measured``, the residual windows (a new array,
-    shifted where updated), ``ok`` (False: the posterior is not finite or not positive definite), and the message:
-    ``x`` (n, 4), ``P`` (n, 4, 4) on ``[x, y, vx, vy]`` (NaN before a filter started) and ``motion`` (n, 3)."""
+    shifted where updated), ``ok`` (False: the posterior is not finite or not positive definite) and whether all are,
+    and the message: ``x`` (n, 4), ``P`` (n, 4, 4) on ``[x, y, vx, vy]`` (NaN before a filter started) and
+    ``motion`` (n, 3)."""
     X, P, pos, dim, motion_kind, initialised, windows = state
     N, world = team
     n, D = pos.shape[0], X.shape[1]
@@ -322,7 +323,7 @@ def fuse_step(meas, mine, got, links, team, state, fresh):
             out_motion[i, 0], out_motion[i, 1] = x[4], x[5]
         elif motion_kind[i] == CT_MOTION:
             out_motion[i, 2] = x[4]
-    return loglik, nis, measured, new_windows, ok, (out_x, out_P, out_motion)
+    return loglik, nis, measured, new_windows, (ok, ok.all()), (out_x, out_P, out_motion)
 
 
 # --- combine: the T-test ----------------------------------------------------------------------------------------
@@ -374,16 +375,17 @@ def combine_ttest(got, links, team, own, policy, switches):
     """Each receiver's output: the valid candidate (its own filter once started; a neighbour's whose message
     arrived and whose filter started) with the least mean residual (W20 eqs. 4.23-4.28); where no valid candidate
     measured this step, the occlusion policy (:data:`LAST`: the last winner while valid, eq. 4.38; :data:`TRACE`,
-    :data:`EIGENVALUE`: 4.39, 4.40). ``got``: ``(x, P, measured, started, window)`` of every sender; ``team``:
-    ``(N, world)``; ``own``: ``(candidate, initialised, winner)``, each receiver's own candidate number, whether its
-    filter started and its last winner (−1: none). Adds the switches in place (W20 Fig. 4.9); returns the winners
-    (−1: none) and the outputs ``x`` (n, 4), ``P`` (n, 4, 4) (NaN without a winner)."""
-    got_x, got_P, got_measured, got_started, got_window = got
+    :data:`EIGENVALUE`: 4.39, 4.40). ``got``: ``(x, P, measured, started, window, motion)`` of every sender;
+    ``team``: ``(N, world)``; ``own``: ``(candidate, initialised, winner)``, each receiver's own candidate number,
+    whether its filter started and its last winner (−1: none). Adds the switches in place (W20 Fig. 4.9); returns
+    the winners (−1: none), the outputs ``x`` (n, 4), ``P`` (n, 4, 4) (NaN without a winner) and the winners'
+    ``[ax, ay, ω]`` (n, 3) (zero without)."""
+    got_x, got_P, got_measured, got_started, got_window, got_motion = got
     N, world = team
     candidate, initialised, last = own
     n = candidate.shape[0]
     winner = np.empty(n, dtype=np.int64)
-    out_x, out_P = np.empty((n, 4)), np.empty((n, 4, 4))
+    out_x, out_P, out_motion = np.empty((n, 4)), np.empty((n, 4, 4)), np.zeros((n, 3))
     heard = np.empty(N, dtype=np.int64)
     valid = np.empty(N, dtype=np.bool_)
     for i in range(n):
@@ -416,4 +418,6 @@ def combine_ttest(got, links, team, own, policy, switches):
             out_x[i, r] = got_x[base + best, r] if best >= 0 else np.nan
             for c in range(4):
                 out_P[i, r, c] = got_P[base + best, r, c] if best >= 0 else np.nan
-    return winner, out_x, out_P
+        if best >= 0:
+            out_motion[i] = got_motion[base + best]
+    return winner, out_x, out_P, out_motion

@@ -75,8 +75,8 @@ class CompiledStep:
             start += m
         self.models = (bank_of, kind, params, F, Q, n_whole, dim)
         self.dim, self.motion = dim[bank_of[self.pos]], motion
-        label = np.asarray(est.label, dtype=np.int64)
-        self.label = np.ascontiguousarray(np.broadcast_to(label, (n,)))  # each row's target's label
+        label = np.asarray(est.label, dtype=np.int64)  # one, or per row (a batch's worlds' targets)
+        self.label = np.ascontiguousarray(label if label.ndim else np.full(n, label))
         self.team = (len(est.team), np.ascontiguousarray(est._world, dtype=np.int64))
         self.camera = isinstance(est.measurement, CameraFrameMeasurement)
         if self.camera:
@@ -89,6 +89,7 @@ class CompiledStep:
         self.policy = _POLICIES[est.occlusion]
         self.no_fresh = np.zeros(n, dtype=bool)
         self.message = None  # what publish() sends, made by fuse()
+        self.cold = True  # the T-test's kernel not called yet
 
     def _aux(self, payload: dict) -> np.ndarray:
         """A payload's pose data as the kernels take it: the camera's ``[A | b]`` (n, 2, 3), the range-bearing
@@ -120,6 +121,17 @@ class CompiledStep:
                 if len(bad):
                     raise FilterDivergence(est.rows.uavs[bad], t, f"the {bank.model.name.upper()} filter's "
                                            "covariance is not positive definite or not finite")
+        if self.cold and est.fusion == "ttest":
+            self._warm(inbox)
+
+    def _warm(self, inbox) -> None:
+        """Call the T-test's kernel once on this step's message, its result thrown away: its first real call comes
+        after the solo steps, and a live UAV's warm-up (:mod:`swarmtrack.onboard.warm`) runs fewer steps, so that
+        call would load numba's cache in the middle of the run, late."""
+        est, (x, P, motion) = self.est, self.message
+        combine_ttest((x, P, est._measured, est.initialised, est._windows, motion), links_of(inbox.links), self.team,
+                      (est._candidate, est.initialised, est._winner), self.policy, est.switches.copy())
+        self.cold = False
 
     def combine_ttest(self, inbox) -> None:
         """The T-test's winner of each UAV, its output, the switch count and the view (the reference's ``combine``

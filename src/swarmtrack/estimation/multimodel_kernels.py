@@ -117,14 +117,14 @@ def _predict(kind, params, F_lin, Q, n_whole, x, P, d, xp, J, M):
 
 @njit(cache=True)
 def share_step(detections, label, X, P, models):
-    """The payload of each of the ``n = len(label)`` rows (``z``, the aux rows ``[A | b]`` or the sensor position,
+    """The payload of each of the ``n`` rows of ``X`` (``z``, the aux rows ``[A | b]`` or the sensor position,
     ``seen``; NaN where row ``i`` did not detect ``label[i]``) from ``detections`` ``(owner, z, aux, label)``, and
     every filter predicted in place. ``models``: ``(bank, kind, params, F, Q, n_whole, dim)``: the bank of each of
     ``X``'s rows and, per bank, the model's number and parameters
     (:func:`~swarmtrack.estimation.predict_kernels.model_params`), ``Q``, the rows of the whole swarm's bank per
     world and the dimension."""
     owner, det_z, det_aux, det_label = detections
-    n = label.shape[0]
+    n = X.shape[0]
     z = np.full((n, det_z.shape[1]), np.nan)
     aux = np.full((n,) + det_aux.shape[1:], np.nan)
     seen = np.zeros(n, dtype=np.bool_)

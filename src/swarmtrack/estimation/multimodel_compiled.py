@@ -20,8 +20,11 @@ from swarmtrack.estimation.multimodel_kernels import (
     CA_MOTION,
     CAMERA,
     CT_MOTION,
+    EIGENVALUE,
+    LAST,
     NO_MOTION,
     RANGE_BEARING,
+    TRACE,
     combine_ttest,
     fuse_step,
     links_of,
@@ -29,8 +32,8 @@ from swarmtrack.estimation.multimodel_kernels import (
 )
 from swarmtrack.estimation.predict_kernels import has_kernel, model_params
 
-#: The occlusion policies by the kernels' numbers (:data:`~swarmtrack.estimation.multimodel_kernels.LAST`, ...).
-_POLICIES = {"last": 0, "trace": 1, "eigenvalue": 2}
+#: The occlusion policies by the kernels' numbers.
+_POLICIES = {"last": LAST, "trace": TRACE, "eigenvalue": EIGENVALUE}
 #: Each model's extra states as ``[ax, ay, ω]`` (the reference's ``_motion``).
 _MOTION = {"ca": CA_MOTION, "ct": CT_MOTION}
 

@@ -40,7 +40,7 @@ from swarmtrack.estimation.predict_kernels import _ct, _fs, fma, fpft
 _LOG_2PI = math.log(2.0 * math.pi)
 #: Measurement kinds of :func:`fuse_step`.
 CAMERA, RANGE_BEARING = 0, 1
-#: Occlusion policies of :func:`combine_ttest` (the order of ``multimodel.OCCLUSION_POLICIES``).
+#: Occlusion policies of :func:`combine_ttest`.
 LAST, TRACE, EIGENVALUE = 0, 1, 2
 #: Extra states of a model as ``[ax, ay, ω]``: none, CA's ``[ax, ay]``, CT's ``ω``.
 NO_MOTION, CA_MOTION, CT_MOTION = 0, 1, 2

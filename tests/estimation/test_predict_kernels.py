@@ -1,5 +1,5 @@
-"""The compiled prediction, IMM likelihood and stacked statistic (numba) equal their numpy references, on random
-inputs and over a short run of the simulator.
+"""The compiled prediction, IMM likelihood and the multi-model step's sums and solve (numba) equal their numpy
+references, on random inputs and over a short run of the simulator.
 
 They repeat numpy's operations in numpy's order (:mod:`swarmtrack.estimation.predict_kernels`): bit for bit where
 numpy's BLAS sums small products in order with fused multiply-adds, as this project's development machine's OpenBLAS
@@ -14,11 +14,11 @@ import pytest
 
 import swarmtrack
 from swarmtrack.estimation import imm, multimodel
+from swarmtrack.estimation import multimodel_kernels as mk
 from swarmtrack.estimation import predict_kernels as pk
 from swarmtrack.estimation.information import symmetrize
 from swarmtrack.estimation.kalman import ekf_predict
-from swarmtrack.estimation.measurements import CameraFrameMeasurement
-from swarmtrack.estimation.multimodel_kernels import camera_statistic, position_solve, stacked_statistic
+from swarmtrack.estimation.measurements import CameraFrameMeasurement, RangeBearingMeasurement
 from swarmtrack.models import make_model
 from swarmtrack.network.rows import Rows
 
@@ -79,47 +79,78 @@ def test_position_loglik_equals_reference():
     _close(pk.position_loglik(I, i, x_pos, P_pos), imm._position_loglik(I, i, x_pos, P_pos))
 
 
-def test_stacked_statistic_equals_reference():
+def _sums(n_terms, H, Rinv, nu, ld):
+    """The step kernel's sums of ``n_terms`` measurements of one receiver, ``[I, b, s, Σ log det R, count]``."""
+    S = np.zeros(9)
+    for e in range(n_terms):
+        mk._add_term(S, nu[e, 0], nu[e, 1], H[e], Rinv[e], ld[e])
+    return S
+
+
+def _flat(statistic) -> np.ndarray:
+    I, b, s, logdet_r, count = statistic
+    return np.concatenate([I[0].ravel(), b[0], s, logdet_r, count])
+
+
+def test_the_step_sums_equal_the_reference():
+    """Σ Hᵀ R⁻¹ H, Σ Hᵀ R⁻¹ ν, Σ νᵀ R⁻¹ ν, Σ log det R and the count of a receiver's measurements (W20 eqs.
+    4.3-4.4) as ``multimodel._statistic`` sums them: own measurement first, then the neighbours'."""
     rng = np.random.default_rng(4)
-    n = 4
-    parts = []
-    for e in (1, 3, 5):  # own measurements, then the neighbours' (one einsum path per size)
-        rows = rng.integers(0, n, size=e)
+    for e in (1, 3, 6):
         H = rng.normal(size=(e, 2, 2))
         Rinv = np.zeros((e, 2, 2))
         Rinv[:, 0, 0], Rinv[:, 1, 1] = rng.uniform(1, 1e3, size=e), rng.uniform(1, 1e3, size=e)
-        parts.append((rows, (rng.normal(size=(e, 2)), H, Rinv, rng.normal(size=e))))
-    ref = multimodel._statistic(n, parts)
-    got = stacked_statistic(n, np.concatenate([p[0] for p in parts]),
-                            *(np.concatenate([p[1][k] for p in parts]) for k in range(4)))
-    for a, b in zip(got, ref, strict=True):
-        _close(a, b)
+        nu, ld = rng.normal(size=(e, 2)), rng.normal(size=e)
+        parts = [(np.zeros(1, dtype=int), (nu[:1], H[:1], Rinv[:1], ld[:1])),
+                 (np.zeros(e - 1, dtype=int), (nu[1:], H[1:], Rinv[1:], ld[1:]))]
+        _close(_sums(e, H, Rinv, nu, ld), _flat(multimodel._statistic(1, parts)))
 
 
-def test_camera_statistic_equals_the_terms_summed():
-    """The camera's sums straight from the payloads equal its terms (measurements.py) summed by the reference."""
+@pytest.mark.parametrize("sensor", ["camera", "range-bearing"])
+def test_the_step_measurements_equal_their_terms(sensor):
+    """The step kernel's camera and range-bearing measurements, linearised at the receiver's prediction, summed as
+    the measurement models' ``terms`` (measurements.py) summed by the reference."""
     rng = np.random.default_rng(5)
-    n, camera = 4, CameraFrameMeasurement(0.0316)
-    mine = {"z": rng.normal(size=(n, 2)), "frame": rng.normal(size=(n, 2, 3))}
-    got = {"z": rng.normal(size=(n, 2)), "frame": rng.normal(size=(n, 2, 3))}
-    x_pos, own = rng.normal(size=(n, 2)), np.array([0, 2, 3])
-    recv, send = np.array([0, 0, 1, 3, 3]), np.array([1, 2, 0, 1, 2])
-    ref = multimodel._statistic(n, [(own, camera.terms(x_pos[own], mine, own)),
-                                    (recv, camera.terms(x_pos[recv], got, send))])
-    fast = camera_statistic(n, x_pos, own, mine["z"], mine["frame"], recv, send, got["z"], got["frame"],
-                            *camera.noise())
-    for a, b in zip(fast, ref, strict=True):
-        _close(a, b)
+    if sensor == "camera":
+        model = CameraFrameMeasurement(0.0316)
+        Rinv, logdet = model.noise()
+        meas = (mk.CAMERA, Rinv, logdet, 0.0)
+    else:
+        model = RangeBearingMeasurement(0.05, 0.02)
+        w = np.array([1.0 / 0.05**2, 1.0 / 0.02**2])
+        meas = (mk.RANGE_BEARING, np.diag(w), float(-np.log(w).sum()), model.min_range)
+    for _ in range(50):
+        n = 4
+        x_pos = rng.normal(size=(1, 2))
+        if sensor == "camera":
+            got = {"z": rng.normal(size=(n, 2)), "frame": rng.normal(size=(n, 2, 3))}
+            aux = got["frame"]
+        else:
+            got = {"z": np.column_stack([rng.uniform(0.1, 3.0, n), rng.uniform(-np.pi, np.pi, n)]),
+                   "sensor_pos": rng.normal(size=(n, 2))}
+            got["sensor_pos"][0] = x_pos[0] + 0.01  # within min_range: the floored range
+            aux = got["sensor_pos"][:, None, :]
+        rows = np.arange(n)
+        ref = multimodel._statistic(1, [(np.zeros(n, dtype=int), model.terms(np.repeat(x_pos, n, 0), got, rows))])
+        S, H = np.zeros(9), np.empty((2, 2))
+        for e in range(n):
+            mk._add_measurement(S, meas, got["z"][e], aux[e], x_pos[0, 0], x_pos[0, 1], H)
+        _close(S, _flat(ref))
 
 
-def test_position_solve_equals_lapack():
+def test_the_step_position_solve_equals_lapack():
     """The 2 x 2 solve with LAPACK's pivoting, both pivot orders, and the symmetrised inverse."""
     rng = np.random.default_rng(6)
     I = _spd(rng, 200, 2)
     I[:100] = I[:100][:, ::-1, ::-1] * np.array([[1.0, -1.0], [-1.0, 1.0]])  # large pivots in both rows
     b = rng.normal(size=(200, 2)) * 3.0
-    for a, r in zip(position_solve(I, b), multimodel._position_solve(I, b), strict=True):
-        _close(a, r)
+    nu_ref, R_ref = multimodel._position_solve(I, b)
+    S, B, Y = np.zeros(9), np.empty((2, 3)), np.empty((2, 3))
+    for k in range(200):
+        S[:4], S[4:6] = I[k].ravel(), b[k]
+        mk._solve(S, B, Y)
+        _close(Y[:, 0], nu_ref[k])
+        _close(0.5 * (Y[:, 1:] + Y[:, 1:].T), R_ref[k])
 
 
 def _probes(name, seconds=2.0):
@@ -133,11 +164,7 @@ def test_short_run_equals_numpy_reference(name, monkeypatch):
     """A 5 s run with the new kernels records what it records with their numpy references (the other compiled
     paths, chosen by the same ``kernels``, left as they are)."""
     fast = _probes(name, 5.0)  # W20 shares from step 100 (3.3 s)
-    monkeypatch.setattr(multimodel, "has_kernel", lambda model: False)
-    monkeypatch.setattr(multimodel, "stacked_statistic", lambda n, rows, *terms: multimodel._statistic(
-        n, [(rows, terms)]))
-    monkeypatch.setattr(multimodel, "CameraFrameMeasurement", type(None))  # the camera's sums through its terms
-    monkeypatch.setattr(multimodel, "position_solve", multimodel._position_solve)
+    monkeypatch.setattr(multimodel.CompiledStep, "of", classmethod(lambda cls, est: None))
     monkeypatch.setattr(imm, "has_kernel", lambda model: False)
     monkeypatch.setattr(imm, "position_loglik", imm._position_loglik)
     slow = _probes(name, 5.0)

@@ -33,9 +33,7 @@ from swarmtrack.estimation import fusion
 from swarmtrack.estimation.base import Probe, TargetView
 from swarmtrack.estimation.information import FilterDivergence, positive_definite, symmetrize
 from swarmtrack.estimation.kalman import ekf_predict
-from swarmtrack.estimation.measurements import CameraFrameMeasurement
-from swarmtrack.estimation.multimodel_kernels import camera_statistic, position_solve, stacked_statistic, stacked_update
-from swarmtrack.estimation.predict_kernels import has_kernel, model_params, predict_bank
+from swarmtrack.estimation.multimodel_compiled import CompiledStep
 from swarmtrack.models.base import MotionModel
 from swarmtrack.network.rows import Rows
 
@@ -49,8 +47,7 @@ W20_STAY = 0.99
 
 def _statistic(n: int, parts):
     """Σ Hᵀ R⁻¹ H, Σ Hᵀ R⁻¹ ν, Σ νᵀ R⁻¹ ν, Σ log det R and the count per receiver over ``parts`` of measurements
-    ``(rows, (ν, H, R⁻¹, log det R))`` (the numpy reference of
-    :func:`~swarmtrack.estimation.multimodel_kernels.stacked_statistic`)."""
+    ``(rows, (ν, H, R⁻¹, log det R))``."""
     I = np.zeros((n, 2, 2))  # Σ Hᵀ R⁻¹ H
     b = np.zeros((n, 2))  # Σ Hᵀ R⁻¹ ν
     s = np.zeros(n)  # Σ νᵀ R⁻¹ ν
@@ -67,8 +64,7 @@ def _statistic(n: int, parts):
 
 
 def _position_solve(I: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``I⁻¹ b`` and ``sym(I⁻¹)`` by one solve (the numpy reference of
-    :func:`~swarmtrack.estimation.multimodel_kernels.position_solve`)."""
+    """``I⁻¹ b`` and ``sym(I⁻¹)`` by one solve."""
     sol = np.linalg.solve(I, np.concatenate([b[..., None], np.broadcast_to(np.eye(2), I.shape)], axis=-1))
     return sol[..., 0], symmetrize(sol[..., 1:])
 
@@ -82,16 +78,10 @@ class _Bank:
         self.P0, self.x0_hidden = P0, x0_hidden
         self.x = np.zeros((len(idx), model.dim))
         self.P = np.broadcast_to(P0, (len(idx), model.dim, model.dim)).copy()
-        self.kernel = None  # (kind, params, F, Q) of the compiled prediction, where it is used
 
     def predict(self) -> None:
-        """``x(k|k-1)``, ``P(k|k-1)`` (W20 eqs. 4.7-4.9): the compiled kernel
-        (:func:`~swarmtrack.estimation.predict_kernels.predict_bank`) or its numpy reference, the same numbers."""
-        if self.kernel is None:
-            self.x, self.P = ekf_predict(self.model, self.x, self.P, self.rows)
-        else:  # a batch's worlds each as alone: one world's filters of this model are the "whole"
-            kind, params, F, Q = self.kernel
-            self.x, _, self.P = predict_bank(kind, params, F, self.x, self.P, Q, self.rows.n // self.rows.worlds)
+        """``x(k|k-1)``, ``P(k|k-1)`` (W20 eqs. 4.7-4.9)."""
+        self.x, self.P = ekf_predict(self.model, self.x, self.P, self.rows)
 
 
 class MultiModelEstimator:
@@ -101,9 +91,10 @@ class MultiModelEstimator:
     :mod:`swarmtrack.estimation.measurements`; ``fusion`` one of :data:`FUSIONS`; ``occlusion`` one of
     :data:`OCCLUSION_POLICIES`; ``window`` the T-test's n; ``markov`` the (N, N) switching matrix of the IMM kinds
     (rows sum to 1); ``P0`` per model name, (d, d); ``x0_hidden`` per model name, the initial states after
-    ``[x, y]`` (zeros, CT's ω0 = 1e-5); ``compiled``: the numba prediction
-    (:mod:`swarmtrack.estimation.predict_kernels`) and stacked update (:mod:`swarmtrack.estimation.multimodel_kernels`)
-    instead of their numpy references.
+    ``[x, y]`` (zeros, CT's ω0 = 1e-5); ``compiled``: the step compiled
+    (:class:`~swarmtrack.estimation.multimodel_compiled.CompiledStep`: every UAV's prediction, update and message in
+    one call, the T-test in one), where it applies (models with a compiled prediction, the camera or range-bearing
+    sensor), instead of this class's numpy reference; the same numbers (tests hold them equal).
 
     Built for a subset of the swarm's UAVs (one UAV's own process): ``models`` are theirs, ``team`` (N,) the names
     of every UAV's model (the candidates a UAV fuses and names in its view) and ``rows`` which UAVs they are; every
@@ -130,7 +121,6 @@ class MultiModelEstimator:
         self.n, self.label, self.measurement = n, label, measurement
         self.fusion, self.occlusion, self.window, self.solo_steps = fusion_rule, occlusion, window, solo_steps
         self.model_names = self.team  # of every candidate, by the swarm's UAVs
-        self.compiled = compiled  # the numba stacked update (multimodel_kernels), same numbers as the numpy one
         n_team = len(self.team)
         self._worlds = self.rows.worlds
         self._world, self._candidate = np.divmod(self.rows.uavs, n_team)  # each row's world and candidate number
@@ -143,12 +133,10 @@ class MultiModelEstimator:
             hidden = np.asarray(x0_hidden.get(name, np.zeros(model.dim - 2)), dtype=float)
             members = np.flatnonzero(np.tile(np.asarray(self.team) == name, self._worlds))  # the swarm's filters
             rows = Rows(np.searchsorted(members, self.rows.uavs[idx]), len(members), self._worlds)
-            bank = _Bank(model, idx, np.asarray(P0[name], dtype=float), hidden, rows)
-            if compiled and has_kernel(model):
-                bank.kernel = (*model_params(model), np.ascontiguousarray(model.Q, dtype=float))
-            self._banks.append(bank)
+            self._banks.append(_Bank(model, idx, np.asarray(P0[name], dtype=float), hidden, rows))
         self._k = 0
         self.initialised = np.zeros(n, dtype=bool)
+        self._all_started = False  # every filter started (no fresh filter can come)
         self._x_pos = np.zeros((n, 2))  # each filter's predicted position, where measurements are linearised
         self._windows = np.full((n, window + 1), np.nan)  # eq. 4.24 sums n + 1 residuals
         self._loglik = np.full(n, np.nan)
@@ -163,21 +151,28 @@ class MultiModelEstimator:
         self._own = None
         self._posterior = self._common()
         self._team_motion = np.zeros((n, 3))  # the [ax, ay, ω] of the filters each UAV heard from (publish/combine)
+        self._names = np.asarray([*self.team, None], dtype=object)  # each candidate's model name; [-1]: none
+        self._view: TargetView | None = None  # view() of this step (publish and combine change it)
         self.probes = (Probe("estimate", (COMMON,)), Probe("covariance", (COMMON, COMMON)),
                        Probe("own_estimate", (COMMON,)), Probe("detected", ()), Probe("measured", ()),
                        Probe("nis", ()), Probe("winner", ()), Probe("switches", ()))
         if fusion_rule in ("imm-thesis", "imm"):
             self.probes += (Probe("probability", (n_team,)),)
+        self._fast = CompiledStep.of(self) if compiled else None  # None: this class's numpy reference
+        self.compiled = self._fast is not None
 
     # --- the steps the engine drives -------------------------------------------------------------------------
     def share(self, t: float, nav: np.ndarray, own) -> dict:
         """Predict every filter (W20 eqs. 4.7-4.9) and broadcast this UAV's raw measurement and pose data (after the
         first ``solo_steps`` steps; before, nobody shares)."""
         self._k += 1
-        for bank in self._banks:
-            bank.predict()
-            self._x_pos[bank.idx] = bank.x[:, :2]
-        self._own = self.measurement.payload(own, self.label)
+        if self._fast is not None:
+            self._own = self._fast.share(own)
+        else:
+            for bank in self._banks:
+                bank.predict()
+                self._x_pos[bank.idx] = bank.x[:, :2]
+            self._own = self.measurement.payload(own, self.label)
         self._detected = self._own["seen"].astype(float)
         if self._sharing:
             return self._own
@@ -190,10 +185,30 @@ class MultiModelEstimator:
     def fuse(self, t: float, own, inbox) -> None:
         """Stack own and delivered measurements and update (W20 eqs. 4.3-4.4, 4.10-4.13); start filters that have
         none from their first measurement (Table 4.1)."""
+        if self._fast is not None:
+            self._fast.fuse(t, inbox)
+            return
         mine, got = self._own, inbox.payloads
+        recv, send = self._heard(inbox)
+        own_rows, has, fresh = self._start_fresh(recv, send, got)
+        upd = has & ~fresh
+        self._loglik = np.full(self.n, np.nan)  # each step's own arrays: publish() sends them as they are
+        self._nis = np.full(self.n, np.nan)
+        self._measured = upd
+        if upd.any():
+            self._update(upd, mine, own_rows, got, recv, send, t)
+
+    @staticmethod
+    def _heard(inbox) -> tuple[np.ndarray, np.ndarray]:
+        """``(receivers, senders)`` of the delivered messages that carry a measurement."""
         recv, send = inbox.edges()
-        keep = got["seen"][send]
-        recv, send = recv[keep], send[keep]
+        keep = inbox.payloads["seen"][send]
+        return recv[keep], send[keep]
+
+    def _start_fresh(self, recv, send, got) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Start the filters that have a measurement (their own, or delivered ``recv`` ← ``send``) for the first
+        time; returns the rows that measured, which have a measurement and which started now."""
+        mine = self._own
         own_rows = np.flatnonzero(mine["seen"])
         has = np.zeros(self.n, dtype=bool)
         has[own_rows] = True
@@ -201,12 +216,7 @@ class MultiModelEstimator:
         fresh = has & ~self.initialised
         if fresh.any():
             self._start(fresh, mine, own_rows, got, recv, send)
-        upd = has & ~fresh
-        self._loglik[:] = np.nan
-        self._nis[:] = np.nan
-        self._measured = upd
-        if upd.any():
-            self._update(upd, mine, own_rows, got, recv, send, t)
+        return own_rows, has, fresh
 
     def _start(self, fresh, mine, own_rows, got, recv, send) -> None:
         """``x̂0 = [h⁻¹(z0); 0]``, ``P0`` from each fresh filter's first measurement, its own before a neighbour's."""
@@ -222,45 +232,37 @@ class MultiModelEstimator:
                 bank.x[rows] = np.concatenate([pos[bank.idx[rows]], np.broadcast_to(
                     bank.x0_hidden, (len(rows), len(bank.x0_hidden)))], axis=1)
                 bank.P[rows] = bank.P0
-        self.initialised |= fresh
+        self.initialised = self.initialised | fresh
+        self._all_started = bool(self.initialised.all())
 
     def _update(self, upd, mine, own_rows, got, recv, send, t) -> None:
         n = self.n
         own_rows = own_rows[upd[own_rows]]
         pick = upd[recv]
         recv, send = recv[pick], send[pick]
-        if self.compiled and isinstance(self.measurement, CameraFrameMeasurement):  # the sums from the payloads
-            I, b, s, logdet_r, count = camera_statistic(n, self._x_pos, own_rows, mine["z"], mine["frame"], recv,
-                                                        send, got["z"], got["frame"], *self.measurement.noise())
-        else:
-            parts = [(own_rows, self.measurement.terms(self._x_pos[own_rows], mine, own_rows)),
-                     (recv, self.measurement.terms(self._x_pos[recv], got, send))]
-            if self.compiled:  # the same sums, compiled (multimodel_kernels.stacked_statistic)
-                I, b, s, logdet_r, count = stacked_statistic(n, np.concatenate([p[0] for p in parts]), *(
-                    np.ascontiguousarray(np.concatenate([p[1][k] for p in parts])) for k in range(4)))
-            else:
-                I, b, s, logdet_r, count = _statistic(n, parts)
+        parts = [(own_rows, self.measurement.terms(self._x_pos[own_rows], mine, own_rows)),
+                 (recv, self.measurement.terms(self._x_pos[recv], got, send))]
+        I, b, s, logdet_r, count = _statistic(n, parts)
         rows = np.flatnonzero(upd)
         I, b, s, logdet_r, count = I[rows], b[rows], s[rows], logdet_r[rows], count[rows]
         # the measurements' sufficient statistic in position space: ν_pos = I⁻¹ b with covariance I⁻¹
-        nu_pos, R_pos = (position_solve if self.compiled else _position_solve)(I, b)
+        nu_pos, R_pos = _position_solve(I, b)
+        w = self._windows = self._windows.copy()
         for bank in self._banks:
             local = np.flatnonzero(upd[bank.idx])
             if not len(local):
                 continue
             at = np.searchsorted(rows, bank.idx[local])
-            update = self._compiled_update if self.compiled else self._bank_update
-            loglik, nis, eps = update(bank, local, at, nu_pos, R_pos, I, b, s, logdet_r, count, t)
+            loglik, nis, eps = self._bank_update(bank, local, at, nu_pos, R_pos, I, b, s, logdet_r, count, t)
             uav = bank.idx[local]
             self._loglik[uav], self._nis[uav] = loglik, nis
-            w = self._windows
             w[uav, :-1] = w[uav, 1:]
             w[uav, -1] = eps
 
     def _bank_update(self, bank, local, at, nu_pos, R_pos, I, b, s, logdet_r, count, t):
-        """Update the filters ``local`` of ``bank`` from their rows ``at`` of the position-space statistic (the
-        numpy reference of :func:`~swarmtrack.estimation.multimodel_kernels.stacked_update`). Returns the stacked
-        log-likelihood (eq. 4.31), the NIS and the per-measurement posterior residual (eq. 4.28) of each."""
+        """Update the filters ``local`` of ``bank`` from their rows ``at`` of the position-space statistic. Returns
+        the stacked log-likelihood (eq. 4.31), the NIS and the per-measurement posterior residual (eq. 4.28) of
+        each."""
         x, P = bank.x[local], bank.P[local]
         R_pos, nu, Ia = R_pos[at], nu_pos[at], I[at]
         S = symmetrize(P[:, :2, :2] + R_pos)  # innovation covariance Υ (eq. 4.30), position form
@@ -289,11 +291,6 @@ class MultiModelEstimator:
                + (d0 * d0 * Ia[:, 0, 0] + 2.0 * d0 * d1 * ia01 + d1 * d1 * Ia[:, 1, 1]))
         return loglik, quad, eps / count[at]
 
-    def _compiled_update(self, bank, local, at, nu_pos, R_pos, I, b, s, logdet_r, count, t):
-        loglik, nis, eps, ok = stacked_update(bank.x, bank.P, local, at, nu_pos, R_pos, I, b, s, logdet_r, count)
-        self._check(bank, local, ok & np.isfinite(bank.x[local]).all(axis=-1), t)
-        return loglik, nis, eps
-
     def _check(self, bank: _Bank, local: np.ndarray, ok: np.ndarray, t: float) -> None:
         """Raise :class:`FilterDivergence` naming the UAVs, the model and the time where ``ok`` is False."""
         if ok.all():
@@ -303,15 +300,17 @@ class MultiModelEstimator:
 
     def publish(self, t: float) -> dict:
         """Broadcast the posterior on ``[x, y, vx, vy]``, the likelihood and the residual window (W20 Sec. 4.3.4)."""
-        x, P = self._posterior = self._common()  # what sample() records as own_estimate (before any mixing)
-        motion = self._motion()
+        self._view = None
+        # what sample() records as own_estimate (before any mixing); the compiled step made them in fuse()
+        x, P, motion = (*self._common(), self._motion()) if self._fast is None else self._fast.message
+        self._posterior = x, P
         self._team_motion = self.rows.widen(motion)  # by the swarm's UAVs, as the view reads it
         if not self._sharing or self.fusion == "none":
             self.out_x, self.out_P = x, P
             self._winner = np.where(self.initialised, self._candidate, -1)
             return {}
-        return {"x": x, "P": P, "loglik": self._loglik.copy(), "measured": self._measured.copy(),
-                "started": self.initialised.copy(), "window": self._windows.copy(), "motion": motion}
+        return {"x": x, "P": P, "loglik": self._loglik, "measured": self._measured, "started": self.initialised,
+                "window": self._windows, "motion": motion}
 
     def _common(self) -> tuple[np.ndarray, np.ndarray]:
         x = np.full((self.n, COMMON), np.nan)
@@ -333,8 +332,12 @@ class MultiModelEstimator:
 
     def combine(self, t: float, inbox) -> None:
         """Fuse the candidates each UAV received (itself and the neighbours whose messages arrived) into its output."""
+        self._view = None
         got = inbox.payloads
         self._team_motion = got["motion"]
+        if self._fast is not None and self.fusion == "ttest":
+            self._fast.combine_ttest(inbox)
+            return
         n, n_team, own = self.n, len(self.team), self._candidate
         recv, send = inbox.edges()
         valid = np.zeros((n, n_team), dtype=bool)
@@ -418,11 +421,12 @@ class MultiModelEstimator:
     def view(self) -> TargetView:
         """Each UAV's output estimate ``[x, y, vx, vy]`` (NaN before its filter started), with the model and the
         extra states of the filter it uses now (T-test winner, most probable filter, or its own)."""
-        ok = self._winner >= 0
-        pick = np.maximum(self._winner, 0)
-        model = np.where(ok, np.asarray(self.model_names, dtype=object)[pick], None)
-        return TargetView(self.out_x, model=model,
-                          motion=np.where(ok[:, None], self._team_motion[self._sender(pick)], 0.0))
+        if self._view is None:
+            ok = self._winner >= 0
+            motion = self._team_motion[self._sender(np.maximum(self._winner, 0))]
+            self._view = TargetView(self.out_x, model=self._names[self._winner],
+                                    motion=np.where(ok[:, None], motion, 0.0))
+        return self._view
 
     def sample(self) -> dict[str, np.ndarray]:
         own = self._posterior[0]

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from swarmtrack.analysis.papers import w20
-from swarmtrack.capabilities.multi_model.sensor import ImperfectCamera
+from swarmtrack.capabilities.multi_model.sensor import CompiledCamera, ImperfectCamera
 from swarmtrack.scenarios import load_scenario
 from swarmtrack.scenarios.loader import ScenarioError
 from swarmtrack.sim.batch import simulate_batch
@@ -27,7 +27,8 @@ def test_each_ideal_variant_is_its_scenario_without_the_budget(name):
     for k in BUDGET_KEYS:
         budget["sensor"].pop(k), ideal["sensor"].pop(k)
     assert budget == ideal
-    assert type(build(load_scenario(w20.IDEAL[name])).world.sensor) is CameraSensor
+    assert type(build(load_scenario(w20.IDEAL[name], ["kernels=numpy"])).world.sensor) is CameraSensor
+    assert type(build(load_scenario(w20.IDEAL[name])).world.sensor) is CompiledCamera  # its frames compiled
     assert type(build(load_scenario(name)).world.sensor) is ImperfectCamera
 
 

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from swarmtrack.capabilities.multi_model import camera_kernels
 from swarmtrack.sensors import camera
 from swarmtrack.sensors.detections import Detections
 from swarmtrack.sim.sensors import CameraSensor, Scene, hidden_by
@@ -51,6 +52,9 @@ class ImperfectCamera(CameraSensor):
 
     budget: Budget = Budget()
     state: dict = field(default_factory=dict, compare=False, repr=False)
+    #: its frames in one compiled call (:mod:`.camera_kernels`), the same numbers (with the marker noise's powers
+    #: numpy takes by a fast path, :func:`~.camera_kernels.exact`; others numpy's)
+    compiled: bool = False
 
     def _constants(self, scene: Scene, rows: int) -> tuple[np.ndarray, np.ndarray]:
         """(rows, 3) gimbal-to-body translation errors and (rows, 2) servo zero offsets (yaw, tilt)."""
@@ -63,38 +67,72 @@ class ImperfectCamera(CameraSensor):
         return offset, zero
 
     def sense(self, scene: Scene) -> tuple[Detections, np.ndarray]:
-        objects, uavs = scene.objects, scene.uavs
-        rows, worlds = len(uavs), scene.worlds
-        n = rows // worlds
+        frame = _Frame(self, scene)
+        rows = frame.rows
         st = self.state
         if "offset" not in st:
-            st["offset"], st["zero"] = self._constants(scene, rows) if objects.shape[0] else \
+            st["offset"], st["zero"] = self._constants(scene, rows) if scene.objects.shape[0] else \
                 (np.zeros((rows, 3)), np.zeros((rows, 2)))
-        stamped, noise = scene.stamped(), scene.normal()
-        aim = np.broadcast_to(self.home, (rows, 2)) if scene.aim is None else np.asarray(scene.aim, dtype=float)
-        aim = np.where(np.isfinite(aim).all(axis=-1, keepdims=True), aim, self.home)
-        commanded = camera.angles(stamped, self.height, aim)
-        actual = np.stack(commanded, axis=-1)
-        if self.budget.servo:
-            if "servo" in st:
-                actual = camera.servo_step(st["servo"], actual, scene.t - st["t"], self.budget.deadband,
-                                           self.budget.speed)
+        commanded, b = frame.angles, self.budget
+        turning = b.servo and "servo" in st  # the servos turn from where they were (the first frame: commanded)
+        if self.compiled:
+            actual, pointed = camera_kernels.pointed(commanded, st["servo"] if turning else None,
+                                                     scene.t - st["t"] if turning else 0.0, b, st["zero"])
+        else:
+            actual = np.stack(commanded, axis=-1)
+            if turning:
+                actual = camera.servo_step(st["servo"], actual, scene.t - st["t"], b.deadband, b.speed)
+            pointed = actual + st["zero"]
+            pointed = (pointed[:, 0], pointed[:, 1])
+        if b.servo:
             st["servo"], st["t"] = actual, scene.t
-        pointed = actual + st["zero"]
+        pointing = camera.Pointing(tuple(frame.per_world(c) for c in commanded),
+                                   tuple(frame.per_world(c) for c in pointed), frame.per_world(st["offset"]),
+                                   (b.reference_range, b.distance_power, b.angle_power))
+        fast = self.compiled and camera_kernels.exact(b.distance_power, b.angle_power)
+        return frame.sense(camera_kernels.frames if fast else camera.sense_imperfect, pointing)
 
-        def per_world(a: np.ndarray) -> np.ndarray:
-            return a.reshape(worlds, n, *a.shape[1:])
 
-        if worlds > 1:
+@dataclass(frozen=True)
+class CompiledCamera(CameraSensor):
+    """The ideal camera (:class:`~swarmtrack.sim.sensors.CameraSensor`) with its frames in one compiled call
+    (:func:`~swarmtrack.capabilities.multi_model.camera_kernels.frames`): the same numbers."""
+
+    def sense(self, scene: Scene) -> tuple[Detections, np.ndarray]:
+        frame = _Frame(self, scene)
+        angles = tuple(frame.per_world(a) for a in frame.angles)
+        return frame.sense(camera_kernels.frames, camera.Pointing(angles, angles, None))
+
+
+class _Frame:
+    """What a camera's frame reads of the scene, per world (B, n, ...): the UAVs' true and stamped positions, their
+    own world's objects and labels, the noise, the occluded pairs (a run alone) and the gimbal angles the UAVs
+    command towards their aim points (``home`` before they have an estimate)."""
+
+    def __init__(self, sensor: CameraSensor, scene: Scene):
+        self.sensor, self.scene = sensor, scene
+        uavs = scene.uavs
+        self.rows, self.worlds = len(uavs), scene.worlds
+        self.n = self.rows // self.worlds
+        self.stamped = scene.stamped()
+        aim = np.broadcast_to(sensor.home, (self.rows, 2)) if scene.aim is None else np.asarray(scene.aim, float)
+        aim = np.where(np.isfinite(aim).all(axis=-1, keepdims=True), aim, sensor.home)
+        self.angles = camera.angles(self.stamped, sensor.height, aim)
+
+    def per_world(self, a: np.ndarray) -> np.ndarray:
+        return a.reshape(self.worlds, self.n, *a.shape[1:])
+
+    def sense(self, frames, pointing: camera.Pointing) -> tuple[Detections, np.ndarray]:
+        """``frames`` (:func:`~swarmtrack.sensors.camera.sense_imperfect` or its compiled twin) of this frame."""
+        scene, sensor = self.scene, self.sensor
+        objects = scene.objects
+        if self.worlds > 1:
             labels = scene.world_labels()
             objs, hidden = objects[labels], None
         else:
             labels = np.arange(len(objects))[None]
-            objs, hidden = objects[None], hidden_by(self.occluders, objects, rows, scene.t)
-        b = self.budget
-        pointing = camera.Pointing(tuple(per_world(c) for c in commanded),
-                                   (per_world(pointed[:, 0]), per_world(pointed[:, 1])), per_world(st["offset"]),
-                                   (b.reference_range, b.distance_power, b.angle_power))
-        return camera.sense_imperfect(objs, per_world(uavs), per_world(stamped), self.height, pointing,
-                                      self.tan_half, self.sigma, noise.reshape(worlds, n, -1, 2), labels, hidden,
-                                      scene.taken)
+            objs, hidden = objects[None], hidden_by(sensor.occluders, objects, self.rows, scene.t)
+        noise = scene.normal()
+        return frames(objs, self.per_world(scene.uavs), self.per_world(self.stamped), sensor.height, pointing,
+                      sensor.tan_half, sensor.sigma, noise.reshape(self.worlds, self.n, -1, 2), labels, hidden,
+                      scene.taken)

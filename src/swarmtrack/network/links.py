@@ -122,12 +122,100 @@ def neighbour_sum(links: Links, payload: np.ndarray, receivers: np.ndarray | Non
     """
     flat = payload.reshape(payload.shape[0], -1)
     shape = (links.shape[0], *payload.shape[1:])
-    if is_sparse(links):  # bool CSR @ float upcasts by itself (no float copy of the links: 4x faster)
-        return np.asarray(links @ flat).reshape(shape)
+    if is_sparse(links):
+        if flat.dtype == np.float64 and flat.shape[1] <= 4 and links.dtype == bool and links.data.all():
+            return _csr_sum(links.indptr, links.indices, np.ascontiguousarray(flat)).reshape(shape)
+        return np.asarray(links @ flat).reshape(shape)  # bool CSR @ float upcasts by itself (no float copy)
     weights = links.astype(payload.dtype)
     if receivers is None or _square(links):
         return (weights @ flat).reshape(shape)
     return Rows(receivers, links.shape[1]).matmul(weights, flat).reshape(shape)
+
+
+def neighbour_sums(links: Links, first: np.ndarray, second: np.ndarray,
+                   receivers: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`neighbour_sum` of two payloads, ``(Σ_j first_j, Σ_j second_j)``: the same numbers, in one pass over CSR
+    links for float64 payloads of up to four numbers each per UAV (the information filter's ``I`` and ``i``)."""
+    if is_sparse(links):
+        a, b = first.reshape(first.shape[0], -1), second.reshape(second.shape[0], -1)
+        if (a.dtype == np.float64 and b.dtype == np.float64 and a.shape[1] <= 4 and b.shape[1] <= 4
+                and links.dtype == bool and links.data.all()):
+            sa, sb = _csr_sum_pair(links.indptr, links.indices, np.ascontiguousarray(a), np.ascontiguousarray(b))
+            return (sa.reshape(links.shape[0], *first.shape[1:]), sb.reshape(links.shape[0], *second.shape[1:]))
+    return neighbour_sum(links, first, receivers), neighbour_sum(links, second, receivers)
+
+
+@numba.njit(cache=True)
+def _csr_sum_pair(indptr, indices, a, b):  # pragma: no cover (compiled)
+    """:func:`_csr_sum` of ``a`` (N, ≤ 4) and ``b`` (N, ≤ 4) in one pass over the links, each column summed as
+    :func:`_csr_sum` sums it."""
+    rows, ka, kb = len(indptr) - 1, a.shape[1], b.shape[1]
+    out_a, out_b = np.empty((rows, ka)), np.empty((rows, kb))
+    for i in range(rows):
+        a0 = a1 = a2 = a3 = b0 = b1 = b2 = b3 = 0.0
+        for jj in range(indptr[i], indptr[i + 1]):
+            j = indices[jj]
+            a0 += a[j, 0]
+            if ka > 1:
+                a1 += a[j, 1]
+            if ka > 2:
+                a2 += a[j, 2]
+            if ka > 3:
+                a3 += a[j, 3]
+            b0 += b[j, 0]
+            if kb > 1:
+                b1 += b[j, 1]
+            if kb > 2:
+                b2 += b[j, 2]
+            if kb > 3:
+                b3 += b[j, 3]
+        out_a[i, 0] = a0
+        if ka > 1:
+            out_a[i, 1] = a1
+        if ka > 2:
+            out_a[i, 2] = a2
+        if ka > 3:
+            out_a[i, 3] = a3
+        out_b[i, 0] = b0
+        if kb > 1:
+            out_b[i, 1] = b1
+        if kb > 2:
+            out_b[i, 2] = b2
+        if kb > 3:
+            out_b[i, 3] = b3
+    return out_a, out_b
+
+
+@numba.njit(cache=True)
+def _csr_sum(indptr, indices, flat):  # pragma: no cover (compiled)
+    """``links @ flat`` of bool CSR links with every stored value true and ``flat`` (N, k) float64: each receiver's
+    senders' rows added in the links' order to a row of zeros, as scipy's ``csr_matvec``/``csr_matvecs`` add them
+    (``y += 1.0 · x``, the product exact), so the sums are scipy's bit for bit (tested), without scipy's float copy
+    of the links' values. Four columns at a time, each summed in a register of its own (twice as fast as scipy up to
+    four columns; wider payloads go to scipy)."""
+    rows, k = len(indptr) - 1, flat.shape[1]
+    out = np.empty((rows, k))
+    for m0 in range(0, k, 4):
+        cols = min(4, k - m0)
+        for i in range(rows):
+            a0 = a1 = a2 = a3 = 0.0
+            for jj in range(indptr[i], indptr[i + 1]):
+                j = indices[jj]
+                a0 += flat[j, m0]
+                if cols > 1:
+                    a1 += flat[j, m0 + 1]
+                if cols > 2:
+                    a2 += flat[j, m0 + 2]
+                if cols > 3:
+                    a3 += flat[j, m0 + 3]
+            out[i, m0] = a0
+            if cols > 1:
+                out[i, m0 + 1] = a1
+            if cols > 2:
+                out[i, m0 + 2] = a2
+            if cols > 3:
+                out[i, m0 + 3] = a3
+    return out
 
 
 def rows_of(links: Links, receivers: np.ndarray) -> Links:
@@ -197,16 +285,28 @@ def proximity_links(positions: np.ndarray, r_comm: float, *, sparse: bool | None
     """UAVs strictly closer than ``r_comm`` hear each other: ``‖q_i − q_j‖² < r_comm²`` (no self-loops).
 
     ``positions`` (N, d). Dense: all pairs, O(N²), in one compiled pass (:func:`_proximity_dense`, the test of
-    :func:`proximity_blocks`). Sparse: candidate pairs from a KD-tree queried a hair beyond r_comm
-    (``cKDTree.query_pairs`` counts distance == r as inside, and rounds its own way), then the same squared-distance
-    test as the dense form, so both give exactly the same links, including pairs at exactly r_comm (out) and
-    coincident UAVs (in).
+    :func:`proximity_blocks`). Sparse, planar positions: a compiled sweep over strips (:func:`_proximity_grid`, O(N +
+    candidate pairs)) writes the canonical CSR arrays directly; positions spread over too many strips of width
+    r_comm/2 (:data:`GRID_CELLS_PER_UAV` per UAV), non-finite ones or other dimensions: candidate pairs from a KD-tree
+    queried a hair beyond r_comm (``cKDTree.query_pairs`` counts distance == r as inside, and rounds its own way).
+    Either way a candidate pair is kept by the same squared-distance test as the dense form, so all forms give
+    exactly the same links, including pairs at exactly r_comm (out) and coincident UAVs (in).
     """
     q = np.asarray(positions, dtype=float)
     n = q.shape[0]
     r2 = float(r_comm) * float(r_comm)
     if not _wants_sparse(n, sparse):
         return _proximity_dense(np.ascontiguousarray(q), r2)
+    if _grid_fits(q, r_comm):
+        return _csr_of(n, *_proximity_grid(np.ascontiguousarray(q), r2, float(r_comm) * _CELL_MARGIN))
+    return _proximity_kdtree(q, r_comm)
+
+
+def _proximity_kdtree(q: np.ndarray, r_comm: float) -> sp.csr_array:
+    """The sparse :func:`proximity_links` of positions the strips do not take (and the strips' reference in
+    the tests): candidate pairs from a KD-tree, kept by the squared-distance test."""
+    n = q.shape[0]
+    r2 = float(r_comm) * float(r_comm)
     from scipy.spatial import cKDTree
 
     tree = cKDTree(q, balanced_tree=False, compact_nodes=False)  # faster to build, same pairs
@@ -218,6 +318,161 @@ def proximity_links(positions: np.ndarray, r_comm: float, *, sparse: bool | None
     key = np.sort(np.concatenate([a * n + b, b * n + a]))
     rows, cols = np.divmod(key, n)
     return _sorted_csr(n, rows, cols)
+
+
+#: The strips of :func:`proximity_links` are used while the positions' extent along x holds at most this many strips
+#: of width r_comm/2 per UAV (beyond, a scattered swarm with few links, a KD-tree finds them).
+GRID_CELLS_PER_UAV = 16
+#: The strips of :func:`_proximity_grid` are this much wider than r_comm/2, its windows along y this much wider than
+#: r_comm: a pair closer than r_comm is always within two strips and a window of each other, whatever the rounding.
+_CELL_MARGIN = 1.0 + 1e-9
+
+
+def _grid_fits(q: np.ndarray, r_comm: float) -> bool:
+    """Whether :func:`_proximity_grid` takes the positions ``q``: planar, finite, r_comm > 0 and their extent along x at
+    most :data:`GRID_CELLS_PER_UAV` strips of width r_comm/2 per UAV."""
+    if not (q.ndim == 2 and q.shape[1] == 2 and len(q) and float(r_comm) > 0.0 and np.isfinite(q).all()):
+        return False
+    strips = float(np.ptp(q[:, 0])) / (0.5 * float(r_comm) * _CELL_MARGIN) + 1.0
+    return strips <= GRID_CELLS_PER_UAV * len(q) + 1024
+
+
+def _proximity_grid(q: np.ndarray, r2: float, width: float) -> tuple[np.ndarray, np.ndarray]:
+    """CSR ``(indptr, indices)`` (rows sorted; int32 while the links fit, else int64) of the pairs ``i ≠ j`` of planar
+    ``q`` (N, 2), finite, with ``(q_i0 − q_j0)² + (q_i1 − q_j1)² < r2`` (summed as :func:`_squared_distance` sums
+    it; the squares of opposite differences are equal, so the test is symmetric), from vertical strips of width
+    ``width / 2`` (``width`` ≥ √r2 with a margin; the caller bounds their number), each sorted along y:
+    :func:`_grid_degrees` sorts the points into the strips and counts each one's links, :func:`_grid_fill` writes
+    them. A point's candidates are the points of its strip and the two on either side within ``width`` along y: an
+    area of 5 r², 1.6 times the disc's."""
+    strips = _grid_degrees(q, r2, width)
+    idx, ranked_degree = strips[1], strips[-1]
+    degree = np.empty(len(q), dtype=np.int64)
+    degree[idx] = ranked_degree
+    indptr = np.zeros(len(q) + 1, dtype=np.int64)
+    np.cumsum(degree, out=indptr[1:])
+    ranked_ptr = np.zeros(len(q) + 1, dtype=np.int64)
+    np.cumsum(ranked_degree, out=ranked_ptr[1:])
+    index = np.int32 if indptr[-1] < 2**31 - 1 else np.int64
+    indptr = indptr.astype(index)
+    indices = np.empty(int(indptr[-1]), dtype=index)
+    _grid_fill(q, r2, strips[:-1], ranked_ptr, indptr, indices)
+    return indptr, indices
+
+
+@numba.njit(cache=True)
+def _grid_degrees(q, r2, width):  # pragma: no cover (compiled)
+    """The strips of :func:`_proximity_grid` and each point's number of links. The points are sorted by their strip
+    ``int((x − x0) / (width/2))`` (a counting sort), then along y within each strip: ``idx`` the points in that order
+    (a point's *rank* is its place in it, ``rank`` its inverse), ``xs``, ``ys`` their coordinates. ``window[b, o]``
+    holds the ranks of strip ``s + o − 2`` (``s`` rank b's strip) within ``width`` of rank b along y, from sweeps
+    that only move up as b does. Each pair is tested once: a point against the points above it in its own strip's
+    window, and those of the next two strips' windows. Returns ``(rank, idx, xs, ys, window, degree)``, ``degree`` by
+    rank."""
+    n = q.shape[0]
+    half = 0.5 * width
+    x0, x1 = q[0, 0], q[0, 0]
+    for i in range(n):
+        x0, x1 = min(x0, q[i, 0]), max(x1, q[i, 0])
+    ns = int((x1 - x0) / half) + 1
+    strip = np.empty(n, dtype=np.int64)
+    start = np.zeros(ns + 1, dtype=np.int64)
+    for i in range(n):
+        strip[i] = int((q[i, 0] - x0) / half)
+        start[strip[i] + 1] += 1
+    for s in range(ns):
+        start[s + 1] += start[s]
+    fill = start[:-1].copy()
+    idx = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        idx[fill[strip[i]]] = i
+        fill[strip[i]] += 1
+    ys = np.empty(n)
+    for b in range(n):
+        ys[b] = q[idx[b], 1]
+    for s in range(ns):  # along y within each strip
+        lo, hi = start[s], start[s + 1]
+        if hi - lo > 1:
+            order = np.argsort(ys[lo:hi], kind="mergesort")
+            part = idx[lo:hi].copy()
+            for k in range(hi - lo):
+                idx[lo + k] = part[order[k]]
+    xs = np.empty(n)
+    rank = np.empty(n, dtype=np.int64)
+    for b in range(n):
+        xs[b] = q[idx[b], 0]
+        ys[b] = q[idx[b], 1]
+        rank[idx[b]] = b
+    window = np.zeros((n, 5, 2), dtype=np.int64)
+    for s in range(ns):
+        for o in range(5):
+            t = s + o - 2
+            if t < 0 or t >= ns:
+                continue  # no such strip: an empty window
+            lo = hi = start[t]
+            for b in range(start[s], start[s + 1]):
+                while lo < start[t + 1] and ys[lo] < ys[b] - width:
+                    lo += 1
+                hi = max(hi, lo)
+                while hi < start[t + 1] and ys[hi] <= ys[b] + width:
+                    hi += 1
+                window[b, o, 0], window[b, o, 1] = lo, hi
+    degree = np.zeros(n, dtype=np.int64)
+    for a in range(n):
+        ax, ay = xs[a], ys[a]
+        for o in range(2, 5):
+            lo = a + 1 if o == 2 else window[a, o, 0]
+            for b in range(lo, window[a, o, 1]):
+                d = ax - xs[b]
+                sq = d * d
+                d = ay - ys[b]
+                sq = sq + d * d
+                near = sq < r2  # added without a branch: about a third of the candidates are links
+                degree[a] += near
+                degree[b] += near
+    return rank, idx, xs, ys, window, degree
+
+
+@numba.njit(cache=True)
+def _grid_fill(q, r2, strips, ranked_ptr, indptr, indices):  # pragma: no cover (compiled)
+    """Fill ``indices`` of :func:`_proximity_grid`: the senders ``j`` in increasing order, each written into the row of
+    every point it links to (in its windows of its own strip and the two on either side), so each row comes out
+    sorted. The rows are written in the order of the points' ranks first (``ranked_ptr``: where each rank's row
+    starts), where the rows a sender writes to lie in five runs, then copied to their places (``indptr``) a row at a
+    time: the writes one by one into rows in the points' own order, which are not ordered in space, would each fall
+    on a line of memory of its own."""
+    rank, idx, xs, ys, window = strips
+    n = q.shape[0]
+    # rank b's row at ranked_ptr[b] + b .. ranked_ptr[b + 1] + b, and one spare slot after it: every candidate is
+    # written at its row's next slot, and only a link moves the row on (without a branch: a third of the candidates
+    # are links, in no order a predictor could learn)
+    ranked = np.empty(len(indices) + n, dtype=indices.dtype)
+    at = ranked_ptr[:-1] + np.arange(n)
+    for j in range(n):
+        jx, jy, r = q[j, 0], q[j, 1], rank[j]
+        for o in range(5):
+            for b in range(window[r, o, 0], window[r, o, 1]):
+                d = jx - xs[b]
+                sq = d * d
+                d = jy - ys[b]
+                sq = sq + d * d
+                k = at[b]
+                ranked[k] = j
+                at[b] = k + ((sq < r2) & (b != r))
+    for b in range(n):
+        i = idx[b]
+        first = indptr[i] - ranked_ptr[b] - b
+        for k in range(ranked_ptr[b] + b, ranked_ptr[b + 1] + b):
+            indices[first + k] = ranked[k]
+
+
+def _csr_of(n: int, indptr: np.ndarray, indices: np.ndarray) -> sp.csr_array:
+    """Bool CSR of canonical arrays (rows sorted, distinct, off-diagonal)."""
+    from scipy import sparse as sp
+
+    A = sp.csr_array((np.ones(indices.size, dtype=bool), indices, indptr), shape=(n, n))
+    A.has_sorted_indices = True
+    return A
 
 
 def proximity_blocks(positions: np.ndarray, r_comm: float) -> np.ndarray:

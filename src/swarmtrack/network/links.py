@@ -331,7 +331,7 @@ _CELL_MARGIN = 1.0 + 1e-9
 def _grid_fits(q: np.ndarray, r_comm: float) -> bool:
     """Whether :func:`_proximity_grid` takes the positions ``q``: planar, finite, r_comm > 0 and their extent along x at
     most :data:`GRID_CELLS_PER_UAV` strips of width r_comm/2 per UAV."""
-    if not (q.ndim == 2 and q.shape[1] == 2 and len(q) and float(r_comm) > 0.0 and np.isfinite(q).all()):
+    if not (q.ndim == 2 and q.shape[1] == 2 and 0 < len(q) < 2**31 and float(r_comm) > 0.0 and np.isfinite(q).all()):
         return False
     strips = float(np.ptp(q[:, 0])) / (0.5 * float(r_comm) * _CELL_MARGIN) + 1.0
     return strips <= GRID_CELLS_PER_UAV * len(q) + 1024
@@ -341,34 +341,28 @@ def _proximity_grid(q: np.ndarray, r2: float, width: float) -> tuple[np.ndarray,
     """CSR ``(indptr, indices)`` (rows sorted; int32 while the links fit, else int64) of the pairs ``i ≠ j`` of planar
     ``q`` (N, 2), finite, with ``(q_i0 − q_j0)² + (q_i1 − q_j1)² < r2`` (summed as :func:`_squared_distance` sums
     it; the squares of opposite differences are equal, so the test is symmetric), from vertical strips of width
-    ``width / 2`` (``width`` ≥ √r2 with a margin; the caller bounds their number), each sorted along y:
-    :func:`_grid_degrees` sorts the points into the strips and counts each one's links, :func:`_grid_fill` writes
-    them. A point's candidates are the points of its strip and the two on either side within ``width`` along y: an
-    area of 5 r², 1.6 times the disc's."""
-    strips = _grid_degrees(q, r2, width)
-    idx, ranked_degree = strips[1], strips[-1]
-    degree = np.empty(len(q), dtype=np.int64)
-    degree[idx] = ranked_degree
+    ``width / 2`` (``width`` ≥ √r2 with a margin; the caller bounds their number), each sorted along y
+    (:func:`_grid_strips`): a point's candidates are the points of its strip and the two on either side within
+    ``width`` along y, an area of 5 r², 1.6 times the disc's. :func:`_grid_fill` tests them and writes the links,
+    :func:`_grid_rows` puts the rows in place."""
+    strips = _grid_strips(q, width)
+    degree, ranked, first, count = _grid_fill(q, r2, *strips)
     indptr = np.zeros(len(q) + 1, dtype=np.int64)
     np.cumsum(degree, out=indptr[1:])
-    ranked_ptr = np.zeros(len(q) + 1, dtype=np.int64)
-    np.cumsum(ranked_degree, out=ranked_ptr[1:])
     index = np.int32 if indptr[-1] < 2**31 - 1 else np.int64
     indptr = indptr.astype(index)
     indices = np.empty(int(indptr[-1]), dtype=index)
-    _grid_fill(q, r2, strips[:-1], ranked_ptr, indptr, indices)
+    _grid_rows(strips[0], ranked, first, count, indptr, indices)
     return indptr, indices
 
 
 @numba.njit(cache=True)
-def _grid_degrees(q, r2, width):  # pragma: no cover (compiled)
-    """The strips of :func:`_proximity_grid` and each point's number of links. The points are sorted by their strip
-    ``int((x − x0) / (width/2))`` (a counting sort), then along y within each strip: ``idx`` the points in that order
-    (a point's *rank* is its place in it, ``rank`` its inverse), ``xs``, ``ys`` their coordinates. ``window[b, o]``
-    holds the ranks of strip ``s + o − 2`` (``s`` rank b's strip) within ``width`` of rank b along y, from sweeps
-    that only move up as b does. Each pair is tested once: a point against the points above it in its own strip's
-    window, and those of the next two strips' windows. Returns ``(rank, idx, xs, ys, window, degree)``, ``degree`` by
-    rank."""
+def _grid_strips(q, width):  # pragma: no cover (compiled)
+    """The strips of :func:`_proximity_grid`: the points sorted by their strip ``int((x − x0) / (width/2))`` (a
+    counting sort), then along y within each strip. Returns ``(idx, xs, ys, window)``: ``idx`` the points in that
+    order (a point's *rank* is its place in it), ``xs``, ``ys`` their coordinates, ``window[b, o]`` the ranks of strip
+    ``s + o − 2`` (``s`` rank b's strip) within ``width`` of rank b along y (from sweeps that only move up as b does;
+    b is in its own window, and b is in c's windows where c is in b's)."""
     n = q.shape[0]
     half = 0.5 * width
     x0, x1 = q[0, 0], q[0, 0]
@@ -398,11 +392,9 @@ def _grid_degrees(q, r2, width):  # pragma: no cover (compiled)
             for k in range(hi - lo):
                 idx[lo + k] = part[order[k]]
     xs = np.empty(n)
-    rank = np.empty(n, dtype=np.int64)
     for b in range(n):
         xs[b] = q[idx[b], 0]
         ys[b] = q[idx[b], 1]
-        rank[idx[b]] = b
     window = np.zeros((n, 5, 2), dtype=np.int64)
     for s in range(ns):
         for o in range(5):
@@ -417,37 +409,31 @@ def _grid_degrees(q, r2, width):  # pragma: no cover (compiled)
                 while hi < start[t + 1] and ys[hi] <= ys[b] + width:
                     hi += 1
                 window[b, o, 0], window[b, o, 1] = lo, hi
-    degree = np.zeros(n, dtype=np.int64)
-    for a in range(n):
-        ax, ay = xs[a], ys[a]
-        for o in range(2, 5):
-            lo = a + 1 if o == 2 else window[a, o, 0]
-            for b in range(lo, window[a, o, 1]):
-                d = ax - xs[b]
-                sq = d * d
-                d = ay - ys[b]
-                sq = sq + d * d
-                near = sq < r2  # added without a branch: about a third of the candidates are links
-                degree[a] += near
-                degree[b] += near
-    return rank, idx, xs, ys, window, degree
+    return idx, xs, ys, window
 
 
 @numba.njit(cache=True)
-def _grid_fill(q, r2, strips, ranked_ptr, indptr, indices):  # pragma: no cover (compiled)
-    """Fill ``indices`` of :func:`_proximity_grid`: the senders ``j`` in increasing order, each written into the row of
-    every point it links to (in its windows of its own strip and the two on either side), so each row comes out
-    sorted. The rows are written in the order of the points' ranks first (``ranked_ptr``: where each rank's row
-    starts), where the rows a sender writes to lie in five runs, then copied to their places (``indptr``) a row at a
-    time: the writes one by one into rows in the points' own order, which are not ordered in space, would each fall
-    on a line of memory of its own."""
-    rank, idx, xs, ys, window = strips
+def _grid_fill(q, r2, idx, xs, ys, window):  # pragma: no cover (compiled)
+    """The links of :func:`_proximity_grid`, by rank: the senders ``j`` in increasing order, each written into the row
+    of every point of its windows it links to, so each row comes out sorted. Rank b's row starts at ``first[b]``
+    with room for its candidates (the points whose windows hold b: those of b's windows) and holds ``count[b]``
+    links. Every candidate is written at its row's next slot and only a link moves the row on, without a branch (a
+    third of the candidates are links, in no order a predictor could learn); the rows of a sender's candidates lie
+    in five runs of ranks, near each other in memory. Returns ``(degree, ranked, first, count)``, ``degree`` by
+    point."""
     n = q.shape[0]
-    # rank b's row at ranked_ptr[b] + b .. ranked_ptr[b + 1] + b, and one spare slot after it: every candidate is
-    # written at its row's next slot, and only a link moves the row on (without a branch: a third of the candidates
-    # are links, in no order a predictor could learn)
-    ranked = np.empty(len(indices) + n, dtype=indices.dtype)
-    at = ranked_ptr[:-1] + np.arange(n)
+    first = np.empty(n + 1, dtype=np.int64)
+    first[0] = 0
+    for b in range(n):
+        room = 0
+        for o in range(5):
+            room += window[b, o, 1] - window[b, o, 0]
+        first[b + 1] = first[b] + room
+    ranked = np.empty(first[n], dtype=np.int32)  # point numbers (the caller has fewer than 2**31 points)
+    at = first[:-1].copy()
+    rank = np.empty(n, dtype=np.int64)
+    for b in range(n):
+        rank[idx[b]] = b
     for j in range(n):
         jx, jy, r = q[j, 0], q[j, 1], rank[j]
         for o in range(5):
@@ -459,11 +445,20 @@ def _grid_fill(q, r2, strips, ranked_ptr, indptr, indices):  # pragma: no cover 
                 k = at[b]
                 ranked[k] = j
                 at[b] = k + ((sq < r2) & (b != r))
+    count = at - first[:-1]
+    degree = np.empty(n, dtype=np.int64)
     for b in range(n):
-        i = idx[b]
-        first = indptr[i] - ranked_ptr[b] - b
-        for k in range(ranked_ptr[b] + b, ranked_ptr[b + 1] + b):
-            indices[first + k] = ranked[k]
+        degree[idx[b]] = count[b]
+    return degree, ranked, first, count
+
+
+@numba.njit(cache=True)
+def _grid_rows(idx, ranked, first, count, indptr, indices):  # pragma: no cover (compiled)
+    """Copy each rank's row of :func:`_grid_fill` to its point's place in the CSR arrays."""
+    for b in range(len(idx)):
+        src, dst = first[b], indptr[idx[b]]
+        for k in range(count[b]):
+            indices[dst + k] = ranked[src + k]
 
 
 def _csr_of(n: int, indptr: np.ndarray, indices: np.ndarray) -> sp.csr_array:

@@ -260,10 +260,11 @@ def _same_csr(a, b):
 
 
 @pytest.mark.parametrize("seed", range(3))
-def test_the_cell_list_gives_the_kd_trees_links_exactly(seed):
-    """Sparse proximity links from the cell list (:func:`_proximity_grid`) are the KD-tree's, array for array (CSR
+def test_the_strips_give_the_kd_trees_links_exactly(seed):
+    """Sparse proximity links from the strips (:func:`_proximity_grid`) are the KD-tree's, array for array (CSR
     canonical: rows sorted, same index types): uniform swarms sparse to crowded, a line, one spot, integer grids with
-    pairs at exactly r_comm and on the cells' edges, pairs a rounding away from r_comm, coincident UAVs."""
+    pairs at exactly r_comm and on the strips' edges, pairs a rounding away from r_comm in every direction, coincident
+    UAVs."""
     from swarmtrack.network.links import _grid_fits, _proximity_kdtree
 
     rng = np.random.default_rng(seed)
@@ -275,6 +276,12 @@ def test_the_cell_list_gives_the_kd_trees_links_exactly(seed):
     near = rng.uniform(-20, 20, (400, 2))
     near[1::2] = near[::2] + 4.8 * np.array([1.0, 0.0]) * (1 + rng.integers(-3, 4, (200, 1)) * np.finfo(float).eps)
     cases.append(near)
+    # pairs a rounding away from r_comm in every direction: on the edges of the outer strips' shorter windows too
+    ring = rng.uniform(-30, 30, (600, 2))
+    angle = rng.uniform(0, 2 * np.pi, 300)
+    scale = 4.8 * (1 + rng.integers(-4, 5, 300) * np.finfo(float).eps)
+    ring[1::2] = ring[::2] + np.stack([np.cos(angle), np.sin(angle)], axis=1) * scale[:, None]
+    cases.append(ring)
     for q in cases:
         for r_comm in (4.8, 6.0, 3.0 * np.sqrt(2.0)):
             assert _grid_fits(q, r_comm)
@@ -284,8 +291,8 @@ def test_the_cell_list_gives_the_kd_trees_links_exactly(seed):
     assert np.array_equal(proximity_links(q, 6.0, sparse=True).toarray(), _brute_force(q, 6.0))
 
 
-def test_positions_the_cell_list_does_not_take_go_to_the_kd_tree():
-    """A scattered swarm (far more cells than UAVs), 3-D positions: the KD-tree's links, the same as the dense form's;
+def test_positions_the_strips_do_not_take_go_to_the_kd_tree():
+    """A scattered swarm (far more strips than UAVs), 3-D positions: the KD-tree's links, the same as the dense form's;
     a NaN position too (which the KD-tree refuses, as it always did)."""
     from swarmtrack.network.links import GRID_CELLS_PER_UAV, _grid_fits
 
@@ -297,7 +304,7 @@ def test_positions_the_cell_list_does_not_take_go_to_the_kd_tree():
     solid = np.random.default_rng(3).uniform(-10, 10, (400, 3))
     assert _grid_fits(q, 4.8) and not _grid_fits(far, 4.8) and not _grid_fits(nan, 4.8)
     assert not _grid_fits(solid, 4.8) and not _grid_fits(q, 0.0)
-    assert (np.ptp(far, axis=0) / 4.8).prod() > GRID_CELLS_PER_UAV * len(far)
+    assert np.ptp(far[:, 0]) / 4.8 * 3 > GRID_CELLS_PER_UAV * len(far)
     with pytest.raises(ValueError, match="finite"):
         proximity_links(nan, 4.8, sparse=True)
     for p in (far, solid):
@@ -345,3 +352,26 @@ def test_two_sums_in_one_pass_are_the_two_sums():
             for g, p in zip(got, (first, second), strict=True):
                 expected = neighbour_sum(A, p)
                 assert g.shape == expected.shape and g.tobytes() == expected.tobytes()
+
+
+def test_the_outer_strips_shorter_windows_hold_every_pair_closer_than_r_comm():
+    """White box: pairs just within r_comm, whole strips apart along x (just across a strip's edge) and as far
+    apart along y as that lets them be, for each strip the windows reach: every one is a link, as the KD-tree says."""
+    from swarmtrack.network.links import _CELL_MARGIN, _STRIPS, _proximity_kdtree
+
+    r = 4.8
+    step = r * _CELL_MARGIN / _STRIPS
+    points = [[0.0, 0.0]]  # the smallest x: the strips start here
+    for o in range(1, _STRIPS + 1):
+        for k in range(40):
+            x = (5 * k + 2) * step - 1e-9 * (k % 3)  # at or just before a strip's edge
+            dx = (o - 1) * step + 1e-9 * (1 + k % 4)
+            dy = np.sqrt(r * r - dx * dx) * (1 - 1e-12 * (1 + k % 5))
+            y = 30.0 * k
+            points += [[x, y], [x + dx, y + dy], [x + 0.5 * step, y + 12.0], [x + 0.5 * step + dx, y + 12.0 - dy]]
+    q = np.array(points)
+    q = np.concatenate([q, np.random.default_rng(0).uniform(0, q[:, 0].max(), (300, 2)) + [0.0, 1300.0]])
+    links = proximity_links(q, r, sparse=True)
+    assert _same_csr(links, _proximity_kdtree(q, r))
+    pairs = np.arange(1, 1 + 4 * 40 * _STRIPS, 2)
+    assert links[pairs, pairs + 1].all()

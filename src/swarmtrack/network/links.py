@@ -21,6 +21,7 @@ at N = 10,000) whatever the number of links; the CSR form costs O(N + links).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Union
 
@@ -287,7 +288,7 @@ def proximity_links(positions: np.ndarray, r_comm: float, *, sparse: bool | None
     ``positions`` (N, d). Dense: all pairs, O(N²), in one compiled pass (:func:`_proximity_dense`, the test of
     :func:`proximity_blocks`). Sparse, planar positions: a compiled sweep over strips (:func:`_proximity_grid`, O(N +
     candidate pairs)) writes the canonical CSR arrays directly; positions spread over too many strips of width
-    r_comm/2 (:data:`GRID_CELLS_PER_UAV` per UAV), non-finite ones or other dimensions: candidate pairs from a KD-tree
+    r_comm/3 (:data:`GRID_CELLS_PER_UAV` per UAV), non-finite ones or other dimensions: candidate pairs from a KD-tree
     queried a hair beyond r_comm (``cKDTree.query_pairs`` counts distance == r as inside, and rounds its own way).
     Either way a candidate pair is kept by the same squared-distance test as the dense form, so all forms give
     exactly the same links, including pairs at exactly r_comm (out) and coincident UAVs (in).
@@ -321,29 +322,35 @@ def _proximity_kdtree(q: np.ndarray, r_comm: float) -> sp.csr_array:
 
 
 #: The strips of :func:`proximity_links` are used while the positions' extent along x holds at most this many strips
-#: of width r_comm/2 per UAV (beyond, a scattered swarm with few links, a KD-tree finds them).
+#: of width r_comm/3 per UAV (beyond, a scattered swarm with few links, a KD-tree finds them).
 GRID_CELLS_PER_UAV = 16
-#: The strips of :func:`_proximity_grid` are this much wider than r_comm/2, its windows along y this much wider than
-#: r_comm: a pair closer than r_comm is always within two strips and a window of each other, whatever the rounding.
-_CELL_MARGIN = 1.0 + 1e-9
+#: The strips of :func:`_proximity_grid` are this much wider than r_comm/3, its windows along y this much taller than
+#: the pairs closer than r_comm reach: such a pair is always within three strips and a window of each other, whatever
+#: the rounding (of the strips' numbers too, up to :data:`_MAX_STRIPS` strips).
+_CELL_MARGIN = 1.0 + 1e-6
+#: Strips per r_comm of :func:`_proximity_grid`.
+_STRIPS = 3
+#: At most this many strips: their numbers are then rounded by far less than :data:`_CELL_MARGIN`.
+_MAX_STRIPS = 1e9
 
 
 def _grid_fits(q: np.ndarray, r_comm: float) -> bool:
     """Whether :func:`_proximity_grid` takes the positions ``q``: planar, finite, r_comm > 0 and their extent along x at
-    most :data:`GRID_CELLS_PER_UAV` strips of width r_comm/2 per UAV."""
+    most :data:`GRID_CELLS_PER_UAV` strips of width r_comm/3 per UAV."""
     if not (q.ndim == 2 and q.shape[1] == 2 and 0 < len(q) < 2**31 and float(r_comm) > 0.0 and np.isfinite(q).all()):
         return False
-    strips = float(np.ptp(q[:, 0])) / (0.5 * float(r_comm) * _CELL_MARGIN) + 1.0
-    return strips <= GRID_CELLS_PER_UAV * len(q) + 1024
+    strips = float(np.ptp(q[:, 0])) / (float(r_comm) * _CELL_MARGIN / _STRIPS) + 1.0
+    return strips <= min(GRID_CELLS_PER_UAV * len(q) + 1024, _MAX_STRIPS)
 
 
 def _proximity_grid(q: np.ndarray, r2: float, width: float) -> tuple[np.ndarray, np.ndarray]:
     """CSR ``(indptr, indices)`` (rows sorted; int32 while the links fit, else int64) of the pairs ``i ≠ j`` of planar
     ``q`` (N, 2), finite, with ``(q_i0 − q_j0)² + (q_i1 − q_j1)² < r2`` (summed as :func:`_squared_distance` sums
     it; the squares of opposite differences are equal, so the test is symmetric), from vertical strips of width
-    ``width / 2`` (``width`` ≥ √r2 with a margin; the caller bounds their number), each sorted along y
-    (:func:`_grid_strips`): a point's candidates are the points of its strip and the two on either side within
-    ``width`` along y, an area of 5 r², 1.6 times the disc's. :func:`_grid_fill` tests them and writes the links,
+    ``width / 3`` (``width`` ≥ √r2 with a margin; the caller bounds their number), each sorted along y
+    (:func:`_grid_strips`): a point's candidates are the points of its strip and the three on either side within
+    ``width`` along y (less in the outer strips, which are farther along x), an area of 4.25 r², 1.35 times the
+    disc's (2.9 times for square cells of width r). :func:`_grid_fill` tests them and writes the links,
     :func:`_grid_rows` puts the rows in place."""
     strips = _grid_strips(q, width)
     degree, ranked, first, count = _grid_fill(q, r2, *strips)
@@ -358,21 +365,22 @@ def _proximity_grid(q: np.ndarray, r2: float, width: float) -> tuple[np.ndarray,
 
 @numba.njit(cache=True)
 def _grid_strips(q, width):  # pragma: no cover (compiled)
-    """The strips of :func:`_proximity_grid`: the points sorted by their strip ``int((x − x0) / (width/2))`` (a
+    """The strips of :func:`_proximity_grid`: the points sorted by their strip ``int((x − x0) / (width/3))`` (a
     counting sort), then along y within each strip. Returns ``(idx, xs, ys, window)``: ``idx`` the points in that
     order (a point's *rank* is its place in it), ``xs``, ``ys`` their coordinates, ``window[b, o]`` the ranks of strip
-    ``s + o − 2`` (``s`` rank b's strip) within ``width`` of rank b along y (from sweeps that only move up as b does;
-    b is in its own window, and b is in c's windows where c is in b's)."""
+    ``s + o − 3`` (``s`` rank b's strip) within ``reach[o]`` of rank b along y (``width``, less where the strip is
+    more than one strip away along x: a pair whole strips apart along x is that much closer along y), from sweeps
+    that only move up as b does. Every point within √r2 of b lies in b's windows, and b in its own."""
     n = q.shape[0]
-    half = 0.5 * width
+    step = width / _STRIPS
     x0, x1 = q[0, 0], q[0, 0]
     for i in range(n):
         x0, x1 = min(x0, q[i, 0]), max(x1, q[i, 0])
-    ns = int((x1 - x0) / half) + 1
+    ns = int((x1 - x0) / step) + 1
     strip = np.empty(n, dtype=np.int64)
     start = np.zeros(ns + 1, dtype=np.int64)
     for i in range(n):
-        strip[i] = int((q[i, 0] - x0) / half)
+        strip[i] = int((q[i, 0] - x0) / step)
         start[strip[i] + 1] += 1
     for s in range(ns):
         start[s + 1] += start[s]
@@ -395,18 +403,23 @@ def _grid_strips(q, width):  # pragma: no cover (compiled)
     for b in range(n):
         xs[b] = q[idx[b], 0]
         ys[b] = q[idx[b], 1]
-    window = np.zeros((n, 5, 2), dtype=np.int64)
+    windows = 2 * _STRIPS + 1
+    reach = np.empty(windows)  # each window's half-height: a strip o apart is at least (|o| − 1)·step away along x
+    for o in range(windows):
+        gap = max(abs(o - _STRIPS) - 1, 0) * step * (2.0 - _CELL_MARGIN)  # less the margin (the strips' rounding)
+        reach[o] = math.sqrt(max(width * width - gap * gap, 0.0)) * _CELL_MARGIN
+    window = np.zeros((n, windows, 2), dtype=np.int64)
     for s in range(ns):
-        for o in range(5):
-            t = s + o - 2
+        for o in range(windows):
+            t = s + o - _STRIPS
             if t < 0 or t >= ns:
                 continue  # no such strip: an empty window
             lo = hi = start[t]
             for b in range(start[s], start[s + 1]):
-                while lo < start[t + 1] and ys[lo] < ys[b] - width:
+                while lo < start[t + 1] and ys[lo] < ys[b] - reach[o]:
                     lo += 1
                 hi = max(hi, lo)
-                while hi < start[t + 1] and ys[hi] <= ys[b] + width:
+                while hi < start[t + 1] and ys[hi] <= ys[b] + reach[o]:
                     hi += 1
                 window[b, o, 0], window[b, o, 1] = lo, hi
     return idx, xs, ys, window
@@ -419,14 +432,14 @@ def _grid_fill(q, r2, idx, xs, ys, window):  # pragma: no cover (compiled)
     with room for its candidates (the points whose windows hold b: those of b's windows) and holds ``count[b]``
     links. Every candidate is written at its row's next slot and only a link moves the row on, without a branch (a
     third of the candidates are links, in no order a predictor could learn); the rows of a sender's candidates lie
-    in five runs of ranks, near each other in memory. Returns ``(degree, ranked, first, count)``, ``degree`` by
+    in seven runs of ranks, near each other in memory. Returns ``(degree, ranked, first, count)``, ``degree`` by
     point."""
     n = q.shape[0]
     first = np.empty(n + 1, dtype=np.int64)
     first[0] = 0
     for b in range(n):
         room = 0
-        for o in range(5):
+        for o in range(window.shape[1]):
             room += window[b, o, 1] - window[b, o, 0]
         first[b + 1] = first[b] + room
     ranked = np.empty(first[n], dtype=np.int32)  # point numbers (the caller has fewer than 2**31 points)
@@ -436,7 +449,7 @@ def _grid_fill(q, r2, idx, xs, ys, window):  # pragma: no cover (compiled)
         rank[idx[b]] = b
     for j in range(n):
         jx, jy, r = q[j, 0], q[j, 1], rank[j]
-        for o in range(5):
+        for o in range(window.shape[1]):
             for b in range(window[r, o, 0], window[r, o, 1]):
                 d = jx - xs[b]
                 sq = d * d

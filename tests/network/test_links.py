@@ -261,11 +261,11 @@ def _same_csr(a, b):
 
 @pytest.mark.parametrize("seed", range(3))
 def test_the_strips_give_the_kd_trees_links_exactly(seed):
-    """Sparse proximity links from the strips (:func:`_proximity_grid`) are the KD-tree's, array for array (CSR
+    """Sparse proximity links from the strips (:func:`_proximity_strips`) are the KD-tree's, array for array (CSR
     canonical: rows sorted, same index types): uniform swarms sparse to crowded, a line, one spot, integer grids with
     pairs at exactly r_comm and on the strips' edges, pairs a rounding away from r_comm in every direction, coincident
     UAVs."""
-    from swarmtrack.network.links import _grid_fits, _proximity_kdtree
+    from swarmtrack.network.links import _proximity_kdtree, _strips_fit
 
     rng = np.random.default_rng(seed)
     g = np.arange(30) * 3.0
@@ -284,7 +284,7 @@ def test_the_strips_give_the_kd_trees_links_exactly(seed):
     cases.append(ring)
     for q in cases:
         for r_comm in (4.8, 6.0, 3.0 * np.sqrt(2.0)):
-            assert _grid_fits(q, r_comm)
+            assert _strips_fit(q, r_comm)
             links = proximity_links(q, r_comm, sparse=True)
             assert _canonical(links) and _same_csr(links, _proximity_kdtree(q, r_comm))
     q = cases[-2]
@@ -294,7 +294,7 @@ def test_the_strips_give_the_kd_trees_links_exactly(seed):
 def test_positions_the_strips_do_not_take_go_to_the_kd_tree():
     """A scattered swarm (far more strips than UAVs), 3-D positions: the KD-tree's links, the same as the dense form's;
     a NaN position too (which the KD-tree refuses, as it always did)."""
-    from swarmtrack.network.links import GRID_CELLS_PER_UAV, _grid_fits
+    from swarmtrack.network.links import STRIPS_PER_UAV, _strips_fit
 
     q = _swarm(400, 3)
     far = q.copy()
@@ -302,9 +302,9 @@ def test_positions_the_strips_do_not_take_go_to_the_kd_tree():
     nan = q.copy()
     nan[5, 1] = np.nan
     solid = np.random.default_rng(3).uniform(-10, 10, (400, 3))
-    assert _grid_fits(q, 4.8) and not _grid_fits(far, 4.8) and not _grid_fits(nan, 4.8)
-    assert not _grid_fits(solid, 4.8) and not _grid_fits(q, 0.0)
-    assert np.ptp(far[:, 0]) / 4.8 * 3 > GRID_CELLS_PER_UAV * len(far)
+    assert _strips_fit(q, 4.8) and not _strips_fit(far, 4.8) and not _strips_fit(nan, 4.8)
+    assert not _strips_fit(solid, 4.8) and not _strips_fit(q, 0.0)
+    assert np.ptp(far[:, 0]) / 4.8 * 3 > STRIPS_PER_UAV * len(far)
     with pytest.raises(ValueError, match="finite"):
         proximity_links(nan, 4.8, sparse=True)
     for p in (far, solid):
@@ -357,12 +357,12 @@ def test_two_sums_in_one_pass_are_the_two_sums():
 def test_the_outer_strips_shorter_windows_hold_every_pair_closer_than_r_comm():
     """White box: pairs just within r_comm, whole strips apart along x (just across a strip's edge) and as far
     apart along y as that lets them be, for each strip the windows reach: every one is a link, as the KD-tree says."""
-    from swarmtrack.network.links import _CELL_MARGIN, _STRIPS, _proximity_kdtree
+    from swarmtrack.network.links import _STRIP_MARGIN, _STRIPS_PER_R, _proximity_kdtree
 
     r = 4.8
-    step = r * _CELL_MARGIN / _STRIPS
+    step = r * _STRIP_MARGIN / _STRIPS_PER_R
     points = [[0.0, 0.0]]  # the smallest x: the strips start here
-    for o in range(1, _STRIPS + 1):
+    for o in range(1, _STRIPS_PER_R + 1):
         for k in range(40):
             x = (5 * k + 2) * step - 1e-9 * (k % 3)  # at or just before a strip's edge
             dx = (o - 1) * step + 1e-9 * (1 + k % 4)
@@ -373,5 +373,5 @@ def test_the_outer_strips_shorter_windows_hold_every_pair_closer_than_r_comm():
     q = np.concatenate([q, np.random.default_rng(0).uniform(0, q[:, 0].max(), (300, 2)) + [0.0, 1300.0]])
     links = proximity_links(q, r, sparse=True)
     assert _same_csr(links, _proximity_kdtree(q, r))
-    pairs = np.arange(1, 1 + 4 * 40 * _STRIPS, 2)
+    pairs = np.arange(1, 1 + 4 * 40 * _STRIPS_PER_R, 2)
     assert links[pairs, pairs + 1].all()

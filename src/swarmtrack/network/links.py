@@ -286,9 +286,9 @@ def proximity_links(positions: np.ndarray, r_comm: float, *, sparse: bool | None
     """UAVs strictly closer than ``r_comm`` hear each other: ``‖q_i − q_j‖² < r_comm²`` (no self-loops).
 
     ``positions`` (N, d). Dense: all pairs, O(N²), in one compiled pass (:func:`_proximity_dense`, the test of
-    :func:`proximity_blocks`). Sparse, planar positions: a compiled sweep over strips (:func:`_proximity_grid`, O(N +
+    :func:`proximity_blocks`). Sparse, planar positions: a compiled sweep over strips (:func:`_proximity_strips`, O(N +
     candidate pairs)) writes the canonical CSR arrays directly; positions spread over too many strips of width
-    r_comm/3 (:data:`GRID_CELLS_PER_UAV` per UAV), non-finite ones or other dimensions: candidate pairs from a KD-tree
+    r_comm/3 (:data:`STRIPS_PER_UAV` per UAV), non-finite ones or other dimensions: candidate pairs from a KD-tree
     queried a hair beyond r_comm (``cKDTree.query_pairs`` counts distance == r as inside, and rounds its own way).
     Either way a candidate pair is kept by the same squared-distance test as the dense form, so all forms give
     exactly the same links, including pairs at exactly r_comm (out) and coincident UAVs (in).
@@ -313,8 +313,8 @@ def proximity_links(positions: np.ndarray, r_comm: float, *, sparse: bool | None
     r2 = float(r_comm) * float(r_comm)
     if not _wants_sparse(n, sparse):
         return _proximity_dense(np.ascontiguousarray(q), r2)
-    if _grid_fits(q, r_comm):
-        return _csr_of(n, *_proximity_grid(np.ascontiguousarray(q), r2, float(r_comm) * _CELL_MARGIN))
+    if _strips_fit(q, r_comm):
+        return _csr_of(n, *_proximity_strips(np.ascontiguousarray(q), r2, float(r_comm) * _STRIP_MARGIN))
     return _proximity_kdtree(q, r_comm)
 
 
@@ -338,56 +338,56 @@ def _proximity_kdtree(q: np.ndarray, r_comm: float) -> sp.csr_array:
 
 #: The strips of :func:`proximity_links` are used while the positions' extent along x holds at most this many strips
 #: of width r_comm/3 per UAV (beyond, a scattered swarm with few links, a KD-tree finds them).
-GRID_CELLS_PER_UAV = 16
-#: The strips of :func:`_proximity_grid` are this much wider than r_comm/3, its windows along y this much taller than
+STRIPS_PER_UAV = 16
+#: The strips of :func:`_proximity_strips` are this much wider than r_comm/3, its windows along y this much taller than
 #: the pairs closer than r_comm reach: such a pair is always within three strips and a window of each other, whatever
 #: the rounding (of the strips' numbers too, up to :data:`_MAX_STRIPS` strips).
-_CELL_MARGIN = 1.0 + 1e-6
-#: Strips per r_comm of :func:`_proximity_grid`.
-_STRIPS = 3
-#: At most this many strips: their numbers are then rounded by far less than :data:`_CELL_MARGIN`.
+_STRIP_MARGIN = 1.0 + 1e-6
+#: Strips per r_comm of :func:`_proximity_strips`.
+_STRIPS_PER_R = 3
+#: At most this many strips: their numbers are then rounded by far less than :data:`_STRIP_MARGIN`.
 _MAX_STRIPS = 1e9
 
 
-def _grid_fits(q: np.ndarray, r_comm: float) -> bool:
-    """Whether :func:`_proximity_grid` takes the positions ``q``: planar, finite, r_comm > 0 and their extent along x at
-    most :data:`GRID_CELLS_PER_UAV` strips of width r_comm/3 per UAV."""
+def _strips_fit(q: np.ndarray, r_comm: float) -> bool:
+    """Whether :func:`_proximity_strips` takes the positions ``q``: planar, finite, r_comm > 0 and their extent along
+    x at most :data:`STRIPS_PER_UAV` strips of width r_comm/3 per UAV."""
     if not (q.ndim == 2 and q.shape[1] == 2 and 0 < len(q) < 2**31 and float(r_comm) > 0.0 and np.isfinite(q).all()):
         return False
-    strips = float(np.ptp(q[:, 0])) / (float(r_comm) * _CELL_MARGIN / _STRIPS) + 1.0
-    return strips <= min(GRID_CELLS_PER_UAV * len(q) + 1024, _MAX_STRIPS)
+    strips = float(np.ptp(q[:, 0])) / (float(r_comm) * _STRIP_MARGIN / _STRIPS_PER_R) + 1.0
+    return strips <= min(STRIPS_PER_UAV * len(q) + 1024, _MAX_STRIPS)
 
 
-def _proximity_grid(q: np.ndarray, r2: float, width: float) -> tuple[np.ndarray, np.ndarray]:
+def _proximity_strips(q: np.ndarray, r2: float, width: float) -> tuple[np.ndarray, np.ndarray]:
     """CSR ``(indptr, indices)`` (rows sorted; int32 while the links fit, else int64) of the pairs ``i ≠ j`` of planar
     ``q`` (N, 2), finite, with ``(q_i0 − q_j0)² + (q_i1 − q_j1)² < r2`` (summed as :func:`_squared_distance` sums
     it; the squares of opposite differences are equal, so the test is symmetric), from vertical strips of width
     ``width / 3`` (``width`` ≥ √r2 with a margin; the caller bounds their number), each sorted along y
-    (:func:`_grid_strips`): a point's candidates are the points of its strip and the three on either side within
+    (:func:`_strips_sorted`): a point's candidates are the points of its strip and the three on either side within
     ``width`` along y (less in the outer strips, which are farther along x), an area of 4.25 r², 1.35 times the
-    disc's (2.9 times for square cells of width r). :func:`_grid_fill` tests them and writes the links,
-    :func:`_grid_rows` puts the rows in place."""
-    strips = _grid_strips(q, width)
-    degree, ranked, first, count = _grid_fill(q, r2, *strips)
+    disc's (2.9 times for square cells of width r). :func:`_strips_fill` tests them and writes the links,
+    :func:`_strips_rows` puts the rows in place."""
+    strips = _strips_sorted(q, width)
+    degree, ranked, first, count = _strips_fill(q, r2, *strips)
     indptr = np.zeros(len(q) + 1, dtype=np.int64)
     np.cumsum(degree, out=indptr[1:])
     index = np.int32 if indptr[-1] < 2**31 - 1 else np.int64
     indptr = indptr.astype(index)
     indices = np.empty(int(indptr[-1]), dtype=index)
-    _grid_rows(strips[0], ranked, first, count, indptr, indices)
+    _strips_rows(strips[0], ranked, first, count, indptr, indices)
     return indptr, indices
 
 
 @numba.njit(cache=True)
-def _grid_strips(q, width):  # pragma: no cover (compiled)
-    """The strips of :func:`_proximity_grid`: the points sorted by their strip ``int((x − x0) / (width/3))`` (a
+def _strips_sorted(q, width):  # pragma: no cover (compiled)
+    """The strips of :func:`_proximity_strips`: the points sorted by their strip ``int((x − x0) / (width/3))`` (a
     counting sort), then along y within each strip. Returns ``(idx, xs, ys, window)``: ``idx`` the points in that
     order (a point's *rank* is its place in it), ``xs``, ``ys`` their coordinates, ``window[b, o]`` the ranks of strip
     ``s + o − 3`` (``s`` rank b's strip) within ``reach[o]`` of rank b along y (``width``, less where the strip is
     more than one strip away along x: a pair whole strips apart along x is that much closer along y), from sweeps
     that only move up as b does. Every point within √r2 of b lies in b's windows, and b in its own."""
     n = q.shape[0]
-    step = width / _STRIPS
+    step = width / _STRIPS_PER_R
     x0, x1 = q[0, 0], q[0, 0]
     for i in range(n):
         x0, x1 = min(x0, q[i, 0]), max(x1, q[i, 0])
@@ -418,15 +418,15 @@ def _grid_strips(q, width):  # pragma: no cover (compiled)
     for b in range(n):
         xs[b] = q[idx[b], 0]
         ys[b] = q[idx[b], 1]
-    windows = 2 * _STRIPS + 1
+    windows = 2 * _STRIPS_PER_R + 1
     reach = np.empty(windows)  # each window's half-height: a strip o apart is at least (|o| − 1)·step away along x
     for o in range(windows):
-        gap = max(abs(o - _STRIPS) - 1, 0) * step * (2.0 - _CELL_MARGIN)  # less the margin (the strips' rounding)
-        reach[o] = math.sqrt(max(width * width - gap * gap, 0.0)) * _CELL_MARGIN
+        gap = max(abs(o - _STRIPS_PER_R) - 1, 0) * step * (2.0 - _STRIP_MARGIN)  # less the margin: rounding
+        reach[o] = math.sqrt(max(width * width - gap * gap, 0.0)) * _STRIP_MARGIN
     window = np.zeros((n, windows, 2), dtype=np.int64)
     for s in range(ns):
         for o in range(windows):
-            t = s + o - _STRIPS
+            t = s + o - _STRIPS_PER_R
             if t < 0 or t >= ns:
                 continue  # no such strip: an empty window
             lo = hi = start[t]
@@ -441,14 +441,15 @@ def _grid_strips(q, width):  # pragma: no cover (compiled)
 
 
 @numba.njit(cache=True)
-def _grid_fill(q, r2, idx, xs, ys, window):  # pragma: no cover (compiled)
-    """The links of :func:`_proximity_grid`, by rank: the senders ``j`` in increasing order, each written into the row
+def _strips_fill(q, r2, idx, xs, ys, window):  # pragma: no cover (compiled)
+    """The links of :func:`_proximity_strips`, by rank: the senders ``j`` in increasing order, each written into the row
     of every point of its windows it links to, so each row comes out sorted. Rank b's row starts at ``first[b]``
-    with room for its candidates (the points whose windows hold b: those of b's windows) and holds ``count[b]``
+    with room for as many links as b has candidates (the points of its windows, b among them) and holds ``count[b]``
     links. Every candidate is written at its row's next slot and only a link moves the row on, without a branch (a
-    third of the candidates are links, in no order a predictor could learn); the rows of a sender's candidates lie
-    in seven runs of ranks, near each other in memory. Returns ``(degree, ranked, first, count)``, ``degree`` by
-    point."""
+    third of the candidates are links, in no order a predictor could learn): b's links are among its candidates
+    other than itself, so even the write of a candidate that is no link stays in b's row. The rows a sender writes
+    to lie in seven runs of ranks, near each other in memory (the ranks follow the points along x, then y).
+    Returns ``(degree, ranked, first, count)``, ``degree`` by point."""
     n = q.shape[0]
     first = np.empty(n + 1, dtype=np.int64)
     first[0] = 0
@@ -481,8 +482,8 @@ def _grid_fill(q, r2, idx, xs, ys, window):  # pragma: no cover (compiled)
 
 
 @numba.njit(cache=True)
-def _grid_rows(idx, ranked, first, count, indptr, indices):  # pragma: no cover (compiled)
-    """Copy each rank's row of :func:`_grid_fill` to its point's place in the CSR arrays."""
+def _strips_rows(idx, ranked, first, count, indptr, indices):  # pragma: no cover (compiled)
+    """Copy each rank's row of :func:`_strips_fill` to its point's place in the CSR arrays."""
     for b in range(len(idx)):
         src, dst = first[b], indptr[idx[b]]
         for k in range(count[b]):

@@ -252,3 +252,126 @@ def test_each_uavs_detections_in_one_pass_are_its_own_subset():
         for name in ("owner", "z", "sensor_pos", "label", "frame", "footprint"):
             assert np.array_equal(getattr(one, name), getattr(alone, name)), (i, name)
         assert (one.n_uavs, one.grid, one.taken) == (alone.n_uavs, alone.grid, alone.taken)
+
+
+def _same_csr(a, b):
+    return (a.shape == b.shape and a.indptr.dtype == b.indptr.dtype and a.indices.dtype == b.indices.dtype
+            and np.array_equal(a.indptr, b.indptr) and np.array_equal(a.indices, b.indices))
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_strips_give_the_kd_trees_links_exactly(seed):
+    """Sparse proximity links from the strips (:func:`_proximity_strips`) are the KD-tree's, array for array (CSR
+    canonical: rows sorted, same index types): uniform swarms sparse to crowded, a line, one spot, integer grids with
+    pairs at exactly r_comm and on the strips' edges, pairs a rounding away from r_comm in every direction, coincident
+    UAVs."""
+    from swarmtrack.network.links import _proximity_kdtree, _strips_fit
+
+    rng = np.random.default_rng(seed)
+    g = np.arange(30) * 3.0
+    lattice = np.stack(np.meshgrid(g, g), axis=-1).reshape(-1, 2)
+    cases = [_swarm(n, seed, k) for n, k in ((300, 3), (1000, 30), (3000, 200))]
+    cases += [np.stack([np.linspace(0, 900, 400), np.zeros(400)], axis=1), np.full((350, 2), -7.5),
+              np.concatenate([lattice, lattice[:40]]), np.concatenate([lattice, lattice[:40]]) * 1.6 - 20.0]
+    near = rng.uniform(-20, 20, (400, 2))
+    near[1::2] = near[::2] + 4.8 * np.array([1.0, 0.0]) * (1 + rng.integers(-3, 4, (200, 1)) * np.finfo(float).eps)
+    cases.append(near)
+    # pairs a rounding away from r_comm in every direction: on the edges of the outer strips' shorter windows too
+    ring = rng.uniform(-30, 30, (600, 2))
+    angle = rng.uniform(0, 2 * np.pi, 300)
+    scale = 4.8 * (1 + rng.integers(-4, 5, 300) * np.finfo(float).eps)
+    ring[1::2] = ring[::2] + np.stack([np.cos(angle), np.sin(angle)], axis=1) * scale[:, None]
+    cases.append(ring)
+    for q in cases:
+        for r_comm in (4.8, 6.0, 3.0 * np.sqrt(2.0)):
+            assert _strips_fit(q, r_comm)
+            links = proximity_links(q, r_comm, sparse=True)
+            assert _canonical(links) and _same_csr(links, _proximity_kdtree(q, r_comm))
+    q = cases[-2]
+    assert np.array_equal(proximity_links(q, 6.0, sparse=True).toarray(), _brute_force(q, 6.0))
+
+
+def test_positions_the_strips_do_not_take_go_to_the_kd_tree():
+    """A scattered swarm (far more strips than UAVs), 3-D positions: the KD-tree's links, the same as the dense form's;
+    a NaN position too (which the KD-tree refuses, as it always did)."""
+    from swarmtrack.network.links import STRIPS_PER_UAV, _strips_fit
+
+    q = _swarm(400, 3)
+    far = q.copy()
+    far[0] = [1e5, 1e5]
+    nan = q.copy()
+    nan[5, 1] = np.nan
+    solid = np.random.default_rng(3).uniform(-10, 10, (400, 3))
+    assert _strips_fit(q, 4.8) and not _strips_fit(far, 4.8) and not _strips_fit(nan, 4.8)
+    assert not _strips_fit(solid, 4.8) and not _strips_fit(q, 0.0)
+    assert np.ptp(far[:, 0]) / 4.8 * 3 > STRIPS_PER_UAV * len(far)
+    with pytest.raises(ValueError, match="finite"):
+        proximity_links(nan, 4.8, sparse=True)
+    for p in (far, solid):
+        links = proximity_links(p, 4.8, sparse=True)
+        assert _canonical(links) and np.array_equal(links.toarray(), proximity_links(p, 4.8, sparse=False))
+
+
+@pytest.mark.parametrize("shape", [(), (2,), (2, 2), (4,), (5,), (4, 4)])
+def test_the_compiled_inbox_sum_is_scipys_bit_for_bit(shape):
+    """:func:`neighbour_sum` over CSR links (compiled up to four columns, scipy beyond) adds the senders in scipy's
+    order: the same bits, signed zeros, infinities and NaN included, after losses too; other payload types and links
+    with a stored false value go to scipy."""
+    rng = np.random.default_rng(len(shape))
+    n = 600
+    links = proximity_links(_swarm(n, 4, neighbours_per_uav=40), 4.8, sparse=True)
+    payload = rng.standard_normal((n, *shape)) * 10.0 ** rng.uniform(-8, 8, (n, *shape))
+    payload[::11] = -0.0
+    payload[5::97] = np.inf
+    payload[7::89] = np.nan
+    for A in (links, drop(links, 0.3, rng)):
+        expected = np.asarray(A @ payload.reshape(n, -1)).reshape(n, *shape)
+        got = neighbour_sum(A, payload)
+        assert got.shape == expected.shape and got.tobytes() == expected.tobytes()
+    ints = rng.integers(-5, 5, (n, *shape))
+    assert np.array_equal(neighbour_sum(links, ints), np.asarray(links @ ints.reshape(n, -1)).reshape(n, *shape))
+    holed = links.copy()
+    holed.data[::3] = False  # a stored false value: no link
+    assert np.array_equal(neighbour_sum(holed, ints), np.asarray(holed @ ints.reshape(n, -1)).reshape(n, *shape))
+
+
+def test_two_sums_in_one_pass_are_the_two_sums():
+    """:func:`neighbour_sums` (one pass for two float payloads of up to four numbers) gives :func:`neighbour_sum`'s
+    bits, over CSR links with and without losses and over dense links; wider payloads and other types go to it."""
+    from swarmtrack.network.links import neighbour_sums
+
+    rng = np.random.default_rng(8)
+    n = 500
+    links = proximity_links(_swarm(n, 8, neighbours_per_uav=30), 4.8, sparse=True)
+    for shapes in (((2, 2), (2,)), ((), (4,)), ((3,), ()), ((5,), (2,))):
+        first = rng.standard_normal((n, *shapes[0])) * 10.0 ** rng.uniform(-6, 6, (n, *shapes[0]))
+        second = rng.standard_normal((n, *shapes[1]))
+        first[::13] = -0.0
+        for A in (links, drop(links, 0.2, rng), to_dense(links)):
+            got = neighbour_sums(A, first, second)
+            for g, p in zip(got, (first, second), strict=True):
+                expected = neighbour_sum(A, p)
+                assert g.shape == expected.shape and g.tobytes() == expected.tobytes()
+
+
+def test_the_outer_strips_shorter_windows_hold_every_pair_closer_than_r_comm():
+    """White box: pairs just within r_comm, whole strips apart along x (just across a strip's edge) and as far
+    apart along y as that lets them be, for each strip the windows reach: every one is a link, as the KD-tree says."""
+    from swarmtrack.network.links import _STRIP_MARGIN, _STRIPS_PER_R, _proximity_kdtree
+
+    r = 4.8
+    step = r * _STRIP_MARGIN / _STRIPS_PER_R
+    points = [[0.0, 0.0]]  # the smallest x: the strips start here
+    for o in range(1, _STRIPS_PER_R + 1):
+        for k in range(40):
+            x = (5 * k + 2) * step - 1e-9 * (k % 3)  # at or just before a strip's edge
+            dx = (o - 1) * step + 1e-9 * (1 + k % 4)
+            dy = np.sqrt(r * r - dx * dx) * (1 - 1e-12 * (1 + k % 5))
+            y = 30.0 * k
+            points += [[x, y], [x + dx, y + dy], [x + 0.5 * step, y + 12.0], [x + 0.5 * step + dx, y + 12.0 - dy]]
+    q = np.array(points)
+    q = np.concatenate([q, np.random.default_rng(0).uniform(0, q[:, 0].max(), (300, 2)) + [0.0, 1300.0]])
+    links = proximity_links(q, r, sparse=True)
+    assert _same_csr(links, _proximity_kdtree(q, r))
+    pairs = np.arange(1, 1 + 4 * 40 * _STRIPS_PER_R, 2)
+    assert links[pairs, pairs + 1].all()

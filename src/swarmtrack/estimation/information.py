@@ -219,7 +219,7 @@ class NeighbourSum:
 
     def current(self, est: InformationEstimator, inbox) -> tuple[np.ndarray, np.ndarray]:
         """The delivered contributions' sums ``I (N, d, d), i (N, d)``, late parts as if current."""
-        return inbox.sum("info_matrix"), inbox.sum("info_vector")
+        return inbox.sums("info_matrix", "info_vector")
 
     def part(self, part, rows: np.ndarray, prior) -> tuple[np.ndarray, np.ndarray]:
         """The sums of one ``part`` of an inbox restricted to the sending ``rows`` (time-stamped fusion, which fuses

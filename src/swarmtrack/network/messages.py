@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from swarmtrack.network.links import Links, edge_list, neighbour_sum, rows_of
+from swarmtrack.network.links import Links, edge_list, neighbour_sum, neighbour_sums, rows_of
 from swarmtrack.network.rows import everyone, subset_of
 
 Outbox = dict[str, np.ndarray]
@@ -59,6 +59,13 @@ class Inbox:
         for part in self.late:
             out = out + part.sum(name)
         return out
+
+    def sums(self, first: str, second: str) -> tuple[np.ndarray, np.ndarray]:
+        """``(self.sum(first), self.sum(second))``, the same numbers; an inbox without late parts sums both payloads
+        in one pass over its links (:func:`~swarmtrack.network.links.neighbour_sums`)."""
+        if self.late:
+            return self.sum(first), self.sum(second)
+        return neighbour_sums(self.links, self.payloads[first], self.payloads[second], self.receivers)
 
     def edges(self) -> tuple[np.ndarray, np.ndarray]:
         """``(receivers, senders)`` of every link that carried a message, receiver-major; receivers are rows

@@ -8,7 +8,7 @@ from swarmtrack.analysis.papers import w20_control
 from swarmtrack.control.identification import rounded_model
 from swarmtrack.scenarios import load_scenario
 
-SIMULATED = [n for n in w20_control.EXPERIMENTS if n != "w20-mpc-indoor"]
+SIMULATED = [n for n in w20_control.EXPERIMENTS if n != "w20-mpc-indoor" and n not in w20_control.VARIANTS]
 
 
 @pytest.fixture(scope="module")

@@ -12,9 +12,13 @@ from swarmtrack.control.mpc import (
     FormationQP,
     MPCController,
     MPCSettings,
+    SeparationConstraint,
+    error_tube,
+    navigation_margin,
     prediction_matrices,
     propagate_target,
     side_step,
+    vehicle_bound,
 )
 from swarmtrack.estimation.base import TargetView
 from swarmtrack.models import make_model
@@ -159,3 +163,106 @@ def test_no_estimate_yet_keeps_the_uav_holding():
     ctrl.command(0.0, nav, TargetView(np.full((1, 4), np.nan)), _inbox(nav), 0.02)
     np.testing.assert_array_equal(ctrl.setpoint[0], [1.0, 2.0])
     assert ctrl.solves[0] == 0
+
+
+# --- Issue 42: the bound the vehicle flies, the separation constraint -------------------------------------------------
+
+#: The model identified on the 5° quadrotor (the simulated W20 scenarios' controller.model)
+LIMITED_A = np.array([[0.98308, 0.0, 0.175197, 0.0], [0.0, 0.983093, 0.0, 0.175215], [-0.168749, 0.0, 0.744052, 0.0],
+                      [0.0, -0.168611, 0.0, 0.744234]])
+LIMITED_B = np.array([[0.0164181, 0.0], [0.0, 0.0164045], [0.164852, 0.0], [0.0, 0.164712]])
+FIVE_DEGREES = 9.81 * np.tan(np.radians(5.0))
+
+
+def test_the_vehicle_bound_is_the_largest_input_whose_planned_accelerations_the_vehicle_gives():
+    b = vehicle_bound(LIMITED_A, LIMITED_B, 0.2, FIVE_DEGREES)
+    assert b == pytest.approx(FIVE_DEGREES * 0.2 / 0.164852, rel=1e-12)  # the first period's change is the largest
+    assert b == pytest.approx(1.0412, abs=1e-4)
+    for scale, within in ((1.0, True), (1.01, False)):  # the model's step response from rest, held 10 s
+        x, dv = np.zeros(4), []
+        for _ in range(50):
+            nxt = LIMITED_A @ x + LIMITED_B @ np.array([scale * b, -scale * b])
+            dv.append(np.abs(nxt[2:] - x[2:]).max() / 0.2)
+            x = nxt
+        assert bool(max(dv) <= FIVE_DEGREES * (1 + 1e-12)) is within
+
+
+def test_the_error_tube_bounds_every_deviation_the_one_step_error_box_can_make():
+    """Mayne et al. 2005's F_l = ⊕ A^i W along any direction: random errors within the box stay inside, a vertex
+    sequence reaches the bound on one axis."""
+    w = (0.02, 0.2)
+    tube = error_tube(LIMITED_A, w, 5)
+    assert tube[0] == pytest.approx(np.hypot(0.02, 0.02)) and np.all(np.diff(tube) > 0)
+    rng = np.random.default_rng(3)
+    box = np.array([w[0], w[0], w[1], w[1]])
+    for _ in range(200):
+        e = np.zeros(4)
+        for l in range(5):
+            e = LIMITED_A @ e + rng.uniform(-1, 1, 4) * box
+            assert np.hypot(e[0], e[1]) <= tube[l] + 1e-12
+    for l in range(5):  # the worst sequence on each axis: each error at the vertex A^i's position row favours
+        e = np.zeros(4)
+        for i in range(l + 1):
+            e = LIMITED_A @ e + np.sign(np.linalg.matrix_power(LIMITED_A, l - i)[:2].sum(axis=0)) * box
+        assert np.hypot(e[0], e[1]) == pytest.approx(tube[l], rel=1e-12)
+
+
+def test_the_navigation_margin_is_three_sigma_of_the_first_predicted_position():
+    nav = navigation_margin(LIMITED_A, 0.02, 0.02)
+    assert nav == pytest.approx(3 * np.hypot(0.983093 * 0.02, 0.175215 * 0.02), rel=1e-12)
+    assert navigation_margin(LIMITED_A, 0.0, 0.0) == 0.0
+
+
+def _separated_qp(slots=1, bound=1.0, h=5):
+    s = MPCSettings(horizon=h, bound=bound, eps=1e-9, separation=1.0)
+    cond = Condensed.build(LIMITED_A, LIMITED_B, h)
+    return s, cond, FormationQP(cond.G, s, slots=slots)
+
+
+def test_the_qp_with_separation_rows_matches_a_constrained_minimiser():
+    """UAV i at the origin heads for a slot beyond its neighbour j at (1.6, 0): its planned positions keep to its side
+    of the bisector x = 0.8, d/2 + margin away, where the unconstrained plan would not."""
+    s, cond, qp = _separated_qp()
+    x0 = np.array([[0.0, 0.0, 0.6, 0.0]])
+    f, r = cond.free(x0)[0], np.tile([6.0, 0.3], 5)
+    margins = np.linspace(0.05, 0.25, 5)
+    normal = np.array([[-1.0, 0.0]])  # Δ = p_i − p_j = (−1.6, 0)
+    rhs = 0.5 + margins + normal[0] @ [0.8, 0.0] - np.einsum("a,la->l", normal[0], f.reshape(5, 2))
+    cons = SeparationConstraint(normal, rhs[None])
+    U, status, _ = qp.solve(f, r, s.Q, cons)
+    assert status == 1
+    positions = (cond.G @ U + f).reshape(5, 2)
+    assert np.all(0.8 - positions[:, 0] >= 0.5 + margins - 1e-6)
+    rows = np.einsum("a,lau->lu", normal[0], cond.G.reshape(5, 2, 10))
+    ref = minimize(lambda u: _cost(u, cond.G, f, r, s.Q, s.R) / 1e3, np.zeros(10), method="SLSQP",
+                   bounds=[(-1, 1)] * 10, constraints=[{"type": "ineq", "fun": lambda u: rows @ u - rhs}],
+                   options={"ftol": 1e-15, "maxiter": 500})
+    assert ref.success and _cost(U, cond.G, f, r, s.Q, s.R) <= 1e3 * ref.fun + 1e-5
+    np.testing.assert_allclose(U, ref.x, atol=2e-4)
+    free, _, _ = FormationQP(cond.G, MPCSettings(horizon=5, bound=1.0, eps=1e-9)).solve(f, r, s.Q)
+    assert (cond.G @ free + f)[-2] > 0.3  # without the constraint it would come closer
+
+
+def test_an_unmeetable_separation_is_softened_and_counted_not_a_fallback():
+    """Two UAVs 1.2 m apart closing at 2 m/s: no input within ±0.3 m keeps them 1 m apart over the horizon."""
+    ctrl = MPCController(LIMITED_A, LIMITED_B, np.array([[0.0, 0.0], [10.0, 0.0]]),
+                         MPCSettings(bound=0.3, separation=1.0, margins=(0.05,) * 5))
+    nav = np.array([[0.0, 0.0, 1.0, 0.0], [1.2, 0.0, -1.0, 0.0]])
+    view = TargetView(np.array([[0.0, 5.0, 0.0, 0.0]] * 2))
+    ctrl.command(0.0, nav, view, _inbox(nav), 0.02)
+    assert ctrl.relaxed.tolist() == [1, 1] and ctrl.fallbacks.tolist() == [0, 0]
+    assert "relaxed" in ctrl.sample() and "relaxed" in [p.name for p in ctrl.probes]
+
+
+def test_without_neighbours_the_separation_changes_no_plan_bit_for_bit():
+    nav = np.array([[0.0, 0.0, 0.3, -0.2], [20.0, 3.0, 0.0, 0.1]])
+    view = TargetView(np.array([[4.0, 1.0, 0.5, 0.0]] * 2))
+    plans = []
+    for sep in (None, 1.0):
+        ctrl = MPCController(LIMITED_A, LIMITED_B, np.array([[0.0, 0.0], [10.0, 0.0]]),
+                             MPCSettings(separation=sep, margins=(0.1,) * 5 if sep else ()))
+        for k in range(3):
+            ctrl.command(0.2 * k, nav, view, _inbox(nav), 0.2)
+        plans.append(ctrl.setpoint.copy())
+        assert ("relaxed" in ctrl.sample()) is (sep is not None)
+    np.testing.assert_array_equal(plans[0], plans[1])

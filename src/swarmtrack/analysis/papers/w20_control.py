@@ -154,7 +154,8 @@ def _flown(runs: list[dict]) -> dict:
     errors = [f["model_error"] for f in formation if f.get("model_error")]
     bounds = next((f["bounds"] for f in formation if f.get("bounds")), None) or {}
     return {"bound (m)": bounds.get("bound"), "vehicle bound (m)": bounds.get("vehicle_bound"),
-            "separation (m)": bounds.get("separation"), "assumed model error (m, m/s)": bounds.get("model_error"),
+            "separation (m)": bounds.get("separation"),
+            "assumed model error (m, m/s)": bounds.get("model_error") if bounds.get("separation") else None,
             "model error in flight (m)": max((e["position"] for e in errors), default=None),
             "model error in flight (m/s)": max((e["velocity"] for e in errors), default=None),
             "plans softened": sum(sum(f["solver"].get("relaxed", [])) for f in formation),
@@ -355,8 +356,9 @@ def analyse(by_scenario: dict[str, list[dict]]) -> tuple[list[Claim], str, dict]
 
 
 def figures(out: Path, overrides: Sequence[str] = ()) -> list[Path]:
-    """Figs. 5.6-5.14 (seed 1): the single UAV's path and inputs, the two UAVs' crossing and their separation, the
-    formation and the occluded formation (paths, x/y over time, distance from each place)."""
+    """Figs. 5.6-5.14 (seed 1): the single UAV's path and inputs, the two UAVs' crossing and their separation (in both
+    settings, with the crossing's inputs against the bounds), the formation and the occluded formation (paths, x/y
+    over time, distance from each place)."""
     from swarmtrack.capabilities.mpc import figures as plots  # matplotlib, only when drawing
 
     out = Path(out)
@@ -364,8 +366,13 @@ def figures(out: Path, overrides: Sequence[str] = ()) -> list[Path]:
     names = ("w20-mpc-single", "w20-mpc-collision", "w20-mpc-formation", "w20-mpc-occlusion")
     rec = {n: swarmtrack.simulate(swarmtrack.load_scenario(n, overrides, seed=1)) for n in names}
     paths = [plots.plot_formation_paths(rec[n], out / f"{n}_paths.png") for n in names]
+    thesis = swarmtrack.simulate(swarmtrack.load_scenario("w20-mpc-collision", [*THESIS["w20-mpc-collision"],
+                                                                                *overrides], seed=1))
     paths += [plots.plot_mpc_inputs(rec["w20-mpc-single"], out / "w20-mpc-single_inputs.png"),
-              plots.plot_min_separation(rec["w20-mpc-collision"], out / "w20-mpc-collision_separation.png")]
+              plots.plot_min_separation(rec["w20-mpc-collision"], out / "w20-mpc-collision_separation.png"),
+              plots.plot_min_separation(thesis, out / "w20-mpc-collision-thesis_separation.png"),
+              plots.plot_mpc_inputs(rec["w20-mpc-collision"], out / "w20-mpc-collision_inputs.png"),
+              plots.plot_mpc_inputs(thesis, out / "w20-mpc-collision-thesis_inputs.png")]
     for n in ("w20-mpc-formation", "w20-mpc-occlusion"):
         paths += [plots.plot_formation_xy_time(rec[n], out / f"{n}_xy.png"),
                   plots.plot_slot_distance(rec[n], out / f"{n}_slot_distance.png")]

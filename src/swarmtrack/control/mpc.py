@@ -31,7 +31,7 @@ OSQP problem set up once (:class:`FormationQP`); a plan updates q (and, when m c
 warm-starts from the previous solution and applies the first input (control horizon 1, W20 Sec. 5.4.2).
 A solve that does not reach OSQP's "solved" falls back to the last setpoint, clipped into the current bounds
 (a feasible input), and is counted. Without a separation constraint the QP is the one above, exactly; with it each
-UAV's problem gets h rows and one slack per neighbour (the slots grow to the most neighbours met at once).
+UAV's problem gets h rows per neighbour (the slots grow to the most neighbours met at once).
 """
 
 from __future__ import annotations
@@ -199,7 +199,7 @@ def propagate_target(view: TargetView, fixed: str | None, period: float, h: int)
 #: per square metre, Kerrigan & Maciejowski 2000): the soft problem is solved only after the hard one failed, and
 #: then gives the plan of least violation the weights allow.
 SLACK_WEIGHT, SLACK_QUADRATIC = 1e3, 1e3
-#: A plan whose largest slack exceeds this (m) did not meet its separation constraint (counted: ``relaxed``).
+#: A plan whose first step's slack exceeds this (m) did not meet its separation constraint (counted: ``relaxed``).
 SLACK_TOL = 1e-3
 _INF = 1e30  # OSQP's infinity (osqp.constant("OSQP_INFTY"))
 
@@ -220,8 +220,9 @@ class SeparationConstraint:
     the next plan instant the flown positions keep d when (a) the model's one-step error stays within its bound,
     (b) the navigation errors within theirs, (c) both plans met their constraints (slack zero). The later steps' margins
     keep the shifted plan feasible as in tube MPC; the bisector moves with every plan, so feasibility is not guaranteed:
-    a plan whose hard problem OSQP does not solve is planned again with the constraint softened (one slack per
-    neighbour, :data:`SLACK_WEIGHT`), and counted (``relaxed``)."""
+    a plan whose hard problem OSQP does not solve is planned again with the constraint softened (a slack per row,
+    :data:`SLACK_WEIGHT`): the later steps' tightening gives way first; a plan whose first step needed slack, where
+    the guarantee is lost, is counted (``relaxed``)."""
 
     normal: np.ndarray  # (m, 2): n of each neighbour
     rhs: np.ndarray  # (m, h): d/2 + margin_l + n·m_ij − n·f_l, the lower bound on n·(G_l U)
@@ -232,15 +233,15 @@ class FormationQP:
 
     ``minimize ½ Uᵀ P U + qᵀ U`` subject to ``−b ≤ U ≤ b``, ``P = 2 (w GᵀG + R I)``, ``q = 2 w Gᵀ (f − r̄)``.
     With ``slots`` > 0, h rows ``n·G_l U ≥ c_kl`` per neighbour slot (:class:`SeparationConstraint`; a free slot's rows
-    are unbounded); ``soft`` adds one slack per slot (``n·G_l U + σ_k ≥ c_kl``, ``σ ≥ 0``, ``SLACK_WEIGHT·σ +
-    SLACK_QUADRATIC·σ²`` in the cost). Set up once; :meth:`solve` updates q, P's values (same sparsity) only when w
-    changes, and the separation rows' values only when a slot is in use.
+    are unbounded); ``soft`` adds one slack per row (``n·G_l U + σ_kl ≥ c_kl``, ``σ ≥ 0``, ``SLACK_WEIGHT·σ +
+    SLACK_QUADRATIC·σ²`` in the cost), so the rows that can be met are. Set up once; :meth:`solve` updates q, P's
+    values (same sparsity) only when w changes, and the separation rows' values only when a slot is in use.
     """
 
     def __init__(self, G: np.ndarray, s: MPCSettings, slots: int = 0, soft: bool = False):
         self.G, self.R, self.slots, self.soft, self.h = G, s.R, slots, soft, s.horizon
         nu = G.shape[1]
-        ns = slots if soft else 0  # slack variables
+        ns = slots * self.h if soft else 0  # slack variables: one per separation row
         template = np.eye(nu + ns)
         template[:nu, :nu] += G.T @ G
         self._rows, self._cols = _csc_pattern(template, upper=True)
@@ -258,18 +259,18 @@ class FormationQP:
                           verbose=False, eps_abs=s.eps, eps_rel=s.eps, max_iter=s.max_iter, polishing=False,
                           warm_starting=True)
         self._active = 0  # slots bounded at the last solve
-        self.slack = 0.0
+        self.slack = np.zeros((0, self.h))
 
     def _values(self, w: float) -> np.ndarray:
         nu = self.G.shape[1]
-        H = 2.0 * SLACK_QUADRATIC * np.eye(nu + (self.slots if self.soft else 0))
+        H = 2.0 * SLACK_QUADRATIC * np.eye(nu + (self.slots * self.h if self.soft else 0))
         H[:nu, :nu] = 2.0 * (w * (self.G.T @ self.G) + self.R * np.eye(nu))
         return H[self._rows, self._cols]
 
     def _constraints(self, normal: np.ndarray) -> np.ndarray:
         """The dense constraint matrix for the slots' normals (slots, 2): the box, the separation rows, the slacks."""
         nu, h, k = self.G.shape[1], self.h, self.slots
-        ns = k if self.soft else 0
+        ns = k * h if self.soft else 0
         A = np.zeros((nu + k * h + ns, nu + ns))
         A[:nu, :nu] = np.eye(nu)
         G = self.G.reshape(h, 2, nu)
@@ -277,13 +278,14 @@ class FormationQP:
             rows = nu + j * h + np.arange(h)
             A[rows, :nu] = np.einsum("a,lau->lu", normal[j], G)
             if self.soft:
-                A[rows, nu + j] = 1.0
-                A[nu + k * h + j, nu + j] = 1.0
+                A[rows, nu + rows - nu] = 1.0
+                A[nu + k * h + rows - nu, nu + rows - nu] = 1.0
         return A
 
     def solve(self, f: np.ndarray, r_bar: np.ndarray, w: float, separation: SeparationConstraint | None = None):
         """The optimal U (2h,) for free response ``f`` and mean reference ``r̄`` (2h,) at position weight ``w``, the
-        OSQP result's status value and iteration count; :attr:`slack` then holds the largest slack (0 unless soft)."""
+        OSQP result's status value and iteration count; :attr:`slack` (m, h) then holds each separation row's slack
+        (zeros unless soft)."""
         if w != self.w:
             self.solver.update(Px=self._values(w))
             self.w = w
@@ -305,7 +307,9 @@ class FormationQP:
         else:
             self.solver.update(q=self._q)
         res = self.solver.solve(raise_error=False)  # a failed solve is a fallback, counted (not an exception)
-        self.slack = float(np.nanmax(res.x[nu:nu + m])) if self.soft and m and res.x is not None else 0.0
+        self.slack = np.zeros((m, self.h))
+        if self.soft and m and res.x is not None:
+            self.slack = res.x[nu:nu + m * self.h].reshape(m, self.h)
         U = res.x if not self.soft or res.x is None else res.x[:nu]
         return U, res.info.status_val, res.info.iter
 
@@ -330,8 +334,9 @@ class MPCController:
 
     Broadcasts each UAV's navigation state (eq. 5.24); plans every ``period`` s; between plans, and every control
     step, the position controller flies the held setpoint. With ``settings.separation`` each UAV's plan also keeps
-    the :class:`SeparationConstraint` with every neighbour closer than r_s (probe ``relaxed``: the cumulative count
-    of its plans that needed the constraint's slack).
+    the :class:`SeparationConstraint` with every neighbour closer than r_s (probes, cumulative counts: ``softened``,
+    its plans whose hard constraint could not be met and was softened; ``relaxed``, those whose first step needed
+    the slack).
     """
 
     def __init__(self, A: np.ndarray, B: np.ndarray, offsets: np.ndarray, settings: MPCSettings, *,
@@ -352,11 +357,12 @@ class MPCController:
         self.fallbacks = np.zeros(n)
         self.solve_time = np.zeros(n)  # cumulative wall time of this UAV's solves, s
         self.iterations = np.zeros(n)  # cumulative OSQP iterations
-        self.relaxed = np.zeros(n)  # cumulative plans whose separation constraint needed its slack
+        self.softened = np.zeros(n)  # cumulative plans whose hard separation problem was infeasible: softened
+        self.relaxed = np.zeros(n)  # of those, the plans whose first step needed slack (the guarantee lost)
         self.probes: tuple[Probe, ...] = (Probe("setpoint", (2,)), Probe("avoiding", ()), Probe("solves", ()),
                                           Probe("fallbacks", ()), Probe("solve_time", ()), Probe("iterations", ()))
         if settings.separation is not None:
-            self.probes += (Probe("relaxed", ()),)
+            self.probes += (Probe("softened", ()), Probe("relaxed", ()))
 
     def broadcast(self, t: float, nav: np.ndarray) -> dict:
         """Beacon: own position and velocity (W20 eq. 5.24)."""
@@ -389,8 +395,9 @@ class MPCController:
             U, status, iters = self.qps[i].solve(own_free[i], r_bar[i].ravel(), float(w[i]), cons)
             if cons is not None and status != _SOLVED:  # the separation constraint cannot be met: softened
                 U, status, more = self._soft(i).solve(own_free[i], r_bar[i].ravel(), float(w[i]), cons)
-                iters += more
-                self.relaxed[i] += status == _SOLVED and self._softs[i].slack > SLACK_TOL
+                iters += more  # the guarantee is lost when the first step's rows, which are flown, needed slack
+                self.softened[i] += 1
+                self.relaxed[i] += status == _SOLVED and bool((self._softs[i].slack[:, 0] > SLACK_TOL).any())
             self.solve_time[i] += time.perf_counter() - t0
             self.solves[i] += 1
             self.iterations[i] += iters
@@ -468,4 +475,4 @@ class MPCController:
         return {"setpoint": self.setpoint if self.setpoint is not None else np.full((n, 2), np.nan),
                 "avoiding": self.avoiding, "solves": self.solves, "fallbacks": self.fallbacks,
                 "solve_time": self.solve_time, "iterations": self.iterations,
-                **({"relaxed": self.relaxed} if self.s.separation is not None else {})}
+                **({"softened": self.softened, "relaxed": self.relaxed} if self.s.separation is not None else {})}

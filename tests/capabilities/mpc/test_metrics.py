@@ -34,7 +34,7 @@ def test_the_section_states_the_bounds_the_mpc_planned_within(crossing):
     f = summary(rec)["formation"]
     assert f["bounds"]["bound"] == f["bounds"]["vehicle_bound"] == 1.041
     assert f["bounds"]["separation"] == 1.0 and f["bounds"]["model_error"] == [0.03, 0.35]
-    assert f["solver"]["relaxed"] == [0, 0]
+    assert f["solver"]["softened"] == f["solver"]["relaxed"] == [0, 0]
     assert f["bounds"]["margins"] == pytest.approx(scenario.controller.margins(scenario))
 
 

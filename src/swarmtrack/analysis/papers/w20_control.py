@@ -158,7 +158,8 @@ def _flown(runs: list[dict]) -> dict:
             "assumed model error (m, m/s)": bounds.get("model_error") if bounds.get("separation") else None,
             "model error in flight (m)": max((e["position"] for e in errors), default=None),
             "model error in flight (m/s)": max((e["velocity"] for e in errors), default=None),
-            "plans softened": sum(sum(f["solver"].get("relaxed", [])) for f in formation),
+            "plans softened": sum(sum(f["solver"].get("softened", [])) for f in formation),
+            "first steps relaxed": sum(sum(f["solver"].get("relaxed", [])) for f in formation),
             "fallbacks": sum(sum(f["solver"]["fallbacks"]) for f in formation)}
 
 
@@ -226,8 +227,9 @@ def _closest_cells(closest: list[float]) -> list[str]:
 
 def _flyable_claim(by_scenario) -> tuple[Claim, list[list[str]], dict]:
     """Whether the consistent bound's plans are flown as planned: the model's one-step error in flight within the
-    ``controller.model_error`` the separation margin assumes, in every run with the constraint, and no plan softened;
-    the same numbers at the thesis' bound beside them."""
+    ``controller.model_error`` the separation margin assumes, in every run with the constraint, and no plan's first
+    step relaxed (the softened plans, whose later steps gave way, are counted beside); the same numbers at the
+    thesis' bound beside them."""
     names = ("w20-mpc-collision", "w20-mpc-formation", "w20-mpc-occlusion")
     flown = {suffix: _flown([r for n in names for r in _runs(by_scenario, n + suffix)]) for suffix in SETTINGS}
     flown[CONSTRAINED] = _flown(_runs(by_scenario, CONSTRAINED))
@@ -235,10 +237,10 @@ def _flyable_claim(by_scenario) -> tuple[Claim, list[list[str]], dict]:
     assumed = own["assumed model error (m, m/s)"]
     holds = (assumed is not None and own["model error in flight (m)"] is not None
              and own["model error in flight (m)"] <= assumed[0] and own["model error in flight (m/s)"] <= assumed[1]
-             and own["plans softened"] == 0 and own["fallbacks"] == 0)
+             and own["first steps relaxed"] == 0 and own["fallbacks"] == 0)
     claim = Claim("w20-mpc-plans-flown", "With the consistent bound the UAVs fly what their MPC plans: the model's "
-                  "one-step error in flight stays within the controller.model_error its separation margin assumes, and "
-                  "no plan softens its separation constraint or falls back (Tables 5.9-5.12's runs)",
+                  "one-step error in flight stays within the controller.model_error its separation margin assumes, no "
+                  "plan relaxes the separation of its first (flown) step, and none falls back (Tables 5.9-5.12's runs)",
                   "the thesis' bounds assume a vehicle the 5° limit does not give", own, holds)
     labels = {"": SETTINGS[""], "-thesis": SETTINGS["-thesis"],
               CONSTRAINED: "thesis' ±2 m with the separation constraint (Table 5.9)"}

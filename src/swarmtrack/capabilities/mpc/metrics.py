@@ -65,7 +65,8 @@ class _Formation:
     """W20 Ch. 5's tracking error (Tables 5.6, 5.8, 5.11, 5.12): each UAV's true distance to its formation place
     (the target's true position plus its offset r_r) from the MPC's start on, mean per UAV, per axis and (mean over
     the UAVs) per target phase; the MPC's solver statistics (cumulative probes: plans solved, fallbacks, wall time,
-    OSQP iterations, plans whose separation constraint was softened); the ``bounds`` it planned within (the recording's
+    OSQP iterations, plans whose separation constraint was softened and, of those, relaxed on the flown first
+    step); the ``bounds`` it planned within (the recording's
     ``meta["mpc"]``, :meth:`~swarmtrack.capabilities.mpc.settings.MPCSpec.recording_meta`); and ``model_error``, the
     largest one-step error of its model in flight, ``|x(k+1) − A x(k) − B s(k)|`` on the true states and the setpoint
     held from step k (position m, velocity m/s, any UAV and axis, from the MPC's start on; None unless the recording's
@@ -79,8 +80,9 @@ class _Formation:
         self.names, self.group = phase_groups(rec)
         self.phase_sum, self.phase_n = np.zeros(len(self.names)), np.zeros(len(self.names))
         self.last = {k: np.zeros(n) for k in ("solves", "fallbacks", "solve_time", "iterations")}
-        if "relaxed" in rec.meta["probes"]:
-            self.last["relaxed"] = np.zeros(n)
+        for name in ("softened", "relaxed"):
+            if name in rec.meta["probes"]:
+                self.last[name] = np.zeros(n)
         self.closest = np.inf  # the smallest distance of any two UAVs at any step (for the collision warning)
         self.bounds = dict((rec.meta or {}).get("mpc") or {})
         period, dt = ctrl.get("period"), (rec.meta or {}).get("dt")
@@ -129,8 +131,9 @@ class _Formation:
         solver = {"solves": int(solves.sum()), "fallbacks": self.last["fallbacks"].astype(int).tolist(),
                   "mean_solve_us": float(1e6 * self.last["solve_time"].sum() / done.sum()),
                   "mean_iterations": float(self.last["iterations"].sum() / done.sum())}
-        if "relaxed" in self.last:
-            solver["relaxed"] = self.last["relaxed"].astype(int).tolist()
+        for name in ("softened", "relaxed"):
+            if name in self.last:
+                solver[name] = self.last[name].astype(int).tolist()
         return {"tracking_error": (self.sum / n).tolist(), "tracking_error_mean": float(self.sum.mean() / n),
                 "tracking_error_xy": (self.sum_axes / n).tolist(),
                 "tracking_error_by_phase": {name: float(self.phase_sum[k] / self.phase_n[k])
@@ -157,8 +160,8 @@ def _formation_warnings(formation: dict, min_distance: float | None, unflyable: 
     for i, k in enumerate(formation["solver"].get("relaxed", [])):
         if k:
             out.append({"kind": "separation_relaxed", "uav": i + 1, "t_start": None, "t_end": None,
-                        "message": f"UAV {i + 1}'s plan could not meet its separation constraint {k} time(s): it "
-                                   "was softened (the separation is not guaranteed at those plans)"})
+                        "message": f"UAV {i + 1}'s plan could not meet its separation constraint on its first step "
+                                   f"{k} time(s): it was softened (the separation is not guaranteed at those plans)"})
     bounds, flown = formation.get("bounds") or {}, formation.get("model_error")
     assumed = bounds.get("model_error") if bounds.get("separation") else None
     if assumed and flown and (flown["position"] > assumed[0] or flown["velocity"] > assumed[1]):

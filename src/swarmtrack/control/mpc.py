@@ -208,21 +208,22 @@ _INF = 1e30  # OSQP's infinity (osqp.constant("OSQP_INFTY"))
 class SeparationConstraint:
     """The hard separation ``d`` between two UAVs i and j, kept on their flown positions at the plan instants.
 
-    Buffered Voronoi cells (Zhou, Wang, Bandyopadhyay & Schwager 2017, IEEE RA-L 2(2), their eq. 4): each UAV keeps its
+    Buffered Voronoi cells (Zhou, Wang, Bandyopadhyay & Schwager 2017, IEEE RA-L 2(2)): each UAV keeps its
     planned positions on its own side of the bisector of the two UAVs' positions when the plan is made, at least d/2
     from it: ``n·(p_i(l) − m_ij) ≥ d/2 + margin_l``, ``n = (p_i − p_j)/‖p_i − p_j‖``, ``m_ij = (p_i + p_j)/2``. Both
     UAVs plan at the same instant from the same two positions (UAV i's own, which it broadcasts, and j's broadcast,
     W20 eq. 5.24), so their half-planes are disjoint and ``‖p_i − p_j‖ ≥ n·(p_i − p_j) ≥ d``: no plan of the
     neighbour has to be known or predicted, so the neighbours' plan changes cannot break it (where Richards & How
-    2006, Int. J. Control 80(9), exchange plans and plan in sequence). ``margin_l`` is the tightening that carries the
-    planned separation over to the flown one (Mayne et al. 2005; Richards & How 2006): the identified model's
+    2007, "Robust distributed model predictive control", Int. J. Control 80(9), exchange plans and plan in sequence).
+    ``margin_l`` is the tightening that carries the planned separation over to the flown one (Mayne et al. 2005; the
+    constraint tightening of Richards & How 2006, ACC, "Robust stable MPC with constraint tightening"): the model's
     :func:`error_tube` plus the :func:`navigation_margin`. The plan's first period is flown (control horizon 1), so at
     the next plan instant the flown positions keep d when (a) the model's one-step error stays within its bound,
-    (b) the navigation errors within theirs, (c) both plans met their constraints (slack zero). The later steps' margins
+    (b) the navigation errors within theirs, (c) both plans met their first step's rows. The later steps' margins
     keep the shifted plan feasible as in tube MPC; the bisector moves with every plan, so feasibility is not guaranteed:
     a plan whose hard problem OSQP does not solve is planned again with the constraint softened (a slack per row,
-    :data:`SLACK_WEIGHT`): the later steps' tightening gives way first; a plan whose first step needed slack, where
-    the guarantee is lost, is counted (``relaxed``)."""
+    :data:`SLACK_WEIGHT`), where only the rows that cannot be met give way (the later steps' in practice), and counted
+    (``softened``); one whose first step needed slack, where the guarantee is lost, is counted again (``relaxed``)."""
 
     normal: np.ndarray  # (m, 2): n of each neighbour
     rhs: np.ndarray  # (m, h): d/2 + margin_l + n·m_ij − n·f_l, the lower bound on n·(G_l U)
@@ -248,16 +249,18 @@ class FormationQP:
         self.w = s.Q
         n = nu + ns
         P = sp.csc_matrix((self._values(self.w), (self._rows, self._cols)), shape=(n, n))
-        A = self._constraints(np.ones((slots, 2)))
-        self._arows, self._acols = _csc_pattern(A)
+        if slots:
+            dense = self._constraints(np.ones((slots, 2)))
+            self._arows, self._acols = _csc_pattern(dense)
+            A = sp.csc_matrix((dense[self._arows, self._acols], (self._arows, self._acols)), shape=dense.shape)
+        else:  # the box alone: W20's problem
+            A = sp.identity(nu, format="csc")
         self._lower = np.concatenate([np.full(nu, -s.bound), np.full(slots * self.h, -_INF), np.zeros(ns)])
         upper = np.concatenate([np.full(nu, s.bound), np.full(slots * self.h + ns, _INF)])
         self._q = np.concatenate([np.zeros(nu), np.full(ns, SLACK_WEIGHT)])
         self.solver = osqp.OSQP(algebra="builtin")  # the bundled backend (no search for others at set-up)
-        self.solver.setup(P, self._q, sp.csc_matrix((A[self._arows, self._acols], (self._arows, self._acols)),
-                                                    shape=A.shape), self._lower, upper,
-                          verbose=False, eps_abs=s.eps, eps_rel=s.eps, max_iter=s.max_iter, polishing=False,
-                          warm_starting=True)
+        self.solver.setup(P, self._q, A, self._lower, upper, verbose=False, eps_abs=s.eps, eps_rel=s.eps,
+                          max_iter=s.max_iter, polishing=False, warm_starting=True)
         self._active = 0  # slots bounded at the last solve
         self.slack = np.zeros((0, self.h))
 
@@ -392,9 +395,10 @@ class MPCController:
             if cons is not None and len(cons.normal) > self.qps[i].slots:  # more neighbours than ever: more slots
                 self.qps[i] = FormationQP(self.cond.G, s, slots=len(cons.normal))
             t0 = time.perf_counter()
-            U, status, iters = self.qps[i].solve(own_free[i], r_bar[i].ravel(), float(w[i]), cons)
+            args = (own_free[i], r_bar[i].ravel(), float(w[i]))
+            U, status, iters = self.qps[i].solve(*args) if cons is None else self.qps[i].solve(*args, cons)
             if cons is not None and status != _SOLVED:  # the separation constraint cannot be met: softened
-                U, status, more = self._soft(i).solve(own_free[i], r_bar[i].ravel(), float(w[i]), cons)
+                U, status, more = self._soft(i).solve(*args, cons)
                 iters += more  # the guarantee is lost when the first step's rows, which are flown, needed slack
                 self.softened[i] += 1
                 self.relaxed[i] += status == _SOLVED and bool((self._softs[i].slack[:, 0] > SLACK_TOL).any())

@@ -16,10 +16,10 @@ Every UAV i solves its own convex QP each control period T over its next h input
   a relative vector ``r + r_s`` where W20 Fig. 5.2 shows a point beside j: we use the point.
 * **Cost** (eqs. 5.21, 5.31): ``Σ_{l=1..h} Q ‖p(l) − x_r(l)‖² + Σ_j Q_s ‖p(l) − x_s(l)‖² + Σ_{l=0..h−1} R ‖u(l)‖²``,
   Q, R and Q_s scalars on 2-D positions (positions only are weighted).
-* **Input bound the vehicle can fly** (ours, :func:`vehicle_bound`): W20's ±2 m lets the position loop ask for more
-  acceleration than a 5° vehicle gives; ``b = a·T / max_l |Δv_l|``, with ``Δv_l`` the velocity change in period l of
-  the identified model's response to a unit relative input, is the largest bound whose planned first period the
-  vehicle's per-axis acceleration ``a`` can fly.
+* **Input bound the vehicle can fly** (ours, :func:`~swarmtrack.control.identification.vehicle_bound`): W20's ±2 m
+  lets the position loop ask for more acceleration than a 5° vehicle gives; ``b = a·T / max_l |Δv_l|``, with
+  ``Δv_l`` the velocity change in period l of the identified model's response to a unit relative input, is the
+  largest bound whose planned first period the vehicle's per-axis acceleration ``a`` can fly.
 * **Separation constraint** (ours, :class:`SeparationConstraint`; off by default, W20 has the cost term only): the
   reciprocal half-plane of a buffered Voronoi cell (Zhou et al. 2017) tightened by the identified model's error tube
   (Mayne et al. 2005) and the navigation error, as an exact-penalty soft constraint (Kerrigan & Maciejowski 2000).
@@ -75,58 +75,6 @@ class MPCSettings:
     def __post_init__(self) -> None:
         if self.separation is not None and len(self.margins) not in (0, self.horizon):
             raise ValueError(f"margins has {len(self.margins)} entries for a horizon of {self.horizon}")
-
-
-def unit_step_accelerations(A: np.ndarray, B: np.ndarray, T: float, steps: int = 50) -> np.ndarray:
-    """(2,) per axis: the largest mean acceleration over one period, ``max_l |v(l+1) − v(l)| / T``, of the model's
-    response from rest at the origin to a unit relative input held ``steps`` periods (m/s² per m of input)."""
-    out = np.zeros(2)
-    for axis in range(2):
-        x, u = np.zeros(4), np.zeros(2)
-        u[axis] = 1.0
-        for _ in range(steps):
-            nxt = A @ x + B @ u
-            out[axis] = max(out[axis], abs(nxt[2 + axis] - x[2 + axis]) / T)
-            x = nxt
-    return out
-
-
-def vehicle_bound(A: np.ndarray, B: np.ndarray, T: float, accel: float) -> float:
-    """The input bound (m, per axis, relative setpoint) the vehicle can fly: ``b = a / max(g_x, g_y)`` with ``a`` its
-    per-axis acceleration limit (m/s²) and ``g`` the model's :func:`unit_step_accelerations`.
-
-    Derivation: the MPC's input is the position controller's setpoint relative to the UAV (W20 Sec. 5.3.2), the model
-    ``x(l+1) = A x(l) + B s(l)`` (W20 eq. 5.32) is linear, so a relative input ``u`` from rest gives the velocity
-    changes ``u·Δv_l`` of the unit response; the largest, ``g·T·u``, must stay within what the vehicle's limit gives
-    in one period, ``a·T``. For the 5° quadrotor (``a = g·tan 5° = 0.858 m/s²``) and the model identified on it
-    (its largest change is the first period's, ``B_v = 0.1649``: ``g = B_v/T = 0.824 s⁻²``), ``b = 1.04 m``; W20's
-    ±2 m (Tables 5.9, 5.10) plans 1.65 m/s² from rest, and its position loop asks ``kp·2 = 2.88 m/s²``."""
-    return float(accel / unit_step_accelerations(A, B, T).max())
-
-
-def error_tube(A: np.ndarray, error: tuple[float, float], h: int) -> np.ndarray:
-    """(h,) the radius in position of the identified model's error tube at l = 1..h: Mayne, Seron & Raković (2005,
-    Automatica 41(2), the set ``F_l = ⊕_{i<l} A_K^i W`` of the flown state's deviation from the nominal one) with
-    ``A_K = A`` (the model is already the closed loop of the UAV's position controller, the MPC adds no feedback) and
-    ``W`` the one-step error box ``|w_p| ≤ error[0]`` m, ``|w_v| ≤ error[1]`` m/s on each axis. The box's reach along
-    each axis, ``Σ_{i<l} |A^i| w`` (its support function), is combined over the two axes in norm: it bounds the
-    deviation along any unit direction."""
-    w = np.array([error[0], error[0], error[1], error[1]], dtype=float)
-    power, reach, out = np.eye(4), np.zeros(4), np.zeros(h)
-    for l in range(h):
-        reach = reach + np.abs(power) @ w
-        out[l] = np.hypot(reach[0], reach[1])
-        power = np.asarray(A, dtype=float) @ power
-    return out
-
-
-def navigation_margin(A: np.ndarray, position_std: float, velocity_std: float, sigmas: float = 3.0) -> float:
-    """m: how far a plan's first predicted position moves along any direction when the UAV's navigation solution is
-    off by its noise, ``sigmas`` standard deviations of ``n·A_p δx`` (``A_p`` the model's position rows; the errors of
-    the estimated position and velocity independent, the same on both axes); the estimation-error part of a robust
-    output-feedback tube (Mayne, Raković, Findeisen & Allgöwer 2006, Automatica 42(7))."""
-    A = np.asarray(A, dtype=float)
-    return float(sigmas * max(np.hypot(A[i, i] * position_std, A[i, 2 + i] * velocity_std) for i in range(2)))
 
 
 def prediction_matrices(A: np.ndarray, B: np.ndarray, h: int) -> tuple[np.ndarray, np.ndarray]:
@@ -217,10 +165,11 @@ class SeparationConstraint:
     2007, "Robust distributed model predictive control", Int. J. Control 80(9), exchange plans and plan in sequence).
     ``margin_l`` is the tightening that carries the planned separation over to the flown one (Mayne et al. 2005; the
     constraint tightening of Richards & How 2006, ACC, "Robust stable MPC with constraint tightening"): the model's
-    :func:`error_tube` plus the :func:`navigation_margin`. The plan's first period is flown (control horizon 1), so at
-    the next plan instant the flown positions keep d when (a) the model's one-step error stays within its bound,
-    (b) the navigation errors within theirs, (c) both plans met their first step's rows. The later steps' margins
-    keep the shifted plan feasible as in tube MPC; the bisector moves with every plan, so feasibility is not guaranteed:
+    :func:`~swarmtrack.control.identification.error_tube` plus its ``navigation_margin``. The plan's first period is
+    flown (control horizon 1), so at the next plan instant the flown positions keep d when (a) the model's one-step
+    error stays within its bound, (b) the navigation errors within theirs, (c) both plans met their first step's
+    rows. The later steps' margins keep the shifted plan feasible as in tube MPC; the bisector moves with every plan,
+    so feasibility is not guaranteed:
     a plan whose hard problem OSQP does not solve is planned again with the constraint softened (a slack per row,
     :data:`SLACK_WEIGHT`), where only the rows that cannot be met give way (the later steps' in practice), and counted
     (``softened``); one whose first step needed slack, where the guarantee is lost, is counted again (``relaxed``)."""

@@ -9,7 +9,7 @@ from typing import Annotated, ClassVar, Literal
 import numpy as np
 from pydantic import Field, PrivateAttr, field_validator, model_validator
 
-from swarmtrack.control.identification import NAMED_MODELS, check_model
+from swarmtrack.control.identification import NAMED_MODELS, check_model, error_tube, navigation_margin, vehicle_bound
 from swarmtrack.scenarios.schema import (
     Acceleration,
     ControllerSpec,
@@ -148,21 +148,17 @@ class MPCSpec(ControllerSpec):
         return min(limits)
 
     def margins(self, scenario: Scenario) -> list[float]:
-        """The separation constraint's tightening at l = 1..h (m): the model's :func:`~swarmtrack.control.mpc.
-        error_tube` for ``model_error`` plus the :func:`~swarmtrack.control.mpc.navigation_margin` of the swarm's
-        navigation noise (``swarm.nav_position_std``, ``nav_velocity_std``)."""
-        from swarmtrack.control.mpc import error_tube, navigation_margin
-
+        """The separation constraint's tightening at l = 1..h (m): the model's :func:`~swarmtrack.control.
+        identification.error_tube` for ``model_error`` plus the :func:`~swarmtrack.control.identification.
+        navigation_margin` of the swarm's navigation noise (``swarm.nav_position_std``, ``nav_velocity_std``)."""
         _, A, _ = self.uav_model()
         nav = navigation_margin(A, scenario.swarm.nav_position_std, scenario.swarm.nav_velocity_std)
         return [float(e + nav) for e in error_tube(A, self.model_error, self.horizon)]
 
     def _resolve_limits(self, scenario: Scenario) -> None:
-        """``bound: vehicle`` becomes the number (:func:`~swarmtrack.control.mpc.vehicle_bound`, rounded down to the
-        mm); a given bound above it is kept with a warning naming the key and the limit (the run's warnings,
+        """``bound: vehicle`` becomes the number (:func:`~swarmtrack.control.identification.vehicle_bound`, rounded
+        down to the mm); a given bound above it is kept with a warning naming the key and the limit (the run's warnings,
         :mod:`swarmtrack.capabilities.mpc.metrics`)."""
-        from swarmtrack.control.mpc import vehicle_bound
-
         T, A, B = self.uav_model()
         accel, what = self.vehicle_accel(scenario)
         flyable = math.floor(1000.0 * vehicle_bound(A, B, T, accel)) / 1000.0

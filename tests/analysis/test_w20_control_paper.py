@@ -47,11 +47,15 @@ PER_SETTING = ["w20-mpc-multi-equals-single", "w20-mpc-formation-order", "w20-mp
 IDS = [*PER_SETTING, *(f"{i}-thesis" for i in PER_SETTING), "w20-mpc-plans-flown", "w20-identification"]
 
 
+@pytest.fixture(scope="module")
+def _identification():
+    """The identification claim is real (known-model recovery, the quadrotor's fit), made once for the module."""
+    return w20_control._identification_claim()
+
+
 @pytest.fixture(autouse=True)
-def _quick_identification(monkeypatch):
-    """The identification claim is real (known-model recovery, the quadrotor's fit); cached across the tests."""
-    result = w20_control._identification_claim()
-    monkeypatch.setattr(w20_control, "_identification_claim", lambda: result)
+def _quick_identification(monkeypatch, _identification):
+    monkeypatch.setattr(w20_control, "_identification_claim", lambda: _identification)
 
 
 def verdicts(data: dict) -> dict[str, bool]:

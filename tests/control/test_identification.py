@@ -15,17 +15,21 @@ from swarmtrack.control.identification import (
     AxisModel,
     Identified,
     check_model,
+    error_tube,
     fit_percent,
     identify,
     identify_axis,
     model_yaml,
+    navigation_margin,
     read_log_csv,
     round_significant,
     rounded_model,
     spectral_radius,
     step_response_log,
+    vehicle_bound,
     write_log_csv,
 )
+from swarmtrack.scenarios import load_scenario
 
 # A stable second-order axis each (complex poles, |λ| ≈ 0.85 and 0.89), different so the assembly is checked too.
 TRUE = {"x": (np.array([[0.98, 0.17], [-0.21, 0.69]]), np.array([0.02, 0.21])),
@@ -315,3 +319,50 @@ def test_cli_refuses_to_overwrite_an_existing_out_without_overwrite(tmp_path):
 
 def test_cli_refuses_an_out_in_a_missing_folder_and_creates_none(tmp_path):
     _bad(["--simulator", "--out", str(tmp_path / "no" / "m.yaml")], tmp_path, "no folder")
+
+
+# --- Issue 42: what the identified model says of the MPC's limits ---------------------------------------------------
+
+#: The model identified on the 5° quadrotor (the simulated W20 scenarios' controller.model) and that vehicle's
+#: per-axis acceleration, g·tan 5°
+_, LIMITED_A, LIMITED_B = load_scenario("w20-mpc-collision").controller.uav_model()
+FIVE_DEGREES = 9.81 * np.tan(np.radians(5.0))
+
+
+def test_the_vehicle_bound_is_the_largest_input_whose_planned_accelerations_the_vehicle_gives():
+    b = vehicle_bound(LIMITED_A, LIMITED_B, 0.2, FIVE_DEGREES)
+    assert b == pytest.approx(FIVE_DEGREES * 0.2 / 0.164852, rel=1e-12)  # the first period's change is the largest
+    assert b == pytest.approx(1.0412, abs=1e-4)
+    for scale, within in ((1.0, True), (1.01, False)):  # the model's step response from rest, held 10 s
+        x, dv = np.zeros(4), []
+        for _ in range(50):
+            nxt = LIMITED_A @ x + LIMITED_B @ np.array([scale * b, -scale * b])
+            dv.append(np.abs(nxt[2:] - x[2:]).max() / 0.2)
+            x = nxt
+        assert bool(max(dv) <= FIVE_DEGREES * (1 + 1e-12)) is within
+
+
+def test_the_error_tube_bounds_every_deviation_the_one_step_error_box_can_make():
+    """Mayne et al. 2005's F_l = ⊕ A^i W along any direction: random errors within the box stay inside, a vertex
+    sequence reaches the bound on one axis."""
+    w = (0.02, 0.2)
+    tube = error_tube(LIMITED_A, w, 5)
+    assert tube[0] == pytest.approx(np.hypot(0.02, 0.02)) and np.all(np.diff(tube) > 0)
+    rng = np.random.default_rng(3)
+    box = np.array([w[0], w[0], w[1], w[1]])
+    for _ in range(200):
+        e = np.zeros(4)
+        for l in range(5):
+            e = LIMITED_A @ e + rng.uniform(-1, 1, 4) * box
+            assert np.hypot(e[0], e[1]) <= tube[l] + 1e-12
+    for l in range(5):  # the worst sequence on each axis: each error at the vertex A^i's position row favours
+        e = np.zeros(4)
+        for i in range(l + 1):
+            e = LIMITED_A @ e + np.sign(np.linalg.matrix_power(LIMITED_A, l - i)[:2].sum(axis=0)) * box
+        assert np.hypot(e[0], e[1]) == pytest.approx(tube[l], rel=1e-12)
+
+
+def test_the_navigation_margin_is_three_sigma_of_the_first_predicted_position():
+    nav = navigation_margin(LIMITED_A, 0.02, 0.02)
+    assert nav == pytest.approx(3 * np.hypot(0.983093 * 0.02, 0.175215 * 0.02), rel=1e-12)
+    assert navigation_margin(LIMITED_A, 0.0, 0.0) == 0.0

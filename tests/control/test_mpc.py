@@ -12,6 +12,7 @@ from swarmtrack.control.mpc import (
     FormationQP,
     MPCController,
     MPCSettings,
+    SeparationConstraint,
     prediction_matrices,
     propagate_target,
     side_step,
@@ -19,6 +20,7 @@ from swarmtrack.control.mpc import (
 from swarmtrack.estimation.base import TargetView
 from swarmtrack.models import make_model
 from swarmtrack.network.messages import Inbox
+from swarmtrack.scenarios import load_scenario
 
 MODEL = NAMED_MODELS["swarmtrack-quadrotor"]
 
@@ -159,3 +161,64 @@ def test_no_estimate_yet_keeps_the_uav_holding():
     ctrl.command(0.0, nav, TargetView(np.full((1, 4), np.nan)), _inbox(nav), 0.02)
     np.testing.assert_array_equal(ctrl.setpoint[0], [1.0, 2.0])
     assert ctrl.solves[0] == 0
+
+
+# --- Issue 42: the separation constraint -------------------------------------------------
+
+#: The model identified on the 5° quadrotor (the simulated W20 scenarios' controller.model)
+_, LIMITED_A, LIMITED_B = load_scenario("w20-mpc-collision").controller.uav_model()
+
+
+def _separated_qp(slots=1, bound=1.0, h=5):
+    s = MPCSettings(horizon=h, bound=bound, eps=1e-9, separation=1.0)
+    cond = Condensed.build(LIMITED_A, LIMITED_B, h)
+    return s, cond, FormationQP(cond.G, s, slots=slots)
+
+
+def test_the_qp_with_separation_rows_matches_a_constrained_minimiser():
+    """UAV i at the origin heads for a slot beyond its neighbour j at (1.6, 0): its planned positions keep to its side
+    of the bisector x = 0.8, d/2 + margin away, where the unconstrained plan would not."""
+    s, cond, qp = _separated_qp()
+    x0 = np.array([[0.0, 0.0, 0.6, 0.0]])
+    f, r = cond.free(x0)[0], np.tile([6.0, 0.3], 5)
+    margins = np.linspace(0.05, 0.25, 5)
+    normal = np.array([[-1.0, 0.0]])  # Δ = p_i − p_j = (−1.6, 0)
+    rhs = 0.5 + margins + normal[0] @ [0.8, 0.0] - np.einsum("a,la->l", normal[0], f.reshape(5, 2))
+    cons = SeparationConstraint(normal, rhs[None])
+    U, status, _ = qp.solve(f, r, s.Q, cons)
+    assert status == 1
+    positions = (cond.G @ U + f).reshape(5, 2)
+    assert np.all(0.8 - positions[:, 0] >= 0.5 + margins - 1e-6)
+    rows = np.einsum("a,lau->lu", normal[0], cond.G.reshape(5, 2, 10))
+    ref = minimize(lambda u: _cost(u, cond.G, f, r, s.Q, s.R) / 1e3, np.zeros(10), method="SLSQP",
+                   bounds=[(-1, 1)] * 10, constraints=[{"type": "ineq", "fun": lambda u: rows @ u - rhs}],
+                   options={"ftol": 1e-15, "maxiter": 500})
+    assert ref.success and _cost(U, cond.G, f, r, s.Q, s.R) <= 1e3 * ref.fun + 1e-5
+    np.testing.assert_allclose(U, ref.x, atol=2e-4)
+    free, _, _ = FormationQP(cond.G, MPCSettings(horizon=5, bound=1.0, eps=1e-9)).solve(f, r, s.Q)
+    assert (cond.G @ free + f)[-2] > 0.3  # without the constraint it would come closer
+
+
+def test_an_unmeetable_separation_is_softened_and_counted_not_a_fallback():
+    """Two UAVs 1.2 m apart closing at 2 m/s: no input within ±0.3 m keeps them 1 m apart over the horizon."""
+    ctrl = MPCController(LIMITED_A, LIMITED_B, np.array([[0.0, 0.0], [10.0, 0.0]]),
+                         MPCSettings(bound=0.3, separation=1.0, margins=(0.05,) * 5))
+    nav = np.array([[0.0, 0.0, 1.0, 0.0], [1.2, 0.0, -1.0, 0.0]])
+    view = TargetView(np.array([[0.0, 5.0, 0.0, 0.0]] * 2))
+    ctrl.command(0.0, nav, view, _inbox(nav), 0.02)
+    assert ctrl.softened.tolist() == ctrl.relaxed.tolist() == [1, 1] and ctrl.fallbacks.tolist() == [0, 0]
+    assert {"softened", "relaxed"} <= set(ctrl.sample()) and "relaxed" in [p.name for p in ctrl.probes]
+
+
+def test_without_neighbours_the_separation_changes_no_plan_bit_for_bit():
+    nav = np.array([[0.0, 0.0, 0.3, -0.2], [20.0, 3.0, 0.0, 0.1]])
+    view = TargetView(np.array([[4.0, 1.0, 0.5, 0.0]] * 2))
+    plans = []
+    for sep in (None, 1.0):
+        ctrl = MPCController(LIMITED_A, LIMITED_B, np.array([[0.0, 0.0], [10.0, 0.0]]),
+                             MPCSettings(separation=sep, margins=(0.1,) * 5 if sep else ()))
+        for k in range(3):
+            ctrl.command(0.2 * k, nav, view, _inbox(nav), 0.2)
+        plans.append(ctrl.setpoint.copy())
+        assert ("relaxed" in ctrl.sample()) is (sep is not None)
+    np.testing.assert_array_equal(plans[0], plans[1])

@@ -55,3 +55,42 @@ def test_the_yaml_block_identify_writes_plugs_into_a_scenario():
     assert T == found.T
     np.testing.assert_allclose(A, found.A, rtol=1e-5, atol=1e-7)
     np.testing.assert_allclose(B, found.B, rtol=1e-5, atol=1e-7)
+
+
+@pytest.mark.parametrize("override, words", [
+    ("controller.bound=vehicles", ["controller.bound", "vehicle"]),
+    ("controller.separation=0", ["controller.separation", "greater than 0"]),
+    ("controller.model_error=[-0.1, 0.2]", ["controller.model_error", "greater than or equal to 0"]),
+    ("controller.model_error=[0.1]", ["controller.model_error"]),
+])
+def test_bad_bound_and_separation_settings_exit_2_naming_the_field(override, words, refused):
+    refused("w20-mpc-collision", override, words)
+
+
+@pytest.mark.parametrize("overrides, bound, limit", [
+    ([], 1.041, "swarm.quadrotor.max_roll_pitch = 0.08727 rad (5°)"),  # W20's 5°: g·tan 5° = 0.858 m/s²
+    (["swarm.quadrotor.max_roll_pitch=null"], 2.573, "controller.gains.accel_limit = 3 m/s² (in norm)"),
+    (["swarm.quadrotor.max_roll_pitch=null", "swarm.quadrotor.max_tilt=0.2"], 1.705,
+     "swarm.quadrotor.max_tilt = 0.2 rad (in norm)"),
+])
+def test_bound_vehicle_resolves_to_the_bound_the_limiting_setting_allows(overrides, bound, limit):
+    """a·T/Δv: 0.858 m/s², 3/√2 m/s², g·tan 0.2/√2 m/s² through the 5° model's first-period change (0.164852 m/s
+    per m), rounded down to the mm; the resolved number is what scenario.yaml says."""
+    s = load_scenario("w20-mpc-collision", overrides)
+    assert s.controller.bound == bound and s.controller.model_dump()["bound"] == bound
+    meta = s.controller.recording_meta()["mpc"]
+    assert meta["vehicle_bound"] == bound and meta["limit"] == limit and meta["warnings"] == []
+    assert meta["separation"] == 1.0 and len(meta["margins"]) == 5
+
+
+def test_a_bound_the_vehicle_cannot_fly_is_run_with_a_warning_naming_the_key_and_the_limit(tmp_path):
+    result = CliRunner().invoke(main, ["validate", "w20-mpc-collision", "--set", "controller.bound=2"])
+    assert result.exit_code == 0 and "bound: 2.0" in result.output
+    result = CliRunner().invoke(main, ["run", "w20-mpc-collision", "--set", "controller.bound=2", "--set",
+                                       "duration=0.6", "--no-plots", "--out", str(tmp_path / "run")])
+    assert result.exit_code == 0, result.output
+    assert ("warning: controller.bound = 2 m is more than the vehicle can fly: swarm.quadrotor.max_roll_pitch = "
+            "0.08727 rad (5°) gives 0.858 m/s² per axis, which the MPC's model reaches at a relative setpoint of "
+            "1.041 m") in result.output
+    flyable = load_scenario("w20-mpc-collision", ["controller.bound=1.041"]).controller.recording_meta()["mpc"]
+    assert flyable["warnings"] == []

@@ -196,6 +196,17 @@ def test_a_saturated_diagonal_command_holds_both_angles_at_the_limit():
                                rtol=1e-8)
 
 
+def test_the_per_axis_limit_is_what_a_saturated_diagonal_command_gives_on_each_axis():
+    """max_axis_accel (what the MPC plans within, issue 42): g·tan 5° with W20's limit, reached on both axes at once;
+    the tilt-norm limit shared by the two axes without it."""
+    assert W20.max_axis_accel == pytest.approx(W20.g * np.tan(LIMIT), rel=1e-15)
+    state = run(quadrotor.hover_state(np.zeros((1, 2))), np.array([[3.0, -3.0]]), 300, params=W20)
+    assert np.all(np.abs(quadrotor.achieved_acceleration(state, W20)[0]) >= W20.max_axis_accel * (1 - 1e-9))
+    assert P.max_axis_accel == pytest.approx(P.max_horizontal_accel / np.sqrt(2), rel=1e-15)
+    state = run(quadrotor.hover_state(np.zeros((1, 2))), np.array([[9.0, 9.0]]), 300)
+    np.testing.assert_allclose(quadrotor.achieved_acceleration(state, P)[0], [P.max_axis_accel] * 2, rtol=1e-6)
+
+
 def test_a_limit_that_never_binds_changes_no_bit():
     # the tilt-norm clip at 0.6 rad keeps each angle under 0.6 rad: a 0.61 rad per-axis limit never binds
     rng = np.random.default_rng(4)

@@ -15,6 +15,10 @@ A log is a mapping of column name to 1-D array (a ``dict``, or a ``pandas.DataFr
 ``t, x, y, vx, vy, ux, uy`` (s, m, m/s, m setpoint): ``u_k`` is the setpoint held from ``t_k`` to ``t_{k+1}``,
 sampled at a fixed period ``T``. CSV files carry the same columns (:func:`write_log_csv`, :func:`read_log_csv`).
 
+What the identified model says of the MPC's limits (issue 42): :func:`vehicle_bound` (the input bound a vehicle's
+acceleration limit allows), :func:`error_tube` and :func:`navigation_margin` (the separation constraint's tightening);
+numpy only, so that validating a scenario derives them without loading the controller.
+
 Onboard-side code: nothing of the simulator is imported here at module level; :func:`step_response_log`, which
 flies the simulator's quadrotor to make a log, imports it when called.
 """
@@ -456,3 +460,57 @@ def model_yaml(identified: Identified, source: str = "a log", digits: int = 6) -
             f"  T: {_yaml_float(float(f'{identified.T:.{digits}g}'))}\n"
             f"  A: {_matrix_flow(A)}\n"
             f"  B: {_matrix_flow(B)}\n")
+
+
+# --- What the identified model says of the MPC's limits (issue 42; control/mpc.py plans with them) --------------
+
+def unit_step_accelerations(A: np.ndarray, B: np.ndarray, T: float, steps: int = 50) -> np.ndarray:
+    """(2,) per axis: the largest mean acceleration over one period, ``max_l |v(l+1) − v(l)| / T``, of the model's
+    response from rest at the origin to a unit relative input held ``steps`` periods (m/s² per m of input)."""
+    out = np.zeros(2)
+    for axis in range(2):
+        x, u = np.zeros(4), np.zeros(2)
+        u[axis] = 1.0
+        for _ in range(steps):
+            nxt = A @ x + B @ u
+            out[axis] = max(out[axis], abs(nxt[2 + axis] - x[2 + axis]) / T)
+            x = nxt
+    return out
+
+
+def vehicle_bound(A: np.ndarray, B: np.ndarray, T: float, accel: float) -> float:
+    """The input bound (m, per axis, relative setpoint) the vehicle can fly: ``b = a / max(g_x, g_y)`` with ``a`` its
+    per-axis acceleration limit (m/s²) and ``g`` the model's :func:`unit_step_accelerations`.
+
+    Derivation: the MPC's input is the position controller's setpoint relative to the UAV (W20 Sec. 5.3.2), the model
+    ``x(l+1) = A x(l) + B s(l)`` (W20 eq. 5.32) is linear, so a relative input ``u`` from rest gives the velocity
+    changes ``u·Δv_l`` of the unit response; the largest, ``g·T·u``, must stay within what the vehicle's limit gives
+    in one period, ``a·T``. For the 5° quadrotor (``a = g·tan 5° = 0.858 m/s²``) and the model identified on it
+    (its largest change is the first period's, ``B_v = 0.1649``: ``g = B_v/T = 0.824 s⁻²``), ``b = 1.04 m``; W20's
+    ±2 m (Tables 5.9, 5.10) plans 1.65 m/s² from rest, and its position loop asks ``kp·2 = 2.88 m/s²``."""
+    return float(accel / unit_step_accelerations(A, B, T).max())
+
+
+def error_tube(A: np.ndarray, error: tuple[float, float], h: int) -> np.ndarray:
+    """(h,) the radius in position of the identified model's error tube at l = 1..h: Mayne, Seron & Raković (2005,
+    Automatica 41(2), the set ``F_l = ⊕_{i<l} A_K^i W`` of the flown state's deviation from the nominal one) with
+    ``A_K = A`` (the model is already the closed loop of the UAV's position controller, the MPC adds no feedback) and
+    ``W`` the one-step error box ``|w_p| ≤ error[0]`` m, ``|w_v| ≤ error[1]`` m/s on each axis. The box's reach along
+    each axis, ``Σ_{i<l} |A^i| w`` (its support function), is combined over the two axes in norm: it bounds the
+    deviation along any unit direction."""
+    w = np.array([error[0], error[0], error[1], error[1]], dtype=float)
+    power, reach, out = np.eye(4), np.zeros(4), np.zeros(h)
+    for l in range(h):
+        reach = reach + np.abs(power) @ w
+        out[l] = np.hypot(reach[0], reach[1])
+        power = np.asarray(A, dtype=float) @ power
+    return out
+
+
+def navigation_margin(A: np.ndarray, position_std: float, velocity_std: float, sigmas: float = 3.0) -> float:
+    """m: how far a plan's first predicted position moves along any direction when the UAV's navigation solution is
+    off by its noise, ``sigmas`` standard deviations of ``n·A_p δx`` (``A_p`` the model's position rows; the errors of
+    the estimated position and velocity independent, the same on both axes); the estimation-error part of a robust
+    output-feedback tube (Mayne, Raković, Findeisen & Allgöwer 2006, Automatica 42(7))."""
+    A = np.asarray(A, dtype=float)
+    return float(sigmas * max(np.hypot(A[i, i] * position_std, A[i, 2 + i] * velocity_std) for i in range(2)))

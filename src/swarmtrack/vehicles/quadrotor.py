@@ -112,6 +112,18 @@ class QuadrotorParams:
         """Largest planar acceleration reachable at the tilt limit with altitude hold, ``g·tan(max_tilt)``."""
         return self._a_max
 
+    @property
+    def max_axis_accel(self) -> float:
+        """Largest planar acceleration reachable on *each* axis at once (a diagonal command), m/s²: the tilt-norm
+        limit shared by the two axes, ``g·tan(max_tilt)/√2``, and with ``max_roll_pitch`` the per-axis saturation
+        ``g·tan(max_roll_pitch)`` (``θ_d`` saturated gives ``ax = g·tan θ/cos φ ≥ g·tan θ``). For W20's 5°:
+        0.858 m/s² (what :mod:`swarmtrack.control.mpc` plans within); the default 0.6 rad: 4.76 m/s². A limit only:
+        the vehicle's behaviour is :func:`step`'s."""
+        per_axis = self._a_max / math.sqrt(2.0)
+        if self.max_roll_pitch is not None:
+            per_axis = min(per_axis, self.g * math.tan(self.max_roll_pitch))
+        return per_axis
+
 
 DEFAULT_PARAMS = QuadrotorParams()
 

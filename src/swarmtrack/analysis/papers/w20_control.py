@@ -12,6 +12,11 @@ another scale; the claims compare the thesis' statements, with the seeds (paired
 scenarios saturate the quadrotor's roll and pitch setpoints at the thesis' 5° (Sec. 5.4.2, beside Table 5.5:
 ``swarm.quadrotor.max_roll_pitch``) and their MPC predicts with a model identified on that 5° quadrotor
 (:data:`LIMIT`); the indoor one (a Pelican in the thesis, limit not given) keeps the default 0.6 rad tilt limit.
+
+Two settings (:data:`SETTINGS`), each over the same seeds: the scenarios' own, where the MPC plans within what the
+5° vehicle flies (``controller.bound: vehicle``, 1.041 m) and keeps a hard separation of 1 m (``controller.
+separation``), and the thesis' (Tables 5.5, 5.9, 5.10: ±10 m and ±2 m, the separation cost term only), whose bounds
+the 5° vehicle cannot fly (each such run carries an ``unflyable_bound`` warning). Every claim is judged at both.
 """
 
 from __future__ import annotations
@@ -38,7 +43,20 @@ FORMATION = {"w20-mpc-formation": ("perfect estimates (Table 5.11)", (1.42, 1.18
 COLLISION = {"w20-mpc-collision": "separation term on (Q_s = 6)", "w20-mpc-collision-off": "separation term off"}
 #: Tables 5.7-5.8: estimation error, tracking error in x and in y [m]
 INDOOR = {"w20-mpc-indoor": (0.25, 0.24, 0.39)}
-EXPERIMENTS = (*SINGLE, *FORMATION, *COLLISION, *INDOOR)
+#: The two settings every simulated experiment runs in: suffix of its experiment's name → what it is. The thesis'
+#: is the scenario with W20's bound (``controller.bound``: ±10 m with one UAV, ±2 m with more) and W20's separation
+#: cost term alone (``controller.separation: null``).
+SETTINGS = {"": "consistent (bound: vehicle, separation 1 m)", "-thesis": "thesis (±2 m / ±10 m, cost term only)"}
+#: The thesis setting's overrides per scenario
+THESIS = {n: ("controller.bound=10.0",) for n in SINGLE} | {
+    n: ("controller.bound=2.0", "controller.separation=null") for n in (*FORMATION, *COLLISION)
+    if n != "w20-mpc-formation-estimated"}
+#: Table 5.9 once more at the thesis' bound, with the separation constraint on: the constraint alone does not make
+#: the plans flyable (the reason the thesis setting fails, measured)
+CONSTRAINED = "w20-mpc-collision-thesis-constrained"
+VARIANTS = {f"{n}-thesis": (n, o) for n, o in THESIS.items()} | {CONSTRAINED: ("w20-mpc-collision",
+                                                                               ("controller.bound=2.0",))}
+EXPERIMENTS = (*SINGLE, *FORMATION, *COLLISION, *INDOOR, *VARIANTS)
 
 #: Two multi- and single-model means "do not differ" when within this fraction of each other (the thesis' own
 #: averages differ by 3.6 %)
@@ -80,8 +98,15 @@ def _m(s: dict) -> str:
     return f"{s['mean']:.3f} ± {s['std']:.3f}{ci}"
 
 
-def _single_claims(by_scenario) -> tuple[list[Claim], list[list[str]], dict]:
-    err = {n: {s: v[0] for s, v in _errors(by_scenario[n]).items()} for n in SINGLE}
+def _runs(by_scenario, name: str) -> list[dict]:
+    """The runs of an experiment (none when it was not run, e.g. a subset of the experiments)."""
+    return by_scenario.get(name) or []
+
+
+def _single_claims(by_scenario, suffix: str) -> tuple[list[Claim], list[list[str]], dict]:
+    """Table 5.6 and the longer-horizon hypothesis in one setting (``suffix``, :data:`SETTINGS`)."""
+    setting = SETTINGS[suffix].split(" (")[0]
+    err = {n: {s: v[0] for s, v in _errors(_runs(by_scenario, n + suffix)).items()} for n in SINGLE}
     stat = {n: mean_std_ci(err[n].values()) for n in SINGLE}
     claims, numbers = [], {"mean_error": stat}
     for h, multi, single in ((5, "w20-mpc-single", "w20-mpc-single-cv"),
@@ -94,41 +119,66 @@ def _single_claims(by_scenario) -> tuple[list[Claim], list[list[str]], dict]:
                    "paired t-test p": p, "seeds where multi is lower": f"{better}/{len(seeds)}"}
         numbers[f"h{h}"] = project
         if h == 5:
-            claims.append(Claim("w20-mpc-multi-equals-single", f"At h = 5, multi-model and single-model (CV) "
+            claims.append(Claim("w20-mpc-multi-equals-single" + suffix, f"At h = 5, multi-model and single-model (CV) "
                                 f"propagation give mean errors within {100 * SAME:.0f} % of each other (Table 5.6: "
-                                "no significant difference)", {"multi-model": 0.29, "single-model CV": 0.28},
+                                f"no significant difference); {setting} bound", {"multi-model": 0.29,
+                                                                                  "single-model CV": 0.28},
                                 project, rel is not None and abs(rel) <= SAME))
         else:
-            claims.append(Claim("w20-mpc-longer-horizon", "The thesis' hypothesis (Sec. 5.4.2): with a longer "
+            claims.append(Claim("w20-mpc-longer-horizon" + suffix, "The thesis' hypothesis (Sec. 5.4.2): with a longer "
                                 "horizon (h = 20, 4 s) multi-model propagation gives a lower mean error than "
-                                "single-model CV", "hypothesis, not tested in the thesis", project,
+                                f"single-model CV; {setting} bound", "hypothesis, not tested in the thesis", project,
                                 rel is not None and rel < 0 and (p is None or p < 0.05)))
-    rows = [[SINGLE[n][0], str(SINGLE[n][1]), f"`{n}`", "—" if SINGLE[n][2] is None else f"{SINGLE[n][2]:.2f}",
-             _m(stat[n]), str(stat[n]["n"])] for n in SINGLE]
+    rows = [[SINGLE[n][0], str(SINGLE[n][1]), setting, f"`{n + suffix}`",
+             "—" if SINGLE[n][2] is None else f"{SINGLE[n][2]:.2f}", _m(stat[n]), str(stat[n]["n"])] for n in SINGLE]
     phases = {n: {} for n in SINGLE}  # scenario -> phase -> mean over seeds
     for n in SINGLE:
-        runs = [r["formation"]["tracking_error_by_phase"] for r in converged(by_scenario[n]) if "formation" in r]
+        runs = [r["formation"]["tracking_error_by_phase"] for r in converged(_runs(by_scenario, n + suffix))
+                if "formation" in r]
         for name in dict.fromkeys(k for r in runs for k in r):
             phases[n][name] = float(np.mean([r[name] for r in runs if name in r]))
-    names = list(dict.fromkeys(k for v in phases.values() for k in v))
-    phase_rows = [[f"`{n}`", *(f"{1000 * phases[n][k]:.1f}" if k in phases[n] else "—" for k in names)]
-                  for n in SINGLE]
     numbers["by_phase"] = phases
-    return claims, (rows, names, phase_rows), numbers
+    return claims, rows, numbers
 
 
-def _formation_claims(by_scenario) -> tuple[list[Claim], list[list[str]], dict]:
-    err = {n: _errors(by_scenario[n]) for n in FORMATION}
-    stat = {n: [mean_std_ci([v[i] for v in err[n].values()]) for i in range(3)] for n in FORMATION}
-    mean = {n: [s["mean"] for s in stat[n]] for n in FORMATION}
+def _closest(runs: list[dict]) -> list[float]:
+    """Each converged run's closest approach of two UAVs (m), seed order."""
+    return [r["inter_agent_distance"]["min"] for r in converged(runs)
+            if r.get("inter_agent_distance", {}).get("min") is not None]
+
+
+def _flown(runs: list[dict]) -> dict:
+    """What the runs say of their bounds (the first run's ``formation.bounds``), the largest one-step model error in
+    flight over them, and their plans softened and fallbacks."""
+    formation = [r["formation"] for r in converged(runs) if "formation" in r]
+    errors = [f["model_error"] for f in formation if f.get("model_error")]
+    bounds = next((f["bounds"] for f in formation if f.get("bounds")), None) or {}
+    return {"bound (m)": bounds.get("bound"), "vehicle bound (m)": bounds.get("vehicle_bound"),
+            "separation (m)": bounds.get("separation"),
+            "assumed model error (m, m/s)": bounds.get("model_error") if bounds.get("separation") else None,
+            "model error in flight (m)": max((e["position"] for e in errors), default=None),
+            "model error in flight (m/s)": max((e["velocity"] for e in errors), default=None),
+            "plans softened": sum(sum(f["solver"].get("softened", [])) for f in formation),
+            "first steps relaxed": sum(sum(f["solver"].get("relaxed", [])) for f in formation),
+            "fallbacks": sum(sum(f["solver"]["fallbacks"]) for f in formation)}
+
+
+def _formation_claims(by_scenario, suffix: str) -> tuple[list[Claim], list[list[str]], dict]:
+    """Tables 5.11-5.12 in one setting (``suffix``, :data:`SETTINGS`): each UAV's error against the thesis', and
+    whether only the blind UAV degrades, with the closest approach that tells why when it does not."""
+    setting = SETTINGS[suffix].split(" (")[0]
+    names = [n for n in FORMATION if suffix == "" or n in THESIS]
+    err = {n: _errors(_runs(by_scenario, n + suffix)) for n in names}
+    stat = {n: [mean_std_ci([v[i] for v in err[n].values()]) for i in range(3)] for n in names}
+    mean = {n: [s["mean"] for s in stat[n]] for n in names}
     claims = []
     thesis = FORMATION["w20-mpc-formation"][1]
     ours = mean["w20-mpc-formation"]
     ok = all(m is not None and 1 / ORDER <= m / t <= ORDER for m, t in zip(ours, thesis, strict=True))
-    claims.append(Claim("w20-mpc-formation-order", f"Three UAVs in formation: each UAV's mean error within a factor "
-                        f"{ORDER:g} of the thesis' (Table 5.11)", dict(zip(("UAV 1", "UAV 2", "UAV 3"), thesis,
-                                                                            strict=True)),
-                        dict(zip(("UAV 1", "UAV 2", "UAV 3"), ours, strict=True)), ok))
+    uavs = ("UAV 1", "UAV 2", "UAV 3")
+    claims.append(Claim("w20-mpc-formation-order" + suffix, f"Three UAVs in formation: each UAV's mean error within "
+                        f"a factor {ORDER:g} of the thesis' (Table 5.11); {setting} bound",
+                        dict(zip(uavs, thesis, strict=True)), dict(zip(uavs, ours, strict=True)), ok))
     clear, occl = err["w20-mpc-formation"], err["w20-mpc-occlusion"]
     seeds = sorted(set(clear) & set(occl))
     change = [mean["w20-mpc-occlusion"][i] / mean["w20-mpc-formation"][i] - 1
@@ -136,33 +186,75 @@ def _formation_claims(by_scenario) -> tuple[list[Claim], list[list[str]], dict]:
     per_seed = sum(occl[s][2] / clear[s][2] - 1 > MARKED and all(abs(occl[s][i] / clear[s][i] - 1) < STEADY
                                                                   for i in (0, 1)) for s in seeds)
     holds = None not in change and change[2] > MARKED and all(abs(c) < STEADY for c in change[:2])
-    claims.append(Claim("w20-mpc-occlusion-only-uav3", f"With UAV 3 blind and cut off, only its error grows "
+    closest = _closest(_runs(by_scenario, "w20-mpc-occlusion" + suffix))
+    claims.append(Claim("w20-mpc-occlusion-only-uav3" + suffix, f"With UAV 3 blind and cut off, only its error grows "
                         f"markedly (> {100 * MARKED:.0f} %); UAVs 1 and 2 change by under {100 * STEADY:.0f} % "
-                        "(Table 5.12 vs 5.11)", {"UAV 1": 0.014, "UAV 2": -0.025, "UAV 3": 0.53},
+                        f"(Table 5.12 vs 5.11); {setting} bound", {"UAV 1": 0.014, "UAV 2": -0.025, "UAV 3": 0.53},
                         {"UAV 1": change[0], "UAV 2": change[1], "UAV 3": change[2],
-                         "seeds where it holds": f"{per_seed}/{len(seeds)}"}, holds))
+                         "seeds where it holds": f"{per_seed}/{len(seeds)}",
+                         "closest approach of two UAVs (m)": min(closest) if closest else None}, holds))
     rows = []
-    for n in FORMATION:
+    for n in names:
         t = FORMATION[n][1]
-        rows.append([FORMATION[n][0], f"`{n}`", *("—" if t is None else f"{t[i]:.2f}" for i in range(3)),
-                     *(_m(s) for s in stat[n]), str(stat[n][0]["n"])])
-    return claims, rows, {"tracking_error": stat, "occlusion_change": change}
+        rows.append([FORMATION[n][0], setting, f"`{n + suffix}`",
+                     *("—" if t is None else f"{t[i]:.2f}" for i in range(3)), *(_m(s) for s in stat[n]),
+                     str(stat[n][0]["n"])])
+    return claims, rows, {"tracking_error": stat, "occlusion_change": change, "occlusion_closest": closest}
 
 
-def _collision_claim(by_scenario) -> tuple[Claim, list[list[str]], dict]:
-    closest = {n: [r["inter_agent_distance"]["min"] for r in converged(by_scenario[n])
-                   if r.get("inter_agent_distance", {}).get("min") is not None] for n in COLLISION}
+def _collision_claim(by_scenario, suffix: str) -> tuple[Claim, list[list[str]], dict]:
+    """Table 5.9 in one setting (``suffix``, :data:`SETTINGS`): the closest approach with and without collision
+    avoidance, with the bounds and the model's error in flight that explain it."""
+    setting = SETTINGS[suffix].split(" (")[0]
+    closest = {n: _closest(_runs(by_scenario, n + suffix)) for n in COLLISION}
     on, off = closest["w20-mpc-collision"], closest["w20-mpc-collision-off"]
     holds = bool(on) and bool(off) and min(on) >= SAFE_M and max(off) < SAFE_M
-    claim = Claim("w20-mpc-collision-safe", f"With the separation term the two UAVs never come closer than "
+    flown = _flown(_runs(by_scenario, "w20-mpc-collision" + suffix))
+    claim = Claim("w20-mpc-collision-safe" + suffix, f"With collision avoidance the two UAVs never come closer than "
                   f"{SAFE_M:g} m (our safe distance; the thesis gives none and says UAV 2 enters the r_s zone), and "
-                  "without it "
-                  "they do (Table 5.9)", "no distance reported",
+                  f"without it they do (Table 5.9); {setting} bound", "no distance reported",
                   {"closest with (m)": min(on) if on else None, "closest without (m)": max(off) if off else None,
-                   "runs": f"{len(on)}, {len(off)}"}, holds)
-    rows = [[COLLISION[n], f"`{n}`", _m(mean_std_ci(closest[n])), f"{min(closest[n]):.3f}" if closest[n] else "—",
-             str(len(closest[n]))] for n in COLLISION]
-    return claim, rows, {"closest": {n: mean_std_ci(v) for n, v in closest.items()}}
+                   "runs": f"{len(on)}, {len(off)}", **flown}, holds)
+    rows = [[COLLISION[n], setting, f"`{n + suffix}`", *_closest_cells(closest[n])] for n in COLLISION]
+    return claim, rows, {"closest": {n: mean_std_ci(v) for n, v in closest.items()},
+                         "closest_per_seed": closest, "flown": flown}
+
+
+def _closest_cells(closest: list[float]) -> list[str]:
+    return [_m(mean_std_ci(closest)), f"{min(closest):.3f}" if closest else "—",
+            " ".join(f"{c:.2f}" for c in closest) or "—", str(len(closest))]
+
+
+def _flyable_claim(by_scenario) -> tuple[Claim, list[list[str]], dict]:
+    """Whether the consistent bound's plans are flown as planned: the model's one-step error in flight within the
+    ``controller.model_error`` the separation margin assumes, in every run with the constraint, and no plan's first
+    step relaxed (the softened plans, whose later steps gave way, are counted beside); the same numbers at the
+    thesis' bound beside them."""
+    names = ("w20-mpc-collision", "w20-mpc-formation", "w20-mpc-occlusion")
+    flown = {suffix: _flown([r for n in names for r in _runs(by_scenario, n + suffix)]) for suffix in SETTINGS}
+    flown[CONSTRAINED] = _flown(_runs(by_scenario, CONSTRAINED))
+    own = flown[""]
+    assumed = own["assumed model error (m, m/s)"]
+    holds = (assumed is not None and own["model error in flight (m)"] is not None
+             and own["model error in flight (m)"] <= assumed[0] and own["model error in flight (m/s)"] <= assumed[1]
+             and own["first steps relaxed"] == 0 and own["fallbacks"] == 0)
+    claim = Claim("w20-mpc-plans-flown", "With the consistent bound the UAVs fly what their MPC plans: the model's "
+                  "one-step error in flight stays within the controller.model_error its separation margin assumes, no "
+                  "plan relaxes the separation of its first (flown) step, and none falls back (Tables 5.9-5.12's runs)",
+                  "the thesis' bounds assume a vehicle the 5° limit does not give", own, holds)
+    labels = {"": SETTINGS[""], "-thesis": SETTINGS["-thesis"],
+              CONSTRAINED: "thesis' ±2 m with the separation constraint (Table 5.9)"}
+    keys = list(own)
+    rows = [[labels[k], *(_cell(flown[k][c]) for c in keys)] for k in flown]
+    return claim, [keys, *rows], {k: v for k, v in flown.items()}
+
+
+def _cell(v) -> str:
+    if v is None:
+        return "—"
+    if isinstance(v, float):
+        return f"{v:.3g}"
+    return str(v)
 
 
 @functools.cache
@@ -199,36 +291,55 @@ def _identification_claim() -> tuple[Claim, dict]:
 
 
 def analyse(by_scenario: dict[str, list[dict]]) -> tuple[list[Claim], str, dict]:
-    """Tables 5.6, 5.8, 5.11, 5.12 beside the project's mean ± std [95 % interval] over seeds, the separation of
-    Table 5.9, identification, and the longer-horizon hypothesis."""
-    claims, (single_rows, phase_names, phase_rows), single_numbers = _single_claims(by_scenario)
-    formation, formation_rows, formation_numbers = _formation_claims(by_scenario)
-    collision, collision_rows, collision_numbers = _collision_claim(by_scenario)
+    """Tables 5.6, 5.8, 5.11, 5.12 beside the project's mean ± std [95 % interval] over seeds and the closest approach
+    of Table 5.9, each in both :data:`SETTINGS`; whether the plans are flown as planned; identification; and the
+    longer-horizon hypothesis."""
+    claims, single_rows, phase_rows, formation_rows, collision_rows, numbers = [], [], [], [], [], {}
+    for suffix in SETTINGS:
+        single, rows, single_numbers = _single_claims(by_scenario, suffix)
+        formation, f_rows, formation_numbers = _formation_claims(by_scenario, suffix)
+        collision, c_rows, collision_numbers = _collision_claim(by_scenario, suffix)
+        claims += [single[0], *formation, collision, single[1]]
+        single_rows += rows
+        formation_rows += f_rows
+        collision_rows += c_rows
+        phases = single_numbers["by_phase"]
+        phase_rows += [(f"`{n + suffix}`", phases[n]) for n in SINGLE]
+        numbers["setting_" + (suffix.strip("-") or "consistent")] = {
+            "single": single_numbers, "formation": formation_numbers, "collision": collision_numbers}
+    constrained = _closest(_runs(by_scenario, CONSTRAINED))
+    collision_rows.append(["separation constraint on, at the thesis' ±2 m", "thesis bound + constraint",
+                           f"`{CONSTRAINED}`", *_closest_cells(constrained)])
+    numbers["setting_thesis"]["collision"]["constrained_closest_per_seed"] = constrained
+    flyable, (flown_keys, *flown_rows), flown_numbers = _flyable_claim(by_scenario)
     ident, ident_numbers = _identification_claim()
-    claims = [claims[0], *formation, collision, ident, claims[1]]
+    claims = [*claims, flyable, ident]
 
-    indoor = converged(by_scenario["w20-mpc-indoor"])
+    indoor = converged(_runs(by_scenario, "w20-mpc-indoor"))
     est = mean_std_ci([r["mean_error"]["all"] for r in indoor if r.get("mean_error", {}).get("all") is not None])
     xy = [r["formation"]["tracking_error_xy"][0] for r in indoor if "formation" in r]
     tx, ty = mean_std_ci([v[0] for v in xy]), mean_std_ci([v[1] for v in xy])
     thesis = INDOOR["w20-mpc-indoor"]
-    solver = {n: [r["formation"]["solver"] for r in converged(by_scenario[n]) if "formation" in r]
+    solver = {n: [r["formation"]["solver"] for r in converged(_runs(by_scenario, n)) if "formation" in r]
               for n in EXPERIMENTS}
     solver_rows = [[f"`{n}`", f"{np.mean([s['mean_solve_us'] for s in v]):.0f}" if v else "—",
                     f"{np.mean([s['mean_iterations'] for s in v]):.1f}" if v else "—",
                     str(sum(sum(s["fallbacks"]) for s in v))] for n, v in solver.items()]
-
+    phase_names = list(dict.fromkeys(k for _, v in phase_rows for k in v))
     md = ["### Table 5.6 and the longer-horizon hypothesis: one UAV, perfect estimates, mean error (m)", "",
-          markdown_table(["propagation", "h", "scenario", "thesis", "project mean ± std [95 % CI]", "seeds"],
+          markdown_table(["propagation", "h", "bound", "scenario", "thesis", "project mean ± std [95 % CI]", "seeds"],
                          single_rows), "",
           "By target phase (mm; the thesis reports none): where the propagation model matters", "",
-          markdown_table(["scenario", *phase_names], phase_rows), "",
+          markdown_table(["scenario", *phase_names], [[n, *(f"{1000 * v[k]:.1f}" if k in v else "—"
+                                                           for k in phase_names)] for n, v in phase_rows]), "",
           "### Tables 5.11-5.12: three UAVs in formation, mean distance from each place (m)", "",
-          markdown_table(["estimates", "scenario", "thesis UAV 1", "UAV 2", "UAV 3", "project UAV 1", "UAV 2",
+          markdown_table(["estimates", "bound", "scenario", "thesis UAV 1", "UAV 2", "UAV 3", "project UAV 1", "UAV 2",
                           "UAV 3", "seeds"], formation_rows), "",
           "### Table 5.9: closest approach of the two UAVs (m)", "",
-          markdown_table(["avoidance", "scenario", "closest, mean ± std [95 % CI]", "closest of all runs", "runs"],
-                         collision_rows), "",
+          markdown_table(["avoidance", "bound", "scenario", "closest, mean ± std [95 % CI]", "closest of all runs",
+                          "per seed", "runs"], collision_rows), "",
+          "### Bounds and the model's error in flight (Tables 5.9-5.12's runs): why the thesis setting fails", "",
+          markdown_table(["setting", *flown_keys], flown_rows), "",
           "### Tables 5.7-5.8: indoor, one UAV on its own CA-model EKF (m)", "",
           markdown_table(["quantity", "thesis", "project mean ± std [95 % CI]"],
                          [["estimation error", f"{thesis[0]:.2f}", _m(est)],
@@ -238,18 +349,18 @@ def analyse(by_scenario: dict[str, list[dict]]) -> tuple[list[Claim], str, dict]
           markdown_table(["quantity", "project"], [[k, f"{v:.3g}"] for k, v in ident_numbers.items()]), "",
           "### Solver (OSQP, one QP per UAV per plan): mean wall time per solve (µs, Python included), iterations, "
           "fallbacks", "", markdown_table(["scenario", "µs per solve", "iterations", "fallbacks"], solver_rows)]
-    numbers = {"single": single_numbers, "formation": formation_numbers, "collision": collision_numbers,
-               "identification": ident_numbers,
-               "indoor": {"estimation_error": est, "tracking_error_x": tx, "tracking_error_y": ty},
-               "thesis": {"table_5_6": {"single": 0.28, "multi": 0.29},
-                          "table_5_11": FORMATION["w20-mpc-formation"][1],
-                          "table_5_12": FORMATION["w20-mpc-occlusion"][1], "table_5_8": thesis}}
+    numbers |= {"flown": flown_numbers, "identification": ident_numbers,
+                "indoor": {"estimation_error": est, "tracking_error_x": tx, "tracking_error_y": ty},
+                "thesis": {"table_5_6": {"single": 0.28, "multi": 0.29},
+                           "table_5_11": FORMATION["w20-mpc-formation"][1],
+                           "table_5_12": FORMATION["w20-mpc-occlusion"][1], "table_5_8": thesis}}
     return claims, "\n".join(md), numbers
 
 
 def figures(out: Path, overrides: Sequence[str] = ()) -> list[Path]:
-    """Figs. 5.6-5.14 (seed 1): the single UAV's path and inputs, the two UAVs' crossing and their separation, the
-    formation and the occluded formation (paths, x/y over time, distance from each place)."""
+    """Figs. 5.6-5.14 (seed 1): the single UAV's path and inputs, the two UAVs' crossing and their separation (in both
+    settings, with the crossing's inputs against the bounds), the formation and the occluded formation (paths, x/y
+    over time, distance from each place)."""
     from swarmtrack.capabilities.mpc import figures as plots  # matplotlib, only when drawing
 
     out = Path(out)
@@ -257,8 +368,13 @@ def figures(out: Path, overrides: Sequence[str] = ()) -> list[Path]:
     names = ("w20-mpc-single", "w20-mpc-collision", "w20-mpc-formation", "w20-mpc-occlusion")
     rec = {n: swarmtrack.simulate(swarmtrack.load_scenario(n, overrides, seed=1)) for n in names}
     paths = [plots.plot_formation_paths(rec[n], out / f"{n}_paths.png") for n in names]
+    thesis = swarmtrack.simulate(swarmtrack.load_scenario("w20-mpc-collision", [*THESIS["w20-mpc-collision"],
+                                                                                *overrides], seed=1))
     paths += [plots.plot_mpc_inputs(rec["w20-mpc-single"], out / "w20-mpc-single_inputs.png"),
-              plots.plot_min_separation(rec["w20-mpc-collision"], out / "w20-mpc-collision_separation.png")]
+              plots.plot_min_separation(rec["w20-mpc-collision"], out / "w20-mpc-collision_separation.png"),
+              plots.plot_min_separation(thesis, out / "w20-mpc-collision-thesis_separation.png"),
+              plots.plot_mpc_inputs(rec["w20-mpc-collision"], out / "w20-mpc-collision_inputs.png"),
+              plots.plot_mpc_inputs(thesis, out / "w20-mpc-collision-thesis_inputs.png")]
     for n in ("w20-mpc-formation", "w20-mpc-occlusion"):
         paths += [plots.plot_formation_xy_time(rec[n], out / f"{n}_xy.png"),
                   plots.plot_slot_distance(rec[n], out / f"{n}_slot_distance.png")]
@@ -267,4 +383,4 @@ def figures(out: Path, overrides: Sequence[str] = ()) -> list[Path]:
 
 PAPER = Paper("w20-control", "Wolfe 2020 thesis Ch. 5: multi-model distributed MPC formation tracking (Tables 5.6, "
               "5.8, 5.11, 5.12), collision avoidance (Table 5.9) and system identification", EXPERIMENTS, analyse,
-              figures)
+              figures, variants=VARIANTS)

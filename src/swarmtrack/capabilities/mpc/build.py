@@ -12,7 +12,11 @@ from swarmtrack.onboard.context import Context
 
 def mpc(spec: MPCSpec, ctx: Context) -> MPCController:
     _, A, B = spec.uav_model()
-    settings = MPCSettings(spec.horizon, spec.period, spec.Q, spec.R, spec.Q_s, spec.r_s, spec.bound)
+    separation = spec.separation if spec.Q_s > 0 else None  # Q_s = 0 turns collision avoidance off, all of it
+    assert not isinstance(spec.bound, str), "validation resolves bound: vehicle to the number"
+    settings = MPCSettings(spec.horizon, spec.period, spec.Q, spec.R, spec.Q_s, spec.r_s, float(spec.bound),
+                           separation=separation,
+                           margins=tuple(spec.margins(ctx.scenario)) if separation is not None else ())
     n = ctx.scenario.swarm.n_uavs  # a batch of worlds: each world's UAV i takes offset i
     offsets = np.asarray(spec.offsets or [(0.0, 0.0)] * n, dtype=float)[ctx.uavs % n]
     return MPCController(A, B, offsets, settings, target_model=None if spec.target_model == "estimate" else

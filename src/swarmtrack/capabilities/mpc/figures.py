@@ -217,12 +217,14 @@ def plot_slot_distance(rec: Recording, path: str | Path, every: int | None = Non
 
 def plot_mpc_inputs(rec: Recording, path: str | Path, every: int | None = None) -> Path:
     """W20 Fig. 5.7 (top): each UAV's relative input ``u = setpoint − p`` per axis over time with the bounds
-    ``±bound`` (see :class:`_FormationSeries` for the position taken), and below, the number of active
+    ``±bound`` (see :class:`_FormationSeries` for the position taken) and, when the bound is more than the vehicle
+    flies, the bound it flies (``meta["mpc"]["vehicle_bound"]``, dotted red); and below, the number of active
     collision-avoidance terms (neighbours closer than r_s when the plan was made; maximum per drawn step)."""
     s = _FormationSeries(rec, every)
     n = rec.n_agents
     shown = min(n, MAX_LINES)
     bound = s.ctrl.get("bound")
+    flyable = ((rec.meta or {}).get("mpc") or {}).get("vehicle_bound")
     fig = new_figure((10.0, 7.5))
     axes = fig.subplots(3, 1, sharex=True, height_ratios=(3, 3, 1.4))
     for ax, col, comp in ((axes[0], 0, "x"), (axes[1], 1, "y")):
@@ -232,6 +234,10 @@ def plot_mpc_inputs(rec: Recording, path: str | Path, every: int | None = None) 
             for sign in (1, -1):
                 ax.axhline(sign * float(bound), color="black", lw=1.0, ls="--", zorder=2,
                            label=f"\u00b1bound = {float(bound):g} m" if sign > 0 else None)
+        if flyable is not None and bound is not None and flyable < float(bound):  # a bound the vehicle cannot fly
+            for sign in (1, -1):
+                ax.axhline(sign * flyable, color="tab:red", lw=1.0, ls=":", zorder=2,
+                           label=f"\u00b1{flyable:g} m: what the vehicle flies" if sign > 0 else None)
         ax.set_ylabel(f"$u_{comp}$ [m]")
     ax = axes[2]
     for i in range(shown):
@@ -246,7 +252,8 @@ def plot_mpc_inputs(rec: Recording, path: str | Path, every: int | None = None) 
         time_axis(ax, rec)
         if ax is not axes[-1]:
             ax.set_xlabel("")
-    place_legend(axes[0], shown + 1, outside=True)
+    place_legend(axes[0], shown + 1 + (flyable is not None and bound is not None and flyable < float(bound)),
+                 outside=True)
     stats = ""
     if "solves" in s.solver:
         solves = s.solver["solves"]
@@ -261,12 +268,14 @@ def plot_mpc_inputs(rec: Recording, path: str | Path, every: int | None = None) 
 
 def plot_min_separation(rec: Recording, path: str | Path, every: int | None = None) -> Path:
     """W20 Sec. 5.4.3 (Table 5.9's test): the smallest true distance between any two UAVs over time (the minimum
-    over each drawn stride, so no close pass is hidden), ``r_s`` dashed and the collision distance
+    over each drawn stride, so no close pass is hidden), ``r_s`` dashed, the separation constraint's distance
+    (``meta["mpc"]["separation"]``, when on) dash-dotted and the collision distance
     :data:`~swarmtrack.analysis.COLLISION_M` dotted; the closest approach annotated."""
     s = _FormationSeries(rec, every)
     fig = new_figure((9.0, 4.5))
     ax = fig.subplots()
     r_s = s.ctrl.get("r_s")
+    kept = ((rec.meta or {}).get("mpc") or {}).get("separation")
     if rec.n_agents < 2 or not len(s.t):
         ax.text(0.5, 0.5, "fewer than 2 UAVs: no separation", transform=ax.transAxes, ha="center", va="center")
     else:
@@ -277,9 +286,12 @@ def plot_min_separation(rec: Recording, path: str | Path, every: int | None = No
                     textcoords="offset points", fontsize=8, color="tab:red")
         if r_s is not None:
             ax.axhline(float(r_s), color=agent_color(0), lw=1.0, ls="--", label=f"$r_s$ = {float(r_s):g} m", zorder=2)
+        if kept is not None:
+            ax.axhline(float(kept), color="tab:green", lw=1.0, ls="-.", zorder=2,
+                       label=f"separation constraint ({float(kept):g} m)")
         ax.axhline(COLLISION_M, color="tab:red", lw=1.0, ls=":", label=f"collision ({COLLISION_M:g} m)",
                    zorder=2)
-        place_legend(ax, 3)
+        place_legend(ax, 3 + (kept is not None))
     maybe_mark_phases(ax, rec)
     _mark_mpc_start(ax, s)
     time_axis(ax, rec)

@@ -26,7 +26,9 @@ runs out of memory or time is reported as ``failed: <one line>`` / ``timed out``
 10,000-UAV steps/s are timed inside their child around the ``simulate`` call only, after a warm-up run.
 Peak memory is the child's ``resource.getrusage(RUSAGE_CHILDREN).ru_maxrss`` read by a fresh wrapper process
 whose only child is the run; the run's wall is timed by that wrapper (Python's start-up included), its step loop
-inside the run (``_TIMED_RUN``). GB = 1e9 bytes.
+inside the run (``_TIMED_RUN``). GB = 1e9 bytes. The whole runs also print their CPU time (user + system, every
+thread, from the same ``getrusage``) beside their step loop's thread's: on a machine shared with other jobs the wall
+grows with the load (2-3x at a load of 8 on 2 cores) where the CPU time grows far less.
 
 Run: ``PYTHONPATH=src .venv/bin/python benchmarks/bench_sim.py [--json] [--quick] [--large]``; children run
 ``python -m swarmtrack.cli`` on the same sources as this process. Times on the 2-core development machine
@@ -34,10 +36,12 @@ Run: ``PYTHONPATH=src .venv/bin/python benchmarks/bench_sim.py [--json] [--quick
 
 - default (L24 cores, the whole-process runs, 1,000 UAVs): about 1 min (2 on a busy machine); ``--quick`` about 30 s;
 - ``--large`` adds about 13 min today: 10,000 UAVs steps/s, compiled about 4 min and numpy about 8 min
-  (time-out 15 min each); the 10 s and 60 s 10,000-UAV runs about 30 s and 3-5 min on the shared 2-core machine
-  (time-outs 10 and 30 min; the swarm contracts around the hovering target to hundreds of neighbours within
-  r_comm each, so the engine's steps slow down as the run goes: its step loop is most of the wall); the 1,000-UAV
-  l24-ct memory run fails in about 15 s (the spawn box of half-width 20 m cannot hold 1,000 UAVs 1 m apart).
+  (time-out 15 min each); the 10 s and 60 s 10,000-UAV runs 11.7 s and 66 s on the quiet 2-core machine (issue 41;
+  step loops 9.1 s and 58 s, CPU 13.7 s and 79 s with the recorder's writer thread; 20 s and 147 s before it), 2-3x
+  that when the machine is shared (time-outs 10 and 30 min; the swarm contracts around the hovering target to
+  hundreds of neighbours within r_comm each and spreads again, 106 on average over the 60 s: its step loop is
+  most of the wall); the 1,000-UAV l24-ct memory run fails in about 15 s (the spawn box of half-width 20 m cannot
+  hold 1,000 UAVs 1 m apart).
 
 The progress lines on stderr give the time since the start of each part.
 """

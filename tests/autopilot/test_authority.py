@@ -44,6 +44,8 @@ class Autopilot:
         self.acks: list = []  # COMMAND_ACKs sent to it (as a ground station behind it would get them)
         self.texts: list[str] = []
         self.cut, self._stop = False, False
+        self.unanswered = 0  # offboard requests still to drop without an answer (an acknowledgement lost)
+        self.refuse_offboard = False
         self.thread = threading.Thread(target=self._run, daemon=True)
         self.thread.start()
 
@@ -81,12 +83,18 @@ class Autopilot:
                 self.texts.append(msg.text)
             elif kind == "COMMAND_LONG":
                 self.commands.append((time.monotonic(), msg.command, msg.param1, msg.param2))
+                offboard = msg.command == mavlink.MAV_CMD_DO_SET_MODE and int(msg.param2) == 6
+                if offboard and self.unanswered:
+                    self.unanswered -= 1
+                    continue
                 result = mavlink.MAV_RESULT_ACCEPTED
                 if msg.command == mavlink.MAV_CMD_COMPONENT_ARM_DISARM:
                     self.armed = msg.param1 == 1
                 elif msg.command == mavlink.MAV_CMD_DO_SET_MODE:
                     fresh = self.setpoints and time.monotonic() - self.setpoints[-1] < 0.5
-                    if int(msg.param2) == 6 and not fresh:
+                    if offboard and self.refuse_offboard:
+                        result = mavlink.MAV_RESULT_DENIED
+                    elif offboard and not fresh:
                         result = mavlink.MAV_RESULT_TEMPORARILY_REJECTED
                     else:
                         self.mode = (int(msg.param2), int(msg.param3))
@@ -119,6 +127,17 @@ def engaged(request):
     finally:
         link.close()
         autopilot.close()
+
+
+def _lose_link(autopilot: Autopilot) -> float:
+    """Silence the link both ways for 1.5 s while the autopilot's failsafe holds the vehicle (Position); returns when
+    the link came back (monotonic s)."""
+    autopilot.cut = True
+    time.sleep(0.2)
+    autopilot.set(mode=POSITION)  # its failsafe, while nothing gets through
+    time.sleep(1.3)
+    autopilot.cut = False
+    return time.monotonic()
 
 
 def _until(condition, timeout: float = 5.0) -> bool:
@@ -179,12 +198,7 @@ def test_after_a_link_loss_the_failsafe_hands_over_and_only_the_opt_in_takes_it_
     """The link goes silent both ways for 1.5 s; the autopilot's failsafe holds the vehicle (Position); when the link
     returns the handover is the failsafe's, and only ``reengage_after_link_loss`` engages again."""
     autopilot, link, authority = engaged
-    autopilot.cut = True
-    time.sleep(0.2)
-    autopilot.set(mode=POSITION)  # its failsafe, while nothing gets through
-    time.sleep(1.3)
-    cut_ended = time.monotonic()
-    autopilot.cut = False
+    cut_ended = _lose_link(autopilot)
     assert _until(lambda: authority.events and authority.events[0]["event"] == "handover")
     handover = authority.events[0]
     assert handover["cause"] == "failsafe" and handover["link_silent_s"] >= 1.0
@@ -194,6 +208,26 @@ def test_after_a_link_loss_the_failsafe_hands_over_and_only_the_opt_in_takes_it_
     else:
         time.sleep(WATCH)
         assert not authority.engaged and autopilot.engagements(since=cut_ended) == []
+
+
+@pytest.mark.slow  # a silence longer than PX4's COM_OF_LOSS_T, and an unanswered request
+@pytest.mark.parametrize("engaged", [{"reengage_after_link_loss": True}], indirect=True)
+@pytest.mark.parametrize("answer, events", [("lost once", ["handover", "engaged"]),
+                                            ("refused", ["handover", "not engaged"])])
+def test_the_opt_in_asks_again_when_unanswered_and_says_why_it_gave_up(engaged, answer, events, monkeypatch):
+    """After the link loss the autopilot drops the first offboard request unanswered (the opt-in asks again and
+    engages), or refuses it (the opt-in gives up at once and records the refusal): it never fails silently."""
+    monkeypatch.setattr("swarmtrack.autopilot.link.ACK_TIMEOUT", 0.5)
+    autopilot, link, authority = engaged
+    autopilot.unanswered, autopilot.refuse_offboard = (1, False) if answer == "lost once" else (0, True)
+    cut_ended = _lose_link(autopilot)
+    assert _until(lambda: len(authority.events) == 2, timeout=10.0), authority.events
+    assert [e["event"] for e in authority.events] == events
+    asked = len(autopilot.engagements(since=cut_ended))
+    if answer == "lost once":
+        assert authority.engaged and autopilot.mode == OFFBOARD and asked == 2
+    else:
+        assert not authority.engaged and asked == 1 and "refused offboard mode" in authority.events[1]["why"]
 
 
 @pytest.mark.slow  # a silence longer than PX4's COM_OF_LOSS_T

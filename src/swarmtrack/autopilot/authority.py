@@ -31,7 +31,7 @@ import numpy as np
 from pymavlink.dialects.v20 import common as mavlink
 
 from swarmtrack.autopilot import px4
-from swarmtrack.autopilot.link import ACK_TIMEOUT, AutopilotLink, AutopilotRefused
+from swarmtrack.autopilot.link import ACK_TIMEOUT, AutopilotLink, AutopilotRefused, AutopilotSilent
 
 #: Seconds of setpoints streamed before asking for offboard mode (PX4 v1.14 enters it only after they came for over a
 #: second).
@@ -44,6 +44,9 @@ LINK_LOSS = 1.0
 SILENCE_ENDED, RECENT = 1.5, 3.0
 #: The modes PX4's offboard-loss failsafe can leave the vehicle in (``COM_OBL_RC_ACT``), where the opt-in re-engages.
 FAILSAFE_MODES = {(px4.POSCTL, 0), (px4.AUTO, px4.AUTO_LOITER)}
+#: How many times the opt-in asks for offboard mode again when the autopilot does not answer in time (a link that
+#: just came back, or a busy companion computer, may lose an acknowledgement); a refusal is final.
+REENGAGE_TRIES = 3
 
 
 def cause(armed: bool, mode: int | None, sub: int, landed: int | None, silence: float, text: str | None) -> str:
@@ -173,27 +176,48 @@ class Authority:
 
     def _reengage(self, request) -> None:
         """Engage again (a thread): on a ground station's ``request``, or (None) the opt-in after a link loss, once
-        the link is heard again and only while the vehicle is armed, in the air and in the failsafe's mode."""
+        the link is heard again and only while the vehicle is armed, in the air and in the failsafe's mode; the opt-in
+        asks up to :data:`REENGAGE_TRIES` times while the autopilot does not answer, and records why it gave up
+        (``"not engaged"``): it never fails silently."""
         link = self.link
         try:
-            if request is None:
-                back = link.wait(lambda: time.monotonic() - link.heard < 0.2, 60.0)
-                if not back or (link.mode, link.sub_mode) not in FAILSAFE_MODES or self._unfit() is not None:
-                    return
-            try:
-                self.engage()
-            except AutopilotRefused as exc:
-                if request is not None:
-                    link.acknowledge(request, mavlink.MAV_RESULT_FAILED, str(exc)[:50])
-                return
-            with self._lock:
-                self._record({"event": "engaged", "by": "link back (--reengage-after-link-loss)" if request is None
-                              else f"NAV_GUIDED_ENABLE from system {request.get_srcSystem()}, component "
-                                   f"{request.get_srcComponent()}"})
+            for attempt in range(1 if request is not None else REENGAGE_TRIES):
+                if request is None:
+                    why = self._not_after_link_loss()
+                    if why is not None:
+                        self._record_locked({"event": "not engaged", "why": why})
+                        return
+                try:
+                    self.engage()
+                    break
+                except AutopilotRefused as exc:
+                    if request is not None:
+                        link.acknowledge(request, mavlink.MAV_RESULT_FAILED, str(exc)[:50])
+                        return
+                    if not isinstance(exc, AutopilotSilent) or attempt == REENGAGE_TRIES - 1:
+                        self._record_locked({"event": "not engaged", "why": f"{exc} (try {attempt + 1})"})
+                        return
+            self._record_locked({"event": "engaged", "by": "link back (--reengage-after-link-loss)"
+                                 if request is None else f"NAV_GUIDED_ENABLE from system {request.get_srcSystem()}, "
+                                 f"component {request.get_srcComponent()}"})
             if request is not None:
                 link.acknowledge(request, mavlink.MAV_RESULT_ACCEPTED, f"UAV {link.uav + 1}: engaged")
         finally:
             self.engaging = False
+
+    def _not_after_link_loss(self) -> str | None:
+        """Why the opt-in must not engage now (None: it may): the link is not heard again within 60 s, the vehicle
+        left the failsafe's mode (someone took it), or it is unfit (:meth:`_unfit`)."""
+        link = self.link
+        if not link.wait(lambda: time.monotonic() - link.heard < 0.2, 60.0):
+            return "the link did not come back within 60 s"
+        if (link.mode, link.sub_mode) not in FAILSAFE_MODES:
+            return f"the vehicle left the failsafe's mode: {px4.mode_name(link.mode, link.sub_mode)}"
+        return self._unfit()
+
+    def _record_locked(self, event: dict) -> None:
+        with self._lock:
+            self._record(event)
 
     def _release(self, request) -> None:
         """Hand the vehicle back on a ground station's request: Hold (the handover is recorded from its heartbeat)."""

@@ -65,6 +65,11 @@ class AutopilotRefused(Exception):
     acknowledgement's result."""
 
 
+class AutopilotSilent(AutopilotRefused):
+    """The autopilot did not answer in time (no acknowledgement, or its heartbeat did not follow): unlike a refusal,
+    asking again may succeed."""
+
+
 def device_of(url: str) -> tuple[str, int]:
     """pymavlink's device string and baud rate of a link ``url`` (module docstring); ValueError for another form."""
     if url.startswith("udp://"):
@@ -230,14 +235,14 @@ class AutopilotLink:
 
     def command(self, command: int, *params: float, what: str) -> None:
         """Send ``COMMAND_LONG`` ``command`` to the autopilot and wait for its acknowledgement
-        (:class:`AutopilotRefused` naming ``what`` unless it is accepted)."""
+        (:class:`AutopilotRefused` naming ``what`` unless it is accepted, :class:`AutopilotSilent` if unanswered)."""
         with self._cond:
             self._acks.pop(command, None)
         with self._send_lock:
             self.conn.mav.command_long_send(*self.target, command, 0, *params, *[0.0] * (7 - len(params)))
         if not self.wait(lambda: command in self._acks, ACK_TIMEOUT):
-            raise AutopilotRefused(f"UAV {self.uav + 1}'s autopilot did not acknowledge {what} within "
-                                   f"{ACK_TIMEOUT:g} s")
+            raise AutopilotSilent(f"UAV {self.uav + 1}'s autopilot did not acknowledge {what} within "
+                                  f"{ACK_TIMEOUT:g} s")
         if self._acks[command] != mavlink.MAV_RESULT_ACCEPTED:
             raise AutopilotRefused(f"UAV {self.uav + 1}'s autopilot refused {what}: "
                                    f"{px4.result_name(self._acks[command])}")

@@ -245,13 +245,18 @@ class Agent:
         self.flying |= self.authority.fly(u, t)
         for event in self.authority.take(t):
             if event["event"] == "handover":
+                again = ("it engages again once its link is back (--reengage-after-link-loss)"
+                         if event["cause"] == "failsafe" and self.reengage else "it engages again only when asked")
                 print(f"UAV {self.i + 1}: its autopilot left offboard mode at t = {t:.2f} s: {event['mode']}"
                       f"{'' if event['armed'] else ', disarmed'} ({CAUSES[event['cause']]}); this UAV no longer "
-                      "commands it and goes on estimating and sharing; it engages again only when asked "
+                      f"commands it and goes on estimating and sharing; {again} "
                       f"(swarmtrack engage --uav {self.i + 1}: docs/autopilot.md)", file=sys.stderr, flush=True)
-            else:
+            elif event["event"] == "engaged":
                 print(f"UAV {self.i + 1}: engaged again at t = {t:.2f} s ({event['by']})", file=sys.stderr,
                       flush=True)
+            else:
+                print(f"UAV {self.i + 1}: not engaged again at t = {t:.2f} s: {event['why']}; it engages again "
+                      f"only when asked (swarmtrack engage --uav {self.i + 1})", file=sys.stderr, flush=True)
 
     def _sample(self, k: int) -> tuple[wire.Sample, TargetView]:
         """The step's probes, and where a gimballed sensor should aim at the next frame (its latest estimate); and

@@ -17,24 +17,10 @@ from swarmtrack.live.transport import key, parse
 from swarmtrack.live.world import LockstepWorld
 from swarmtrack.network.channel import Channel
 
+from .test_realtime import Held
+
 KEY = bytes(range(32))
 RUN = b"r" * 16
-
-
-class Held:
-    """A transport that keeps what is put."""
-
-    def __init__(self):
-        self.sent: list[tuple[str, bytes]] = []
-
-    def put(self, key_expr: str, data: bytes) -> None:
-        self.sent.append((key_expr, data))
-
-    def subscribe(self, key_expr, callback):
-        return None
-
-    def close(self) -> None:
-        pass
 
 
 def _node(me: int, n: int = 4) -> Node:

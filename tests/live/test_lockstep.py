@@ -183,7 +183,7 @@ def test_forged_replayed_and_undecodable_messages_are_dropped_counted_and_change
     assert CliRunner().invoke(main, ["keygen", str(key_file)]).exit_code == 0
     secret = bytes.fromhex(key_file.read_text())
     port, swarm = free_port(), f"test-{uuid.uuid4().hex[:8]}"
-    overrides = ["duration=6"]
+    overrides = ["duration=15"]  # lockstep runs it in seconds: long enough for the intruder to join on a busy machine
     args = [sys.executable, "-m", "swarmtrack", "live", "l24-ct", "--out", str(tmp_path / "live"), "--no-plots",
             "--key", str(key_file), "--swarm", swarm, "--listen", f"tcp/127.0.0.1:{port}", "--set", *overrides]
     proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)

@@ -145,9 +145,10 @@ def test_a_realtime_run_logs_every_message_and_step_and_tracks(tmp_path):
     # each UAV's step logged at most once, with its CPU time; the CPU figure counts the same steps
     assert not steps.duplicated(["uav", "k"]).any() and steps["k"].between(0, steps_n - 1).all()
     assert (steps["cpu"] > 0).all() and live["cpu_per_step_ms"]["count"] == len(steps)
-    # each step's receive work is counted (at least its navigation), and the shares missed are of those named
+    # each step's receive work is counted, and the shares missed are of those named
+    # (its navigation and, at the median step, a neighbour's message)
     assert live["received_per_step"]["messages"]["count"] == len(steps) and live["received_per_step"]["messages"][
-        "median"] >= 1
+        "median"] >= 2
     assert 0 < live["shares_due"] <= steps_n * 2 * (uavs - 1) and live["late"].get("share", 0) <= live["shares_due"]
     latency = pd.read_parquet(out / "live" / "latency.parquet")
     assert (latency["latency"] >= 0).all() and (latency["sender"] != latency["receiver"]).all()

@@ -49,7 +49,9 @@ def five_degrees():
 @pytest.mark.slow
 def test_at_five_degrees_the_consistent_bound_and_the_separation_constraint_keep_them_a_metre_apart(five_degrees):
     run = five_degrees["consistent"]
-    assert run["inter_agent_distance"]["min"] >= 1.0  # measured 2.38 m (10 seeds: 2.33-2.40 m)
+    # the plans keep d + 2 margin_l apart; flown 2.38 m (10 seeds: 2.33-2.40 m); the thesis' ±2 m with the constraint
+    # 0.83-0.88 m, without the margins the constraint's 1 m at most
+    assert run["inter_agent_distance"]["min"] >= 2.0
     assert not [w for w in run["warnings"] if w["kind"] in ("collision", "solver_fallback", "unflyable_bound",
                                                             "separation_relaxed", "model_error_exceeded")]
 

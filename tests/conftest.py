@@ -11,17 +11,25 @@ from __future__ import annotations
 import subprocess
 import sys
 
-#: Run in each of the processes that fill the cache: a 1 s run of every built-in scenario of its share, and of IB21's
+#: Run in each of the processes that fill the cache: a 1 s run of every built-in scenario of its share, of IB21's
 #: raster sets, which no built-in scenario uses and several tests do (their estimator's and SM-MPC's kernels: about
-#: 30 s to compile, which each worker that came first to one of those tests paid).
+#: 30 s to compile, which each worker that came first to one of those tests paid), and of a sparse swarm of 1,000
+#: UAVs (the proximity graph's strips, the sums and flocking over CSR links, the metrics' close pairs: about 25 s);
+#: and the FS cycle with C-ordered states, as its tests call it (a run's are views: another signature, 7 s).
 WARM = """
 import sys
+import numpy as np
 from swarmtrack.analysis.sweep import warm
 from swarmtrack.scenarios import builtin_names, load_scenario
 part, parts = int(sys.argv[1]), int(sys.argv[2])
-jobs = [("ib21-fleet-2", ["estimator.sets=raster"])] + [(name, []) for name in builtin_names()]
+sparse = ["swarm.n_uavs=1000", "network.topology=proximity", "swarm.spawn_half_width=20"]
+jobs = [("ib21-fleet-2", ["estimator.sets=raster"]), ("l24-cv", sparse)] + [(name, []) for name in builtin_names()]
 for name, overrides in jobs[part::parts]:
     warm(load_scenario(name, ["duration=1", *overrides]))
+if part == parts - 1:
+    from swarmtrack.estimation.kernels import fs_cycle
+    x, P = np.zeros((1, 12)), np.broadcast_to(np.eye(12), (1, 12, 12)).copy()
+    fs_cycle(x, P, 0.05, np.ones(12), np.eye(2)[None].copy(), np.zeros((1, 2)), 1.0, 1.0, 1.0, 9.81, 0.0)
 """
 PARTS = 2
 

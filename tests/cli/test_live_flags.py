@@ -3,6 +3,8 @@ code 2, no traceback, nothing started (each is refused before a scenario is load
 
 from __future__ import annotations
 
+import os
+
 import pytest
 from click.testing import CliRunner
 
@@ -105,8 +107,13 @@ def test_a_vehicle_port_another_process_holds_is_refused_before_anything_starts(
     from swarmtrack.autopilot.endpoint import gcs_local_port, offboard_ports
 
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as holder:
-        holder.bind(("127.0.0.1", 0))
-        port = holder.getsockname()[1]
+        # a port whose vehicles' base --mavlink-port accepts (the kernel's own choice may lie above: up to 60999)
+        for port in range(20000 + 37 * (os.getpid() % 500), 60000):
+            try:
+                holder.bind(("127.0.0.1", port))
+                break
+            except OSError:
+                continue
         base = port - 40 - 1 if taken == "offboard" else port - 4030 - 1  # UAV 2's
         assert (offboard_ports(base, 1)[0] if taken == "offboard" else gcs_local_port(base, 1)) == port
         out = tmp_path / "out"

@@ -46,7 +46,7 @@ bench-large: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_batch.py
 	$(VENV)/bin/python benchmarks/bench_sim.py --large
 	$(VENV)/bin/python benchmarks/bench_mpc.py
-	$(VENV)/bin/python benchmarks/bench_setmembership.py
+	$(VENV)/bin/python benchmarks/bench_setmembership.py --large
 	$(VENV)/bin/python benchmarks/bench_cli.py
 
 clean:

@@ -3,8 +3,9 @@
 Goals (issue 8, "Speed (benchmarks)"): one 400 s ``ib21-fleet-6`` mission (6 fixed-wing UAVs, 3 targets, 3 decoys)
 ≥ 20x faster than real time (≤ 20 s wall); the Fig. 8 study (5 fleet sizes × 30 runs) ≤ 30 min on 2 cores; the
 control time per UAV growing at most linearly with fleet size. Issue 26 holds the polygon sets (the default) to the
-same 20 s and adds ``ib21-large`` (10 UAVs, 10 targets, 10 decoys, 400 s) ≤ 40 s with its guarantee intact (0
-violations): ``--large`` times it too (several minutes), beside the same run's references.
+same 20 s and adds ``ib21-large`` (10 UAVs, 10 targets, 10 decoys, 400 s) with its guarantee intact (0 violations),
+≤ 60 s since issue 41 (issue 26 had asked 40 s): ``--large`` times it too (minutes), beside the same run's
+references.
 
 One mission, after a 2 s warm-up run (imports, numba caches), timed with ``time.perf_counter`` around
 ``simulate``. The split is measured by wrapping the components' methods for the timed run:
@@ -63,7 +64,8 @@ from swarmtrack.sim.engine import simulate  # noqa: E402
 
 SCENARIO, LARGE = "ib21-fleet-6", "ib21-large"
 DURATION, QUICK_DURATION = 400.0, 30.0
-GOALS_WALL_S = {SCENARIO: 20.0, LARGE: 40.0}  # the 400 s missions, with the default (polygon) sets
+GOALS_WALL_S = {SCENARIO: 20.0, LARGE: 60.0}  # the 400 s missions, with the default (polygon) sets (issues 26, 41)
+GOAL_ISSUES = {SCENARIO: "issue 26", LARGE: "issue 41"}
 GOAL_WALL_S = GOALS_WALL_S[SCENARIO]
 TIE_M2 = 1e-6  # eq. 47 costs closer than this are a tie
 REPLAYED = 40  # fleet plans recorded for the MPC reference (one every 10 control periods)
@@ -200,7 +202,7 @@ def main(argv=None) -> None:
     parser.add_argument("--sets", choices=("polygons", "raster", "both"), default="both",
                         help="estimator.sets to time (default both: each the other's same-run reference)")
     parser.add_argument("--large", action="store_true",
-                        help=f"also time {LARGE} (issue 26's goal: ≤ {GOALS_WALL_S[LARGE]:g} s with polygon sets)")
+                        help=f"also time {LARGE} (issue 41's goal: ≤ {GOALS_WALL_S[LARGE]:g} s with polygon sets)")
     args = parser.parse_args(argv)
     duration = args.duration or (QUICK_DURATION if args.quick else DURATION)
     kinds = ("polygons", "raster") if args.sets == "both" else (args.sets,)
@@ -226,8 +228,9 @@ def main(argv=None) -> None:
 
 
 def goal(scenario: str, runs: dict, cycle: float) -> None:
-    """Issue 26's goal line for ``scenario`` (its 400 s mission with polygon sets), with the same run's
-    references: the raster sets' wall on the same mission (if timed) and the wall in GEOS cycles."""
+    """The goal line for ``scenario`` (its 400 s mission with polygon sets; issue 26's goal, ``ib21-large``'s issue
+    41's), with the same run's references: the raster sets' wall on the same mission (if timed) and the wall in GEOS
+    cycles."""
     limit = GOALS_WALL_S[scenario]
     r = runs.get((scenario, "polygons"))
     if r is None:
@@ -237,8 +240,8 @@ def goal(scenario: str, runs: dict, cycle: float) -> None:
         refs.insert(0, f"raster sets {runs[(scenario, 'raster')]['wall_s']:.1f} s")
     guarantee = "" if r["guarantee_violations"] == 0 else f", {r['guarantee_violations']:.0f} guarantee violations"
     met = r["wall_s"] <= limit and r["guarantee_violations"] == 0
-    print(f"Goal (issue 26): {scenario} 400 s with polygon sets ≤ {limit:.0f} s wall: {r['wall_s']:.1f} s "
-          f"({'MET' if met else 'NOT MET'}{guarantee}; same run: {', '.join(refs)})")
+    print(f"Goal ({GOAL_ISSUES[scenario]}): {scenario} 400 s with polygon sets ≤ {limit:.0f} s wall: "
+          f"{r['wall_s']:.1f} s ({'MET' if met else 'NOT MET'}{guarantee}; same run: {', '.join(refs)})")
 
 
 def report(sets: str, r: dict[str, float], duration: float, cycle: float) -> None:

@@ -42,11 +42,20 @@ def test_a_field_swarm_tracks_without_a_world_and_goes_on_when_an_agent_dies(tmp
     rec = Recording.load(out / "recording")
     present = np.concatenate([c.present for c in rec.chunks()])
     t = rec.t
-    assert (present[t > 2.0, :2].mean(axis=0) > 0.95).all()  # UAVs 1 and 2, from when the agents run
+    started = _started(t, present)
+    assert (present[t >= started, :2].mean(axis=0) > 0.95).all()  # UAVs 1 and 2, from when the agents run
     assert not present[t > 6.0, 2].any()  # UAV 3 gone
     error = np.hypot(*(rec.estimate[:, :2, :2] - rec.target[:, None, :2]).transpose(2, 0, 1))
     assert np.nanmax(error[t > 8.0]) < 0.5  # the two left still track (the simulator's: about 0.1 m)
     assert metrics["rmse"]["total"]["x"] < 0.25  # measured, quiet: 0.083 m (the simulator's: 0.08)
+
+
+def _started(t: np.ndarray, present: np.ndarray) -> float:
+    """When every agent ran (the first step all were heard): within 4 s of the start, 1-2 s on a quiet machine, a
+    busy one starting their processes more slowly."""
+    every = np.flatnonzero(present.all(axis=1))
+    assert len(every) and t[every[0]] <= 4.0, "the agents were not all heard within 4 s"
+    return float(t[every[0]])
 
 
 def test_a_field_w20_swarm_tracks_from_its_camera_topics(tmp_path):
@@ -60,7 +69,9 @@ def test_a_field_w20_swarm_tracks_from_its_camera_topics(tmp_path):
     assert metrics["live"]["lost"] == [] and metrics["live"]["rejected"] == {}
     rec = Recording.load(out / "recording")
     present = np.concatenate([c.present for c in rec.chunks()])
-    assert present[rec.t > 2.0].mean() > 0.95  # on a busy machine a sample can miss the monitor's deadline
+    # from when the agents run; on a busy machine a sample can miss the monitor's deadline
+    started = _started(rec.t, present)
+    assert present[rec.t >= started].mean() > 0.95
     error = np.hypot(*(rec.estimate[:, :, :2] - rec.target[:, None, :2]).transpose(2, 0, 1))
-    assert np.nanmax(error[rec.t > 4.0]) < 0.5  # the simulator's: within 0.1 m
+    assert np.nanmax(error[rec.t > max(4.0, started + 2.0)]) < 0.5  # the simulator's: within 0.1 m
     assert metrics["rmse"]["total"]["x"] < 0.1 and metrics["rmse"]["total"]["y"] < 0.1  # measured, quiet: 0.035, 0.026

@@ -101,7 +101,8 @@ def test_prediction_covers_every_point_the_target_can_reach():
     reach = shapely.distance(pts, shapely.box(50, 50, 60, 60)) <= 20.0
     assert shapely.covers(b.unexplored[0], pts)[reach].all()
     exact = 10 * 10 + 4 * 10 * 20 + np.pi * 20 ** 2  # the square dilated by a disc of radius 20
-    assert exact < b.unexplored[0].area < exact * 1.005
+    # the radius grows by 1/cos(3π/64) (polygons.circumscribed: GEOS's arcs), its discs' area by 2.2 %: here 1.3 %
+    assert exact < b.unexplored[0].area < exact * 1.015
 
 
 def test_correction_keeps_the_box_of_a_first_identification_and_clears_the_footprint():

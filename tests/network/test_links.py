@@ -336,14 +336,15 @@ def test_the_compiled_inbox_sum_is_scipys_bit_for_bit(shape):
 
 
 def test_two_sums_in_one_pass_are_the_two_sums():
-    """:func:`neighbour_sums` (one pass for two float payloads of up to four numbers) gives :func:`neighbour_sum`'s
-    bits, over CSR links with and without losses and over dense links; wider payloads and other types go to it."""
+    """:func:`neighbour_sums` (two float payloads of up to eight numbers together summed side by side) gives
+    :func:`neighbour_sum`'s bits, over CSR links with and without losses and over dense links; wider payloads go to
+    it."""
     from swarmtrack.network.links import neighbour_sums
 
     rng = np.random.default_rng(8)
     n = 500
     links = proximity_links(_swarm(n, 8, neighbours_per_uav=30), 4.8, sparse=True)
-    for shapes in (((2, 2), (2,)), ((), (4,)), ((3,), ()), ((5,), (2,))):
+    for shapes in (((2, 2), (2,)), ((), (4,)), ((3,), ()), ((5,), (2,)), ((3, 3), (2,))):
         first = rng.standard_normal((n, *shapes[0])) * 10.0 ** rng.uniform(-6, 6, (n, *shapes[0]))
         second = rng.standard_normal((n, *shapes[1]))
         first[::13] = -0.0

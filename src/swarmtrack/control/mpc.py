@@ -345,7 +345,7 @@ class MPCController:
                 self.qps[i] = FormationQP(self.cond.G, s, slots=len(cons.normal))
             t0 = time.perf_counter()
             args = (own_free[i], r_bar[i].ravel(), float(w[i]))
-            U, status, iters = self.qps[i].solve(*args) if cons is None else self.qps[i].solve(*args, cons)
+            U, status, iters = self.qps[i].solve(*args, cons)
             if cons is not None and status != _SOLVED:  # the separation constraint cannot be met: softened
                 U, status, more = self._soft(i).solve(*args, cons)
                 iters += more  # the guarantee is lost when the first step's rows, which are flown, needed slack
